@@ -1,0 +1,90 @@
+//! Build script: compiles the GLSL kernels in ../shaders to SPIR-V with
+//! glslang (embedded into the binary), and turns the `#define`s of
+//! shaders/layout.h into Rust constants so they are written once.
+//!
+//! When CMake drives the build it compiles the SPIR-V itself and passes the
+//! folder in RAYCAST_SPIRV_DIR; plain `cargo build` compiles it here.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+include!("src/gpu/glslang_args.rs");
+
+fn main() {
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
+    let shaders = manifest.join("../shaders").canonicalize().expect("shaders/ folder beside host/");
+    let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
+    println!("cargo:rerun-if-changed={}", shaders.display());
+    println!("cargo:rerun-if-env-changed=RAYCAST_SPIRV_DIR");
+
+    write_layout_consts(&shaders.join("layout.h"), &out.join("layout_consts.rs"));
+
+    let prebuilt = std::env::var_os("RAYCAST_SPIRV_DIR").map(PathBuf::from);
+    let mut kernels = Vec::new();
+    for entry in std::fs::read_dir(&shaders).unwrap() {
+        let path = entry.unwrap().path();
+        println!("cargo:rerun-if-changed={}", path.display());
+        if path.extension().and_then(|e| e.to_str()) != Some("comp") {
+            continue;
+        }
+        let stem = path.file_stem().unwrap().to_str().unwrap().to_string();
+        let spv = out.join(format!("{stem}.spv"));
+        match &prebuilt {
+            Some(dir) => {
+                let from = dir.join(format!("{stem}.spv"));
+                println!("cargo:rerun-if-changed={}", from.display());
+                std::fs::copy(&from, &spv).unwrap_or_else(|e| {
+                    panic!("RAYCAST_SPIRV_DIR: cannot copy {}: {e}", from.display())
+                });
+            }
+            None => compile(&path, &shaders, &spv),
+        }
+        kernels.push(stem);
+    }
+    kernels.sort();
+    let mut table = String::from("/// Every kernel of shaders/*.comp, compiled to SPIR-V at build time.\n");
+    table.push_str("pub const EMBEDDED_KERNELS: &[(&str, &[u8])] = &[\n");
+    for k in &kernels {
+        table.push_str(&format!("    ({k:?}, include_bytes!(concat!(env!(\"OUT_DIR\"), \"/{k}.spv\"))),\n"));
+    }
+    table.push_str("];\n");
+    std::fs::write(out.join("kernels.rs"), table).unwrap();
+}
+
+fn compile(src: &Path, include: &Path, spv: &Path) {
+    let output = Command::new(GLSLANG)
+        .args(glslang_args(src, include, spv))
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"));
+    if !output.status.success() {
+        panic!(
+            "{GLSLANG} failed on {}:\n{}{}",
+            src.display(),
+            String::from_utf8_lossy(&output.stdout),
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+}
+
+/// `#define NAME 12` / `#define NAME 3u` / `#define NAME 0xffffffffu` -> `pub const NAME: u32 = …;`
+fn write_layout_consts(header: &Path, out: &Path) {
+    let text = std::fs::read_to_string(header).expect("shaders/layout.h");
+    let mut rs = String::new();
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        if words.next() != Some("#define") {
+            continue;
+        }
+        let (Some(name), Some(value)) = (words.next(), words.next()) else { continue };
+        let digits = value.trim_end_matches('u');
+        let parsed = if let Some(hex) = digits.strip_prefix("0x") {
+            u32::from_str_radix(hex, 16).ok()
+        } else {
+            digits.parse::<u32>().ok()
+        };
+        if let Some(v) = parsed {
+            rs.push_str(&format!("pub const {name}: u32 = {v:#x};\n"));
+        }
+    }
+    std::fs::write(out, rs).unwrap();
+}

@@ -1,0 +1,179 @@
+//! Rust mirrors of the structs in `shaders/layout.h`.
+//!
+//! The GLSL header is the definition; these mirrors are checked against the
+//! naga reflection of every compiled kernel at start-up
+//! (`gpu::reflect::check_layouts`), field by field, so drifting apart is an
+//! error at start-up and never a wrong picture.
+
+use bytemuck::{Pod, Zeroable};
+
+// BINDING_*, WORKGROUP_SIZE, SHAPE_*, LIGHT_*, AOV_*, FLAG_*, NO_HIT: generated
+// by build.rs from the `#define`s of shaders/layout.h, so they exist once.
+include!(concat!(env!("OUT_DIR"), "/layout_consts.rs"));
+
+pub type Vec4 = [f32; 4];
+/// Column-major, as GLSL's and GLM's mat4: `m[column][row]`.
+pub type Mat4 = [[f32; 4]; 4];
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Frame {
+    pub world_from_film: Mat4,
+    pub eye: Vec4,
+    pub k: Vec4,
+    pub width: u32,
+    pub height: u32,
+    pub primitive_count: u32,
+    pub light_count: u32,
+    pub aov: u32,
+    pub flags: u32,
+    pub max_depth: u32,
+    pub pad0: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Primitive {
+    pub object_from_world: Mat4,
+    pub shape: u32,
+    pub material: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Material {
+    pub diffuse: Vec4,
+    pub ambient: Vec4,
+    pub specular: Vec4,
+    pub reflective: Vec4,
+    pub transparent: Vec4,
+    pub emissive: Vec4,
+    pub shininess: f32,
+    pub blend: f32,
+    pub ior: f32,
+    pub texture: i32,
+    pub texture_repeat: Vec4,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Light {
+    pub color: Vec4,
+    pub position: Vec4,
+    pub direction_to_light: Vec4,
+    pub spot_axis: Vec4,
+    pub attenuation: Vec4,
+    pub kind: u32,
+    pub angle_deg: f32,
+    pub penumbra_deg: f32,
+    pub pad0: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct PixelOut {
+    pub normal: Vec4,
+    pub t: f32,
+    pub id: u32,
+    pub rgba: u32,
+    pub pad0: u32,
+}
+
+/// One member of a struct as the host lays it out.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FieldLayout {
+    pub name: &'static str,
+    pub offset: u32,
+    pub size: u32,
+}
+
+/// A struct as the host lays it out: its name in the GLSL, its size and members.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StructLayout {
+    pub name: &'static str,
+    pub size: u32,
+    pub fields: Vec<FieldLayout>,
+}
+
+/// What a storage-buffer binding holds.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BufferShape {
+    /// The block's only member is one struct (e.g. `Frame frame;`).
+    Single(StructLayout),
+    /// The block's only member is a runtime-sized array (e.g. `Primitive primitives[];`).
+    RuntimeArray(StructLayout),
+}
+
+/// One binding of descriptor set 0 as the host expects it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BindingLayout {
+    pub binding: u32,
+    pub shape: BufferShape,
+    /// True when the kernel writes the buffer (not `readonly`).
+    pub writable: bool,
+}
+
+/// Builds the [`StructLayout`] of a `#[repr(C)]` struct from its fields,
+/// with offsets and sizes taken from the compiler.
+macro_rules! struct_layout {
+    ($ty:ty, $glsl_name:literal, [$($field:ident),* $(,)?]) => {{
+        fn size_of_field<T, F>(_: impl Fn(&T) -> &F) -> u32 {
+            std::mem::size_of::<F>() as u32
+        }
+        StructLayout {
+            name: $glsl_name,
+            size: std::mem::size_of::<$ty>() as u32,
+            fields: vec![$(FieldLayout {
+                name: stringify!($field),
+                offset: std::mem::offset_of!($ty, $field) as u32,
+                size: size_of_field(|s: &$ty| &s.$field),
+            }),*],
+        }
+    }};
+}
+
+impl Frame {
+    pub fn layout() -> StructLayout {
+        struct_layout!(Frame, "Frame", [world_from_film, eye, k, width, height,
+            primitive_count, light_count, aov, flags, max_depth, pad0])
+    }
+}
+
+impl Primitive {
+    pub fn layout() -> StructLayout {
+        struct_layout!(Primitive, "Primitive", [object_from_world, shape, material, pad0, pad1])
+    }
+}
+
+impl Material {
+    pub fn layout() -> StructLayout {
+        struct_layout!(Material, "Material", [diffuse, ambient, specular, reflective,
+            transparent, emissive, shininess, blend, ior, texture, texture_repeat])
+    }
+}
+
+impl Light {
+    pub fn layout() -> StructLayout {
+        struct_layout!(Light, "Light", [color, position, direction_to_light, spot_axis,
+            attenuation, kind, angle_deg, penumbra_deg, pad0])
+    }
+}
+
+impl PixelOut {
+    pub fn layout() -> StructLayout {
+        struct_layout!(PixelOut, "PixelOut", [normal, t, id, rgba, pad0])
+    }
+}
+
+/// The bindings of the render kernel (`shaders/render.comp`).
+pub fn render_bindings() -> Vec<BindingLayout> {
+    vec![
+        BindingLayout { binding: BINDING_FRAME, shape: BufferShape::Single(Frame::layout()), writable: false },
+        BindingLayout { binding: BINDING_PRIMITIVES, shape: BufferShape::RuntimeArray(Primitive::layout()), writable: false },
+        BindingLayout { binding: BINDING_MATERIALS, shape: BufferShape::RuntimeArray(Material::layout()), writable: false },
+        BindingLayout { binding: BINDING_LIGHTS, shape: BufferShape::RuntimeArray(Light::layout()), writable: false },
+        BindingLayout { binding: BINDING_PIXELS, shape: BufferShape::RuntimeArray(PixelOut::layout()), writable: true },
+    ]
+}

@@ -1,0 +1,267 @@
+//! The scene model: what a CS1230 scene file means, independent of XML and of
+//! Vulkan. `parse` builds a [`SceneFile`] (the tree, masters kept as masters);
+//! `flatten` expands it into a [`Scene`] (one entry per drawn primitive).
+
+use glam::{DMat4, DVec3};
+use std::fmt;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// A place in a scene file, for messages: `file:line:col`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SourceLoc {
+    pub file: Arc<PathBuf>,
+    pub line: u32,
+    pub col: u32,
+}
+
+impl fmt::Display for SourceLoc {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}", self.file.display(), self.line, self.col)
+    }
+}
+
+/// A fatal problem with a scene file. Displays as `file:line:col: error: message`.
+#[derive(Clone, Debug)]
+pub struct SceneError {
+    /// None when the problem is the file as a whole (cannot be read).
+    pub loc: Option<SourceLoc>,
+    pub file: Arc<PathBuf>,
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.loc {
+            Some(loc) => write!(f, "{loc}: error: {}", self.message),
+            None => write!(f, "{}: error: {}", self.file.display(), self.message),
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Something tolerated, reported and worked around. Displays as
+/// `file:line:col: warning: message`.
+#[derive(Clone, Debug)]
+pub struct Warning {
+    pub loc: SourceLoc,
+    pub message: String,
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: warning: {}", self.loc, self.message)
+    }
+}
+
+/// `<globaldata>`: the global Phong coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Globals {
+    pub ka: f32,
+    pub kd: f32,
+    pub ks: f32,
+    pub kt: f32,
+}
+
+impl Default for Globals {
+    fn default() -> Self {
+        Globals { ka: 0.5, kd: 0.5, ks: 0.5, kt: 0.0 }
+    }
+}
+
+/// `<cameradata>`. `look` is always a direction: a `<focus>` point is turned
+/// into `focus - pos` by the parser.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub pos: DVec3,
+    pub look: DVec3,
+    pub up: DVec3,
+    /// Full vertical field of view, degrees.
+    pub height_angle_deg: f64,
+    pub aspect_ratio: Option<f64>,
+    pub aperture: Option<f64>,
+    pub focal_length: Option<f64>,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera {
+            pos: DVec3::new(5.0, 5.0, 5.0),
+            look: DVec3::new(-1.0, -1.0, -1.0),
+            up: DVec3::new(0.0, 1.0, 0.0),
+            height_angle_deg: 45.0,
+            aspect_ratio: None,
+            aperture: None,
+            focal_length: None,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightKind {
+    Point,
+    Directional,
+    Spot,
+    Area,
+}
+
+/// `<lightdata>`, with the documented defaults filled in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub id: i32,
+    pub kind: LightKind,
+    pub color: [f32; 3],
+    pub position: DVec3,
+    /// The direction the light travels (not normalised).
+    pub direction: DVec3,
+    /// Constant, linear, quadratic.
+    pub attenuation: [f32; 3],
+    /// Spot: outer half-angle, degrees.
+    pub angle_deg: f32,
+    /// Spot: width of the falloff band inside the outer angle, degrees.
+    pub penumbra_deg: f32,
+    /// Area lights.
+    pub width: f32,
+    pub height: f32,
+    pub loc: SourceLoc,
+}
+
+/// A texture reference of a material (`<texture>` or `<bumpmap>`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureRef {
+    /// The path as written in the file.
+    pub file: String,
+    /// Where it was found: the XML file's folder first, then each `--assets`
+    /// folder. None when it was not found (a warning says so).
+    pub resolved: Option<PathBuf>,
+    pub repeat_u: f32,
+    pub repeat_v: f32,
+    pub loc: SourceLoc,
+}
+
+/// A primitive's material, with the documented defaults filled in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub diffuse: [f32; 3],
+    pub ambient: [f32; 3],
+    pub specular: [f32; 3],
+    pub reflective: [f32; 3],
+    pub transparent: [f32; 3],
+    pub emissive: [f32; 3],
+    pub shininess: f32,
+    pub ior: f32,
+    pub blend: f32,
+    pub texture: Option<TextureRef>,
+    pub bumpmap: Option<TextureRef>,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            diffuse: [1.0; 3],
+            ambient: [0.0; 3],
+            specular: [0.0; 3],
+            reflective: [0.0; 3],
+            transparent: [0.0; 3],
+            emissive: [0.0; 3],
+            shininess: 0.0,
+            ior: 1.0,
+            blend: 0.0,
+            texture: None,
+            bumpmap: None,
+        }
+    }
+}
+
+/// The shape of a `<object type="primitive" name=…>`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    Cube,
+    Cone,
+    Cylinder,
+    Sphere,
+    /// Parsed and kept; not rendered (no canonical size is defined).
+    Torus,
+    /// Parsed and kept; not rendered yet. The OBJ path as written.
+    Mesh { file: String },
+}
+
+/// One transform of a `<transblock>`, in file order.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Transform {
+    Translate(DVec3),
+    /// Axis (not necessarily unit) and angle in degrees, right-handed.
+    Rotate { axis: DVec3, angle_deg: f64 },
+    Scale(DVec3),
+    /// Row-major as written; stored as a glam (column-major) matrix.
+    Matrix(DMat4),
+}
+
+/// A node of an object tree.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Node {
+    Primitive { shape: Shape, material: Material, loc: SourceLoc },
+    /// An inline `type="tree"`: its transblocks.
+    Tree { blocks: Vec<TransBlock>, loc: SourceLoc },
+    /// `type="master" name=…`: index into `SceneFile::trees`.
+    Master { tree: usize, loc: SourceLoc },
+}
+
+/// `<transblock>`: its transforms in file order and its one object.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransBlock {
+    pub transforms: Vec<Transform>,
+    /// The product T1 · T2 ⋯ Tk of `transforms`, in listed order.
+    pub matrix: DMat4,
+    pub object: Node,
+    pub loc: SourceLoc,
+}
+
+/// A top-level named tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NamedTree {
+    pub name: String,
+    pub blocks: Vec<TransBlock>,
+    pub loc: SourceLoc,
+}
+
+/// A parsed scene file, trees and masters as written.
+#[derive(Clone, Debug)]
+pub struct SceneFile {
+    pub path: Arc<PathBuf>,
+    pub globals: Globals,
+    pub camera: Camera,
+    pub lights: Vec<Light>,
+    /// Every top-level tree, in file order.
+    pub trees: Vec<NamedTree>,
+    /// Index of the tree named "root" in `trees`.
+    pub root: usize,
+    pub warnings: Vec<Warning>,
+}
+
+/// One drawn primitive after flattening.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Primitive {
+    pub shape: Shape,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    pub world_from_object: DMat4,
+    pub object_from_world: DMat4,
+    pub loc: SourceLoc,
+}
+
+/// A flattened scene: what a renderer draws.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub path: Arc<PathBuf>,
+    pub globals: Globals,
+    pub camera: Camera,
+    pub lights: Vec<Light>,
+    /// Renderable primitives only (cube, cone, cylinder, sphere).
+    pub primitives: Vec<Primitive>,
+    /// Materials, deduplicated by source location (an instanced primitive
+    /// shares one material).
+    pub materials: Vec<Material>,
+    pub warnings: Vec<Warning>,
+}

@@ -1,0 +1,105 @@
+// layout.h: every struct and binding number shared by the host and the
+// shaders, written once. Included by the GLSL kernels and by the C++ build of
+// the shared code; the Rust host mirrors these structs in host/src/layout.rs
+// and checks its mirror against naga's reflection of the compiled SPIR-V at
+// start-up, so a mismatch is an error, not a wrong picture.
+//
+// Rules that keep one text valid GLSL (std430) and C++ (GLM) with identical
+// byte layouts: only vec4 / mat4 / float / int / uint members, vec4 before
+// scalars, every struct a multiple of 16 bytes. No vec3 (std430 aligns it to
+// 16 bytes, C++ to 4).
+#ifndef RAYCAST_LAYOUT_H
+#define RAYCAST_LAYOUT_H
+
+// Descriptor set 0 bindings. Every binding is a storage buffer.
+#define BINDING_FRAME 0      // Frame (one)
+#define BINDING_PRIMITIVES 1 // Primitive[]
+#define BINDING_MATERIALS 2  // Material[]
+#define BINDING_LIGHTS 3     // Light[]
+#define BINDING_PIXELS 4     // PixelOut[], written by the kernel
+
+#define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
+
+// Primitive.shape
+#define SHAPE_CUBE 0u
+#define SHAPE_CONE 1u
+#define SHAPE_CYLINDER 2u
+#define SHAPE_SPHERE 3u
+
+// Light.kind
+#define LIGHT_POINT 0u
+#define LIGHT_DIRECTIONAL 1u
+#define LIGHT_SPOT 2u
+
+// Frame.aov: what PixelOut.rgba holds.
+#define AOV_COLOR 0u
+#define AOV_NORMAL 1u
+
+// Frame.flags
+#define FLAG_SHADOWS 1u
+#define FLAG_REFLECTIONS 2u
+#define FLAG_TEXTURES 4u
+
+// PixelOut.id of a pixel whose ray hit nothing.
+#define NO_HIT 0xffffffffu
+
+struct Frame {
+    // Maps film space (x, y in [-1, 1], z = -1 on the film plane) to world
+    // space: translate(eye) * rotation(u, v, w) * scale^-1 (seed handout).
+    mat4 world_from_film;
+    vec4 eye; // w unused
+    // Global Phong coefficients k_a, k_d, k_s, k_t.
+    vec4 k;
+    uint width;
+    uint height;
+    uint primitive_count;
+    uint light_count;
+    uint aov;
+    uint flags;
+    uint max_depth; // mirror bounces (used once reflections land)
+    uint pad0;
+};
+
+struct Primitive {
+    mat4 object_from_world;
+    uint shape;
+    uint material;
+    uint pad0;
+    uint pad1;
+};
+
+struct Material {
+    vec4 diffuse;     // O_d
+    vec4 ambient;     // O_a
+    vec4 specular;    // O_s
+    vec4 reflective;  // O_r
+    vec4 transparent; // O_t
+    vec4 emissive;
+    float shininess; // n; 0 turns specular off
+    float blend;
+    float ior;
+    int texture; // index of the texture, -1 for none
+    vec4 texture_repeat; // u, v repeat counts in x, y
+};
+
+struct Light {
+    vec4 color;
+    vec4 position;
+    vec4 direction_to_light; // -normalize(direction), computed on the host
+    vec4 spot_axis;          // normalize(direction), computed on the host
+    vec4 attenuation;        // constant, linear, quadratic
+    uint kind;
+    float angle_deg;    // spot: outer half-angle
+    float penumbra_deg; // spot: falloff band inside it
+    uint pad0;
+};
+
+struct PixelOut {
+    vec4 normal; // world-space unit normal; 0 on a miss
+    float t;     // ray parameter of the nearest hit (ray direction not unit); 0 on a miss
+    uint id;     // index of the primitive hit, NO_HIT on a miss
+    uint rgba;   // 8-bit RGBA, R in the low byte
+    uint pad0;
+};
+
+#endif
