@@ -1,0 +1,460 @@
+// raycast.glsl: everything computed per pixel — camera rays, the four
+// canonical primitive tests, nearest hit, normals, local lighting and
+// quantisation. Written once; it runs as GLSL in the compute kernels and
+// compiles unchanged as C++ with GLM (the CPU build, see cpu/prelude.hpp).
+//
+// Exactness rules (../shared/docs/EXACTNESS.md), which every line obeys so
+// that lavapipe and the CPU build agree bit for bit:
+//   - no normalize(), no mat*vec, no built-in dot: fixed-order sums instead;
+//   - `precise` on every float temporary and float-returning function;
+//   - min / max / clamp as ternaries in GLM's operand order;
+//   - no fma(), no transcendental built-ins: pow and acos are built here
+//     from + - * / and sqrt;
+//   - literals with the f suffix, at most 9 significant digits;
+//   - no swizzles on the left of =, no out/inout, no struct constructors.
+//
+// The includer declares, before including this file: `frame` (Frame),
+// `primitives[]`, `materials[]`, `lights[]` (see layout.h).
+
+#ifndef RAYCAST_GLSL
+#define RAYCAST_GLSL
+
+const float PI = 3.14159265f;
+const float DEGREES_PER_RADIAN = 57.2957795f;
+// Larger than any t a ray can produce; a miss.
+const float T_FAR = 3.40282347e38f;
+
+// ---------------------------------------------------------------------------
+// Portable arithmetic
+
+vec3 xyz(vec4 v) {
+    return vec3(v.x, v.y, v.z);
+}
+
+precise float dot3(vec3 a, vec3 b) {
+    precise float r = (a.x * b.x + a.y * b.y) + a.z * b.z;
+    return r;
+}
+
+// (b < a) ? b : a, GLM's operand order: with a NaN operand both builds
+// return the same one.
+precise float min_f(float a, float b) {
+    return (b < a) ? b : a;
+}
+
+precise float max_f(float a, float b) {
+    return (a < b) ? b : a;
+}
+
+precise float clamp01(float x) {
+    return min_f(max_f(x, 0.0f), 1.0f);
+}
+
+precise vec3 unit(vec3 v) {
+    precise float len = sqrt(dot3(v, v));
+    precise vec3 r = v / len;
+    return r;
+}
+
+// m * (p, 1), summed in one fixed order.
+precise vec3 transform_point(mat4 m, vec3 p) {
+    precise vec3 r = ((xyz(m[0]) * p.x + xyz(m[1]) * p.y) + xyz(m[2]) * p.z) + xyz(m[3]);
+    return r;
+}
+
+// m * (v, 0), summed in one fixed order.
+precise vec3 transform_vector(mat4 m, vec3 v) {
+    precise vec3 r = (xyz(m[0]) * v.x + xyz(m[1]) * v.y) + xyz(m[2]) * v.z;
+    return r;
+}
+
+// transpose(m) * (n, 0): the normal rule, applied with object_from_world.
+// Row i of the transpose is column i of m.
+precise vec3 transform_normal(mat4 object_from_world, vec3 n) {
+    precise vec3 r = vec3(dot3(xyz(object_from_world[0]), n),
+                          dot3(xyz(object_from_world[1]), n),
+                          dot3(xyz(object_from_world[2]), n));
+    return r;
+}
+
+// log2(x) for x > 0: exponent from the bits, mantissa m in [sqrt(1/2),
+// sqrt(2)) through the atanh series: log2(m) = 2/ln2 * atanh((m-1)/(m+1)).
+// Absolute error below 1e-7 for normal x; x below the normal range gives
+// -127 (pow then returns 0, which is what such an x to any n > 0 rounds to).
+precise float log2_portable(float x) {
+    if (x < 1.17549435e-38f) {
+        return -127.0f;
+    }
+    int bits = floatBitsToInt(x);
+    int e = ((bits >> 23) & 255) - 127;
+    precise float m = intBitsToFloat((bits & 8388607) | 1065353216);
+    if (m > 1.41421354f) {
+        m = m * 0.5f;
+        e = e + 1;
+    }
+    precise float s = (m - 1.0f) / (m + 1.0f);
+    precise float s2 = s * s;
+    precise float p = ((((s2 * 0.0909090936f + 0.111111112f) * s2 + 0.142857149f) * s2 + 0.200000003f) * s2 + 0.333333343f) * s2 + 1.0f;
+    precise float r = float(e) + (s * p) * 2.88539004f; // 2 / ln 2
+    return r;
+}
+
+// 2^y: integer part into the exponent bits, fraction f through
+// e^z = sum z^k/k!, z = (f - 1/2) ln 2, times sqrt(2). Relative error about
+// 1e-7; 0 below 2^-126, clamped at 2^128 - ulp above.
+precise float exp2_portable(float y) {
+    if (y < -126.0f) {
+        return 0.0f;
+    }
+    if (y > 127.999992f) {
+        y = 127.999992f;
+    }
+    precise float i = floor(y);
+    precise float z = ((y - i) - 0.5f) * 0.693147182f;
+    precise float p = 1.0f + z * (1.0f + z * 0.5f * (1.0f + z * 0.333333343f * (1.0f + z * 0.25f * (1.0f + z * 0.200000003f * (1.0f + z * 0.166666672f * (1.0f + z * 0.142857149f))))));
+    precise float scale = intBitsToFloat((int(i) + 127) << 23);
+    precise float r = (p * 1.41421354f) * scale;
+    return r;
+}
+
+// x^n for x >= 0, n > 0 (specular highlights).
+precise float pow_portable(float x, float n) {
+    if (x <= 0.0f) {
+        return 0.0f;
+    }
+    precise float r = exp2_portable(n * log2_portable(x));
+    return r;
+}
+
+// acos(x) in radians, Abramowitz & Stegun 4.4.46: |error| <= 2e-8 on [0, 1],
+// acos(-x) = pi - acos(x). x is clamped to [-1, 1].
+precise float acos_portable(float x) {
+    precise float c = min_f(max_f(x, -1.0f), 1.0f);
+    precise float a = abs(c);
+    precise float p = ((((((-0.0012624911f * a + 0.0066700901f) * a - 0.0170881256f) * a + 0.0308918810f) * a - 0.0501743046f) * a + 0.0889789874f) * a - 0.2145988016f) * a + 1.57079630f;
+    precise float r = sqrt(1.0f - a) * p;
+    if (c < 0.0f) {
+        r = PI - r;
+    }
+    return r;
+}
+
+// ---------------------------------------------------------------------------
+// Rays and hits
+
+struct Ray {
+    vec3 origin;
+    vec3 direction; // not unit: t is measured in multiples of it
+};
+
+// A hit on one canonical shape, in object space. t <= 0 (or T_FAR) is a miss.
+struct ShapeHit {
+    float t;
+    vec3 normal; // object-space, not unit
+};
+
+// Nearest hit over the scene.
+struct SceneHit {
+    float t;       // T_FAR on a miss
+    uint id;       // primitive index, NO_HIT on a miss
+    vec3 normal;   // world-space unit normal
+};
+
+ShapeHit no_hit() {
+    ShapeHit h;
+    h.t = T_FAR;
+    h.normal = vec3(0.0f, 0.0f, 0.0f);
+    return h;
+}
+
+// The primary ray through the centre of pixel (column j, row i; row 0 at the
+// top). The film point (x, y, -1) has x, y in [-1, 1]; world_from_film maps
+// it to world space, so its linear part maps it to the ray direction.
+Ray camera_ray(uint j, uint i) {
+    precise float x = ((float(j) + 0.5f) / float(frame.width)) * 2.0f - 1.0f;
+    precise float y = 1.0f - ((float(i) + 0.5f) / float(frame.height)) * 2.0f;
+    Ray r;
+    r.origin = xyz(frame.eye);
+    r.direction = transform_vector(frame.world_from_film, vec3(x, y, -1.0f));
+    return r;
+}
+
+// ---------------------------------------------------------------------------
+// Canonical shapes, object space (see docs/SCENE_FORMAT.md):
+//   cube [-0.5, 0.5]^3, sphere r 0.5, cylinder r 0.5 with y in [-0.5, 0.5]
+//   and both caps, cone with base r 0.5 at y = -0.5, apex at y = 0.5 and a
+//   base cap.
+
+// The ray parameter where the ray meets the plane {p[axis] = s}. A ray
+// parallel to the plane gives +-inf or NaN, which every caller's `t > 0 &&
+// t < best` rejects.
+precise float plane_t(Ray r, int axis, float s) {
+    precise float t = (s - r.origin[axis]) / r.direction[axis];
+    return t;
+}
+
+// Keeps `best` unless (t, normal) is a nearer hit with t > 0.
+ShapeHit nearer(ShapeHit best, float t, vec3 normal) {
+    if (t > 0.0f && t < best.t) {
+        ShapeHit h;
+        h.t = t;
+        h.normal = normal;
+        return h;
+    }
+    return best;
+}
+
+// Cube: each of the six face planes x, y, z = +-0.5, the hit point's other
+// two coordinates within [-0.5, 0.5].
+ShapeHit intersect_cube(Ray r) {
+    ShapeHit best = no_hit();
+    for (int axis = 0; axis < 3; axis++) {
+        int a1 = (axis + 1) % 3;
+        int a2 = (axis + 2) % 3;
+        for (int side = 0; side < 2; side++) {
+            float s = (side == 0) ? 0.5f : -0.5f;
+            precise float t = plane_t(r, axis, s);
+            precise float p1 = r.origin[a1] + t * r.direction[a1];
+            precise float p2 = r.origin[a2] + t * r.direction[a2];
+            if (abs(p1) <= 0.5f && abs(p2) <= 0.5f) {
+                vec3 n = vec3(0.0f, 0.0f, 0.0f);
+                n[axis] = s; // a component, not a swizzle
+                best = nearer(best, t, n);
+            }
+        }
+    }
+    return best;
+}
+
+// The smaller and larger roots of a t^2 + b t + c = 0 as (t0, t1), or
+// (T_FAR, T_FAR) when there is none. a == 0 gives the one root of the line.
+precise vec2 quadratic_roots(float a, float b, float c) {
+    if (a == 0.0f) {
+        if (b == 0.0f) {
+            return vec2(T_FAR, T_FAR);
+        }
+        precise float t = -c / b;
+        return vec2(t, t);
+    }
+    precise float disc = b * b - 4.0f * a * c;
+    if (disc < 0.0f) {
+        return vec2(T_FAR, T_FAR);
+    }
+    precise float root = sqrt(disc);
+    precise float q0 = (-b - root) / (2.0f * a);
+    precise float q1 = (-b + root) / (2.0f * a);
+    return (q1 < q0) ? vec2(q1, q0) : vec2(q0, q1);
+}
+
+// Sphere: |o + t d|^2 = 0.25; normal = the hit point.
+ShapeHit intersect_sphere(Ray r) {
+    precise float a = dot3(r.direction, r.direction);
+    precise float b = 2.0f * dot3(r.origin, r.direction);
+    precise float c = dot3(r.origin, r.origin) - 0.25f;
+    precise vec2 ts = quadratic_roots(a, b, c);
+    ShapeHit best = no_hit();
+    for (int k = 0; k < 2; k++) {
+        precise float t = ts[k];
+        precise vec3 p = r.origin + t * r.direction;
+        best = nearer(best, t, p);
+    }
+    return best;
+}
+
+// Flat cap {y = s, x^2 + z^2 <= 0.25} with normal (0, ny, 0).
+ShapeHit cap(ShapeHit best, Ray r, float s, float ny) {
+    precise float t = plane_t(r, 1, s);
+    precise float x = r.origin.x + t * r.direction.x;
+    precise float z = r.origin.z + t * r.direction.z;
+    precise float rr = x * x + z * z;
+    if (rr <= 0.25f) {
+        best = nearer(best, t, vec3(0.0f, ny, 0.0f));
+    }
+    return best;
+}
+
+// Cylinder: body x^2 + z^2 = 0.25 for y in [-0.5, 0.5], normal (x, 0, z);
+// caps y = +-0.5.
+ShapeHit intersect_cylinder(Ray r) {
+    precise float a = r.direction.x * r.direction.x + r.direction.z * r.direction.z;
+    precise float b = 2.0f * (r.origin.x * r.direction.x + r.origin.z * r.direction.z);
+    precise float c = (r.origin.x * r.origin.x + r.origin.z * r.origin.z) - 0.25f;
+    precise vec2 ts = quadratic_roots(a, b, c);
+    ShapeHit best = no_hit();
+    for (int k = 0; k < 2; k++) {
+        precise float t = ts[k];
+        precise vec3 p = r.origin + t * r.direction;
+        if (abs(p.y) <= 0.5f) {
+            best = nearer(best, t, vec3(p.x, 0.0f, p.z));
+        }
+    }
+    best = cap(best, r, 0.5f, 1.0f);
+    best = cap(best, r, -0.5f, -1.0f);
+    return best;
+}
+
+// Cone: body x^2 + z^2 = ((0.5 - y) / 2)^2 for y in [-0.5, 0.5]. With
+// p = o + t d and h = 0.5 - o.y:
+//   a = dx^2 + dz^2 - dy^2 / 4
+//   b = 2 (ox dx + oz dz) + h dy / 2
+//   c = ox^2 + oz^2 - h^2 / 4
+// Normal: the gradient (2x, (0.5 - y) / 2, 2z). Base cap y = -0.5.
+ShapeHit intersect_cone(Ray r) {
+    precise float h = 0.5f - r.origin.y;
+    precise float a = (r.direction.x * r.direction.x + r.direction.z * r.direction.z) - 0.25f * (r.direction.y * r.direction.y);
+    precise float b = 2.0f * (r.origin.x * r.direction.x + r.origin.z * r.direction.z) + 0.5f * (h * r.direction.y);
+    precise float c = (r.origin.x * r.origin.x + r.origin.z * r.origin.z) - 0.25f * (h * h);
+    precise vec2 ts = quadratic_roots(a, b, c);
+    ShapeHit best = no_hit();
+    for (int k = 0; k < 2; k++) {
+        precise float t = ts[k];
+        precise vec3 p = r.origin + t * r.direction;
+        if (abs(p.y) <= 0.5f) {
+            best = nearer(best, t, vec3(2.0f * p.x, 0.5f * (0.5f - p.y), 2.0f * p.z));
+        }
+    }
+    best = cap(best, r, -0.5f, -1.0f);
+    return best;
+}
+
+ShapeHit intersect_shape(uint shape, Ray r) {
+    if (shape == SHAPE_CUBE) {
+        return intersect_cube(r);
+    }
+    if (shape == SHAPE_CONE) {
+        return intersect_cone(r);
+    }
+    if (shape == SHAPE_CYLINDER) {
+        return intersect_cylinder(r);
+    }
+    return intersect_sphere(r);
+}
+
+// ---------------------------------------------------------------------------
+// Nearest hit
+
+// Every primitive, object-space test through object_from_world; the nearest
+// t > 0 wins, the lowest index on equal t.
+SceneHit trace(Ray r) {
+    SceneHit best;
+    best.t = T_FAR;
+    best.id = NO_HIT;
+    best.normal = vec3(0.0f, 0.0f, 0.0f);
+    vec3 n_object = vec3(0.0f, 0.0f, 0.0f);
+    for (uint i = 0u; i < frame.primitive_count; i++) {
+        Ray local;
+        local.origin = transform_point(primitives[i].object_from_world, r.origin);
+        local.direction = transform_vector(primitives[i].object_from_world, r.direction);
+        ShapeHit h = intersect_shape(primitives[i].shape, local);
+        if (h.t < best.t) {
+            best.t = h.t;
+            best.id = i;
+            n_object = h.normal;
+        }
+    }
+    if (best.id != NO_HIT) {
+        best.normal = unit(transform_normal(primitives[best.id].object_from_world, n_object));
+    }
+    return best;
+}
+
+// ---------------------------------------------------------------------------
+// Local lighting (docs/SCENE_FORMAT.md, "Lighting model of the official renders")
+
+// The intensity of light `l` arriving along unit `to_light` (pointing at the
+// light) from `dist` away, before shadows: colour, distance attenuation and spot falloff.
+precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
+    precise vec3 intensity = xyz(l.color);
+    if (l.kind == LIGHT_DIRECTIONAL) {
+        return intensity;
+    }
+    precise float falloff = (l.attenuation.x + l.attenuation.y * dist) + l.attenuation.z * (dist * dist);
+    precise float att = min_f(1.0f, 1.0f / falloff);
+    intensity = intensity * att;
+    if (l.kind == LIGHT_SPOT) {
+        // Angle between the spot axis and (p - position) = -to_light.
+        precise float cos_theta = -dot3(xyz(l.spot_axis), to_light);
+        precise float theta = acos_portable(cos_theta) * DEGREES_PER_RADIAN;
+        precise float inner = l.angle_deg - l.penumbra_deg;
+        if (theta > l.angle_deg) {
+            return vec3(0.0f, 0.0f, 0.0f);
+        }
+        if (theta > inner) {
+            precise float x = (theta - inner) / l.penumbra_deg;
+            precise float smooth_step = (3.0f * (x * x)) - 2.0f * ((x * x) * x);
+            intensity = intensity * (1.0f - smooth_step);
+        }
+    }
+    return intensity;
+}
+
+// Phong at the hit: ambient + emissive + for each light diffuse and
+// specular. Returns the colour clamped to [0, 1].
+precise vec3 shade(Ray r, SceneHit hit) {
+    Material m = materials[primitives[hit.id].material];
+    precise vec3 p = r.origin + hit.t * r.direction;
+    precise vec3 n = hit.normal;
+    precise vec3 v = -unit(r.direction);
+    precise vec3 color = frame.k.x * xyz(m.ambient) + xyz(m.emissive);
+    precise vec3 diffuse = frame.k.y * xyz(m.diffuse);
+    precise vec3 specular = frame.k.z * xyz(m.specular);
+    for (uint li = 0u; li < frame.light_count; li++) {
+        Light l = lights[li];
+        precise vec3 to_light = xyz(l.direction_to_light);
+        precise float dist = 0.0f;
+        if (l.kind != LIGHT_DIRECTIONAL) {
+            precise vec3 d = xyz(l.position) - p;
+            dist = sqrt(dot3(d, d));
+            to_light = d / dist;
+        }
+        precise vec3 intensity = light_intensity(l, to_light, dist);
+        precise float n_dot_l = dot3(n, to_light);
+        precise vec3 term = diffuse * max_f(0.0f, n_dot_l);
+        if (m.shininess > 0.0f) {
+            precise vec3 reflected = (2.0f * n_dot_l) * n - to_light;
+            precise float highlight = pow_portable(max_f(0.0f, dot3(reflected, v)), m.shininess);
+            term = term + specular * highlight;
+        }
+        color = color + intensity * term;
+    }
+    return vec3(clamp01(color.x), clamp01(color.y), clamp01(color.z));
+}
+
+// ---------------------------------------------------------------------------
+// Output
+
+// floor(255 c) per channel (truncation, as the official renders), alpha 255.
+uint pack_rgba8(vec3 c) {
+    precise float r = floor(255.0f * c.x);
+    precise float g = floor(255.0f * c.y);
+    precise float b = floor(255.0f * c.z);
+    return (uint(r) | (uint(g) << 8u)) | ((uint(b) << 16u) | (255u << 24u));
+}
+
+// Everything one pixel computes: the colour (or normal AOV) and the t, hit
+// id and normal of its primary ray.
+PixelOut render_pixel(uint j, uint i) {
+    Ray r = camera_ray(j, i);
+    SceneHit hit = trace(r);
+    PixelOut out_px;
+    out_px.pad0 = 0u;
+    if (hit.id == NO_HIT) {
+        out_px.normal = vec4(0.0f, 0.0f, 0.0f, 0.0f);
+        out_px.t = 0.0f;
+        out_px.id = NO_HIT;
+        out_px.rgba = 255u << 24u;
+        return out_px;
+    }
+    out_px.normal = vec4(hit.normal, 0.0f);
+    out_px.t = hit.t;
+    out_px.id = hit.id;
+    if (frame.aov == AOV_NORMAL) {
+        precise vec3 c = (hit.normal + 1.0f) * 0.5f;
+        out_px.rgba = pack_rgba8(vec3(clamp01(c.x), clamp01(c.y), clamp01(c.z)));
+    } else {
+        out_px.rgba = pack_rgba8(shade(r, hit));
+    }
+    return out_px;
+}
+
+#endif
