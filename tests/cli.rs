@@ -1,0 +1,134 @@
+//! The command line as a user meets it: the default render, and bad input of
+//! every kind giving a clear message and a non-zero exit, never a panic.
+//! The validation layer is on (RAYCAST_VALIDATION=1): any message fails.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn out_dir() -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn raycast(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_raycast"));
+    cmd.args(args).env("RAYCAST_VALIDATION", "1");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("run raycast")
+}
+
+fn text(o: &Output) -> (String, String) {
+    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// Asserts the command failed with `code`, said `needle` on stderr, and did not panic.
+fn assert_fails(o: &Output, code: i32, needle: &str) {
+    let (out, err) = text(o);
+    assert_eq!(o.status.code(), Some(code), "exit status\nstdout:\n{out}\nstderr:\n{err}");
+    assert!(err.contains(needle), "stderr lacks {needle:?}\nstderr:\n{err}");
+    assert!(!err.contains("panicked"), "panic:\n{err}");
+}
+
+#[test]
+fn default_scene_renders_to_png() {
+    let png = out_dir().join("default.png");
+    let _ = std::fs::remove_file(&png);
+    let o = raycast(&["render", "-o", png.to_str().unwrap()], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "stdout:\n{out}\nstderr:\n{err}");
+    for needle in ["device: ", "time: load ", "upload ", "compile ", "dispatch ", "readback ", "M primary rays/s", "wrote "] {
+        assert!(out.contains(needle), "stdout lacks {needle:?}:\n{out}");
+    }
+    let img = raycast::image_io::read_png(&png).unwrap();
+    assert_eq!((img.width, img.height), (512, 384));
+    // All four primitives are lit in different colours: many distinct colours,
+    // and the background (a miss) is black.
+    let mut colours: Vec<[u8; 3]> = img.data.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+    colours.sort();
+    colours.dedup();
+    assert!(colours.len() > 500, "only {} distinct colours in the default scene", colours.len());
+    assert_eq!(img.pixel(0, 0), [0, 0, 0], "top-left pixel should be background");
+}
+
+#[test]
+fn normal_aov_at_another_size() {
+    let png = out_dir().join("default-normal.png");
+    let o = raycast(&["render", "--aov", "normal", "--width", "100", "--height", "60", "-o", png.to_str().unwrap()], &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let img = raycast::image_io::read_png(&png).unwrap();
+    assert_eq!((img.width, img.height), (100, 60));
+    // The floor's top face faces +y: (0, 1, 0) -> (127, 255, 127).
+    assert_eq!(img.pixel(50, 55), [127, 255, 127]);
+}
+
+#[test]
+fn devices_lists_lavapipe() {
+    let o = raycast(&["devices"], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("llvmpipe"), "{out}");
+}
+
+#[test]
+fn missing_scene_file() {
+    let o = raycast(&["render", "no/such/scene.xml", "-o", "/dev/null"], &[]);
+    assert_fails(&o, 1, "no/such/scene.xml");
+}
+
+#[test]
+fn zero_and_absurd_image_sizes() {
+    assert_fails(&raycast(&["render", "--width", "0"], &[]), 1, "--width 0 is out of range");
+    assert_fails(&raycast(&["render", "--height", "100000"], &[]), 1, "--height 100000 is out of range");
+    assert_fails(&raycast(&["render", "--width", "-3"], &[]), 2, "--width");
+}
+
+#[test]
+fn unknown_flag_is_a_usage_error() {
+    assert_fails(&raycast(&["render", "--frobnicate"], &[]), 2, "--frobnicate");
+}
+
+#[test]
+fn unwritable_output() {
+    let o = raycast(&["render", "-o", "/nonexistent-dir/x.png"], &[]);
+    assert_fails(&o, 1, "cannot write /nonexistent-dir/x.png");
+}
+
+#[test]
+fn no_vulkan_device() {
+    for var in ["VK_DRIVER_FILES", "VK_ICD_FILENAMES"] {
+        let o = raycast(&["render", "-o", "/dev/null"], &[(var, "/nonexistent/icd.json"), ("RAYCAST_VALIDATION", "0")]);
+        assert_fails(&o, 1, "no Vulkan device");
+    }
+}
+
+#[test]
+fn unknown_device_lists_the_available_ones() {
+    let o = raycast(&["render", "--device", "no-such-gpu", "-o", "/dev/null"], &[]);
+    assert_fails(&o, 1, "llvmpipe");
+}
+
+/// tests/scenes/bad/EXPECTED.txt: for each bad scene, the line:col and a part
+/// of the message the CLI must print.
+#[test]
+fn bad_scene_files() {
+    let dir = repo().join("tests/scenes/bad");
+    let expected = std::fs::read_to_string(dir.join("EXPECTED.txt")).unwrap();
+    let mut checked = 0;
+    for line in expected.lines().filter(|l| !l.trim().is_empty() && !l.starts_with('#')) {
+        let mut parts = line.splitn(3, '|').map(str::trim);
+        let (file, pos, needle) = (parts.next().unwrap(), parts.next().unwrap(), parts.next().unwrap());
+        let path = dir.join(file);
+        let o = raycast(&["render", path.to_str().unwrap(), "-o", "/dev/null"], &[]);
+        assert_fails(&o, 1, &format!("{file}:{pos}: error: "));
+        assert_fails(&o, 1, needle);
+        checked += 1;
+    }
+    assert!(checked >= 7, "EXPECTED.txt lists only {checked} cases");
+}

@@ -1,0 +1,153 @@
+//! Conformance with the CS1230 course's official renders.
+//!
+//! Reads the corpus from RAYCAST_CORPUS (../shared/corpus/cs1230 in CI) and
+//! skips, saying so, without it. Every case renders on the Vulkan device
+//! with the validation layer on and compares with the reference under the
+//! rule: at most 0.1% of pixels with any channel off by more than 2/255,
+//! unless an allowance measured for that image is listed in ALLOWANCES with
+//! its reason. A failure writes actual / expected / diff PNGs and prints
+//! their paths. Ends with `N passed, M failed`.
+
+use raycast::frame::{self, Aov, RenderSettings};
+use raycast::gpu::GpuOptions;
+use raycast::image_io::{self, Rgb8};
+use raycast::render::GpuRenderer;
+use raycast::scene::{self, FlattenLimits, ParseOptions};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Per channel, a pixel differs when off by more than this.
+const TOLERANCE: u8 = 2;
+/// Default rule: at most this fraction of pixels may differ.
+const MAX_FRACTION: f64 = 0.001;
+
+/// Measured allowances: (reference image, fraction allowed, why).
+const ALLOWANCES: &[(&str, f64, &str)] = &[];
+
+struct Case {
+    group: &'static str,
+    name: String,
+    aov: Aov,
+    width: u32,
+    height: u32,
+    reference: PathBuf,
+}
+
+fn cases(corpus: &Path) -> Vec<Case> {
+    let mut cases = Vec::new();
+    // Colour, 512x384, local Phong only (how the references of these groups were made).
+    // Normals, 1024x768.
+    let plan: [(&str, Aov, u32, u32, &str); 5] = [
+        ("test_unit", Aov::Color, 512, 384, "grading_illuminate"),
+        ("test_intersect", Aov::Color, 512, 384, "grading_illuminate"),
+        ("test_unit", Aov::Normal, 1024, 768, "intersect_normal_color"),
+        ("test_intersect", Aov::Normal, 1024, 768, "intersect_normal_color"),
+        ("test_efficiency", Aov::Normal, 1024, 768, "intersect_normal_color"),
+    ];
+    for (group, aov, width, height, bench) in plan {
+        let mut names: Vec<String> = std::fs::read_dir(corpus.join(group))
+            .unwrap_or_else(|e| panic!("cannot list {}: {e}", corpus.join(group).display()))
+            .filter_map(|e| {
+                let p = e.ok()?.path();
+                (p.extension()? == "xml").then(|| p.file_stem()?.to_string_lossy().into_owned())
+            })
+            .collect();
+        names.sort();
+        for name in names {
+            let reference = corpus.join("bench").join(bench).join(format!("{group}_{name}.png"));
+            cases.push(Case { group, name, aov, width, height, reference });
+        }
+    }
+    cases
+}
+
+fn run_case(renderer: &GpuRenderer, corpus: &Path, case: &Case, out_dir: &Path) -> Result<String, String> {
+    let xml = corpus.join(case.group).join(format!("{}.xml", case.name));
+    let parse = ParseOptions { assets: vec![corpus.to_path_buf()] };
+    let scene = scene::load(&xml, &parse, &FlattenLimits::default()).map_err(|e| e.to_string())?;
+    let settings = RenderSettings {
+        width: case.width,
+        height: case.height,
+        aov: case.aov,
+        shadows: false,
+        reflections: false,
+        textures: false,
+        ..RenderSettings::default()
+    };
+    let data = frame::build(&scene, &settings);
+    let (picture, _) = renderer.render(&data).map_err(|e| e.to_string())?;
+    let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8() };
+    let expected = image_io::read_png(&case.reference)?;
+    let diff = image_io::compare(&actual, &expected, TOLERANCE)?;
+
+    let ref_name = case.reference.file_stem().unwrap().to_string_lossy().into_owned();
+    let (allowed, why) = ALLOWANCES
+        .iter()
+        .find(|(n, _, _)| *n == ref_name)
+        .map(|(_, f, why)| (*f, Some(*why)))
+        .unwrap_or((MAX_FRACTION, None));
+    let rule = format!("rule: at most {:.2}% off by more than {TOLERANCE}/255{}", allowed * 100.0,
+        why.map(|w| format!(", allowance: {w}")).unwrap_or_default());
+    if diff.fraction() <= allowed {
+        return Ok(format!("{diff} ({rule})"));
+    }
+    let kind = match case.aov {
+        Aov::Color => "color",
+        Aov::Normal => "normal",
+    };
+    let paths = image_io::write_diff_images(out_dir, &format!("{ref_name}-{kind}"), &actual, &expected, &diff)?;
+    Err(format!(
+        "{diff} ({rule})\n      actual:   {}\n      expected: {}\n      diff:     {}",
+        paths[0].display(),
+        paths[1].display(),
+        paths[2].display()
+    ))
+}
+
+fn main() -> ExitCode {
+    let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").map(PathBuf::from) else {
+        println!("SKIPPED: conformance: RAYCAST_CORPUS is not set (point it at the cs1230 corpus, e.g. ../shared/corpus/cs1230)");
+        println!("0 passed, 0 failed, 1 skipped");
+        return ExitCode::SUCCESS;
+    };
+    if !corpus.join("bench").is_dir() {
+        println!("FAILED: RAYCAST_CORPUS={} has no bench/ folder", corpus.display());
+        println!("0 passed, 1 failed");
+        return ExitCode::FAILURE;
+    }
+    let out_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("conformance");
+    let renderer = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
+        Ok(r) => r,
+        Err(e) => {
+            println!("FAILED: cannot start the Vulkan device: {e}");
+            println!("0 passed, 1 failed");
+            return ExitCode::FAILURE;
+        }
+    };
+    println!("conformance on {} against {}", renderer.context().info().name, corpus.display());
+    let (mut passed, mut failed) = (0, 0);
+    for case in cases(&corpus) {
+        let label = format!("{}/{} {:?} {}x{}", case.group, case.name, case.aov, case.width, case.height);
+        let start = std::time::Instant::now();
+        match run_case(&renderer, &corpus, &case, &out_dir) {
+            Ok(msg) => {
+                passed += 1;
+                println!("ok     {label} [{:.1} s]: {msg}", start.elapsed().as_secs_f64());
+            }
+            Err(msg) => {
+                failed += 1;
+                println!("FAILED {label}: {msg}");
+            }
+        }
+        let messages = renderer.context().take_validation_messages();
+        if !messages.is_empty() {
+            failed += 1;
+            println!("FAILED {label}: {} validation message(s):", messages.len());
+            for m in messages {
+                println!("      {m}");
+            }
+        }
+    }
+    println!("{passed} passed, {failed} failed");
+    if failed == 0 { ExitCode::SUCCESS } else { ExitCode::FAILURE }
+}
