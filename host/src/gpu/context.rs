@@ -1,0 +1,767 @@
+//! Instance, validation messenger, device choice, and `GpuContext::run`:
+//! upload, dispatch, wait, readback.
+
+use std::ffi::{c_char, c_void, CStr};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use ash::vk;
+
+use super::{GpuError, Kernel};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+/// Instance API version requested; nothing newer is used.
+const API_VERSION: u32 = vk::API_VERSION_1_1;
+/// Storage buffers cannot be empty; zero-length inputs get this many bytes.
+const MIN_BUFFER: u64 = 16;
+
+/// Which device `GpuContext::new` opens.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DeviceSelector {
+    /// Position in `list_devices()` (the loader's enumeration order).
+    Index(usize),
+    /// Case-insensitive substring of the device name; the first match wins.
+    Name(String),
+}
+
+impl std::fmt::Display for DeviceSelector {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DeviceSelector::Index(i) => write!(f, "index {i}"),
+            DeviceSelector::Name(n) => write!(f, "name {n:?}"),
+        }
+    }
+}
+
+/// Options of `GpuContext::new`.
+#[derive(Clone, Debug)]
+pub struct GpuOptions {
+    /// `None`: discrete GPU > integrated > virtual > other > CPU.
+    pub device: Option<DeviceSelector>,
+    /// Enable VK_LAYER_KHRONOS_validation and capture its messages.
+    pub validation: bool,
+    /// How long `run` waits for a dispatch.
+    pub timeout: Duration,
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        GpuOptions { device: None, validation: false, timeout: Duration::from_secs(600) }
+    }
+}
+
+/// A Vulkan device as `list_devices` reports it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DeviceInfo {
+    pub index: usize,
+    pub name: String,
+    /// "discrete GPU", "integrated GPU", "virtual GPU", "cpu" or "other".
+    pub kind: String,
+    pub api_version: String,
+    pub driver: String,
+}
+
+/// Wall-clock times of the phases of one `GpuContext::run`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunTimings {
+    /// Buffer creation and host writes, descriptor set.
+    pub upload: Duration,
+    /// Recording, submit and fence wait.
+    pub dispatch: Duration,
+    /// Copying the output to host memory.
+    pub readback: Duration,
+}
+
+/// Lists the Vulkan devices in enumeration order (the `Index` of a selector).
+pub fn list_devices() -> Result<Vec<DeviceInfo>, GpuError> {
+    let inst = InstanceParts::new(false)?;
+    let devices = inst.physical_devices()?;
+    Ok(devices.into_iter().map(|d| d.info).collect())
+}
+
+/// An open Vulkan device with one compute queue. Kernels made from it keep it alive.
+pub struct GpuContext {
+    pub(crate) inner: Arc<Inner>,
+}
+
+/// Validation messages, shared with the messenger callback.
+type Sink = Arc<Mutex<Vec<String>>>;
+
+/// Loader, instance and (with validation) the debug messenger; destroyed in
+/// reverse order on drop.
+pub(crate) struct InstanceParts {
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    pub(crate) instance: ash::Instance,
+    /// The callback's user data points into this; it outlives the instance.
+    messages: Sink,
+    entry: ash::Entry,
+}
+
+/// A physical device and what we know of it.
+struct Physical {
+    handle: vk::PhysicalDevice,
+    info: DeviceInfo,
+    rank: u32,
+    compute_family: Option<u32>,
+    extensions: Vec<String>,
+}
+
+/// Everything behind a `GpuContext`; dropped when the context and all its kernels are gone.
+pub(crate) struct Inner {
+    /// Resources of runs that timed out, freed after waiting for the device at drop.
+    abandoned: Mutex<Vec<RunResources>>,
+    pub(crate) device: ash::Device,
+    queue: Mutex<vk::Queue>,
+    queue_family: u32,
+    info: DeviceInfo,
+    limits: vk::PhysicalDeviceLimits,
+    max_allocation: u64,
+    memory: vk::PhysicalDeviceMemoryProperties,
+    timeout: Duration,
+    pub(crate) parts: InstanceParts,
+}
+
+fn cstrs(names: &[&CStr]) -> Vec<*const c_char> {
+    names.iter().map(|n| n.as_ptr()).collect()
+}
+
+fn ext_names(props: &[vk::ExtensionProperties]) -> Vec<String> {
+    props
+        .iter()
+        .filter_map(|p| p.extension_name_as_c_str().ok().map(|s| s.to_string_lossy().into_owned()))
+        .collect()
+}
+
+fn version_string(v: u32) -> String {
+    format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v))
+}
+
+/// Receives validation messages (WARNING and ERROR only, by the messenger's filter).
+unsafe extern "system" fn on_message(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    if data.is_null() || user.is_null() {
+        return vk::FALSE;
+    }
+    // Unwinding out of an extern "system" fn aborts; keep any panic inside.
+    let _ = std::panic::catch_unwind(|| {
+        // SAFETY: `user` is the `Mutex` of the instance's `Sink`, alive until
+        // after vkDestroyInstance; `data` is valid for this call.
+        let sink = unsafe { &*(user as *const Mutex<Vec<String>>) };
+        let data = unsafe { &*data };
+        let text = |s: Option<&CStr>| s.map(|s| s.to_string_lossy().into_owned());
+        let id = text(unsafe { data.message_id_name_as_c_str() }).unwrap_or_else(|| "-".into());
+        let message = text(unsafe { data.message_as_c_str() }).unwrap_or_default();
+        let level = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) { "ERROR" } else { "WARNING" };
+        let line = format!("{level} [{id}] {message}");
+        sink.lock().unwrap_or_else(|p| p.into_inner()).push(line);
+    });
+    vk::FALSE
+}
+
+impl InstanceParts {
+    pub(crate) fn new(validation: bool) -> Result<InstanceParts, GpuError> {
+        // SAFETY: loading libvulkan runs its initialisers; that is what the loader is for.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::LoaderMissing { detail: e.to_string() })?;
+        Self::with_entry(entry, validation)
+    }
+
+    fn with_entry(entry: ash::Entry, validation: bool) -> Result<InstanceParts, GpuError> {
+        let loader_version = unsafe { entry.try_enumerate_instance_version() }
+            .map_err(GpuError::vk("vkEnumerateInstanceVersion"))?
+            .unwrap_or(vk::API_VERSION_1_0);
+        if loader_version < API_VERSION {
+            return Err(GpuError::LoaderTooOld { version: version_string(loader_version) });
+        }
+        let available = ext_names(
+            &unsafe { entry.enumerate_instance_extension_properties(None) }
+                .map_err(GpuError::vk("vkEnumerateInstanceExtensionProperties"))?,
+        );
+        let has = |list: &[String], name: &CStr| list.iter().any(|e| e.as_bytes() == name.to_bytes());
+
+        let mut extensions: Vec<&CStr> = Vec::new();
+        let mut layers: Vec<&CStr> = Vec::new();
+        let mut flags = vk::InstanceCreateFlags::empty();
+        if has(&available, ash::khr::portability_enumeration::NAME) {
+            extensions.push(ash::khr::portability_enumeration::NAME);
+            flags |= vk::InstanceCreateFlags::ENUMERATE_PORTABILITY_KHR;
+        }
+        let mut sync_validation = false;
+        if validation {
+            let installed = unsafe { entry.enumerate_instance_layer_properties() }
+                .map_err(GpuError::vk("vkEnumerateInstanceLayerProperties"))?;
+            if !installed.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER)) {
+                return Err(GpuError::ValidationUnavailable {
+                    what: "VK_LAYER_KHRONOS_validation is not installed (Debian package vulkan-validationlayers)"
+                        .into(),
+                });
+            }
+            layers.push(VALIDATION_LAYER);
+            let from_layer = ext_names(
+                &unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
+                    .map_err(GpuError::vk("vkEnumerateInstanceExtensionProperties"))?,
+            );
+            if !has(&available, ash::ext::debug_utils::NAME) && !has(&from_layer, ash::ext::debug_utils::NAME) {
+                return Err(GpuError::ValidationUnavailable {
+                    what: "the instance extension VK_EXT_debug_utils is not available to report its messages; \
+                           update the Vulkan loader and vulkan-validationlayers"
+                        .into(),
+                });
+            }
+            extensions.push(ash::ext::debug_utils::NAME);
+            // Synchronization validation catches missing barriers; it is off by default.
+            if has(&from_layer, ash::ext::validation_features::NAME) {
+                extensions.push(ash::ext::validation_features::NAME);
+                sync_validation = true;
+            }
+        }
+
+        let messages: Sink = Arc::new(Mutex::new(Vec::new()));
+        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(on_message))
+            .user_data(Arc::as_ptr(&messages) as *mut c_void);
+        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"raycast")
+            .application_version(vk::make_api_version(0, 0, 1, 0))
+            .engine_name(c"raycast")
+            .api_version(API_VERSION);
+        let layer_ptrs = cstrs(&layers);
+        let ext_ptrs = cstrs(&extensions);
+        let mut create_info = vk::InstanceCreateInfo::default()
+            .flags(flags)
+            .application_info(&app)
+            .enabled_layer_names(&layer_ptrs)
+            .enabled_extension_names(&ext_ptrs);
+        if validation {
+            // Chained so that vkCreateInstance and vkDestroyInstance are covered too.
+            create_info = create_info.push_next(&mut messenger_info);
+            if sync_validation {
+                create_info = create_info.push_next(&mut features);
+            }
+        }
+        let instance = match unsafe { entry.create_instance(&create_info, None) } {
+            Ok(i) => i,
+            Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
+                return Err(GpuError::no_device("vkCreateInstance found no compatible driver (ERROR_INCOMPATIBLE_DRIVER)"))
+            }
+            Err(vk::Result::ERROR_LAYER_NOT_PRESENT) if validation => {
+                return Err(GpuError::ValidationUnavailable {
+                    what: "VK_LAYER_KHRONOS_validation is not installed (Debian package vulkan-validationlayers)"
+                        .into(),
+                })
+            }
+            Err(e) => return Err(GpuError::vk("vkCreateInstance")(e)),
+        };
+        let mut parts = InstanceParts { debug: None, instance, messages, entry };
+        if validation {
+            let loader = ash::ext::debug_utils::Instance::new(&parts.entry, &parts.instance);
+            let messenger = unsafe { loader.create_debug_utils_messenger(&messenger_info, None) }
+                .map_err(GpuError::vk("vkCreateDebugUtilsMessengerEXT"))?;
+            parts.debug = Some((loader, messenger));
+        }
+        Ok(parts)
+    }
+
+    /// Every physical device with its `DeviceInfo`, in enumeration order.
+    fn physical_devices(&self) -> Result<Vec<Physical>, GpuError> {
+        let handles = usable_devices(unsafe { self.instance.enumerate_physical_devices() })?;
+        let mut out = Vec::with_capacity(handles.len());
+        for (index, handle) in handles.into_iter().enumerate() {
+            let props = unsafe { self.instance.get_physical_device_properties(handle) };
+            let extensions = ext_names(
+                &unsafe { self.instance.enumerate_device_extension_properties(handle) }
+                    .map_err(GpuError::vk("vkEnumerateDeviceExtensionProperties"))?,
+            );
+            let driver = if extensions.iter().any(|e| e.as_bytes() == ash::khr::driver_properties::NAME.to_bytes()) {
+                let mut driver = vk::PhysicalDeviceDriverProperties::default();
+                let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+                unsafe { self.instance.get_physical_device_properties2(handle, &mut props2) };
+                let name = driver.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+                let info = driver.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+                format!("{name} {info}").trim().to_string()
+            } else {
+                format!("driver version {:#x}", props.driver_version)
+            };
+            let (kind, rank) = match props.device_type {
+                vk::PhysicalDeviceType::DISCRETE_GPU => ("discrete GPU", 0),
+                vk::PhysicalDeviceType::INTEGRATED_GPU => ("integrated GPU", 1),
+                vk::PhysicalDeviceType::VIRTUAL_GPU => ("virtual GPU", 2),
+                vk::PhysicalDeviceType::CPU => ("cpu", 4),
+                _ => ("other", 3),
+            };
+            let families = unsafe { self.instance.get_physical_device_queue_family_properties(handle) };
+            let compute_family = families
+                .iter()
+                .position(|f| f.queue_count > 0 && f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+                .map(|i| i as u32);
+            let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            out.push(Physical {
+                handle,
+                info: DeviceInfo {
+                    index,
+                    name,
+                    kind: kind.to_string(),
+                    api_version: version_string(props.api_version),
+                    driver,
+                },
+                rank,
+                compute_family,
+                extensions,
+            });
+        }
+        Ok(out)
+    }
+}
+
+/// The result of vkEnumeratePhysicalDevices, with "none" as `GpuError::NoDevice`.
+pub(crate) fn usable_devices(
+    result: Result<Vec<vk::PhysicalDevice>, vk::Result>,
+) -> Result<Vec<vk::PhysicalDevice>, GpuError> {
+    match result {
+        Ok(h) if h.is_empty() => Err(GpuError::no_device("the Vulkan loader reports zero devices")),
+        Ok(h) => Ok(h),
+        // The loader's answer when every driver loaded but none found hardware.
+        Err(vk::Result::ERROR_INITIALIZATION_FAILED) => Err(GpuError::no_device(
+            "vkEnumeratePhysicalDevices found no usable device (ERROR_INITIALIZATION_FAILED)",
+        )),
+        Err(e) => Err(GpuError::vk("vkEnumeratePhysicalDevices")(e)),
+    }
+}
+
+impl Drop for InstanceParts {
+    fn drop(&mut self) {
+        unsafe {
+            if let Some((loader, messenger)) = self.debug.take() {
+                loader.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+impl GpuContext {
+    /// Opens the selected (or best) device with one compute queue.
+    pub fn new(opts: &GpuOptions) -> Result<GpuContext, GpuError> {
+        let parts = InstanceParts::new(opts.validation)?;
+        let mut devices = parts.physical_devices()?;
+        let chosen = match &opts.device {
+            Some(DeviceSelector::Index(i)) => devices.iter().position(|d| d.info.index == *i),
+            Some(DeviceSelector::Name(n)) => {
+                let n = n.to_lowercase();
+                devices.iter().position(|d| d.info.name.to_lowercase().contains(&n))
+            }
+            // min_by_key keeps the first of equal ranks: enumeration order within a kind.
+            None => devices
+                .iter()
+                .enumerate()
+                .filter(|(_, d)| d.compute_family.is_some())
+                .min_by_key(|(_, d)| d.rank)
+                .map(|(i, _)| i)
+                .or(Some(0)),
+        };
+        let Some(chosen) = chosen else {
+            return Err(GpuError::DeviceNotFound {
+                selector: opts.device.as_ref().map(|s| s.to_string()).unwrap_or_default(),
+                available: devices.into_iter().map(|d| d.info).collect(),
+            });
+        };
+        let physical = devices.swap_remove(chosen);
+        let Some(queue_family) = physical.compute_family else {
+            return Err(GpuError::NoComputeQueue { device: physical.info.name });
+        };
+
+        let instance = &parts.instance;
+        let props = unsafe { instance.get_physical_device_properties(physical.handle) };
+        let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
+        let max_allocation = if props.api_version >= vk::API_VERSION_1_1 {
+            let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut maintenance3);
+            unsafe { instance.get_physical_device_properties2(physical.handle, &mut props2) };
+            maintenance3.max_memory_allocation_size
+        } else {
+            u64::MAX
+        };
+        let memory = unsafe { instance.get_physical_device_memory_properties(physical.handle) };
+
+        // VK_KHR_portability_subset must be enabled where the device offers it.
+        let mut device_exts: Vec<&CStr> = Vec::new();
+        if physical.extensions.iter().any(|e| e == "VK_KHR_portability_subset") {
+            device_exts.push(c"VK_KHR_portability_subset");
+        }
+        let ext_ptrs = cstrs(&device_exts);
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&ext_ptrs);
+        let device = unsafe { instance.create_device(physical.handle, &device_info, None) }
+            .map_err(GpuError::vk("vkCreateDevice"))?;
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+
+        Ok(GpuContext {
+            inner: Arc::new(Inner {
+                abandoned: Mutex::new(Vec::new()),
+                device,
+                queue: Mutex::new(queue),
+                queue_family,
+                info: physical.info,
+                limits: props.limits,
+                max_allocation,
+                memory,
+                timeout: opts.timeout,
+                parts,
+            }),
+        })
+    }
+
+    pub fn info(&self) -> &DeviceInfo {
+        &self.inner.info
+    }
+
+    /// Validation-layer messages captured since the last call (empty when validation is off).
+    pub fn take_validation_messages(&self) -> Vec<String> {
+        std::mem::take(&mut *self.inner.parts.messages.lock().unwrap_or_else(|p| p.into_inner()))
+    }
+
+    /// The message list itself, to inspect what arrives while the device and instance are destroyed.
+    #[cfg(test)]
+    pub(crate) fn message_sink(&self) -> Arc<Mutex<Vec<String>>> {
+        self.inner.parts.messages.clone()
+    }
+
+    /// The largest storage buffer (one binding) the device can address.
+    pub fn max_storage_buffer_range(&self) -> u64 {
+        self.inner.limits.max_storage_buffer_range as u64
+    }
+
+    /// The most work groups one dispatch may have, per dimension.
+    pub fn max_compute_work_group_count(&self) -> [u32; 3] {
+        self.inner.limits.max_compute_work_group_count
+    }
+
+    /// Upload each input to a storage buffer at its binding, create the output
+    /// storage buffer (`out_bytes` long, every u32 word pre-filled with
+    /// `fill`), dispatch `groups`, wait (with the timeout), read the output back.
+    ///
+    /// Every binding of the kernel must be given exactly once.
+    pub fn run(
+        &self,
+        kernel: &Kernel,
+        inputs: &[(u32, &[u8])],
+        output: (u32, usize),
+        fill: u32,
+        groups: [u32; 3],
+    ) -> Result<(Vec<u8>, RunTimings), GpuError> {
+        let inner = &*self.inner;
+        let bad = |message: String| GpuError::BadRun { kernel: kernel.name().to_string(), message };
+        if !Arc::ptr_eq(&kernel.inner, &self.inner) {
+            return Err(bad("the kernel was created on another GpuContext".into()));
+        }
+
+        // Check the call against the kernel and the device limits before allocating.
+        let (out_binding, out_bytes) = output;
+        let mut given: Vec<u32> = inputs.iter().map(|(b, _)| *b).chain([out_binding]).collect();
+        given.sort_unstable();
+        let mut wanted: Vec<u32> = kernel.bindings().iter().map(|b| b.binding).collect();
+        wanted.sort_unstable();
+        if given != wanted {
+            return Err(bad(format!(
+                "run() was given bindings {given:?} (inputs and output), the kernel declares {wanted:?}; \
+                 pass each binding exactly once"
+            )));
+        }
+        let limit = inner.limits.max_compute_work_group_count;
+        if groups.iter().zip(limit).any(|(g, l)| *g > l) {
+            return Err(GpuError::TooManyGroups { groups, limit });
+        }
+        let buffer_size = |len: usize| (len as u64).max(MIN_BUFFER).next_multiple_of(4);
+        for (binding, len) in inputs.iter().map(|(b, d)| (*b, d.len())).chain([(out_binding, out_bytes)]) {
+            let bytes = buffer_size(len);
+            let what = || kernel.binding_label(binding);
+            let range = inner.limits.max_storage_buffer_range as u64;
+            if bytes > range {
+                return Err(GpuError::TooLarge { what: what(), bytes, limit: range, limit_name: "maxStorageBufferRange" });
+            }
+            if bytes > inner.max_allocation {
+                return Err(GpuError::TooLarge {
+                    what: what(),
+                    bytes,
+                    limit: inner.max_allocation,
+                    limit_name: "maxMemoryAllocationSize",
+                });
+            }
+        }
+
+        let _queue_guard = inner.queue.lock().unwrap_or_else(|p| p.into_inner());
+        let queue = *_queue_guard;
+
+        // Upload: one host-visible buffer per binding, filled in place.
+        let start = Instant::now();
+        let mut res = RunResources::new(inner.device.clone());
+        let mut out_index = 0;
+        for (binding, data, readback) in inputs
+            .iter()
+            .map(|(b, d)| (*b, Some(*d), false))
+            .chain([(out_binding, None, true)])
+        {
+            let len = data.map_or(out_bytes, |d| d.len());
+            let (buffer, memory) = inner.create_buffer(&mut res, buffer_size(len), readback, &kernel.binding_label(binding))?;
+            let ptr = unsafe { inner.device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+                .map_err(GpuError::vk("vkMapMemory"))?;
+            let size = buffer_size(len) as usize;
+            // SAFETY: the mapping covers the whole allocation, at least `size` bytes.
+            unsafe {
+                match data {
+                    Some(d) => std::ptr::copy_nonoverlapping(d.as_ptr(), ptr as *mut u8, d.len()),
+                    None => {
+                        let words = std::slice::from_raw_parts_mut(ptr as *mut u32, size / 4);
+                        words.fill(fill);
+                        out_index = res.buffers.len() - 1;
+                    }
+                }
+                inner.device.unmap_memory(memory);
+            }
+            res.bindings.push((binding, buffer));
+        }
+
+        let sizes = [vk::DescriptorPoolSize::default()
+            .ty(vk::DescriptorType::STORAGE_BUFFER)
+            .descriptor_count(res.bindings.len() as u32)];
+        let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
+        res.descriptor_pool = unsafe { inner.device.create_descriptor_pool(&pool_info, None) }
+            .map_err(GpuError::vk("vkCreateDescriptorPool"))?;
+        let set_layouts = [kernel.set_layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(res.descriptor_pool)
+            .set_layouts(&set_layouts);
+        let set = unsafe { inner.device.allocate_descriptor_sets(&alloc) }
+            .map_err(GpuError::vk("vkAllocateDescriptorSets"))?[0];
+        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = res
+            .bindings
+            .iter()
+            .map(|(_, b)| [vk::DescriptorBufferInfo::default().buffer(*b).offset(0).range(vk::WHOLE_SIZE)])
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = res
+            .bindings
+            .iter()
+            .zip(&buffer_infos)
+            .map(|((binding, _), info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(*binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        unsafe { inner.device.update_descriptor_sets(&writes, &[]) };
+        let upload = start.elapsed();
+
+        // Dispatch: bind, dispatch, make the writes visible to the host, submit, wait.
+        let start = Instant::now();
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT)
+            .queue_family_index(inner.queue_family);
+        res.command_pool = unsafe { inner.device.create_command_pool(&pool_info, None) }
+            .map_err(GpuError::vk("vkCreateCommandPool"))?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(res.command_pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let cmd = unsafe { inner.device.allocate_command_buffers(&alloc) }
+            .map_err(GpuError::vk("vkAllocateCommandBuffers"))?[0];
+        let d = &inner.device;
+        unsafe {
+            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            d.begin_command_buffer(cmd, &begin).map_err(GpuError::vk("vkBeginCommandBuffer"))?;
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
+            d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
+            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+            let barrier = [vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ)];
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &barrier,
+                &[],
+                &[],
+            );
+            d.end_command_buffer(cmd).map_err(GpuError::vk("vkEndCommandBuffer"))?;
+        }
+        res.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }
+            .map_err(GpuError::vk("vkCreateFence"))?;
+        let cmds = [cmd];
+        let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+        unsafe { d.queue_submit(queue, &submit, res.fence) }.map_err(GpuError::vk("vkQueueSubmit"))?;
+        let timeout_ns = u64::try_from(inner.timeout.as_nanos()).unwrap_or(u64::MAX);
+        match unsafe { d.wait_for_fences(&[res.fence], true, timeout_ns) } {
+            Ok(()) => {}
+            Err(vk::Result::TIMEOUT) => {
+                // The device may still use the buffers: keep them until the context is dropped.
+                inner.abandoned.lock().unwrap_or_else(|p| p.into_inner()).push(res);
+                return Err(GpuError::Timeout { after: inner.timeout });
+            }
+            Err(e) => return Err(GpuError::vk("vkWaitForFences")(e)),
+        }
+        let dispatch = start.elapsed();
+
+        // Readback.
+        let start = Instant::now();
+        let memory = res.buffers[out_index].1;
+        let ptr = unsafe { d.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+            .map_err(GpuError::vk("vkMapMemory"))?;
+        // SAFETY: the mapping covers at least `out_bytes` bytes; the fence and barrier made the writes visible.
+        let bytes = unsafe { std::slice::from_raw_parts(ptr as *const u8, out_bytes) }.to_vec();
+        unsafe { d.unmap_memory(memory) };
+        let readback = start.elapsed();
+        drop(res);
+        Ok((bytes, RunTimings { upload, dispatch, readback }))
+    }
+}
+
+impl Inner {
+    /// A storage buffer in host-visible, host-coherent memory. Memory types are
+    /// tried best first (device-local; host-cached for `readback`), falling
+    /// back to the next when an allocation fails.
+    fn create_buffer(
+        &self,
+        res: &mut RunResources,
+        size: u64,
+        readback: bool,
+        what: &str,
+    ) -> Result<(vk::Buffer, vk::DeviceMemory), GpuError> {
+        let d = &self.device;
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let buffer = unsafe { d.create_buffer(&info, None) }.map_err(GpuError::vk("vkCreateBuffer"))?;
+        res.buffers.push((buffer, vk::DeviceMemory::null()));
+        let req = unsafe { d.get_buffer_memory_requirements(buffer) };
+
+        let needed = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
+        let types = &self.memory.memory_types[..self.memory.memory_type_count as usize];
+        let mut candidates: Vec<(u32, u32)> = types
+            .iter()
+            .enumerate()
+            .filter(|(i, t)| {
+                req.memory_type_bits & (1 << i) != 0
+                    && t.property_flags.contains(needed)
+                    && self.memory.memory_heaps[t.heap_index as usize].size >= req.size
+            })
+            .map(|(i, t)| {
+                let f = t.property_flags;
+                let local = f.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL) as u32;
+                let cached = f.contains(vk::MemoryPropertyFlags::HOST_CACHED) as u32;
+                let score = if readback { cached * 2 + local } else { local * 2 };
+                (i as u32, score)
+            })
+            .collect();
+        candidates.sort_by_key(|(_, score)| std::cmp::Reverse(*score)); // stable: type order within a score
+        let mut last = vk::Result::ERROR_OUT_OF_DEVICE_MEMORY;
+        for (type_index, _) in &candidates {
+            let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(*type_index);
+            match unsafe { d.allocate_memory(&alloc, None) } {
+                Ok(memory) => {
+                    res.buffers.last_mut().expect("pushed above").1 = memory;
+                    unsafe { d.bind_buffer_memory(buffer, memory, 0) }.map_err(GpuError::vk("vkBindBufferMemory"))?;
+                    return Ok((buffer, memory));
+                }
+                Err(e @ (vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY)) => last = e,
+                Err(e) => return Err(GpuError::vk("vkAllocateMemory")(e)),
+            }
+        }
+        let detail = if candidates.is_empty() {
+            "no host-visible, host-coherent memory type is large enough".to_string()
+        } else {
+            format!("vkAllocateMemory failed with {last:?} for every host-visible memory type")
+        };
+        Err(GpuError::OutOfMemory { what: what.to_string(), bytes: req.size, detail })
+    }
+}
+
+impl Inner {
+    /// Waits for the device when a timed-out run may still be executing.
+    pub(crate) fn wait_if_abandoned(&self) {
+        if !self.abandoned.lock().unwrap_or_else(|p| p.into_inner()).is_empty() {
+            let _ = unsafe { self.device.device_wait_idle() };
+        }
+    }
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        let abandoned = std::mem::take(&mut *self.abandoned.lock().unwrap_or_else(|p| p.into_inner()));
+        unsafe {
+            if !abandoned.is_empty() {
+                // A timed-out dispatch may still run; its buffers can only go once it is done.
+                let _ = self.device.device_wait_idle();
+            }
+            drop(abandoned);
+            self.device.destroy_device(None);
+        }
+        // `parts` (messenger, instance) is dropped after this.
+    }
+}
+
+/// The Vulkan objects of one run, destroyed on drop (also on every error path).
+struct RunResources {
+    device: ash::Device,
+    buffers: Vec<(vk::Buffer, vk::DeviceMemory)>,
+    bindings: Vec<(u32, vk::Buffer)>,
+    descriptor_pool: vk::DescriptorPool,
+    command_pool: vk::CommandPool,
+    fence: vk::Fence,
+}
+
+impl RunResources {
+    fn new(device: ash::Device) -> Self {
+        RunResources {
+            device,
+            buffers: Vec::new(),
+            bindings: Vec::new(),
+            descriptor_pool: vk::DescriptorPool::null(),
+            command_pool: vk::CommandPool::null(),
+            fence: vk::Fence::null(),
+        }
+    }
+}
+
+impl Drop for RunResources {
+    fn drop(&mut self) {
+        let d = &self.device;
+        // Destroying a null handle is a no-op in Vulkan.
+        unsafe {
+            d.destroy_fence(self.fence, None);
+            d.destroy_command_pool(self.command_pool, None);
+            d.destroy_descriptor_pool(self.descriptor_pool, None);
+            for (buffer, memory) in self.buffers.drain(..) {
+                d.destroy_buffer(buffer, None);
+                d.free_memory(memory, None);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+pub(crate) fn load_entry_from(path: &str) -> Result<InstanceParts, GpuError> {
+    let entry = unsafe { ash::Entry::load_from(path) }.map_err(|e| GpuError::LoaderMissing { detail: e.to_string() })?;
+    InstanceParts::with_entry(entry, false)
+}

@@ -1,0 +1,115 @@
+//! `Kernel`: a checked compute pipeline and its descriptor set layout,
+//! reusable across runs.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::context::Inner;
+use super::{reflect, GpuContext, GpuError};
+use crate::layout::{BindingLayout, BufferShape};
+
+/// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
+pub struct Kernel {
+    pub(crate) pipeline: vk::Pipeline,
+    pub(crate) pipeline_layout: vk::PipelineLayout,
+    pub(crate) set_layout: vk::DescriptorSetLayout,
+    name: String,
+    bindings: Vec<BindingLayout>,
+    workgroup_size: [u32; 3],
+    /// Keeps the device alive while the kernel exists.
+    pub(crate) inner: Arc<Inner>,
+}
+
+impl Kernel {
+    /// Validates `spirv` with naga, checks its bindings and struct layouts
+    /// against `expected` (`reflect::check_layouts`), then builds the pipeline.
+    pub fn new(ctx: &GpuContext, name: &str, spirv: &[u8], expected: &[BindingLayout]) -> Result<Kernel, GpuError> {
+        let reflection = reflect::reflect(name, spirv, expected)?;
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|e| GpuError::InvalidSpirv {
+            kernel: name.to_string(),
+            message: e.to_string(),
+        })?;
+
+        let d = &ctx.inner.device;
+        let mut kernel = Kernel {
+            pipeline: vk::Pipeline::null(),
+            pipeline_layout: vk::PipelineLayout::null(),
+            set_layout: vk::DescriptorSetLayout::null(),
+            name: name.to_string(),
+            bindings: expected.to_vec(),
+            workgroup_size: reflection.workgroup_size,
+            inner: ctx.inner.clone(),
+        };
+        // From here on, dropping `kernel` destroys whatever was created.
+        let layout_bindings: Vec<vk::DescriptorSetLayoutBinding> = expected
+            .iter()
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b.binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings);
+        kernel.set_layout = unsafe { d.create_descriptor_set_layout(&info, None) }
+            .map_err(GpuError::vk("vkCreateDescriptorSetLayout"))?;
+        let set_layouts = [kernel.set_layout];
+        let info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        kernel.pipeline_layout =
+            unsafe { d.create_pipeline_layout(&info, None) }.map_err(GpuError::vk("vkCreatePipelineLayout"))?;
+
+        let info = vk::ShaderModuleCreateInfo::default().code(&words);
+        let module = unsafe { d.create_shader_module(&info, None) }.map_err(GpuError::vk("vkCreateShaderModule"))?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(kernel.pipeline_layout)];
+        let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        unsafe { d.destroy_shader_module(module, None) };
+        kernel.pipeline = match result {
+            Ok(p) => p[0],
+            Err((_, e)) => return Err(GpuError::vk("vkCreateComputePipelines")(e)),
+        };
+        Ok(kernel)
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The `local_size` of the shader's `main`.
+    pub fn workgroup_size(&self) -> [u32; 3] {
+        self.workgroup_size
+    }
+
+    /// The bindings the kernel was checked against (all of descriptor set 0).
+    pub fn bindings(&self) -> &[BindingLayout] {
+        &self.bindings
+    }
+
+    /// `kernel render: binding 4 (PixelOut[])`, for messages.
+    pub(crate) fn binding_label(&self, binding: u32) -> String {
+        let shape = self.bindings.iter().find(|b| b.binding == binding).map(|b| match &b.shape {
+            BufferShape::Single(s) => s.name.to_string(),
+            BufferShape::RuntimeArray(s) => format!("{}[]", s.name),
+        });
+        format!("kernel {}: binding {binding} ({})", self.name, shape.as_deref().unwrap_or("?"))
+    }
+}
+
+impl Drop for Kernel {
+    fn drop(&mut self) {
+        let d = &self.inner.device;
+        // A timed-out dispatch may still use the pipeline.
+        self.inner.wait_if_abandoned();
+        // Null handles (a failed `new`) are no-ops.
+        unsafe {
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_pipeline_layout(self.pipeline_layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}

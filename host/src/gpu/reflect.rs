@@ -1,0 +1,366 @@
+//! naga reflection of compiled kernels: validates the SPIR-V and checks its
+//! storage buffers, field by field, against the host's `BindingLayout`s.
+
+use std::collections::BTreeMap;
+
+use naga::{AddressSpace, ArraySize, Handle, Module, ShaderStage, StorageAccess, Type, TypeInner};
+
+use super::GpuError;
+use crate::layout::{BindingLayout, BufferShape, StructLayout};
+
+/// Where the host's layouts live, named in every host-vs-shader mismatch.
+const HOST_FILE: &str = "host/src/layout.rs";
+
+/// What the host needs to know about a validated kernel.
+#[derive(Clone, Debug)]
+pub(crate) struct Reflection {
+    pub workgroup_size: [u32; 3],
+}
+
+/// Validates `spirv` with naga and checks its bindings and struct layouts
+/// against `expected`; every mismatch is listed in one error.
+pub fn check_layouts(name: &str, spirv: &[u8], expected: &[BindingLayout]) -> Result<(), GpuError> {
+    reflect(name, spirv, expected).map(|_| ())
+}
+
+/// [`check_layouts`], returning the kernel's workgroup size.
+pub(crate) fn reflect(name: &str, spirv: &[u8], expected: &[BindingLayout]) -> Result<Reflection, GpuError> {
+    let invalid = |message: String| GpuError::InvalidSpirv { kernel: name.to_string(), message };
+    let options = naga::front::spv::Options {
+        adjust_coordinate_space: false,
+        strict_capabilities: false,
+        block_ctx_dump_prefix: None,
+    };
+    let module = naga::front::spv::parse_u8_slice(spirv, &options).map_err(|e| invalid(error_chain(&e)))?;
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .map_err(|e| invalid(error_chain(e.as_inner())))?;
+    let entry = module
+        .entry_points
+        .iter()
+        .find(|e| e.name == "main" && e.stage == ShaderStage::Compute)
+        .ok_or_else(|| invalid("it has no compute entry point named \"main\"".to_string()))?;
+    let workgroup_size = entry.workgroup_size;
+
+    let access = spirv_storage_access(spirv);
+    let mismatches = Checker { kernel: name, module: &module, access: &access }.check(expected);
+    if mismatches.is_empty() {
+        Ok(Reflection { workgroup_size })
+    } else {
+        Err(GpuError::LayoutMismatch { kernel: name.to_string(), mismatches })
+    }
+}
+
+/// An error and its `source()` chain on one line.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        text.push_str(": ");
+        text.push_str(&s.to_string());
+        source = s.source();
+    }
+    text
+}
+
+/// `Frame` or `Primitive[]`: how a binding is named in messages.
+fn shape_label(shape: &BufferShape) -> String {
+    match shape {
+        BufferShape::Single(s) => s.name.to_string(),
+        BufferShape::RuntimeArray(s) => format!("{}[]", s.name),
+    }
+}
+
+/// Access of each storage buffer `(set, binding)`, read from the SPIR-V decorations.
+///
+/// naga's spv-in drops the member-level `NonWritable`/`NonReadable` that
+/// glslang puts on `readonly`/`writeonly` blocks when the block is a
+/// SPIR-V 1.3 `Block` in the StorageBuffer class (Vulkan 1.1 targets), so
+/// every such buffer looks read-write (gfx-rs/wgpu#4916). As naga intends:
+/// the members' access ORed together, ANDed with the variable's.
+fn spirv_storage_access(spirv: &[u8]) -> BTreeMap<(u32, u32), StorageAccess> {
+    const MAGIC: u32 = 0x0723_0203;
+    const OP_TYPE_POINTER: u32 = 32;
+    const OP_VARIABLE: u32 = 59;
+    const OP_DECORATE: u32 = 71;
+    const OP_MEMBER_DECORATE: u32 = 72;
+    const OP_TYPE_STRUCT: u32 = 30;
+    const DEC_NON_WRITABLE: u32 = 24;
+    const DEC_NON_READABLE: u32 = 25;
+    const DEC_BINDING: u32 = 33;
+    const DEC_SET: u32 = 34;
+    const CLASS_UNIFORM: u32 = 2;
+    const CLASS_STORAGE_BUFFER: u32 = 12;
+
+    let mut words: Vec<u32> = spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    if words.first() == Some(&MAGIC.swap_bytes()) {
+        words.iter_mut().for_each(|w| *w = w.swap_bytes());
+    }
+    let mut out = BTreeMap::new();
+    if words.len() < 5 || words[0] != MAGIC {
+        return out;
+    }
+
+    let denied = |dec: u32| match dec {
+        DEC_NON_WRITABLE => StorageAccess::STORE,
+        DEC_NON_READABLE => StorageAccess::LOAD,
+        _ => StorageAccess::empty(),
+    };
+    let all = StorageAccess::LOAD | StorageAccess::STORE;
+    let mut member_denied: BTreeMap<(u32, u32), StorageAccess> = BTreeMap::new();
+    let mut var_denied: BTreeMap<u32, StorageAccess> = BTreeMap::new();
+    let mut binding: BTreeMap<u32, u32> = BTreeMap::new();
+    let mut set: BTreeMap<u32, u32> = BTreeMap::new();
+    let mut member_count: BTreeMap<u32, u32> = BTreeMap::new();
+    let mut pointee: BTreeMap<u32, u32> = BTreeMap::new();
+    let mut variables = Vec::new();
+    let mut at = 5;
+    while at < words.len() {
+        let (count, op) = ((words[at] >> 16) as usize, words[at] & 0xffff);
+        if count == 0 || at + count > words.len() {
+            break;
+        }
+        let ops = &words[at + 1..at + count];
+        match (op, ops) {
+            (OP_DECORATE, [target, DEC_BINDING, b, ..]) => _ = binding.insert(*target, *b),
+            (OP_DECORATE, [target, DEC_SET, s, ..]) => _ = set.insert(*target, *s),
+            (OP_DECORATE, [target, dec, ..]) => *var_denied.entry(*target).or_default() |= denied(*dec),
+            (OP_MEMBER_DECORATE, [ty, member, dec, ..]) => {
+                *member_denied.entry((*ty, *member)).or_default() |= denied(*dec)
+            }
+            (OP_TYPE_STRUCT, [id, members @ ..]) => _ = member_count.insert(*id, members.len() as u32),
+            (OP_TYPE_POINTER, [id, _class, ty]) => _ = pointee.insert(*id, *ty),
+            (OP_VARIABLE, [ptr, id, class, ..]) if *class == CLASS_STORAGE_BUFFER || *class == CLASS_UNIFORM => {
+                variables.push((*ptr, *id))
+            }
+            _ => {}
+        }
+        at += count;
+    }
+    for (ptr, var) in variables {
+        let (Some(&b), Some(&block)) = (binding.get(&var), pointee.get(&ptr)) else { continue };
+        let members = member_count.get(&block).copied().unwrap_or(0);
+        let mut access = if members == 0 { all } else { StorageAccess::empty() };
+        for m in 0..members {
+            access |= all - member_denied.get(&(block, m)).copied().unwrap_or_default();
+        }
+        access &= all - var_denied.get(&var).copied().unwrap_or_default();
+        out.insert((set.get(&var).copied().unwrap_or(0), b), access);
+    }
+    out
+}
+
+struct Checker<'a> {
+    kernel: &'a str,
+    module: &'a Module,
+    /// Storage access by `(set, binding)` from [`spirv_storage_access`].
+    access: &'a BTreeMap<(u32, u32), StorageAccess>,
+}
+
+impl Checker<'_> {
+    /// Every mismatch, ordered by binding number.
+    fn check(&self, expected: &[BindingLayout]) -> Vec<String> {
+        let mut out: Vec<(u32, String)> = Vec::new();
+        let kernel = self.kernel;
+        let by_binding: BTreeMap<u32, &BindingLayout> = expected.iter().map(|b| (b.binding, b)).collect();
+        if by_binding.len() != expected.len() {
+            out.push((0, format!("kernel {kernel}: the host lists a binding number twice ({HOST_FILE})")));
+        }
+
+        let mut seen = BTreeMap::new();
+        for (_, var) in self.module.global_variables.iter() {
+            let Some(rb) = &var.binding else { continue };
+            // glslang names an anonymous block's variable ""; the block type has the name.
+            let var_name = var
+                .name
+                .clone()
+                .filter(|n| !n.is_empty())
+                .or_else(|| self.module.types[var.ty].name.clone())
+                .unwrap_or_else(|| "?".into());
+            let access = match var.space {
+                AddressSpace::Storage { access } => {
+                    access & self.access.get(&(rb.group, rb.binding)).copied().unwrap_or(access)
+                }
+                other => {
+                    out.push((rb.binding, format!(
+                        "kernel {kernel}: binding {} ({var_name}) is a {} in the shader; only storage buffers \
+                         are supported",
+                        rb.binding,
+                        space_name(other)
+                    )));
+                    continue;
+                }
+            };
+            if rb.group != 0 {
+                out.push((rb.binding, format!(
+                    "kernel {kernel}: binding {} ({var_name}) is in descriptor set {} in the shader; every \
+                     binding must be in set 0",
+                    rb.binding, rb.group
+                )));
+                continue;
+            }
+            seen.insert(rb.binding, ());
+            match by_binding.get(&rb.binding) {
+                Some(exp) => {
+                    let mut lines = Vec::new();
+                    self.check_binding(exp, var.ty, access, &mut lines);
+                    out.extend(lines.into_iter().map(|l| (rb.binding, l)));
+                }
+                None => out.push((rb.binding, format!(
+                    "kernel {kernel}: binding {} ({}) is declared in the shader but not on the host ({HOST_FILE})",
+                    rb.binding,
+                    self.block_label(var.ty).unwrap_or(var_name)
+                ))),
+            }
+        }
+        for exp in expected {
+            if !seen.contains_key(&exp.binding) {
+                out.push((exp.binding, format!(
+                    "kernel {kernel}: binding {} ({}) is expected by the host ({HOST_FILE}) but not declared \
+                     in the shader",
+                    exp.binding,
+                    shape_label(&exp.shape)
+                )));
+            }
+        }
+        out.sort_by_key(|(binding, _)| *binding);
+        out.into_iter().map(|(_, line)| line).collect()
+    }
+
+    /// `Foo[]` / `Foo` for the shader's block type, when it has the expected form.
+    fn block_label(&self, block: Handle<Type>) -> Option<String> {
+        let TypeInner::Struct { members, .. } = &self.module.types[block].inner else { return None };
+        let member = members.first()?;
+        match &self.module.types[member.ty].inner {
+            TypeInner::Array { base, size: ArraySize::Dynamic, .. } => Some(format!("{}[]", self.type_name(*base))),
+            _ => Some(self.type_name(member.ty)),
+        }
+    }
+
+    fn type_name(&self, ty: Handle<Type>) -> String {
+        self.module.types[ty].name.clone().unwrap_or_else(|| self.describe(ty))
+    }
+
+    /// A short description of a shader type for messages.
+    fn describe(&self, ty: Handle<Type>) -> String {
+        let t = &self.module.types[ty];
+        match &t.inner {
+            TypeInner::Struct { .. } => format!("struct {}", t.name.as_deref().unwrap_or("(unnamed)")),
+            TypeInner::Array { base, size: ArraySize::Dynamic, .. } => {
+                format!("runtime-sized array of {}", self.describe(*base))
+            }
+            TypeInner::Array { base, size: ArraySize::Constant(n), .. } => {
+                format!("array of {n} {}", self.describe(*base))
+            }
+            TypeInner::Array { base, .. } => format!("array of {}", self.describe(*base)),
+            TypeInner::Scalar(s) => format!("{:?}{}", s.kind, s.width * 8).to_lowercase(),
+            TypeInner::Vector { size, scalar } => {
+                format!("vec{} of {:?}{}", *size as u8, scalar.kind, scalar.width * 8).to_lowercase()
+            }
+            TypeInner::Matrix { columns, rows, .. } => format!("mat{}x{}", *columns as u8, *rows as u8),
+            other => format!("{other:?}"),
+        }
+    }
+
+    fn check_binding(&self, exp: &BindingLayout, block: Handle<Type>, access: StorageAccess, out: &mut Vec<String>) {
+        let at = format!("kernel {}: binding {} ({})", self.kernel, exp.binding, shape_label(&exp.shape));
+        let writable = access.contains(StorageAccess::STORE);
+        if writable != exp.writable {
+            out.push(if writable {
+                format!("{at}: writable in the shader, read-only on the host; declare it readonly in the \
+                         shader or set writable: true ({HOST_FILE})")
+            } else {
+                format!("{at}: read-only in the shader, writable on the host; drop readonly in the shader \
+                         or set writable: false ({HOST_FILE})")
+            });
+        }
+
+        let TypeInner::Struct { members, .. } = &self.module.types[block].inner else {
+            out.push(format!("{at}: the shader declares a {}, not a buffer block", self.describe(block)));
+            return;
+        };
+        if members.len() != 1 {
+            out.push(format!(
+                "{at}: the buffer block has {} members in the shader; the host expects exactly one",
+                members.len()
+            ));
+            return;
+        }
+        let member_ty = members[0].ty;
+        match (&exp.shape, &self.module.types[member_ty].inner) {
+            (BufferShape::Single(s), TypeInner::Struct { .. }) => self.check_struct(&at, s, member_ty, out),
+            (BufferShape::RuntimeArray(s), &TypeInner::Array { base, size: ArraySize::Dynamic, stride })
+                if matches!(self.module.types[base].inner, TypeInner::Struct { .. }) =>
+            {
+                if stride != s.size {
+                    out.push(format!("{at}: array stride {stride} in the shader, {} on the host ({HOST_FILE})", s.size));
+                }
+                self.check_struct(&at, s, base, out);
+            }
+            (BufferShape::Single(s), _) => out.push(format!(
+                "{at}: the block's member is a {} in the shader, a single struct {} on the host ({HOST_FILE})",
+                self.describe(member_ty),
+                s.name
+            )),
+            (BufferShape::RuntimeArray(s), _) => out.push(format!(
+                "{at}: the block's member is a {} in the shader, a runtime-sized array of struct {} on the \
+                 host ({HOST_FILE})",
+                self.describe(member_ty),
+                s.name
+            )),
+        }
+    }
+
+    fn check_struct(&self, at: &str, exp: &StructLayout, ty: Handle<Type>, out: &mut Vec<String>) {
+        let t = &self.module.types[ty];
+        let TypeInner::Struct { members, span } = &t.inner else { return };
+        let shader_name = t.name.as_deref().unwrap_or("(unnamed)");
+        if shader_name != exp.name {
+            out.push(format!(
+                "{at}: the struct is named {shader_name:?} in the shader, {:?} on the host ({HOST_FILE})",
+                exp.name
+            ));
+        }
+        if *span != exp.size {
+            out.push(format!("{at}: struct size {span} in the shader, {} on the host ({HOST_FILE})", exp.size));
+        }
+        let gctx = self.module.to_ctx();
+        for field in &exp.fields {
+            let Some(m) = members.iter().find(|m| m.name.as_deref() == Some(field.name)) else {
+                out.push(format!("{at}: member {:?} is on the host but not in the shader ({HOST_FILE})", field.name));
+                continue;
+            };
+            if m.offset != field.offset {
+                out.push(format!(
+                    "{at}: member {:?}: offset {} in the shader, {} on the host ({HOST_FILE})",
+                    field.name, m.offset, field.offset
+                ));
+            }
+            match self.module.types[m.ty].inner.try_size(gctx) {
+                Some(size) if size == field.size => {}
+                Some(size) => out.push(format!(
+                    "{at}: member {:?}: size {size} in the shader, {} on the host ({HOST_FILE})",
+                    field.name, field.size
+                )),
+                None => out.push(format!("{at}: member {:?}: naga cannot size its type", field.name)),
+            }
+        }
+        for m in members {
+            let name = m.name.as_deref().unwrap_or("(unnamed)");
+            if !exp.fields.iter().any(|f| f.name == name) {
+                out.push(format!(
+                    "{at}: member {name:?} (offset {}) is in the shader but not on the host ({HOST_FILE})",
+                    m.offset
+                ));
+            }
+        }
+    }
+}
+
+fn space_name(space: AddressSpace) -> &'static str {
+    match space {
+        AddressSpace::Uniform => "uniform buffer",
+        AddressSpace::Handle => "texture, image or sampler",
+        _ => "non-storage resource",
+    }
+}

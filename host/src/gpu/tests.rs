@@ -1,0 +1,509 @@
+//! Tests of the gpu part on lavapipe (Mesa's software Vulkan device), with
+//! the Khronos validation layer on. Kernels are small GLSL compute shaders
+//! compiled here with glslangValidator.
+
+use std::path::PathBuf;
+use std::process::Command;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Duration;
+
+use super::error::fmt_bytes;
+use super::*;
+use crate::layout::{render_bindings, BindingLayout, BufferShape, FieldLayout, StructLayout};
+
+/// The device every test runs on (present wherever mesa-vulkan-drivers is).
+fn lavapipe() -> Option<DeviceSelector> {
+    Some(DeviceSelector::Name("llvmpipe".into()))
+}
+
+fn validated_context() -> GpuContext {
+    let opts = GpuOptions { device: lavapipe(), validation: true, ..Default::default() };
+    GpuContext::new(&opts).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Compiles the GLSL compute shader `src` to SPIR-V, with shaders/ on the include path.
+fn compile(name: &str, src: &str) -> Vec<u8> {
+    static COUNTER: AtomicUsize = AtomicUsize::new(0);
+    let dir = std::env::temp_dir().join(format!(
+        "raycast-gpu-test-{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (comp, spv) = (dir.join(format!("{name}.comp")), dir.join(format!("{name}.spv")));
+    std::fs::write(&comp, src).unwrap();
+    let include = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shaders");
+    let out = Command::new(GLSLANG)
+        .args(glslang_args(&comp, &include, &spv))
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"));
+    assert!(
+        out.status.success(),
+        "{GLSLANG} failed on {name}:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(&spv).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    bytes
+}
+
+/// Panics with every message when the validation layer said anything.
+fn assert_no_messages(sink: &std::sync::Mutex<Vec<String>>, when: &str) {
+    let messages = sink.lock().unwrap().clone();
+    assert!(messages.is_empty(), "{} validation message(s) {when}:\n{}", messages.len(), messages.join("\n"));
+}
+
+fn field(name: &'static str, offset: u32, size: u32) -> FieldLayout {
+    FieldLayout { name, offset, size }
+}
+
+fn params_layout() -> StructLayout {
+    StructLayout {
+        name: "Params",
+        size: 16,
+        fields: vec![field("count", 0, 4), field("pad0", 4, 4), field("pad1", 8, 4), field("pad2", 12, 4)],
+    }
+}
+
+fn item_layout() -> StructLayout {
+    StructLayout { name: "Item", size: 8, fields: vec![field("u", 0, 4), field("f", 4, 4)] }
+}
+
+const COMMON: &str = r#"
+#version 450
+layout(local_size_x = 64) in;
+struct Params { uint count; uint pad0; uint pad1; uint pad2; };
+struct Item { uint u; float f; };
+layout(std430, set = 0, binding = 0) readonly buffer ParamsBuf { Params params; };
+layout(std430, set = 0, binding = 2) buffer Outputs { Item results[]; };
+"#;
+
+/// results[i] = 2 * items[i] for i < params.count.
+fn double_src() -> String {
+    COMMON.to_string()
+        + r#"
+layout(std430, set = 0, binding = 1) readonly buffer Inputs { Item items[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= params.count) return;
+    results[i].u = items[i].u * 2u;
+    results[i].f = items[i].f * 2.0;
+}
+"#
+}
+
+fn double_bindings() -> Vec<BindingLayout> {
+    vec![
+        BindingLayout { binding: 0, shape: BufferShape::Single(params_layout()), writable: false },
+        BindingLayout { binding: 1, shape: BufferShape::RuntimeArray(item_layout()), writable: false },
+        BindingLayout { binding: 2, shape: BufferShape::RuntimeArray(item_layout()), writable: true },
+    ]
+}
+
+fn params(count: u32) -> Vec<u8> {
+    bytemuck::cast_slice(&[count, 0u32, 0, 0]).to_vec()
+}
+
+/// Input items: u = 3i + 1, f = i / 2 - 7.25 (exact in f32, so doubling is exact).
+fn items(n: usize) -> Vec<u8> {
+    let words: Vec<u32> = (0..n).flat_map(|i| [3 * i as u32 + 1, (i as f32 * 0.5 - 7.25).to_bits()]).collect();
+    bytemuck::cast_slice(&words).to_vec()
+}
+
+/// Runs the doubling kernel over `n` items with `spare` extra output items, filled with `fill`.
+fn run_double(ctx: &GpuContext, kernel: &Kernel, n: usize, spare: usize, fill: u32) -> Vec<u32> {
+    let (p, it) = (params(n as u32), items(n));
+    let groups = [(n as u32).div_ceil(64).max(1), 1, 1];
+    let (out, _) = ctx
+        .run(kernel, &[(0, &p), (1, &it)], (2, (n + spare) * 8), fill, groups)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(out.len(), (n + spare) * 8);
+    bytemuck::pod_collect_to_vec(&out)
+}
+
+/// Rule: bit-exact (doubling an f32 with few significant bits is exact).
+fn check_doubled(words: &[u32], n: usize) {
+    let mut bad = Vec::new();
+    for i in 0..n {
+        let (u, f) = (words[2 * i], f32::from_bits(words[2 * i + 1]));
+        let (want_u, want_f) = (2 * (3 * i as u32 + 1), 2.0 * (i as f32 * 0.5 - 7.25));
+        if u != want_u || f.to_bits() != want_f.to_bits() {
+            bad.push(format!("item {i}: got ({u}, {f}), want ({want_u}, {want_f})"));
+        }
+    }
+    assert!(bad.is_empty(), "{} of {n} items wrong (bit-exact rule); first: {}", bad.len(), bad[0]);
+}
+
+#[test]
+fn doubles_u32_and_f32_on_lavapipe_with_no_validation_messages() {
+    let spv = compile("double", &double_src());
+    // Twice: a context must be creatable again after a clean teardown.
+    for round in 0..2 {
+        let ctx = validated_context();
+        assert!(ctx.info().name.contains("llvmpipe"), "{:?}", ctx.info());
+        let sink = ctx.message_sink();
+        let kernel = Kernel::new(&ctx, "double", &spv, &double_bindings()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(kernel.workgroup_size(), [64, 1, 1]);
+        // The pipeline is reused across runs; 1000 is not a multiple of the group size.
+        for n in [1000, 64, 1] {
+            check_doubled(&run_double(&ctx, &kernel, n, 0, 0), n);
+        }
+        // Zero-length input and output: 16-byte buffers behind the scenes, nothing back.
+        assert!(run_double(&ctx, &kernel, 0, 0, 0).is_empty());
+        assert_no_messages(&sink, &format!("during round {round}"));
+        drop(kernel);
+        drop(ctx);
+        assert_no_messages(&sink, &format!("at device/instance destruction, round {round}"));
+    }
+}
+
+#[test]
+fn sentinel_fill_survives_where_the_kernel_does_not_write() {
+    const FILL: u32 = 0xDEAD_BEEF;
+    let spv = compile("double", &double_src());
+    let ctx = validated_context();
+    let kernel = Kernel::new(&ctx, "double", &spv, &double_bindings()).unwrap();
+    let words = run_double(&ctx, &kernel, 100, 20, FILL);
+    check_doubled(&words, 100);
+    let tail = &words[200..];
+    let unwritten = tail.iter().filter(|w| **w == FILL).count();
+    assert_eq!(unwritten, 40, "rule: every word past the 100 written items is the sentinel; tail {tail:x?}");
+    // Nothing written at all: every word is the sentinel.
+    let words = run_double(&ctx, &kernel, 0, 8, FILL);
+    assert!(words.iter().all(|w| *w == FILL), "{words:x?}");
+    drop(kernel);
+    let sink = ctx.message_sink();
+    drop(ctx);
+    assert_no_messages(&sink, "in the sentinel test");
+}
+
+#[test]
+fn run_rejects_bad_calls_and_checks_limits() {
+    let spv = compile("double", &double_src());
+    let ctx = validated_context();
+    let kernel = Kernel::new(&ctx, "double", &spv, &double_bindings()).unwrap();
+    let p = params(0);
+
+    // A missing binding.
+    let e = ctx.run(&kernel, &[(0, &p)], (2, 8), 0, [1, 1, 1]).unwrap_err().to_string();
+    assert!(e.contains("given bindings [0, 2]") && e.contains("declares [0, 1, 2]"), "{e}");
+
+    // An output beyond maxStorageBufferRange: refused before allocating.
+    let range = ctx.max_storage_buffer_range();
+    let e = ctx.run(&kernel, &[(0, &p), (1, &[])], (2, range as usize + 4), 0, [1, 1, 1]).unwrap_err();
+    assert!(matches!(e, GpuError::TooLarge { .. }), "{e:?}");
+    let e = e.to_string();
+    assert!(
+        e.starts_with("kernel double: binding 2 (Item[]) needs ") && e.contains("maxStorageBufferRange of"),
+        "{e}"
+    );
+
+    // Too many work groups.
+    let max = ctx.max_compute_work_group_count();
+    if max[0] < u32::MAX {
+        let e = ctx.run(&kernel, &[(0, &p), (1, &[])], (2, 8), 0, [max[0] + 1, 1, 1]).unwrap_err().to_string();
+        assert!(e.contains("maxComputeWorkGroupCount") && e.contains(&max[0].to_string()), "{e}");
+    }
+    drop(kernel);
+    let sink = ctx.message_sink();
+    drop(ctx);
+    assert_no_messages(&sink, "in the bad-call test");
+}
+
+#[test]
+fn timeout_is_an_error_and_teardown_stays_clean() {
+    let src = COMMON.to_string()
+        + r#"
+void main() {
+    uint x = gl_GlobalInvocationID.x;
+    for (uint k = 0u; k < params.count; ++k) x = x * 1664525u + 1013904223u;
+    results[gl_GlobalInvocationID.x].u = x;
+}
+"#;
+    let spv = compile("spin", &src);
+    let bindings = vec![
+        BindingLayout { binding: 0, shape: BufferShape::Single(params_layout()), writable: false },
+        BindingLayout { binding: 2, shape: BufferShape::RuntimeArray(item_layout()), writable: true },
+    ];
+    let opts = GpuOptions { device: lavapipe(), validation: true, timeout: Duration::from_millis(1) };
+    let ctx = GpuContext::new(&opts).unwrap();
+    let kernel = Kernel::new(&ctx, "spin", &spv, &bindings).unwrap();
+    let p = params(2_000_000);
+    let e = ctx.run(&kernel, &[(0, &p)], (2, 64 * 64 * 8), 0, [64, 1, 1]).unwrap_err();
+    assert!(matches!(e, GpuError::Timeout { .. }), "{e:?}");
+    assert!(e.to_string().starts_with("the dispatch did not finish within 0.001 s"), "{e}");
+    let sink = ctx.message_sink();
+    drop(kernel);
+    drop(ctx);
+    assert_no_messages(&sink, "after a timed-out dispatch");
+}
+
+/// A kernel declaring the render bindings of shaders/layout.h.
+fn render_like_src(pixels_qualifier: &str) -> String {
+    format!(
+        r#"
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "layout.h"
+layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
+layout(std430, set = 0, binding = BINDING_FRAME) readonly buffer FrameBuf {{ Frame frame; }};
+layout(std430, set = 0, binding = BINDING_PRIMITIVES) readonly buffer Primitives {{ Primitive primitives[]; }};
+layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials {{ Material materials[]; }};
+layout(std430, set = 0, binding = BINDING_LIGHTS) readonly buffer Lights {{ Light lights[]; }};
+layout(std430, set = 0, binding = BINDING_PIXELS) {pixels_qualifier} buffer Pixels {{ PixelOut pixels[]; }};
+void main() {{
+    uint i = gl_GlobalInvocationID.y * frame.width + gl_GlobalInvocationID.x;
+    pixels[i].normal = primitives[0].object_from_world[0] + materials[0].diffuse + lights[0].color;
+    pixels[i].id = NO_HIT;
+}}
+"#
+    )
+}
+
+fn struct_of(b: &mut BindingLayout) -> &mut StructLayout {
+    match &mut b.shape {
+        BufferShape::Single(s) | BufferShape::RuntimeArray(s) => s,
+    }
+}
+
+#[test]
+fn check_layouts_accepts_the_render_layout() {
+    for qualifier in ["", "writeonly"] {
+        let spv = compile("render_like", &render_like_src(qualifier));
+        reflect::check_layouts("render", &spv, &render_bindings()).unwrap_or_else(|e| panic!("{e}"));
+    }
+}
+
+#[test]
+fn check_layouts_reports_every_planted_mismatch() {
+    let spv = compile("render_like", &render_like_src(""));
+    let mut host = render_bindings();
+    // One offset wrong on the host.
+    struct_of(&mut host[1]).fields.iter_mut().find(|f| f.name == "material").unwrap().offset = 64;
+    // A wrong stride / struct size.
+    struct_of(&mut host[2]).size = 144;
+    // A binding missing on the host, one missing in the shader.
+    host.retain(|b| b.binding != 3);
+    host.push(BindingLayout { binding: 7, shape: BufferShape::RuntimeArray(item_layout()), writable: false });
+    // Writability flipped.
+    host[0].writable = true;
+    // A host field the shader lacks (and so a shader member the host lacks).
+    struct_of(&mut host[3]).fields.iter_mut().find(|f| f.name == "pad0").unwrap().name = "spare";
+
+    let e = reflect::check_layouts("render", &spv, &host).unwrap_err();
+    let GpuError::LayoutMismatch { mismatches, .. } = &e else { panic!("{e:?}") };
+    let want = [
+        r#"kernel render: binding 0 (Frame): read-only in the shader, writable on the host; drop readonly in the shader or set writable: false (host/src/layout.rs)"#,
+        r#"kernel render: binding 1 (Primitive[]): member "material": offset 68 in the shader, 64 on the host (host/src/layout.rs)"#,
+        r#"kernel render: binding 2 (Material[]): array stride 128 in the shader, 144 on the host (host/src/layout.rs)"#,
+        r#"kernel render: binding 2 (Material[]): struct size 128 in the shader, 144 on the host (host/src/layout.rs)"#,
+        r#"kernel render: binding 3 (Light[]) is declared in the shader but not on the host (host/src/layout.rs)"#,
+        r#"kernel render: binding 4 (PixelOut[]): member "spare" is on the host but not in the shader (host/src/layout.rs)"#,
+        r#"kernel render: binding 4 (PixelOut[]): member "pad0" (offset 28) is in the shader but not on the host (host/src/layout.rs)"#,
+        r#"kernel render: binding 7 (Item[]) is expected by the host (host/src/layout.rs) but not declared in the shader"#,
+    ];
+    for w in want {
+        assert!(mismatches.iter().any(|m| m == w), "missing {w:?} in:\n{}", mismatches.join("\n"));
+    }
+    assert_eq!(mismatches, &want, "all of them, ordered by binding");
+    let text = e.to_string();
+    assert!(text.starts_with("kernel render: the shader's buffers do not match the host's (8 mismatches)"), "{text}");
+}
+
+#[test]
+fn check_layouts_reports_shape_and_name_mismatches() {
+    let spv = compile("double", &double_src());
+    let mut host = double_bindings();
+    host[1].shape = BufferShape::Single(item_layout());
+    struct_of(&mut host[2]).name = "Thing";
+    let e = reflect::check_layouts("double", &spv, &host).unwrap_err();
+    let GpuError::LayoutMismatch { mismatches, .. } = &e else { panic!("{e:?}") };
+    assert_eq!(
+        mismatches,
+        &[
+            "kernel double: binding 1 (Item): the block's member is a runtime-sized array of struct Item in the \
+             shader, a single struct Item on the host (host/src/layout.rs)",
+            r#"kernel double: binding 2 (Thing[]): the struct is named "Item" in the shader, "Thing" on the host (host/src/layout.rs)"#,
+        ]
+    );
+}
+
+#[test]
+fn check_layouts_rejects_invalid_spirv_and_other_resources() {
+    let e = reflect::check_layouts("junk", &[0u8; 64], &[]).unwrap_err();
+    assert!(matches!(e, GpuError::InvalidSpirv { .. }), "{e:?}");
+    assert!(e.to_string().starts_with("kernel junk: the SPIR-V is not valid: "), "{e}");
+
+    let src = r#"
+#version 450
+layout(local_size_x = 1) in;
+struct Params { uint count; uint pad0; uint pad1; uint pad2; };
+layout(std140, set = 0, binding = 0) uniform ParamsBuf { Params params; };
+layout(std430, set = 1, binding = 1) buffer Out { uint words[]; };
+void main() { words[0] = params.count; }
+"#;
+    let spv = compile("uniform", src);
+    let e = reflect::check_layouts("uniform", &spv, &[]).unwrap_err();
+    let GpuError::LayoutMismatch { mismatches, .. } = &e else { panic!("{e:?}") };
+    assert_eq!(mismatches.len(), 2, "{e}");
+    assert_eq!(
+        mismatches,
+        &[
+            "kernel uniform: binding 0 (ParamsBuf) is a uniform buffer in the shader; only storage buffers are supported",
+            "kernel uniform: binding 1 (Out) is in descriptor set 1 in the shader; every binding must be in set 0",
+        ]
+    );
+}
+
+#[test]
+fn list_devices_finds_lavapipe_and_selectors_work() {
+    let devices = list_devices().unwrap_or_else(|e| panic!("{e}"));
+    let lvp = devices.iter().find(|d| d.name.contains("llvmpipe")).unwrap_or_else(|| panic!("{devices:#?}"));
+    assert_eq!(lvp.kind, "cpu");
+    assert!(lvp.api_version.starts_with("1."), "{lvp:?}");
+    assert!(!lvp.driver.is_empty(), "{lvp:?}");
+    for (i, d) in devices.iter().enumerate() {
+        assert_eq!(d.index, i);
+    }
+
+    let by_index = GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Index(lvp.index)), ..Default::default() })
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(by_index.info(), lvp);
+    let by_name = GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Name("LLVMPIPE".into())), ..Default::default() })
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(by_name.info(), lvp);
+    assert!(by_name.take_validation_messages().is_empty());
+
+    // The default choice: the best kind, first in enumeration order within it.
+    let rank = |k: &str| ["discrete GPU", "integrated GPU", "virtual GPU", "other", "cpu"].iter().position(|x| *x == k);
+    let best = devices.iter().min_by_key(|d| rank(&d.kind)).unwrap();
+    let default = GpuContext::new(&GpuOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(default.info(), best);
+
+    for bad in [DeviceSelector::Name("no-such-gpu".into()), DeviceSelector::Index(devices.len())] {
+        let e = GpuContext::new(&GpuOptions { device: Some(bad), ..Default::default() }).err().unwrap();
+        let text = e.to_string();
+        assert!(matches!(e, GpuError::DeviceNotFound { .. }), "{e:?}");
+        assert!(text.contains("available devices:") && text.contains(&lvp.name), "{text}");
+    }
+}
+
+#[test]
+fn missing_loader_is_explained() {
+    let e = super::context::load_entry_from("/nonexistent/libvulkan.so.1").err().unwrap().to_string();
+    assert!(e.starts_with("cannot load the Vulkan loader libvulkan.so.1 ("), "{e}");
+    assert!(e.contains("install libvulkan1") && e.contains("mesa-vulkan-drivers"), "{e}");
+}
+
+#[test]
+fn byte_counts_are_readable() {
+    assert_eq!(fmt_bytes(16), "16 bytes");
+    assert_eq!(fmt_bytes(2 << 30), "2 GiB (2147483648 bytes)");
+    assert_eq!(fmt_bytes(3_435_973_836), "3.2 GiB (3435973836 bytes)");
+}
+
+// Environment variables are process-wide, so these cases run in a child
+// process: the test binary re-runs itself with `--exact` on `env_child`.
+
+const CHILD_VAR: &str = "RAYCAST_GPU_TEST_CHILD";
+
+/// Runs `env_child` in a child process with `case` and `envs`; returns its stdout.
+fn run_child(case: &str, envs: &[(&str, &str)]) -> String {
+    let exe = std::env::current_exe().unwrap();
+    let mut cmd = Command::new(exe);
+    cmd.args(["--exact", "gpu::tests::env_child", "--nocapture", "--test-threads=1"])
+        .env(CHILD_VAR, case)
+        .env_remove("VK_ICD_FILENAMES")
+        .env_remove("VK_DRIVER_FILES")
+        .env_remove("VK_ADD_DRIVER_FILES")
+        .env_remove("VK_INSTANCE_LAYERS");
+    for (k, v) in envs {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "child {case} failed:\n{stdout}\n{stderr}");
+    assert!(stdout.contains(&format!("env_child {case}: ok")), "child {case} did not run:\n{stdout}\n{stderr}");
+    stdout
+}
+
+/// Does nothing unless started by `run_child`.
+#[test]
+fn env_child() {
+    let Ok(case) = std::env::var(CHILD_VAR) else { return };
+    let opts = GpuOptions { device: None, validation: case == "no_layer", ..Default::default() };
+    match GpuContext::new(&opts) {
+        Err(e @ GpuError::NoDevice { .. }) => {
+            let text = e.to_string();
+            assert!(text.starts_with("no Vulkan device found"), "{text}");
+            assert!(text.contains("VK_DRIVER_FILES"), "{text}");
+            assert!(matches!(list_devices(), Err(GpuError::NoDevice { .. })));
+            println!("{text}");
+        }
+        Err(e @ GpuError::ValidationUnavailable { .. }) if case == "no_layer" => {
+            let text = e.to_string();
+            assert_eq!(
+                text,
+                "validation was requested but VK_LAYER_KHRONOS_validation is not installed (Debian package \
+                 vulkan-validationlayers)"
+            );
+        }
+        Ok(ctx) if case == "zero_devices" => println!("skipped: the radv ICD found {:?}", ctx.info()),
+        other => panic!("case {case}: unexpected {:?}", other.map(|c| c.info().clone())),
+    }
+    println!("env_child {case}: ok");
+}
+
+#[test]
+fn no_device_when_driver_files_point_nowhere() {
+    println!("{}", run_child("nonexistent", &[("VK_DRIVER_FILES", "/nonexistent/icd.json")]));
+    println!("{}", run_child("empty", &[("VK_DRIVER_FILES", "")]));
+}
+
+#[test]
+fn no_device_when_the_only_driver_finds_no_hardware() {
+    // radv loads and creates an instance, then finds no AMD GPU here.
+    let icd = "/usr/share/vulkan/icd.d/radeon_icd.x86_64.json";
+    if std::path::Path::new(icd).exists() {
+        println!("{}", run_child("zero_devices", &[("VK_DRIVER_FILES", icd)]));
+    }
+}
+
+#[test]
+fn missing_validation_layer_is_explained() {
+    run_child("no_layer", &[("VK_LAYER_PATH", "/nonexistent"), ("XDG_DATA_DIRS", "/nonexistent"), ("XDG_DATA_HOME", "/nonexistent")]);
+}
+
+#[test]
+fn validation_messages_are_captured_and_taken() {
+    let ctx = validated_context();
+    // Invalid on purpose: VkBufferCreateInfo.size must be greater than 0.
+    let info = ash::vk::BufferCreateInfo::default().size(0).usage(ash::vk::BufferUsageFlags::STORAGE_BUFFER);
+    let device = &ctx.inner.device;
+    if let Ok(buffer) = unsafe { device.create_buffer(&info, None) } {
+        unsafe { device.destroy_buffer(buffer, None) };
+    }
+    let messages = ctx.take_validation_messages();
+    assert!(
+        messages.iter().any(|m| m.starts_with("ERROR [VUID-VkBufferCreateInfo-size-00912] ")),
+        "{messages:#?}"
+    );
+    assert!(ctx.take_validation_messages().is_empty());
+}
+
+#[test]
+fn zero_physical_devices_is_no_device() {
+    let e = super::context::usable_devices(Ok(Vec::new())).unwrap_err();
+    assert!(matches!(e, GpuError::NoDevice { .. }), "{e:?}");
+    assert!(e.to_string().starts_with("no Vulkan device found: the Vulkan loader reports zero devices; "), "{e}");
+}
+
+#[test]
+fn context_and_kernel_can_be_shared_between_threads() {
+    fn send_sync<T: Send + Sync>() {}
+    send_sync::<GpuContext>();
+    send_sync::<Kernel>();
+    send_sync::<GpuError>();
+}
