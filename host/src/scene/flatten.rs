@@ -1,0 +1,575 @@
+//! [`SceneFile`] → [`Scene`]: expands the root tree and its masters into one
+//! [`Primitive`] per drawn shape, with its CTM and inverse.
+
+use super::model::*;
+use super::parse::{parse_file, unit, ParseOptions};
+use glam::DMat4;
+use std::collections::{HashMap, HashSet};
+use std::path::Path;
+
+/// Limits of [`flatten`].
+#[derive(Clone, Debug)]
+pub struct FlattenLimits {
+    /// Most primitives a scene may expand to (masters multiply).
+    pub max_primitives: usize,
+}
+
+impl Default for FlattenLimits {
+    fn default() -> Self {
+        FlattenLimits { max_primitives: 5_000_000 }
+    }
+}
+
+/// Parses and flattens a scene file.
+pub fn load(path: &Path, opts: &ParseOptions, limits: &FlattenLimits) -> Result<Scene, SceneError> {
+    flatten(&parse_file(path, opts)?, limits)
+}
+
+/// Why a transform cannot be inverted reliably, if it cannot: entries not
+/// finite; a determinant that is zero, overflows or underflows; or columns
+/// so nearly dependent that the determinant of the normalised columns is
+/// below 1e-12.
+fn check_invertible(m: &DMat4) -> Result<(), &'static str> {
+    if !m.is_finite() {
+        return Err("transform is not finite (an overflow?)");
+    }
+    let det = m.determinant();
+    if det == 0.0 {
+        return Err("transform is singular (a scale of 0?)");
+    }
+    if !det.is_finite() || det.abs() < f64::MIN_POSITIVE {
+        return Err("transform is out of range (a scale too large or too small?)");
+    }
+    let conditioning = if m.row(3) == glam::DVec4::new(0.0, 0.0, 0.0, 1.0) {
+        match (unit(m.x_axis.truncate()), unit(m.y_axis.truncate()), unit(m.z_axis.truncate())) {
+            (Some(a), Some(b), Some(c)) => a.dot(b.cross(c)).abs(),
+            _ => 0.0,
+        }
+    } else {
+        let u = |v: glam::DVec4| {
+            let s = v.abs().max_element();
+            let w = v / s;
+            w / w.length()
+        };
+        DMat4::from_cols(u(m.x_axis), u(m.y_axis), u(m.z_axis), u(m.w_axis)).determinant().abs()
+    };
+    if conditioning.is_nan() || conditioning < 1e-12 {
+        return Err("transform is singular (a scale of 0?)");
+    }
+    if !m.inverse().is_finite() {
+        return Err("transform is out of range (a scale too large or too small?)");
+    }
+    Ok(())
+}
+
+/// Expands `file.trees[file.root]` into drawn primitives.
+pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneError> {
+    let err = |loc: Option<SourceLoc>, message: String| SceneError {
+        loc,
+        file: file.path.clone(),
+        message,
+    };
+    let Some(root) = file.trees.get(file.root) else {
+        return Err(err(None, format!("internal error: root tree index {} is out of range", file.root)));
+    };
+
+    // Expansion size per tree, in declaration order: a master refers only to
+    // an earlier tree, so each count needs only counts already known (this
+    // also rules out cycles in a hand-built SceneFile).
+    let mut counts: Vec<usize> = Vec::with_capacity(file.root + 1);
+    for (i, tree) in file.trees.iter().enumerate().take(file.root + 1) {
+        let mut total = 0usize;
+        let mut stack: Vec<&[TransBlock]> = vec![&tree.blocks];
+        while let Some(blocks) = stack.pop() {
+            for b in blocks {
+                match &b.object {
+                    Node::Primitive { .. } => total = total.saturating_add(1),
+                    Node::Tree { blocks, .. } => stack.push(blocks),
+                    Node::Master { tree: t, loc } => {
+                        if *t >= i {
+                            return Err(err(
+                                Some(loc.clone()),
+                                "a master must refer to a tree declared before the one that uses it".to_string(),
+                            ));
+                        }
+                        total = total.saturating_add(counts[*t]);
+                    }
+                }
+            }
+        }
+        counts.push(total);
+    }
+    let total = counts[file.root];
+    if total > limits.max_primitives {
+        let n = if total == usize::MAX { format!("at least {total}") } else { total.to_string() };
+        return Err(err(
+            Some(root.loc.clone()),
+            format!(
+                "the scene expands to {n} primitives, more than the limit of {} (masters multiply); raise the limit or simplify the scene",
+                limits.max_primitives
+            ),
+        ));
+    }
+
+    let mut warnings = file.warnings.clone();
+    let mut primitives: Vec<Primitive> = Vec::with_capacity(total.min(1 << 20));
+    let mut materials: Vec<Material> = Vec::new();
+    let mut material_of: HashMap<*const Material, u32> = HashMap::new();
+    let mut skipped: HashSet<(u32, u32)> = HashSet::new();
+
+    // Depth first in file order, with an explicit stack (masters can nest
+    // deeply): (blocks, next index, matrix of the enclosing transblocks).
+    let mut stack: Vec<(&[TransBlock], usize, DMat4)> = vec![(&root.blocks, 0, DMat4::IDENTITY)];
+    while let Some(top) = stack.last_mut() {
+        let (blocks, idx, parent) = (top.0, top.1, top.2);
+        let Some(b) = blocks.get(idx) else {
+            stack.pop();
+            continue;
+        };
+        top.1 += 1;
+        if let Err(why) = check_invertible(&b.matrix) {
+            return Err(err(Some(b.loc.clone()), why.to_string()));
+        }
+        let ctm = parent * b.matrix;
+        match &b.object {
+            Node::Tree { blocks, .. } => stack.push((blocks, 0, ctm)),
+            Node::Master { tree, loc } => match file.trees.get(*tree) {
+                Some(t) => stack.push((&t.blocks, 0, ctm)),
+                None => return Err(err(Some(loc.clone()), format!("internal error: master tree index {tree} is out of range"))),
+            },
+            Node::Primitive { shape, material, loc } => {
+                let skip = match shape {
+                    Shape::Torus => Some("torus is not rendered (no canonical size is defined); skipped"),
+                    Shape::Mesh { .. } => Some("mesh is not rendered (meshes are not supported yet); skipped"),
+                    _ => None,
+                };
+                if let Some(msg) = skip {
+                    if skipped.insert((loc.line, loc.col)) {
+                        warnings.push(Warning { loc: loc.clone(), message: msg.to_string() });
+                    }
+                    continue;
+                }
+                if let Err(why) = check_invertible(&ctm) {
+                    return Err(err(
+                        Some(b.loc.clone()),
+                        format!("{why}: the combined transform of this primitive cannot be inverted"),
+                    ));
+                }
+                let key = material as *const Material;
+                let index = match material_of.get(&key) {
+                    Some(&i) => i,
+                    None => {
+                        let Ok(i) = u32::try_from(materials.len()) else {
+                            return Err(err(Some(loc.clone()), "more than 2^32 materials".to_string()));
+                        };
+                        materials.push(material.clone());
+                        material_of.insert(key, i);
+                        i
+                    }
+                };
+                primitives.push(Primitive {
+                    shape: shape.clone(),
+                    material: index,
+                    world_from_object: ctm,
+                    object_from_world: ctm.inverse(),
+                    loc: loc.clone(),
+                });
+            }
+        }
+    }
+
+    Ok(Scene {
+        path: file.path.clone(),
+        globals: file.globals,
+        camera: file.camera.clone(),
+        lights: file.lights.clone(),
+        primitives,
+        materials,
+        warnings,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_str;
+    use glam::DVec3;
+    use std::path::PathBuf;
+
+    fn parse(xml: &str) -> SceneFile {
+        match parse_str(xml, Path::new("/nonexistent-dir/t.xml"), &ParseOptions::default()) {
+            Ok(f) => f,
+            Err(e) => panic!("parse error: {e}\n{xml}"),
+        }
+    }
+
+    fn scene(xml: &str) -> Scene {
+        match flatten(&parse(xml), &FlattenLimits::default()) {
+            Ok(s) => s,
+            Err(e) => panic!("flatten error: {e}\n{xml}"),
+        }
+    }
+
+    fn flat_err(xml: &str) -> SceneError {
+        match flatten(&parse(xml), &FlattenLimits::default()) {
+            Ok(_) => panic!("expected an error:\n{xml}"),
+            Err(e) => e,
+        }
+    }
+
+    fn at(e: &SceneError) -> (u32, u32) {
+        let l = e.loc.as_ref().expect("error has a location");
+        (l.line, l.col)
+    }
+
+    /// A root tree (line 2) with `body` from line 3; masters `top` before it.
+    fn doc(top: &str, body: &str) -> String {
+        format!("<scenefile>\n{top}<object type=\"tree\" name=\"root\">\n{body}\n</object>\n</scenefile>\n")
+    }
+
+    fn cube_block(transforms: &str) -> String {
+        format!("<transblock>{transforms}<object type=\"primitive\" name=\"cube\"/></transblock>")
+    }
+
+    fn one(transforms: &str) -> Primitive {
+        let s = scene(&doc("", &cube_block(transforms)));
+        assert_eq!(s.primitives.len(), 1);
+        s.primitives[0].clone()
+    }
+
+    fn close(a: DVec3, b: DVec3) -> bool {
+        a.abs_diff_eq(b, 1e-12)
+    }
+
+    #[test]
+    fn composition_order_last_listed_applies_first() {
+        let p = one("<translate x=\"1\" y=\"0\" z=\"0\"/><scale x=\"2\" y=\"1\" z=\"1\"/>");
+        assert!(close(p.world_from_object.transform_point3(DVec3::X), DVec3::new(3.0, 0.0, 0.0)));
+        let p = one("<scale x=\"2\" y=\"1\" z=\"1\"/><translate x=\"1\" y=\"0\" z=\"0\"/>");
+        assert!(close(p.world_from_object.transform_point3(DVec3::X), DVec3::new(4.0, 0.0, 0.0)));
+        // Three transforms: T · R · S.
+        let p = one(
+            "<translate x=\"0\" y=\"0\" z=\"5\"/><rotate x=\"0\" y=\"0\" z=\"1\" angle=\"90\"/><scale x=\"2\" y=\"2\" z=\"2\"/>",
+        );
+        assert!(close(p.world_from_object.transform_point3(DVec3::X), DVec3::new(0.0, 2.0, 5.0)));
+    }
+
+    #[test]
+    fn inverse_and_identity() {
+        let p = one("");
+        assert_eq!(p.world_from_object, DMat4::IDENTITY);
+        assert_eq!(p.object_from_world, DMat4::IDENTITY);
+        assert_eq!(p.shape, Shape::Cube);
+        assert_eq!((p.loc.line, p.loc.col), (3, 13));
+        let p = one("<translate x=\"1\" y=\"2\" z=\"3\"/><rotate x=\"1\" y=\"1\" z=\"0\" angle=\"33\"/><scale x=\"2\" y=\"0.5\" z=\"4\"/>");
+        assert!((p.world_from_object * p.object_from_world).abs_diff_eq(DMat4::IDENTITY, 1e-12));
+    }
+
+    #[test]
+    fn rotate_axis_is_normalised_and_right_handed() {
+        let p = one("<rotate x=\"0\" y=\"3\" z=\"0\" angle=\"90\"/>");
+        // Right-handed about +y: +z goes to +x.
+        assert!(close(p.world_from_object.transform_point3(DVec3::Z), DVec3::X));
+        // Not a scale: lengths are kept with a non-unit axis.
+        let p = one("<rotate x=\"1\" y=\"1\" z=\"1\" angle=\"120\"/>");
+        assert!(close(p.world_from_object.transform_point3(DVec3::X), DVec3::Y));
+    }
+
+    #[test]
+    fn matrix_row_major_translation_in_fourth_column() {
+        let p = one(
+            "<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\" v4=\"7\"/><row1 v1=\"0\" v2=\"1\" v3=\"0\" v4=\"8\"/>\
+             <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"9\"/><row3 v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\"/></matrix>\
+             <scale x=\"2\" y=\"2\" z=\"2\"/>",
+        );
+        assert!(close(p.world_from_object.transform_point3(DVec3::ONE), DVec3::new(9.0, 10.0, 11.0)));
+    }
+
+    #[test]
+    fn nested_transblocks_and_inline_trees() {
+        let body = "<transblock><translate x=\"1\" y=\"0\" z=\"0\"/>\
+            <object type=\"tree\">\
+              <transblock><scale x=\"2\" y=\"2\" z=\"2\"/><object type=\"primitive\" name=\"sphere\"/></transblock>\
+              <transblock><object type=\"tree\">\
+                 <transblock><translate x=\"0\" y=\"1\" z=\"0\"/><object type=\"primitive\" name=\"cone\"/></transblock>\
+              </object></transblock>\
+            </object></transblock>\
+            <transblock><object type=\"primitive\" name=\"cylinder\"/></transblock>";
+        let s = scene(&doc("", body));
+        let shapes: Vec<&Shape> = s.primitives.iter().map(|p| &p.shape).collect();
+        assert_eq!(shapes, [&Shape::Sphere, &Shape::Cone, &Shape::Cylinder]);
+        let m = |i: usize| s.primitives[i].world_from_object;
+        assert!(close(m(0).transform_point3(DVec3::X), DVec3::new(3.0, 0.0, 0.0)));
+        assert!(close(m(1).transform_point3(DVec3::ZERO), DVec3::new(1.0, 1.0, 0.0)));
+        assert_eq!(m(2), DMat4::IDENTITY);
+        assert_eq!(s.materials.len(), 3);
+        assert_eq!(s.primitives.iter().map(|p| p.material).collect::<Vec<_>>(), [0, 1, 2]);
+    }
+
+    #[test]
+    fn masters_are_instanced_and_share_a_material() {
+        let top = "<object type=\"tree\" name=\"m\"><transblock><scale x=\"2\" y=\"2\" z=\"2\"/>\
+            <object type=\"primitive\" name=\"sphere\"><diffuse r=\"1\" g=\"0\" b=\"0\"/></object></transblock></object>\n";
+        let body = "<transblock><translate x=\"10\" y=\"0\" z=\"0\"/><object type=\"master\" name=\"m\"/></transblock>\
+            <transblock><object type=\"primitive\" name=\"cube\"/></transblock>\
+            <transblock><translate x=\"-10\" y=\"0\" z=\"0\"/><object type=\"master\" name=\"m\"/></transblock>";
+        let s = scene(&doc(top, body));
+        assert_eq!(s.primitives.len(), 3);
+        let (a, b, c) = (&s.primitives[0], &s.primitives[1], &s.primitives[2]);
+        assert_eq!((&a.shape, &b.shape, &c.shape), (&Shape::Sphere, &Shape::Cube, &Shape::Sphere));
+        assert_eq!(a.material, c.material);
+        assert_ne!(a.material, b.material);
+        assert_eq!(s.materials.len(), 2);
+        assert_eq!(s.materials[a.material as usize].diffuse, [1.0, 0.0, 0.0]);
+        assert_eq!(a.loc, c.loc);
+        assert!(close(a.world_from_object.transform_point3(DVec3::X), DVec3::new(12.0, 0.0, 0.0)));
+        assert!(close(c.world_from_object.transform_point3(DVec3::X), DVec3::new(-8.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn masters_nest() {
+        // m0: 1 primitive; m1: 2 × m0 + 1; root: 3 × m1 → 9.
+        let top = "<object type=\"tree\" name=\"m0\"><transblock><object type=\"primitive\" name=\"cube\"/></transblock></object>\n\
+            <object type=\"tree\" name=\"m1\"><transblock><object type=\"master\" name=\"m0\"/></transblock>\
+            <transblock><object type=\"master\" name=\"m0\"/></transblock><transblock><object type=\"primitive\" name=\"cone\"/></transblock></object>\n";
+        let body = "<transblock><object type=\"master\" name=\"m1\"/></transblock>".repeat(3);
+        let s = scene(&doc(top, &body));
+        assert_eq!(s.primitives.len(), 9);
+        assert_eq!(s.materials.len(), 2);
+    }
+
+    #[test]
+    fn singular_transforms_are_errors_at_the_transblock() {
+        let e = flat_err(&doc("", &format!("\n  {}", cube_block("<scale x=\"1\" y=\"0\" z=\"1\"/>"))));
+        assert_eq!(at(&e), (4, 3));
+        assert!(e.message.contains("transform is singular (a scale of 0?)"), "{e}");
+        // Rotated, so the zero is not on the diagonal.
+        let e = flat_err(&doc("", &cube_block("<rotate x=\"1\" y=\"1\" z=\"0\" angle=\"37\"/><scale x=\"1\" y=\"0\" z=\"1\"/>")));
+        assert!(e.message.contains("singular"), "{e}");
+        // From an enclosing transblock: reported at that block.
+        let body = "<transblock><scale x=\"0\" y=\"0\" z=\"0\"/><object type=\"tree\">\n<transblock><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>";
+        let e = flat_err(&doc("", body));
+        assert_eq!(at(&e), (3, 1));
+        // Small but regular scales are fine.
+        let p = one("<scale x=\"1e-6\" y=\"1e-6\" z=\"1e-6\"/>");
+        assert!(p.object_from_world.is_finite());
+        // A scale too large for an inverse.
+        let e = flat_err(&doc("", &cube_block("<scale x=\"1e200\" y=\"1e200\" z=\"1e200\"/>")));
+        assert_eq!(at(&e), (3, 1));
+        assert!(e.message.contains("transform is out of range"), "{e}");
+        // Out of range in the product only: each block is fine, the CTM is not.
+        let body = "<transblock><scale x=\"1e100\" y=\"1e100\" z=\"1e100\"/><object type=\"tree\">\n\
+            <transblock><scale x=\"1e100\" y=\"1e100\" z=\"1e100\"/><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>";
+        let e = flat_err(&doc("", body));
+        assert_eq!(at(&e), (4, 1));
+        assert!(e.message.contains("out of range") && e.message.contains("the combined transform"), "{e}");
+        // A degenerate shear (dependent columns) in a matrix.
+        let e = flat_err(&doc("", &cube_block(
+            "<matrix><row0 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/><row1 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
+             <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/><row3 v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\"/></matrix>",
+        )));
+        assert!(e.message.contains("singular"), "{e}");
+    }
+
+    #[test]
+    fn nan_in_a_transform_is_a_parse_error() {
+        let xml = doc("", &cube_block("<translate x=\"0\" y=\"NaN\" z=\"0\"/>"));
+        let e = parse_str(&xml, Path::new("t.xml"), &ParseOptions::default()).unwrap_err();
+        assert!(e.message.contains("expected a finite number"), "{e}");
+        // A hand-built SceneFile with a NaN matrix is caught by flatten.
+        let mut f = parse(&doc("", &cube_block("")));
+        f.trees[f.root].blocks[0].matrix.x_axis.x = f64::NAN;
+        let e = flatten(&f, &FlattenLimits::default()).unwrap_err();
+        assert_eq!(at(&e), (3, 1));
+        assert!(e.message.contains("not finite"), "{e}");
+    }
+
+    /// `levels` trees, each instancing the previous one `fan` times.
+    fn exponential(levels: usize, fan: usize) -> String {
+        let mut top = String::from(
+            "<object type=\"tree\" name=\"t0\"><transblock><object type=\"primitive\" name=\"sphere\"/></transblock></object>\n",
+        );
+        for i in 1..levels {
+            top.push_str(&format!("<object type=\"tree\" name=\"t{i}\">"));
+            for _ in 0..fan {
+                top.push_str(&format!("<transblock><object type=\"master\" name=\"t{}\"/></transblock>", i - 1));
+            }
+            top.push_str("</object>\n");
+        }
+        doc(&top, &format!("<transblock><object type=\"master\" name=\"t{}\"/></transblock>", levels - 1))
+    }
+
+    #[test]
+    fn expansion_limit() {
+        // 2^10 = 1024 primitives.
+        let f = parse(&exponential(11, 2));
+        let s = flatten(&f, &FlattenLimits { max_primitives: 1024 }).unwrap();
+        assert_eq!(s.primitives.len(), 1024);
+        assert_eq!(s.materials.len(), 1);
+        let e = flatten(&f, &FlattenLimits { max_primitives: 1000 }).unwrap_err();
+        let root_line = 2 + 11;
+        assert_eq!(at(&e), (root_line, 1));
+        assert!(e.message.contains("expands to 1024 primitives, more than the limit of 1000"), "{e}");
+        // 10^40 overflows usize: saturates, fails fast.
+        let f = parse(&exponential(41, 10));
+        let e = flatten(&f, &FlattenLimits::default()).unwrap_err();
+        assert!(e.message.contains("expands to at least 18446744073709551615 primitives"), "{e}");
+        assert!(e.message.contains("limit of 5000000"), "{e}");
+        assert_eq!(FlattenLimits::default().max_primitives, 5_000_000);
+    }
+
+    #[test]
+    fn deep_master_chains_do_not_overflow_the_stack() {
+        let f = parse(&exponential(20_000, 1));
+        let s = flatten(&f, &FlattenLimits::default()).unwrap();
+        assert_eq!(s.primitives.len(), 1);
+    }
+
+    #[test]
+    fn torus_and_mesh_skipped_with_one_warning_per_source() {
+        let top = "<object type=\"tree\" name=\"m\"><transblock><object type=\"primitive\" name=\"torus\"/></transblock>\
+            <transblock><object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\"/></transblock></object>\n";
+        let body = "<transblock><object type=\"master\" name=\"m\"/></transblock>".repeat(3)
+            + "<transblock><object type=\"primitive\" name=\"sphere\"/></transblock>";
+        let s = scene(&doc(top, &body));
+        assert_eq!(s.primitives.len(), 1);
+        assert_eq!(s.materials.len(), 1);
+        assert_eq!(s.primitives[0].material, 0);
+        let torus: Vec<&Warning> = s.warnings.iter().filter(|w| w.message.contains("torus")).collect();
+        assert_eq!(torus.len(), 1);
+        assert_eq!(torus[0].message, "torus is not rendered (no canonical size is defined); skipped");
+        assert_eq!((torus[0].loc.line, torus[0].loc.col), (2, 42));
+        assert_eq!(s.warnings.iter().filter(|w| w.message.contains("mesh")).count(), 1);
+    }
+
+    #[test]
+    fn parse_warnings_are_carried_and_scene_fields_copied() {
+        let xml = "<scenefile>\n<fog/>\n<globaldata><ambientcoeff v=\"0.25\"/></globaldata>\
+            <cameradata><heightangle v=\"30\"/></cameradata><lightdata><id v=\"3\"/></lightdata>\
+            <object type=\"tree\" name=\"root\"><transblock><object type=\"primitive\" name=\"cone\"/></transblock></object></scenefile>";
+        let f = parse(xml);
+        let s = flatten(&f, &FlattenLimits::default()).unwrap();
+        assert_eq!(s.warnings.len(), 1);
+        assert!(s.warnings[0].message.contains("<fog>"));
+        assert_eq!(s.globals.ka, 0.25);
+        assert_eq!(s.camera.height_angle_deg, 30.0);
+        assert_eq!(s.lights[0].id, 3);
+        assert_eq!(s.path, f.path);
+    }
+
+    #[test]
+    fn hand_built_bad_references_are_errors() {
+        let mut f = parse(&doc("", &cube_block("")));
+        f.trees[f.root].blocks[0].object = Node::Master { tree: f.root, loc: f.trees[f.root].loc.clone() };
+        assert!(flatten(&f, &FlattenLimits::default()).is_err());
+        f.root = 7;
+        assert!(flatten(&f, &FlattenLimits::default()).is_err());
+    }
+
+    #[test]
+    fn load_reads_a_file() {
+        let dir = std::env::temp_dir().join(format!("raycast-flatten-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("s.xml");
+        std::fs::write(&path, doc("", &cube_block(""))).unwrap();
+        let s = load(&path, &ParseOptions::default(), &FlattenLimits::default()).unwrap();
+        assert_eq!(s.primitives.len(), 1);
+        assert!(load(&dir.join("none.xml"), &ParseOptions::default(), &FlattenLimits::default()).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The fixtures of tests/scenes/bad fail as EXPECTED.txt says.
+    #[test]
+    fn bad_fixtures_match_expected() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bad");
+        let expected = std::fs::read_to_string(dir.join("EXPECTED.txt")).unwrap();
+        let mut n = 0;
+        for line in expected.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty()) {
+            let mut parts = line.splitn(3, ' ');
+            let (file, pos, msg) = (parts.next().unwrap(), parts.next().unwrap(), parts.next().unwrap());
+            let text = std::fs::read_to_string(dir.join(file)).unwrap();
+            assert!(text.starts_with("<!-- "), "{file}: starts with a comment saying what it tests");
+            let e = load(&dir.join(file), &ParseOptions::default(), &FlattenLimits::default())
+                .err()
+                .unwrap_or_else(|| panic!("{file}: expected an error"));
+            let l = e.loc.as_ref().unwrap();
+            assert_eq!(format!("{}:{}", l.line, l.col), pos, "{file}: {e}");
+            assert!(e.message.contains(msg), "{file}: {e}");
+            n += 1;
+        }
+        let xmls = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "xml"))
+            .count();
+        assert_eq!(n, xmls, "every fixture is listed in EXPECTED.txt");
+    }
+
+    fn corpus() -> Option<PathBuf> {
+        match std::env::var_os("RAYCAST_CORPUS") {
+            Some(p) => Some(PathBuf::from(p)),
+            None => {
+                println!("skipped: RAYCAST_CORPUS is not set (e.g. RAYCAST_CORPUS=../shared/corpus/cs1230)");
+                None
+            }
+        }
+    }
+
+    #[test]
+    fn corpus_scenes_parse_and_flatten() {
+        let Some(root) = corpus() else { return };
+        let opts = ParseOptions { assets: vec![root.clone()] };
+        let mut n = 0;
+        let mut groups: Vec<PathBuf> = std::fs::read_dir(&root)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.is_dir() && p.file_name().unwrap().to_string_lossy().starts_with("test_"))
+            .collect();
+        groups.sort();
+        for g in groups {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(&g)
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .filter(|p| p.extension().is_some_and(|x| x == "xml"))
+                .collect();
+            files.sort();
+            for f in files {
+                let s = match load(&f, &opts, &FlattenLimits::default()) {
+                    Ok(s) => s,
+                    Err(e) => panic!("{e}"),
+                };
+                assert!(s.warnings.is_empty(), "{}: {:?}", f.display(), s.warnings);
+                assert!(!s.primitives.is_empty(), "{}", f.display());
+                for m in &s.materials {
+                    if let Some(t) = &m.texture {
+                        assert!(t.resolved.is_some(), "{}: {}", f.display(), t.file);
+                    }
+                }
+                n += 1;
+            }
+        }
+        assert_eq!(n, 37, "scenes in the corpus");
+    }
+
+    #[test]
+    fn corpus_recursive_counts() {
+        let Some(root) = corpus() else { return };
+        let opts = ParseOptions { assets: vec![root.clone()] };
+        let limits = FlattenLimits::default();
+        // recursiveSpheres4: level3 = 1 sphere; level2 = 1 + 5 × level3 = 6;
+        // level1 = 1 + 5 × level2 = 31; root = 1 + 6 × level1 = 187.
+        let s = load(&root.join("test_efficiency/recursiveSpheres4.xml"), &opts, &limits).unwrap();
+        assert_eq!(s.primitives.len(), 187);
+        assert!(s.primitives.iter().all(|p| p.shape == Shape::Sphere));
+        // One material per source primitive: 4 (one per tree).
+        assert_eq!(s.materials.len(), 4);
+        // recursiveCones4: no masters, 187 cone primitives written out.
+        let s = load(&root.join("test_efficiency/recursiveCones4.xml"), &opts, &limits).unwrap();
+        assert_eq!(s.primitives.len(), 187);
+        assert!(s.primitives.iter().all(|p| p.shape == Shape::Cone));
+        assert_eq!(s.materials.len(), 187);
+        // Without assets folders the corpus textures are not found: warnings only.
+        let s = load(&root.join("test_efficiency/recursiveSpheres4.xml"), &ParseOptions::default(), &limits).unwrap();
+        assert_eq!(s.warnings.len(), 4);
+        assert!(s.warnings.iter().all(|w| w.message.contains("not found")));
+    }
+}
