@@ -86,7 +86,8 @@ fn missing_scene_file() {
 fn zero_and_absurd_image_sizes() {
     assert_fails(&raycast(&["render", "--width", "0"], &[]), 1, "--width 0 is out of range");
     assert_fails(&raycast(&["render", "--height", "100000"], &[]), 1, "--height 100000 is out of range");
-    assert_fails(&raycast(&["render", "--width", "-3"], &[]), 2, "--width");
+    assert_fails(&raycast(&["render", "--width=-3"], &[]), 2, "invalid value '-3' for '--width");
+    assert_fails(&raycast(&["render", "--height", "nan"], &[]), 2, "invalid value 'nan' for '--height");
 }
 
 #[test]
@@ -115,14 +116,15 @@ fn unknown_device_lists_the_available_ones() {
 }
 
 /// tests/scenes/bad/EXPECTED.txt: for each bad scene, the line:col and a part
-/// of the message the CLI must print.
+/// of the message the CLI must print (`FILE LINE:COL SUBSTRING`).
 #[test]
 fn bad_scene_files() {
     let dir = repo().join("tests/scenes/bad");
     let expected = std::fs::read_to_string(dir.join("EXPECTED.txt")).unwrap();
     let mut checked = 0;
     for line in expected.lines().filter(|l| !l.trim().is_empty() && !l.starts_with('#')) {
-        let mut parts = line.splitn(3, '|').map(str::trim);
+        // FILE LINE:COL SUBSTRING
+        let mut parts = line.splitn(3, ' ').map(str::trim);
         let (file, pos, needle) = (parts.next().unwrap(), parts.next().unwrap(), parts.next().unwrap());
         let path = dir.join(file);
         let o = raycast(&["render", path.to_str().unwrap(), "-o", "/dev/null"], &[]);

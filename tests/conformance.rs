@@ -21,8 +21,33 @@ const TOLERANCE: u8 = 2;
 /// Default rule: at most this fraction of pixels may differ.
 const MAX_FRACTION: f64 = 0.001;
 
-/// Measured allowances: (reference image, fraction allowed, why).
-const ALLOWANCES: &[(&str, f64, &str)] = &[];
+/// Measured allowances: (bench folder/reference image, fraction allowed, why). For these
+/// the default rule still holds for interior pixels, whose 3x3 neighbourhood
+/// in our render is one primitive: only silhouette pixels may use the allowance.
+/// Measured on lavapipe 22.3.6 (fraction seen in brackets).
+const SUPERSAMPLED: &str = "reference rendered with supersampling: its silhouette pixels blend the surface with the background (e.g. 3/4 coverage: expected [45, 166, 135] where we write [61, 223, 179])";
+const ALLOWANCES: &[(&str, f64, &str)] = &[
+    ("intersect_normal_color/test_intersect_behind_camera", 0.0020, SUPERSAMPLED),   // [0.1663%]
+    ("intersect_normal_color/test_intersect_parse_matrix", 0.0016, SUPERSAMPLED),    // [0.1321%]
+    ("intersect_normal_color/test_intersect_phong_ambient", 0.0032, SUPERSAMPLED),   // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_diffuse", 0.0032, SUPERSAMPLED),   // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_specular", 0.0032, SUPERSAMPLED),  // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_total", 0.0032, SUPERSAMPLED),     // [0.2860%]
+];
+
+/// Pixels whose 3x3 neighbourhood holds more than one hit id (or a miss and a hit).
+fn silhouette_mask(picture: &raycast::render::Picture) -> Vec<bool> {
+    let (w, h) = (picture.width as i64, picture.height as i64);
+    let id = |x: i64, y: i64| picture.pixels[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize].id;
+    let mut mask = vec![false; picture.pixels.len()];
+    for y in 0..h {
+        for x in 0..w {
+            let centre = id(x, y);
+            mask[(y * w + x) as usize] = (-1..=1).any(|dy| (-1..=1).any(|dx| id(x + dx, y + dy) != centre));
+        }
+    }
+    mask
+}
 
 struct Case {
     group: &'static str,
@@ -49,7 +74,7 @@ fn cases(corpus: &Path) -> Vec<Case> {
             .unwrap_or_else(|e| panic!("cannot list {}: {e}", corpus.join(group).display()))
             .filter_map(|e| {
                 let p = e.ok()?.path();
-                (p.extension()? == "xml").then(|| p.file_stem()?.to_string_lossy().into_owned())
+                (p.extension()? == "xml").then(|| p.file_stem().map(|s| s.to_string_lossy().into_owned()))?
             })
             .collect();
         names.sort();
@@ -81,14 +106,34 @@ fn run_case(renderer: &GpuRenderer, corpus: &Path, case: &Case, out_dir: &Path) 
     let diff = image_io::compare(&actual, &expected, TOLERANCE)?;
 
     let ref_name = case.reference.file_stem().unwrap().to_string_lossy().into_owned();
+    let bench = case.reference.parent().and_then(|p| p.file_name()).unwrap().to_string_lossy();
+    let key = format!("{bench}/{ref_name}");
     let (allowed, why) = ALLOWANCES
         .iter()
-        .find(|(n, _, _)| *n == ref_name)
+        .find(|(n, _, _)| *n == key)
         .map(|(_, f, why)| (*f, Some(*why)))
         .unwrap_or((MAX_FRACTION, None));
     let rule = format!("rule: at most {:.2}% off by more than {TOLERANCE}/255{}", allowed * 100.0,
-        why.map(|w| format!(", allowance: {w}")).unwrap_or_default());
-    if diff.fraction() <= allowed {
+        why.map(|w| format!(", allowance: {w}; interior pixels at most {:.2}%", MAX_FRACTION * 100.0)).unwrap_or_default());
+    // With an allowance, pixels off the silhouette still obey the default rule.
+    let interior_ok = if why.is_some() {
+        let mask = silhouette_mask(&picture);
+        let (mut masked_actual, mut masked_expected) = (actual.clone(), expected.clone());
+        for (i, edge) in mask.iter().enumerate() {
+            if *edge {
+                masked_actual.data[3 * i..3 * i + 3].fill(0);
+                masked_expected.data[3 * i..3 * i + 3].fill(0);
+            }
+        }
+        let interior = image_io::compare(&masked_actual, &masked_expected, TOLERANCE)?;
+        if interior.fraction() > MAX_FRACTION {
+            println!("      interior pixels: {interior}");
+        }
+        interior.fraction() <= MAX_FRACTION
+    } else {
+        true
+    };
+    if diff.fraction() <= allowed && interior_ok {
         return Ok(format!("{diff} ({rule})"));
     }
     let kind = match case.aov {

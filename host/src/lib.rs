@@ -2,10 +2,14 @@
 //! CS1230/CS123/Comp175 XML scenes.
 //!
 //! Parts (see README "Architecture"): `scene` reads scene files, `frame`
-//! turns a scene into the GPU buffers of `layout`, `gpu` runs kernels on a
-//! Vulkan device, `render` ties them together, `image_io` reads and writes
-//! pictures, `cli` is the command line.
+//! turns a scene into the buffers of `layout`, `gpu` runs kernels on a
+//! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
+//! and compares pictures, `cli` is the command line.
 
-pub mod layout;
-pub mod scene;
+pub mod cli;
+pub mod frame;
 pub mod gpu;
+pub mod image_io;
+pub mod layout;
+pub mod render;
+pub mod scene;

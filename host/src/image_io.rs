@@ -1,0 +1,151 @@
+//! Reading and writing pictures, and comparing two pictures under a stated
+//! rule with a report a person can act on.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// An 8-bit RGB image, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rgb8 {
+    pub width: u32,
+    pub height: u32,
+    pub data: Vec<u8>,
+}
+
+impl Rgb8 {
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        [self.data[i], self.data[i + 1], self.data[i + 2]]
+    }
+}
+
+pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
+    image::save_buffer(path, &image.data, image.width, image.height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+pub fn read_png(path: &Path) -> Result<Rgb8, String> {
+    let img = image::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let rgb = img.to_rgb8();
+    Ok(Rgb8 { width: rgb.width(), height: rgb.height(), data: rgb.into_raw() })
+}
+
+/// Result of comparing an actual picture with an expected one: pixels whose
+/// largest channel difference exceeds `tolerance` count as different.
+#[derive(Clone, Debug)]
+pub struct ImageDiff {
+    pub tolerance: u8,
+    pub total: usize,
+    pub differing: usize,
+    /// First differing pixel in row-major order: (x, y, actual, expected).
+    pub first: Option<(u32, u32, [u8; 3], [u8; 3])>,
+    /// Pixel with the largest channel difference: (x, y, difference).
+    pub worst: Option<(u32, u32, u8)>,
+    /// Black where equal within tolerance; red scaled by the difference elsewhere.
+    pub diff_image: Rgb8,
+}
+
+impl ImageDiff {
+    pub fn fraction(&self) -> f64 {
+        self.differing as f64 / self.total.max(1) as f64
+    }
+}
+
+impl fmt::Display for ImageDiff {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} of {} pixels ({:.4}%) differ by more than {}/255",
+            self.differing,
+            self.total,
+            100.0 * self.fraction(),
+            self.tolerance
+        )?;
+        if let Some((x, y, a, e)) = self.first {
+            write!(f, "; first at ({x}, {y}): actual {a:?}, expected {e:?}")?;
+        }
+        if let Some((x, y, d)) = self.worst {
+            write!(f, "; worst at ({x}, {y}): {d}/255")?;
+        }
+        Ok(())
+    }
+}
+
+/// Compares two pictures of the same size. Errors if the sizes differ.
+pub fn compare(actual: &Rgb8, expected: &Rgb8, tolerance: u8) -> Result<ImageDiff, String> {
+    if (actual.width, actual.height) != (expected.width, expected.height) {
+        return Err(format!(
+            "sizes differ: actual {}x{}, expected {}x{}",
+            actual.width, actual.height, expected.width, expected.height
+        ));
+    }
+    let mut diff = ImageDiff {
+        tolerance,
+        total: (actual.width * actual.height) as usize,
+        differing: 0,
+        first: None,
+        worst: None,
+        diff_image: Rgb8 { width: actual.width, height: actual.height, data: vec![0; actual.data.len()] },
+    };
+    for y in 0..actual.height {
+        for x in 0..actual.width {
+            let (a, e) = (actual.pixel(x, y), expected.pixel(x, y));
+            let d = (0..3).map(|c| a[c].abs_diff(e[c])).max().unwrap_or(0);
+            if d > diff.worst.map_or(0, |w| w.2) {
+                diff.worst = Some((x, y, d));
+            }
+            if d > tolerance {
+                diff.differing += 1;
+                diff.first.get_or_insert((x, y, a, e));
+                let i = 3 * (y * actual.width + x) as usize;
+                diff.diff_image.data[i] = 64u8.saturating_add(d.saturating_mul(4).min(191));
+            }
+        }
+    }
+    Ok(diff)
+}
+
+/// Writes `<dir>/<name>-actual.png`, `-expected.png` and `-diff.png` and
+/// returns their paths.
+pub fn write_diff_images(dir: &Path, name: &str, actual: &Rgb8, expected: &Rgb8, diff: &ImageDiff) -> Result<[PathBuf; 3], String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let paths = [
+        dir.join(format!("{name}-actual.png")),
+        dir.join(format!("{name}-expected.png")),
+        dir.join(format!("{name}-diff.png")),
+    ];
+    write_png(&paths[0], actual)?;
+    write_png(&paths[1], expected)?;
+    write_png(&paths[2], &diff.diff_image)?;
+    Ok(paths)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn solid(w: u32, h: u32, c: [u8; 3]) -> Rgb8 {
+        Rgb8 { width: w, height: h, data: c.iter().copied().cycle().take((w * h * 3) as usize).collect() }
+    }
+
+    #[test]
+    fn compare_counts_first_and_worst() {
+        let expected = solid(4, 2, [10, 10, 10]);
+        let mut actual = expected.clone();
+        actual.data[3 * 5] = 13; // (1, 1) off by 3
+        actual.data[3 * 6 + 2] = 2; // (2, 1) off by 8
+        actual.data[3 * 7 + 1] = 12; // (3, 1) off by 2: within tolerance
+        let d = compare(&actual, &expected, 2).unwrap();
+        assert_eq!(d.differing, 2);
+        assert_eq!(d.first, Some((1, 1, [13, 10, 10], [10, 10, 10])));
+        assert_eq!(d.worst, Some((2, 1, 8)));
+        assert!(d.to_string().starts_with("2 of 8 pixels (25.0000%) differ by more than 2/255"), "{d}");
+        assert_eq!(d.diff_image.pixel(0, 0), [0, 0, 0]);
+        assert_ne!(d.diff_image.pixel(2, 1), [0, 0, 0]);
+    }
+
+    #[test]
+    fn compare_rejects_size_mismatch() {
+        assert!(compare(&solid(2, 2, [0; 3]), &solid(2, 3, [0; 3]), 0).unwrap_err().contains("2x2"));
+    }
+}

@@ -1,0 +1,101 @@
+//! Rendering a [`FrameData`] on a Vulkan device with the render kernel, and
+//! the picture that comes back.
+
+use crate::frame::FrameData;
+use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel};
+use crate::layout::{self, PixelOut};
+use std::time::{Duration, Instant};
+
+/// The render kernel's SPIR-V, compiled from shaders/render.comp at build time.
+pub fn render_spirv() -> &'static [u8] {
+    kernel_spirv("render").expect("build.rs embeds shaders/render.comp")
+}
+
+include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
+
+/// A kernel of shaders/*.comp by file stem, as embedded at build time.
+pub fn kernel_spirv(stem: &str) -> Option<&'static [u8]> {
+    EMBEDDED_KERNELS.iter().find(|(name, _)| *name == stem).map(|(_, spv)| *spv)
+}
+
+/// Every pixel's output: colour (or AOV), t, hit id and normal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Picture {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, row 0 at the top.
+    pub pixels: Vec<PixelOut>,
+}
+
+impl Picture {
+    /// 8-bit RGB, row 0 at the top.
+    pub fn rgb8(&self) -> Vec<u8> {
+        self.pixels
+            .iter()
+            .flat_map(|p| {
+                let [r, g, b, _] = p.rgba.to_le_bytes();
+                [r, g, b]
+            })
+            .collect()
+    }
+}
+
+/// Where the time of one GPU render went.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GpuTimings {
+    pub upload: Duration,
+    pub dispatch: Duration,
+    pub readback: Duration,
+}
+
+/// A Vulkan device with the render kernel built and checked.
+pub struct GpuRenderer {
+    // Field order is drop order: the kernel goes before its device.
+    kernel: Kernel,
+    context: GpuContext,
+    /// Time to check the SPIR-V and build the pipeline.
+    pub compile_time: Duration,
+}
+
+impl GpuRenderer {
+    pub fn new(options: &GpuOptions) -> Result<GpuRenderer, GpuError> {
+        let context = GpuContext::new(options)?;
+        let start = Instant::now();
+        let kernel = Kernel::new(&context, "render", render_spirv(), &layout::render_bindings())?;
+        Ok(GpuRenderer { kernel, context, compile_time: start.elapsed() })
+    }
+
+    pub fn context(&self) -> &GpuContext {
+        &self.context
+    }
+
+    pub fn render(&self, data: &FrameData) -> Result<(Picture, GpuTimings), GpuError> {
+        let f = &data.frame;
+        let count = f.width as usize * f.height as usize;
+        let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), f.height.div_ceil(layout::WORKGROUP_SIZE), 1];
+        let (bytes, t) = self.context.run(
+            &self.kernel,
+            &[
+                (layout::BINDING_FRAME, bytemuck::bytes_of(&data.frame)),
+                (layout::BINDING_PRIMITIVES, bytemuck::cast_slice(&data.primitives)),
+                (layout::BINDING_MATERIALS, bytemuck::cast_slice(&data.materials)),
+                (layout::BINDING_LIGHTS, bytemuck::cast_slice(&data.lights)),
+            ],
+            (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
+            // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.
+            0xffff_ffff,
+            groups,
+        )?;
+        let pixels: Vec<PixelOut> = bytemuck::pod_collect_to_vec(&bytes);
+        // The kernel writes pad0 = 0 in every pixel it covers.
+        let unwritten = pixels.iter().filter(|p| p.pad0 != 0).count();
+        if unwritten > 0 {
+            return Err(GpuError::BadRun {
+                kernel: "render".into(),
+                message: format!("the kernel left {unwritten} of {count} pixels unwritten (the sentinel is still in place)"),
+            });
+        }
+        let timings = GpuTimings { upload: t.upload, dispatch: t.dispatch, readback: t.readback };
+        Ok((Picture { width: f.width, height: f.height, pixels }, timings))
+    }
+}
