@@ -83,8 +83,13 @@ struct Failure(String, u8);
 
 impl<E: std::fmt::Display> From<E> for Failure {
     fn from(e: E) -> Self {
-        Failure(e.to_string(), 1)
+        Failure(format!("raycast: error: {e}"), 1)
     }
+}
+
+/// A scene error: it already reads `file:line:col: error: …`.
+fn scene_failure(e: String) -> Failure {
+    Failure(e, 1)
 }
 
 pub fn main() -> ExitCode {
@@ -103,7 +108,7 @@ pub fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure(message, code)) => {
-            eprintln!("raycast: error: {message}");
+            eprintln!("{message}");
             ExitCode::from(code)
         }
     }
@@ -128,7 +133,7 @@ fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
     for m in &messages {
         eprintln!("raycast: validation: {m}");
     }
-    Err(Failure(format!("the Vulkan validation layer reported {} message(s)", messages.len()), 3))
+    Err(Failure(format!("raycast: error: the Vulkan validation layer reported {} message(s)", messages.len()), 3))
 }
 
 fn devices() -> Result<(), Failure> {
@@ -182,7 +187,8 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
 
     let start = Instant::now();
     let parse = ParseOptions { assets: args.assets.clone() };
-    let scene = load_scene(args.scene.as_deref(), &parse, &FlattenLimits { max_primitives: args.max_primitives })?;
+    let scene = load_scene(args.scene.as_deref(), &parse, &FlattenLimits { max_primitives: args.max_primitives })
+        .map_err(scene_failure)?;
     let data = frame::build(&scene, &settings);
     for note in &data.notes {
         eprintln!("raycast: note: {note}");

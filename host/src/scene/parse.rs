@@ -1319,7 +1319,7 @@ impl<'a> Ctx<'a> {
         }
         let tried: Vec<String> = tried.iter().map(|t| format!("\"{}\"", t.display())).collect();
         let msg = format!(
-            "<{el}> file \"{file}\" not found (tried {}); rendering without it — pass the folder that holds it as an assets folder",
+            "<{el}> file \"{file}\" not found (tried {}); rendering without it — pass the folder that holds it with --assets DIR",
             tried.join(", ")
         );
         self.warn(loc.clone(), msg);
