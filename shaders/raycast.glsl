@@ -167,12 +167,13 @@ ShapeHit no_hit() {
     return h;
 }
 
-// The primary ray through the centre of pixel (column j, row i; row 0 at the
-// top). The film point (x, y, -1) has x, y in [-1, 1]; world_from_film maps
-// it to world space, so its linear part maps it to the ray direction.
-Ray camera_ray(uint j, uint i) {
-    precise float x = ((float(j) + 0.5f) / float(frame.width)) * 2.0f - 1.0f;
-    precise float y = 1.0f - ((float(i) + 0.5f) / float(frame.height)) * 2.0f;
+// The primary ray through pixel (column j, row i; row 0 at the top), at
+// `offset` pixels from its centre (0, 0 for the centre). The film point
+// (x, y, -1) has x, y in [-1, 1]; world_from_film maps it to world space, so
+// its linear part maps it to the ray direction.
+Ray camera_ray(uint j, uint i, vec2 offset) {
+    precise float x = (((float(j) + 0.5f) + offset.x) / float(frame.width)) * 2.0f - 1.0f;
+    precise float y = 1.0f - (((float(i) + 0.5f) + offset.y) / float(frame.height)) * 2.0f;
     Ray r;
     r.origin = xyz(frame.eye);
     r.direction = transform_vector(frame.world_from_film, vec3(x, y, -1.0f));
@@ -431,30 +432,51 @@ uint pack_rgba8(vec3 c) {
     return (uint(r) | (uint(g) << 8u)) | ((uint(b) << 16u) | (255u << 24u));
 }
 
-// Everything one pixel computes: the colour (or normal AOV) and the t, hit
-// id and normal of its primary ray.
-PixelOut render_pixel(uint j, uint i) {
-    Ray r = camera_ray(j, i);
-    SceneHit hit = trace(r);
-    PixelOut out_px;
-    out_px.pad0 = 0u;
+// One sample of a pixel: the primary ray's nearest hit and the colour it
+// gives (the shaded colour, or the normal AOV), each channel in [0, 1].
+struct PixelSample {
+    SceneHit hit;
+    vec3 color;
+};
+
+PixelSample sample_pixel(uint j, uint i, vec2 offset) {
+    Ray r = camera_ray(j, i, offset);
+    PixelSample s;
+    s.hit = trace(r);
+    s.color = vec3(0.0f, 0.0f, 0.0f);
+    if (s.hit.id != NO_HIT) {
+        if (frame.aov == AOV_NORMAL) {
+            precise vec3 c = (s.hit.normal + 1.0f) * 0.5f;
+            s.color = vec3(clamp01(c.x), clamp01(c.y), clamp01(c.z));
+        } else {
+            s.color = shade(r, s.hit);
+        }
+    }
+    return s;
+}
+
+// What a pixel stores: the hit's t, id and normal (0, NO_HIT and 0 on a
+// miss) and `color` quantised.
+PixelOut pixel_out(SceneHit hit, vec3 color) {
+    PixelOut o;
+    o.pad0 = 0u;
+    o.rgba = pack_rgba8(color);
     if (hit.id == NO_HIT) {
-        out_px.normal = vec4(0.0f, 0.0f, 0.0f, 0.0f);
-        out_px.t = 0.0f;
-        out_px.id = NO_HIT;
-        out_px.rgba = 255u << 24u;
-        return out_px;
-    }
-    out_px.normal = vec4(hit.normal, 0.0f);
-    out_px.t = hit.t;
-    out_px.id = hit.id;
-    if (frame.aov == AOV_NORMAL) {
-        precise vec3 c = (hit.normal + 1.0f) * 0.5f;
-        out_px.rgba = pack_rgba8(vec3(clamp01(c.x), clamp01(c.y), clamp01(c.z)));
+        o.normal = vec4(0.0f, 0.0f, 0.0f, 0.0f);
+        o.t = 0.0f;
+        o.id = NO_HIT;
     } else {
-        out_px.rgba = pack_rgba8(shade(r, hit));
+        o.normal = vec4(hit.normal, 0.0f);
+        o.t = hit.t;
+        o.id = hit.id;
     }
-    return out_px;
+    return o;
+}
+
+// Everything one pixel computes, with one ray through its centre.
+PixelOut render_pixel(uint j, uint i) {
+    PixelSample s = sample_pixel(j, i, vec2(0.0f, 0.0f));
+    return pixel_out(s.hit, s.color);
 }
 
 #endif
