@@ -2,8 +2,12 @@
 //! glslang (embedded into the binary), and turns the `#define`s of
 //! shaders/layout.h into Rust constants so they are written once.
 //!
-//! When CMake drives the build it compiles the SPIR-V itself and passes the
-//! folder in RAYCAST_SPIRV_DIR; plain `cargo build` compiles it here.
+//! Also links the CPU build of the shared GLSL (host/cpu, a CMake project).
+//!
+//! When CMake drives the build it compiles the SPIR-V and the CPU library
+//! itself and passes their folders in RAYCAST_SPIRV_DIR and
+//! RAYCAST_CPU_LIB_DIR; a plain `cargo build` does both here, the CPU
+//! library by running CMake on host/cpu (one definition of its flags).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -18,6 +22,8 @@ fn main() {
     println!("cargo:rerun-if-env-changed=RAYCAST_SPIRV_DIR");
 
     write_layout_consts(&shaders.join("layout.h"), &out.join("layout_consts.rs"));
+    // The preview kernel's own header (host/src/preview/layout.rs includes it).
+    write_layout_consts(&shaders.join("preview.h"), &out.join("preview_consts.rs"));
 
     let prebuilt = std::env::var_os("RAYCAST_SPIRV_DIR").map(PathBuf::from);
     let mut kernels = Vec::new();
@@ -42,6 +48,7 @@ fn main() {
         kernels.push(stem);
     }
     kernels.sort();
+    link_cpu_library(&manifest, &out);
     let mut table = String::from("/// Every kernel of shaders/*.comp, compiled to SPIR-V at build time.\n");
     table.push_str("pub const EMBEDDED_KERNELS: &[(&str, &[u8])] = &[\n");
     for k in &kernels {
@@ -49,6 +56,44 @@ fn main() {
     }
     table.push_str("];\n");
     std::fs::write(out.join("kernels.rs"), table).unwrap();
+}
+
+fn link_cpu_library(manifest: &Path, out: &Path) {
+    println!("cargo:rerun-if-env-changed=RAYCAST_CPU_LIB_DIR");
+    let dir = match std::env::var_os("RAYCAST_CPU_LIB_DIR") {
+        Some(dir) => PathBuf::from(dir),
+        None => {
+            let src = manifest.join("cpu");
+            for entry in std::fs::read_dir(&src).unwrap() {
+                println!("cargo:rerun-if-changed={}", entry.unwrap().path().display());
+            }
+            let build = out.join("cpu-build");
+            run(Command::new("cmake")
+                .arg("-S").arg(&src).arg("-B").arg(&build)
+                .arg("-DRAYCAST_CPU_TESTS=OFF").arg("-DCMAKE_BUILD_TYPE=Release"));
+            run(Command::new("cmake").arg("--build").arg(&build).args(["--target", "raycast_cpu"]));
+            build
+        }
+    };
+    let lib = dir.join("libraycast_cpu.a");
+    if !lib.exists() {
+        panic!("{} does not exist: build the raycast_cpu target first", lib.display());
+    }
+    println!("cargo:rerun-if-changed={}", lib.display());
+    println!("cargo:rustc-link-search=native={}", dir.display());
+    println!("cargo:rustc-link-lib=static=raycast_cpu");
+    println!("cargo:rustc-link-lib=dylib=stdc++");
+}
+
+fn run(cmd: &mut Command) {
+    let output = cmd.output().unwrap_or_else(|e| panic!("cannot run {cmd:?} (is cmake installed?): {e}"));
+    if !output.status.success() {
+        panic!(
+            "{cmd:?} failed:\n{}{}",
+            String::from_utf8_lossy(&output.stdout),
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
 }
 
 fn compile(src: &Path, include: &Path, spv: &Path) {

@@ -99,21 +99,22 @@ precise float log2_portable(float x) {
     return r;
 }
 
-// 2^y: integer part into the exponent bits, fraction f through
-// e^z = sum z^k/k!, z = (f - 1/2) ln 2, times sqrt(2). Relative error about
-// 1e-7; 0 below 2^-126, clamped at 2^128 - ulp above.
+// 2^y: the nearest integer k into the exponent bits, the rest f = y - k in
+// [-1/2, 1/2] through e^z = sum z^k/k! with z = f ln 2 (degree 7: error
+// below 6e-9 before rounding). 2^0 is exactly 1. 0 below 2^-126, clamped
+// at 2^128 - ulp above.
 precise float exp2_portable(float y) {
     if (y < -126.0f) {
         return 0.0f;
     }
-    if (y > 127.999992f) {
-        y = 127.999992f;
+    if (y > 127.499992f) {
+        y = 127.499992f;
     }
-    precise float i = floor(y);
-    precise float z = ((y - i) - 0.5f) * 0.693147182f;
+    precise float k = floor(y + 0.5f);
+    precise float z = (y - k) * 0.693147182f;
     precise float p = 1.0f + z * (1.0f + z * 0.5f * (1.0f + z * 0.333333343f * (1.0f + z * 0.25f * (1.0f + z * 0.200000003f * (1.0f + z * 0.166666672f * (1.0f + z * 0.142857149f))))));
-    precise float scale = intBitsToFloat((int(i) + 127) << 23);
-    precise float r = (p * 1.41421354f) * scale;
+    precise float scale = intBitsToFloat((int(k) + 127) << 23);
+    precise float r = p * scale;
     return r;
 }
 
@@ -134,7 +135,8 @@ precise float acos_portable(float x) {
     precise float p = ((((((-0.0012624911f * a + 0.0066700901f) * a - 0.0170881256f) * a + 0.0308918810f) * a - 0.0501743046f) * a + 0.0889789874f) * a - 0.2145988016f) * a + 1.57079630f;
     precise float r = sqrt(1.0f - a) * p;
     if (c < 0.0f) {
-        r = PI - r;
+        // pi - r with pi in two parts: the float nearest pi is 8.7e-8 too big.
+        r = (3.14159274f - r) - 8.74227766e-8f;
     }
     return r;
 }
@@ -294,18 +296,25 @@ ShapeHit intersect_cylinder(Ray r) {
     return best;
 }
 
-// Cone: body x^2 + z^2 = ((0.5 - y) / 2)^2 for y in [-0.5, 0.5]. With
-// p = o + t d and h = 0.5 - o.y:
+// Cone body x^2 + z^2 = ((0.5 - y) / 2)^2 as a t^2 + b t + c = 0 for the
+// points o + t d of ray r, with h = 0.5 - o.y:
 //   a = dx^2 + dz^2 - dy^2 / 4
 //   b = 2 (ox dx + oz dz) + h dy / 2
 //   c = ox^2 + oz^2 - h^2 / 4
-// Normal: the gradient (2x, (0.5 - y) / 2, 2z). Base cap y = -0.5.
-ShapeHit intersect_cone(Ray r) {
+// Returned as (a, b, c).
+precise vec3 cone_quadratic(Ray r) {
     precise float h = 0.5f - r.origin.y;
     precise float a = (r.direction.x * r.direction.x + r.direction.z * r.direction.z) - 0.25f * (r.direction.y * r.direction.y);
     precise float b = 2.0f * (r.origin.x * r.direction.x + r.origin.z * r.direction.z) + 0.5f * (h * r.direction.y);
     precise float c = (r.origin.x * r.origin.x + r.origin.z * r.origin.z) - 0.25f * (h * h);
-    precise vec2 ts = quadratic_roots(a, b, c);
+    return vec3(a, b, c);
+}
+
+// Cone: the body for y in [-0.5, 0.5] with normal the gradient
+// (2x, (0.5 - y) / 2, 2z), and the base cap y = -0.5.
+ShapeHit intersect_cone(Ray r) {
+    precise vec3 q = cone_quadratic(r);
+    precise vec2 ts = quadratic_roots(q.x, q.y, q.z);
     ShapeHit best = no_hit();
     for (int k = 0; k < 2; k++) {
         precise float t = ts[k];

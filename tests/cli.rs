@@ -134,3 +134,79 @@ fn bad_scene_files() {
     }
     assert!(checked >= 7, "EXPECTED.txt lists only {checked} cases");
 }
+
+#[test]
+fn cpu_backend_writes_the_same_png_as_the_device() {
+    let (gpu, cpu) = (out_dir().join("backend-gpu.png"), out_dir().join("backend-cpu.png"));
+    let o = raycast(&["render", "-o", gpu.to_str().unwrap()], &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = raycast(&["render", "--backend", "cpu", "-o", cpu.to_str().unwrap()], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("device: CPU build of the shared GLSL"), "{out}");
+    // Rule: bit-exact.
+    let (a, b) = (raycast::image_io::read_png(&gpu).unwrap(), raycast::image_io::read_png(&cpu).unwrap());
+    let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
+    assert_eq!(diff.differing, 0, "{diff}");
+}
+
+#[test]
+fn check_passes_on_the_default_scene() {
+    let diff = out_dir().join("check-default.png");
+    let o = raycast(&["check", "-o", diff.to_str().unwrap()], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    for buffer in ["t:", "id:", "normal:", "rgba:"] {
+        assert!(out.contains(&format!("{buffer:<7} 0 of 196608 pixels differ")), "{buffer}\n{out}");
+    }
+    assert!(out.contains("identical"), "{out}");
+    assert!(diff.exists());
+}
+
+/// The check itself is tested: a copy of the shaders with one sum reordered
+/// (dot3 summed right to left) must be reported, with counts, values and
+/// ULP distances, and exit status 4.
+#[test]
+fn check_reports_a_planted_difference() {
+    let planted = out_dir().join("planted-shaders");
+    let _ = std::fs::remove_dir_all(&planted);
+    std::fs::create_dir_all(&planted).unwrap();
+    for entry in std::fs::read_dir(repo().join("shaders")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, planted.join(path.file_name().unwrap())).unwrap();
+    }
+    let glsl = planted.join("raycast.glsl");
+    let source = std::fs::read_to_string(&glsl).unwrap();
+    let sum = "precise float r = (a.x * b.x + a.y * b.y) + a.z * b.z;";
+    assert_eq!(source.matches(sum).count(), 1, "dot3 changed: update this test");
+    std::fs::write(&glsl, source.replace(sum, "precise float r = a.x * b.x + (a.y * b.y + a.z * b.z);")).unwrap();
+
+    let diff = out_dir().join("check-planted.png");
+    let o = raycast(&["check", "--shaders", planted.to_str().unwrap(), "-o", diff.to_str().unwrap()], &[]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(4), "{out}{err}");
+    assert!(out.contains("the kernel from --shaders"), "{out}");
+    assert!(out.contains("pixels differ; first at ("), "{out}");
+    assert!(out.contains(" ULP; worst "), "{out}");
+    assert!(out.contains(" (0x"), "hex values expected:\n{out}");
+    assert!(err.contains("check failed"), "{err}");
+    // --allow-pixels accepts it, and says the check was not exact.
+    let o = raycast(&["check", "--shaders", planted.to_str().unwrap(), "--allow-pixels", "1000000", "-o", diff.to_str().unwrap()], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("NOT EXACT"), "{out}");
+}
+
+#[test]
+fn shaders_folder_with_a_syntax_error() {
+    let broken = out_dir().join("broken-shaders");
+    let _ = std::fs::remove_dir_all(&broken);
+    std::fs::create_dir_all(&broken).unwrap();
+    for entry in std::fs::read_dir(repo().join("shaders")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, broken.join(path.file_name().unwrap())).unwrap();
+    }
+    std::fs::write(broken.join("raycast.glsl"), "this is not GLSL\n").unwrap();
+    let o = raycast(&["render", "--shaders", broken.to_str().unwrap(), "-o", "/dev/null"], &[]);
+    assert_fails(&o, 1, "glslangValidator failed on");
+}

@@ -2,12 +2,14 @@
 //!
 //! Exit codes: 0 success, 1 an error (scene, device, file), 2 a usage error,
 //! 3 the Vulkan validation layer reported something (with --validate or
-//! RAYCAST_VALIDATION=1).
+//! RAYCAST_VALIDATION=1), 4 `check` found differences.
 
-use crate::frame::{self, Aov, RenderSettings};
+use crate::check;
+use crate::cpu::CpuRenderer;
+use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gpu::{self, DeviceSelector, GpuOptions};
 use crate::image_io::{self, Rgb8};
-use crate::render::GpuRenderer;
+use crate::render::{GpuRenderer, Picture};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -30,17 +32,17 @@ struct Cli {
 enum Command {
     /// Render a scene to a PNG (the embedded default scene when none is given).
     Render(RenderArgs),
+    /// Render on the device and on the CPU build and compare every buffer bit for bit.
+    Check(CheckArgs),
     /// List the Vulkan devices.
     Devices,
 }
 
+/// What to render and how: shared by every command that renders.
 #[derive(Args, Debug)]
-struct RenderArgs {
+struct FrameArgs {
     /// Scene file (XML). Without one, the embedded default scene.
     scene: Option<PathBuf>,
-    /// Output PNG [default: <scene name>.png in the current folder]
-    #[arg(short, long, value_name = "OUT.png")]
-    output: Option<PathBuf>,
     #[arg(long, default_value_t = 512, value_name = "W")]
     width: u32,
     #[arg(long, default_value_t = 384, value_name = "H")]
@@ -66,10 +68,46 @@ struct RenderArgs {
     /// Refuse scenes that expand to more primitives than this.
     #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
     max_primitives: usize,
+    /// Compile the device's kernel from DIR/render.comp at start-up instead of
+    /// the one built in (the CPU build is always the built-in code).
+    #[arg(long, value_name = "DIR")]
+    shaders: Option<PathBuf>,
     /// Enable the Khronos validation layer; any message fails the command (exit 3).
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
     validate: bool,
+}
+
+#[derive(Args, Debug)]
+struct RenderArgs {
+    #[command(flatten)]
+    frame: FrameArgs,
+    /// Output PNG [default: <scene name>.png in the current folder]
+    #[arg(short, long, value_name = "OUT.png")]
+    output: Option<PathBuf>,
+    /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+}
+
+#[derive(Args, Debug)]
+struct CheckArgs {
+    #[command(flatten)]
+    frame: FrameArgs,
+    /// Where to write the diff image [default: <scene name>-check.png]: red
+    /// where any buffer differs, a dim copy of the device's render elsewhere.
+    #[arg(short, long, value_name = "DIFF.png")]
+    output: Option<PathBuf>,
+    /// Succeed when at most K pixels differ. For real GPUs, where bit-exactness
+    /// is not expected; the output says the check was not exact.
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    allow_pixels: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Backend {
+    Gpu,
+    Cpu,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -103,6 +141,7 @@ pub fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => render(&args),
+        Command::Check(args) => check(&args),
         Command::Devices => devices(),
     };
     match result {
@@ -163,7 +202,14 @@ pub fn load_scene(path: Option<&Path>, opts: &ParseOptions, limits: &FlattenLimi
     Ok(scene)
 }
 
-fn render(args: &RenderArgs) -> Result<(), Failure> {
+/// A scene loaded and packed for rendering, with what it took.
+struct Prepared {
+    scene: Scene,
+    data: FrameData,
+    load: Duration,
+}
+
+fn prepare(args: &FrameArgs) -> Result<Prepared, Failure> {
     let settings = RenderSettings {
         width: args.width,
         height: args.height,
@@ -177,14 +223,6 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         ..RenderSettings::default()
     };
     settings.validate()?;
-    let output = match &args.output {
-        Some(o) => o.clone(),
-        None => {
-            let stem = args.scene.as_ref().and_then(|s| s.file_stem()).map(|s| s.to_string_lossy().into_owned());
-            PathBuf::from(format!("{}.png", stem.as_deref().unwrap_or("default")))
-        }
-    };
-
     let start = Instant::now();
     let parse = ParseOptions { assets: args.assets.clone() };
     let scene = load_scene(args.scene.as_deref(), &parse, &FlattenLimits { max_primitives: args.max_primitives })
@@ -193,41 +231,125 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     for note in &data.notes {
         eprintln!("raycast: note: {note}");
     }
-    let load = start.elapsed();
+    Ok(Prepared { scene, data, load: start.elapsed() })
+}
 
+/// `<scene stem><suffix>.png` in the current folder ("default" for the embedded scene).
+fn default_output(args: &FrameArgs, suffix: &str) -> PathBuf {
+    let stem = args.scene.as_ref().and_then(|s| s.file_stem()).map(|s| s.to_string_lossy().into_owned());
+    PathBuf::from(format!("{}{suffix}.png", stem.as_deref().unwrap_or("default")))
+}
+
+fn gpu_renderer(args: &FrameArgs) -> Result<GpuRenderer, Failure> {
     let options = GpuOptions {
         device: parse_device(&args.device),
         validation: validation_wanted(args.validate),
         ..GpuOptions::default()
     };
-    let renderer = GpuRenderer::new(&options)?;
-    let info = renderer.context().info();
-    println!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
+    let renderer = match &args.shaders {
+        Some(dir) => {
+            let spirv = gpu::compile_kernel(&dir.join("render.comp"))?;
+            GpuRenderer::with_spirv(&options, &spirv)?
+        }
+        None => GpuRenderer::new(&options)?,
+    };
+    Ok(renderer)
+}
+
+fn print_scene(p: &Prepared) {
     println!(
         "scene: {} ({} primitives, {} lights)",
-        scene.path.display(),
-        data.primitives.len(),
-        data.lights.len()
+        p.scene.path.display(),
+        p.data.primitives.len(),
+        p.data.lights.len()
     );
-    let (picture, t) = renderer.render(&data)?;
+}
+
+fn rate_line(rays: u64, time: Duration) -> String {
+    format!(
+        "rate: {:.2} M primary rays/s ({rays} rays in {})",
+        rays as f64 / time.as_secs_f64().max(1e-9) / 1e6,
+        ms(time)
+    )
+}
+
+fn write_picture(path: &Path, picture: &Picture) -> Result<(), Failure> {
     let image = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8() };
-    image_io::write_png(&output, &image)?;
-    let rays = u64::from(settings.width) * u64::from(settings.height);
+    image_io::write_png(path, &image)?;
+    println!("wrote {} ({}x{})", path.display(), picture.width, picture.height);
+    Ok(())
+}
+
+fn render(args: &RenderArgs) -> Result<(), Failure> {
+    let p = prepare(&args.frame)?;
+    let output = args.output.clone().unwrap_or_else(|| default_output(&args.frame, ""));
+    let rays = u64::from(p.data.frame.width) * u64::from(p.data.frame.height);
+    if args.backend == Backend::Cpu {
+        let cpu = CpuRenderer::new()?;
+        println!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
+        print_scene(&p);
+        let start = Instant::now();
+        let picture = cpu.render(&p.data);
+        let time = start.elapsed();
+        println!("time: load {}, render {}", ms(p.load), ms(time));
+        println!("{}", rate_line(rays, time));
+        return write_picture(&output, &picture);
+    }
+    let renderer = gpu_renderer(&args.frame)?;
+    let info = renderer.context().info();
+    println!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
+    print_scene(&p);
+    let (picture, t) = renderer.render(&p.data)?;
     println!(
         "time: load {}, upload {}, compile {}, dispatch {}, readback {}",
-        ms(load),
+        ms(p.load),
         ms(t.upload),
         ms(renderer.compile_time),
         ms(t.dispatch),
         ms(t.readback)
     );
-    println!(
-        "rate: {:.2} M primary rays/s ({rays} rays in {})",
-        rays as f64 / t.dispatch.as_secs_f64().max(1e-9) / 1e6,
-        ms(t.dispatch)
-    );
-    println!("wrote {} ({}x{})", output.display(), settings.width, settings.height);
+    println!("{}", rate_line(rays, t.dispatch));
+    write_picture(&output, &picture)?;
     let messages = renderer.context().take_validation_messages();
     drop(renderer);
     check_validation(messages)
+}
+
+fn check(args: &CheckArgs) -> Result<(), Failure> {
+    let p = prepare(&args.frame)?;
+    let renderer = gpu_renderer(&args.frame)?;
+    let cpu = CpuRenderer::new()?;
+    let device = renderer.context().info().name.clone();
+    print_scene(&p);
+    println!(
+        "check: {} on {device} against the CPU build ({} threads), {}x{}, every buffer bit for bit",
+        if args.frame.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
+        cpu.threads,
+        p.data.frame.width,
+        p.data.frame.height
+    );
+    let (gpu_picture, _) = renderer.render(&p.data)?;
+    let cpu_picture = cpu.render(&p.data);
+    let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
+    println!("{report}");
+    let diff_path = args.output.clone().unwrap_or_else(|| default_output(&args.frame, "-check"));
+    image_io::write_png(&diff_path, &report.diff_image)?;
+    println!("wrote {} (red: pixels that differ)", diff_path.display());
+    let messages = renderer.context().take_validation_messages();
+    drop(renderer);
+    check_validation(messages)?;
+    if report.identical() {
+        return Ok(());
+    }
+    if report.differing_pixels <= args.allow_pixels {
+        println!(
+            "NOT EXACT: {} pixels differ, accepted by --allow-pixels {} (expected on real GPUs, not on lavapipe)",
+            report.differing_pixels, args.allow_pixels
+        );
+        return Ok(());
+    }
+    Err(Failure(
+        format!("raycast: check failed: {} pixels differ between the device and the CPU build", report.differing_pixels),
+        4,
+    ))
 }

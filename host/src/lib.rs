@@ -7,6 +7,8 @@
 //! and compares pictures, `cli` is the command line.
 
 pub mod cli;
+pub mod check;
+pub mod cpu;
 pub mod frame;
 pub mod gpu;
 pub mod image_io;

@@ -58,10 +58,17 @@ pub struct GpuRenderer {
 }
 
 impl GpuRenderer {
+    /// The device of `options` with the embedded render kernel.
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer, GpuError> {
+        GpuRenderer::with_spirv(options, render_spirv())
+    }
+
+    /// The device of `options` with a render kernel of the caller's (for
+    /// example compiled from `--shaders DIR`); checked like the embedded one.
+    pub fn with_spirv(options: &GpuOptions, spirv: &[u8]) -> Result<GpuRenderer, GpuError> {
         let context = GpuContext::new(options)?;
         let start = Instant::now();
-        let kernel = Kernel::new(&context, "render", render_spirv(), &layout::render_bindings())?;
+        let kernel = Kernel::new(&context, "render", spirv, &layout::render_bindings())?;
         Ok(GpuRenderer { kernel, context, compile_time: start.elapsed() })
     }
 

@@ -6,6 +6,7 @@
 
 include!("glslang_args.rs");
 
+mod compile;
 mod context;
 mod error;
 mod kernel;
@@ -13,6 +14,7 @@ pub mod reflect;
 #[cfg(test)]
 mod tests;
 
+pub use compile::compile_kernel;
 pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunTimings};
 pub use error::GpuError;
 pub use kernel::Kernel;

@@ -1,0 +1,177 @@
+// Unit tests of the shared GLSL's intersection code, built as C++. Expected
+// values are derived by hand from the seed handout's equations (the working
+// is in each comment) and chosen so that every step is exact in float: the
+// rule is bit-exact equality unless a test says otherwise.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "shared.hpp"
+
+using namespace raycast_cpu;
+
+namespace {
+Ray ray(float ox, float oy, float oz, float dx, float dy, float dz) {
+    Ray r;
+    r.origin = vec3(ox, oy, oz);
+    r.direction = vec3(dx, dy, dz);
+    return r;
+}
+
+void expect_vec3_eq(vec3 actual, vec3 expected) {
+    EXPECT_EQ(actual.x, expected.x);
+    EXPECT_EQ(actual.y, expected.y);
+    EXPECT_EQ(actual.z, expected.z);
+}
+} // namespace
+
+// Cube faces: t = (s - o[axis]) / d[axis] for the planes axis = s = +-0.5.
+TEST(CubePlanes, XPlanes) {
+    Ray r = ray(-3.0f, 0.1f, 0.2f, 2.0f, 0.0f, 0.0f);
+    EXPECT_EQ(plane_t(r, 0, 0.5f), 1.75f);  // (0.5 + 3) / 2
+    EXPECT_EQ(plane_t(r, 0, -0.5f), 1.25f); // (-0.5 + 3) / 2
+}
+
+TEST(CubePlanes, ParallelRayGivesNaNOrInfinity) {
+    Ray r = ray(0.5f, 0.0f, 2.0f, 0.0f, 0.0f, -1.0f);
+    EXPECT_TRUE(std::isnan(plane_t(r, 0, 0.5f)));  // 0 / 0
+    EXPECT_TRUE(std::isinf(plane_t(r, 0, -0.5f))); // -1 / 0
+}
+
+TEST(Cube, NearestFaceFromOutside) {
+    ShapeHit h = intersect_cube(ray(-3.0f, 0.1f, 0.2f, 2.0f, 0.0f, 0.0f));
+    EXPECT_EQ(h.t, 1.25f); // the x = -0.5 face
+    expect_vec3_eq(h.normal, vec3(-0.5f, 0.0f, 0.0f));
+}
+
+TEST(Cube, FromInsideOnlyTheFaceAhead) {
+    ShapeHit h = intersect_cube(ray(0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f));
+    EXPECT_EQ(h.t, 0.5f); // x = -0.5 is at t = -0.5: behind, rejected
+    expect_vec3_eq(h.normal, vec3(0.5f, 0.0f, 0.0f));
+}
+
+TEST(Cube, ParallelRayAlongAFacePlaneHitsTheEdgeOfTheFaceAhead) {
+    // On the plane x = 0.5, travelling -z: x faces give NaN / inf (rejected);
+    // z = 0.5 at t = 1.5 with the hit point (0.5, 0, 0.5) on the edge.
+    ShapeHit h = intersect_cube(ray(0.5f, 0.0f, 2.0f, 0.0f, 0.0f, -1.0f));
+    EXPECT_EQ(h.t, 1.5f);
+    expect_vec3_eq(h.normal, vec3(0.0f, 0.0f, 0.5f));
+}
+
+TEST(Cube, BehindTheRayIsAMiss) {
+    EXPECT_EQ(intersect_cube(ray(0.0f, 0.0f, 2.0f, 0.0f, 0.0f, 1.0f)).t, T_FAR);
+}
+
+// Cone body: a = dx^2 + dz^2 - dy^2/4, b = 2(ox dx + oz dz) + h dy/2,
+// c = ox^2 + oz^2 - h^2/4 with h = 0.5 - oy.
+TEST(ConeQuadratic, HorizontalRayThroughTheAxis) {
+    // o = (0, 0, 2), d = (0, 0, -1): h = 0.5; a = 1; b = 2 * (2 * -1) = -4;
+    // c = 4 - 0.25 * 0.25 = 3.9375.
+    expect_vec3_eq(cone_quadratic(ray(0.0f, 0.0f, 2.0f, 0.0f, 0.0f, -1.0f)), vec3(1.0f, -4.0f, 3.9375f));
+}
+
+TEST(ConeQuadratic, SlopedRay) {
+    // o = (1, 0.5, 0), d = (-1, -1, 0): h = 0; a = 1 - 0.25 = 0.75;
+    // b = 2 * (1 * -1) = -2; c = 1.
+    expect_vec3_eq(cone_quadratic(ray(1.0f, 0.5f, 0.0f, -1.0f, -1.0f, 0.0f)), vec3(0.75f, -2.0f, 1.0f));
+}
+
+TEST(Cone, BodyHitOfTheHorizontalRay) {
+    // Roots of t^2 - 4t + 3.9375: (4 -+ sqrt(0.25)) / 2 = 1.75, 2.25. At
+    // y = 0 the radius is (0.5 - 0) / 2 = 0.25 = 2 - 1.75. Normal: the
+    // gradient (2x, (0.5 - y)/2, 2z) at (0, 0, 0.25) = (0, 0.25, 0.5).
+    ShapeHit h = intersect_cone(ray(0.0f, 0.0f, 2.0f, 0.0f, 0.0f, -1.0f));
+    EXPECT_EQ(h.t, 1.75f);
+    expect_vec3_eq(h.normal, vec3(0.0f, 0.25f, 0.5f));
+}
+
+TEST(Cone, BodyHitOfTheSlopedRay) {
+    // Roots of 0.75 t^2 - 2t + 1: (2 -+ 1) / 1.5 = 2/3, 2; at t = 2/3 the
+    // point (1/3, -1/6, 0) has radius (0.5 + 1/6) / 2 = 1/3.
+    ShapeHit h = intersect_cone(ray(1.0f, 0.5f, 0.0f, -1.0f, -1.0f, 0.0f));
+    EXPECT_EQ(h.t, 1.0f / 1.5f);
+}
+
+TEST(Cone, BaseCapFromBelow) {
+    // The cap y = -0.5 at t = (-0.5 + 2) / 1 = 1.5, x^2 + z^2 = 0.05 <= 0.25.
+    ShapeHit h = intersect_cone(ray(0.1f, -2.0f, 0.2f, 0.0f, 1.0f, 0.0f));
+    EXPECT_EQ(h.t, 1.5f);
+    expect_vec3_eq(h.normal, vec3(0.0f, -1.0f, 0.0f));
+}
+
+TEST(Cone, MissOutsideTheCapAndBelowTheBody) {
+    // x = 0.6: the cap needs x^2 <= 0.25; the body meets x = 0.6 at
+    // y = 0.5 - 1.2 = -0.7, below the cone.
+    EXPECT_EQ(intersect_cone(ray(0.6f, -2.0f, 0.0f, 0.0f, 1.0f, 0.0f)).t, T_FAR);
+}
+
+TEST(Sphere, AlongAnAxis) {
+    // t^2 - 4t + 3.75 = 0: t = 1.5, 2.5; normal = hit point (0, 0, 0.5).
+    ShapeHit h = intersect_sphere(ray(0.0f, 0.0f, 2.0f, 0.0f, 0.0f, -1.0f));
+    EXPECT_EQ(h.t, 1.5f);
+    expect_vec3_eq(h.normal, vec3(0.0f, 0.0f, 0.5f));
+}
+
+TEST(Cylinder, BodyAndCaps) {
+    ShapeHit body = intersect_cylinder(ray(0.0f, 0.0f, 2.0f, 0.0f, 0.0f, -1.0f));
+    EXPECT_EQ(body.t, 1.5f);
+    expect_vec3_eq(body.normal, vec3(0.0f, 0.0f, 0.5f));
+    ShapeHit top = intersect_cylinder(ray(0.0f, 2.0f, 0.0f, 0.0f, -1.0f, 0.0f));
+    EXPECT_EQ(top.t, 1.5f);
+    expect_vec3_eq(top.normal, vec3(0.0f, 1.0f, 0.0f));
+}
+
+// Portable transcendental functions, against the double-precision library.
+// Rules: pow within 4e-6 relative (rounding y = n log2(x) to float alone
+// costs up to 3e-6 at |y| = 50), 0 below the normal floats, exact at x = 0
+// and x = 1; acos within 3
+// ULP of the float result.
+TEST(PortableMath, PowWithin4e6Relative) {
+    for (float x : {1e-6f, 0.01f, 0.3f, 0.5f, 0.77f, 0.999f, 1.0f}) {
+        for (float n : {0.5f, 1.0f, 2.0f, 7.5f, 25.0f, 100.0f}) {
+            double expected = std::pow(double(x), double(n));
+            double actual = double(pow_portable(x, n));
+            if (expected < 1.17549435e-38) {
+                EXPECT_EQ(actual, 0.0) << "pow(" << x << ", " << n << ") is below the normal floats: 0";
+            } else {
+                EXPECT_NEAR(actual, expected, 4e-6 * expected) << "pow(" << x << ", " << n << ")";
+            }
+        }
+    }
+    EXPECT_EQ(pow_portable(0.0f, 3.0f), 0.0f);
+    EXPECT_EQ(pow_portable(1.0f, 3.0f), 1.0f);
+    EXPECT_EQ(pow_portable(1.0f, 0.5f), 1.0f);
+}
+
+TEST(PortableMath, AcosWithin3Ulp) {
+    // Worst seen on this grid: 2.4 ULP (float evaluation of the polynomial).
+    double worst = 0.0;
+    float worst_x = 0.0f;
+    for (int k = -100000; k <= 100000; k++) {
+        float x = float(k) / 100000.0f;
+        double expected = std::acos(double(x));
+        float e = float(expected);
+        double ulp = double(std::nextafter(e, 4.0f) - e);
+        double err = std::fabs(double(acos_portable(x)) - expected) / ulp;
+        if (err > worst) {
+            worst = err;
+            worst_x = x;
+        }
+    }
+    EXPECT_LE(worst, 3.0) << "worst at acos(" << worst_x << ")";
+}
+
+TEST(Camera, CentreRayOfAnOddImageIsTheLookDirection) {
+    // world_from_film = identity with the eye at the origin: the centre of
+    // pixel (1, 1) of a 3x3 image is film (0, 0), direction (0, 0, -1).
+    Scene s{};
+    s.frame.world_from_film = mat4(1.0f);
+    s.frame.eye = vec4(0.0f, 0.0f, 0.0f, 1.0f);
+    s.frame.width = 3;
+    s.frame.height = 3;
+    bind_scene(s);
+    Ray r = camera_ray(1, 1, vec2(0.0f, 0.0f));
+    expect_vec3_eq(r.direction, vec3(0.0f, 0.0f, -1.0f));
+    Ray corner = camera_ray(0, 0, vec2(-0.5f, -0.5f)); // top-left corner of the film
+    expect_vec3_eq(corner.direction, vec3(-1.0f, 1.0f, -1.0f));
+}

@@ -1,0 +1,64 @@
+// raycast_cpu.cpp: the C ABI over the C++ build of the shared GLSL.
+#include "raycast_cpu.h"
+
+#include <cstddef>
+#include <cstring>
+
+#include "shared.hpp"
+
+using namespace raycast_cpu;
+
+extern "C" void raycast_cpu_render_rows(const void* frame_in, const void* primitives_in,
+                                        const void* materials_in, const void* lights_in,
+                                        uint32_t row_begin, uint32_t row_end, void* out) {
+    Scene s;
+    std::memcpy(&s.frame, frame_in, sizeof(Frame));
+    s.primitives = static_cast<const Primitive*>(primitives_in);
+    s.materials = static_cast<const Material*>(materials_in);
+    s.lights = static_cast<const Light*>(lights_in);
+    bind_scene(s);
+    PixelOut* pixels = static_cast<PixelOut*>(out);
+    for (uint32_t i = row_begin; i < row_end; i++) {
+        for (uint32_t j = 0; j < s.frame.width; j++) {
+            pixels[size_t(i - row_begin) * s.frame.width + j] = render_pixel(j, i);
+        }
+    }
+}
+
+namespace {
+struct Field {
+    const char* type;
+    const char* member; // nullptr: the struct's size
+    int64_t value;
+};
+
+#define SIZE(T) {#T, nullptr, int64_t(sizeof(T))}
+#define AT(T, m) {#T, #m, int64_t(offsetof(T, m))}
+const Field fields[] = {
+    SIZE(Frame), AT(Frame, world_from_film), AT(Frame, eye), AT(Frame, k), AT(Frame, width),
+    AT(Frame, height), AT(Frame, primitive_count), AT(Frame, light_count), AT(Frame, aov),
+    AT(Frame, flags), AT(Frame, max_depth), AT(Frame, pad0),
+    SIZE(Primitive), AT(Primitive, object_from_world), AT(Primitive, shape), AT(Primitive, material),
+    AT(Primitive, pad0), AT(Primitive, pad1),
+    SIZE(Material), AT(Material, diffuse), AT(Material, ambient), AT(Material, specular),
+    AT(Material, reflective), AT(Material, transparent), AT(Material, emissive),
+    AT(Material, shininess), AT(Material, blend), AT(Material, ior), AT(Material, texture),
+    AT(Material, texture_repeat),
+    SIZE(Light), AT(Light, color), AT(Light, position), AT(Light, direction_to_light),
+    AT(Light, spot_axis), AT(Light, attenuation), AT(Light, kind), AT(Light, angle_deg),
+    AT(Light, penumbra_deg), AT(Light, pad0),
+    SIZE(PixelOut), AT(PixelOut, normal), AT(PixelOut, t), AT(PixelOut, id), AT(PixelOut, rgba),
+    AT(PixelOut, pad0),
+};
+#undef SIZE
+#undef AT
+} // namespace
+
+extern "C" int64_t raycast_cpu_field_offset(const char* type, const char* member) {
+    for (const Field& f : fields) {
+        if (std::strcmp(f.type, type) != 0) continue;
+        if (member == nullptr && f.member == nullptr) return f.value;
+        if (member != nullptr && f.member != nullptr && std::strcmp(f.member, member) == 0) return f.value;
+    }
+    return -1;
+}

@@ -1,0 +1,28 @@
+/* raycast_cpu.h: the C ABI of the CPU build of the shared GLSL. The structs
+ * are those of shaders/layout.h; the Rust host passes its mirrors
+ * (host/src/layout.rs), whose sizes and offsets it checks against
+ * raycast_cpu_field_offset at start-up. */
+#ifndef RAYCAST_CPU_H
+#define RAYCAST_CPU_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Renders rows [row_begin, row_end) of the frame into out (width pixels a
+ * row, out[0] is the first pixel of row_begin). Safe to call from many
+ * threads at once. */
+void raycast_cpu_render_rows(const void* frame, const void* primitives, const void* materials,
+                             const void* lights, uint32_t row_begin, uint32_t row_end, void* out);
+
+/* The C++ layout of struct `type` (e.g. "Material"): its size when member is
+ * NULL, else the member's offset; -1 when unknown. */
+int64_t raycast_cpu_field_offset(const char* type, const char* member);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,42 @@
+// shared.hpp: the shared GLSL (shaders/layout.h + shaders/raycast.glsl),
+// included unchanged as C++ with GLM. This prelude supplies what GLSL has
+// built in: the vector types and functions (GLM), the `precise` qualifier
+// (nothing to do: the library is built with -ffp-contract=off and never
+// -ffast-math), and the scene buffers that the kernel declares as storage
+// buffers — here thread-local pointers, set for each render call so that
+// any number of threads can render at once.
+#pragma once
+
+#include <cstdint>
+#include <glm/glm.hpp>
+
+namespace raycast_cpu {
+using namespace glm;
+#define precise
+
+#include "layout.h"
+
+struct Scene {
+    Frame frame;
+    const Primitive* primitives;
+    const Material* materials;
+    const Light* lights;
+};
+
+// The names the shared GLSL reads: `frame.width`, `primitives[i]`, …
+inline thread_local Frame frame;
+inline thread_local const Primitive* primitives;
+inline thread_local const Material* materials;
+inline thread_local const Light* lights;
+
+inline void bind_scene(const Scene& s) {
+    frame = s.frame;
+    primitives = s.primitives;
+    materials = s.materials;
+    lights = s.lights;
+}
+
+#include "raycast.glsl"
+
+#undef precise
+} // namespace raycast_cpu

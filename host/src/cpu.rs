@@ -1,0 +1,119 @@
+//! The CPU backend: the C++ build of the shared GLSL (host/cpu), called
+//! through its C ABI, rows handed out to every core.
+
+use crate::frame::FrameData;
+use crate::layout::{self, PixelOut, StructLayout};
+use crate::render::Picture;
+use std::ffi::{c_void, CString};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Mutex;
+
+extern "C" {
+    fn raycast_cpu_render_rows(
+        frame: *const c_void,
+        primitives: *const c_void,
+        materials: *const c_void,
+        lights: *const c_void,
+        row_begin: u32,
+        row_end: u32,
+        out: *mut c_void,
+    );
+    fn raycast_cpu_field_offset(ty: *const std::ffi::c_char, member: *const std::ffi::c_char) -> i64;
+}
+
+/// Rows a thread takes at a time: small enough to balance uneven rows.
+const ROWS_PER_JOB: u32 = 4;
+
+/// Checks the C++ layout of every struct in `shaders/layout.h` against the
+/// Rust mirror (which the GPU side checks against naga's reflection).
+pub fn check_layouts() -> Result<(), String> {
+    let structs: [StructLayout; 5] = [
+        layout::Frame::layout(),
+        layout::Primitive::layout(),
+        layout::Material::layout(),
+        layout::Light::layout(),
+        layout::PixelOut::layout(),
+    ];
+    let mut errors = Vec::new();
+    for s in &structs {
+        let name = CString::new(s.name).unwrap();
+        // SAFETY: both pointers are valid NUL-terminated strings or null.
+        let size = unsafe { raycast_cpu_field_offset(name.as_ptr(), std::ptr::null()) };
+        if size != i64::from(s.size) {
+            errors.push(format!("{}: size {size} in the C++ build, {} on the host", s.name, s.size));
+        }
+        for f in &s.fields {
+            let member = CString::new(f.name).unwrap();
+            let offset = unsafe { raycast_cpu_field_offset(name.as_ptr(), member.as_ptr()) };
+            if offset != i64::from(f.offset) {
+                errors.push(format!("{}.{}: offset {offset} in the C++ build, {} on the host", s.name, f.name, f.offset));
+            }
+        }
+    }
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("the CPU build's structs differ from host/src/layout.rs:\n  {}", errors.join("\n  ")))
+    }
+}
+
+/// Renders on the CPU with the shared GLSL built as C++.
+pub struct CpuRenderer {
+    pub threads: usize,
+}
+
+impl CpuRenderer {
+    /// Uses every core; checks the C++ struct layouts first.
+    pub fn new() -> Result<CpuRenderer, String> {
+        check_layouts()?;
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        Ok(CpuRenderer { threads })
+    }
+
+    pub fn render(&self, data: &FrameData) -> Picture {
+        let (width, height) = (data.frame.width, data.frame.height);
+        let mut pixels = vec![PixelOut::default(); width as usize * height as usize];
+        let row_len = width as usize;
+        // Jobs: disjoint slices of ROWS_PER_JOB rows, taken in order by whichever thread is free.
+        let jobs = Mutex::new(pixels.chunks_mut(row_len * ROWS_PER_JOB as usize).enumerate());
+        let done = AtomicU32::new(0);
+        std::thread::scope(|scope| {
+            for _ in 0..self.threads.max(1) {
+                scope.spawn(|| loop {
+                    let Some((job, slice)) = jobs.lock().unwrap().next() else { break };
+                    let begin = job as u32 * ROWS_PER_JOB;
+                    let end = (begin + ROWS_PER_JOB).min(height);
+                    // SAFETY: the buffers outlive the call and hold the
+                    // structs of layout.h (checked by check_layouts);
+                    // `slice` holds exactly (end - begin) rows; the C++ code
+                    // reads only primitive_count primitives and light_count
+                    // lights, and materials indexed by primitives.
+                    unsafe {
+                        raycast_cpu_render_rows(
+                            (&data.frame as *const layout::Frame).cast(),
+                            data.primitives.as_ptr().cast(),
+                            data.materials.as_ptr().cast(),
+                            data.lights.as_ptr().cast(),
+                            begin,
+                            end,
+                            slice.as_mut_ptr().cast(),
+                        );
+                    }
+                    done.fetch_add(end - begin, Ordering::Relaxed);
+                });
+            }
+        });
+        debug_assert_eq!(done.load(Ordering::Relaxed), height);
+        Picture { width, height, pixels }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpp_layouts_match_the_host() {
+        check_layouts().unwrap();
+    }
+}

@@ -1,0 +1,35 @@
+//! Compiling a GLSL kernel to SPIR-V at runtime with glslang, for kernels
+//! loaded from a source folder (`--shaders DIR`, live reload).
+
+use super::{glslang_args, GLSLANG};
+use std::path::Path;
+
+/// Compiles `src` (a `.comp` kernel) with its folder on the include path.
+/// The error carries glslang's own messages (file:line: …).
+pub fn compile_kernel(src: &Path) -> Result<Vec<u8>, String> {
+    if !src.is_file() {
+        return Err(format!("kernel source {} does not exist", src.display()));
+    }
+    let include = src.parent().unwrap_or(Path::new("."));
+    let out = std::env::temp_dir().join(format!(
+        "raycast-{}-{}.spv",
+        std::process::id(),
+        src.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+    ));
+    let output = std::process::Command::new(GLSLANG)
+        .args(glslang_args(src, include, &out))
+        .output()
+        .map_err(|e| format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"))?;
+    let result = if output.status.success() {
+        std::fs::read(&out).map_err(|e| format!("cannot read {}: {e}", out.display()))
+    } else {
+        Err(format!(
+            "{GLSLANG} failed on {}:\n{}{}",
+            src.display(),
+            String::from_utf8_lossy(&output.stdout).trim_end(),
+            String::from_utf8_lossy(&output.stderr).trim_end()
+        ))
+    };
+    let _ = std::fs::remove_file(&out);
+    result
+}
