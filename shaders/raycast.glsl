@@ -13,8 +13,8 @@
 //   - literals with the f suffix, at most 9 significant digits;
 //   - no swizzles on the left of =, no out/inout, no struct constructors.
 //
-// The includer declares, before including this file: `frame` (Frame),
-// `primitives[]`, `materials[]`, `lights[]` (see layout.h).
+// The includer declares, before including this file, the scene buffers:
+// scene_buffers.glsl in GLSL, host/cpu/shared.hpp in C++.
 
 #ifndef RAYCAST_GLSL
 #define RAYCAST_GLSL

@@ -8,10 +8,7 @@
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE, local_size_z = 1) in;
 
-layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
-layout(std430, binding = BINDING_PRIMITIVES) readonly buffer PrimitiveBlock { Primitive primitives[]; };
-layout(std430, binding = BINDING_MATERIALS) readonly buffer MaterialBlock { Material materials[]; };
-layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light lights[]; };
+#include "scene_buffers.glsl"
 layout(std430, binding = BINDING_PIXELS) writeonly buffer PixelBlock { PixelOut pixels[]; };
 
 #include "raycast.glsl"

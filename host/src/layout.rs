@@ -167,13 +167,20 @@ impl PixelOut {
     }
 }
 
-/// The bindings of the render kernel (`shaders/render.comp`).
-pub fn render_bindings() -> Vec<BindingLayout> {
+/// The scene's read-only bindings, as shaders/scene_buffers.glsl declares them
+/// for every kernel that includes raycast.glsl.
+pub fn scene_bindings() -> Vec<BindingLayout> {
     vec![
         BindingLayout { binding: BINDING_FRAME, shape: BufferShape::Single(Frame::layout()), writable: false },
         BindingLayout { binding: BINDING_PRIMITIVES, shape: BufferShape::RuntimeArray(Primitive::layout()), writable: false },
         BindingLayout { binding: BINDING_MATERIALS, shape: BufferShape::RuntimeArray(Material::layout()), writable: false },
         BindingLayout { binding: BINDING_LIGHTS, shape: BufferShape::RuntimeArray(Light::layout()), writable: false },
-        BindingLayout { binding: BINDING_PIXELS, shape: BufferShape::RuntimeArray(PixelOut::layout()), writable: true },
     ]
+}
+
+/// The bindings of the render kernel (`shaders/render.comp`): the scene and the pixels.
+pub fn render_bindings() -> Vec<BindingLayout> {
+    let mut b = scene_bindings();
+    b.push(BindingLayout { binding: BINDING_PIXELS, shape: BufferShape::RuntimeArray(PixelOut::layout()), writable: true });
+    b
 }

@@ -1,0 +1,12 @@
+// scene_buffers.glsl: the scene's storage buffers as every kernel that
+// includes raycast.glsl declares them (GLSL only; the C++ build declares its
+// own in host/cpu/shared.hpp). Include after layout.h, before raycast.glsl.
+#ifndef RAYCAST_SCENE_BUFFERS_GLSL
+#define RAYCAST_SCENE_BUFFERS_GLSL
+
+layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
+layout(std430, binding = BINDING_PRIMITIVES) readonly buffer PrimitiveBlock { Primitive primitives[]; };
+layout(std430, binding = BINDING_MATERIALS) readonly buffer MaterialBlock { Material materials[]; };
+layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light lights[]; };
+
+#endif
