@@ -1,0 +1,41 @@
+// preview.h: the structs and binding numbers the preview kernel
+// (preview.comp) adds to those of layout.h, written once. Same rules as
+// layout.h: vec4 / mat4 / float / int / uint members, vec4 before scalars,
+// every struct a multiple of 16 bytes. The Rust mirror is
+// host/src/preview/layout.rs, checked against naga's reflection at start-up;
+// the #defines become Rust constants through host/build.rs.
+#ifndef RAYCAST_PREVIEW_H
+#define RAYCAST_PREVIEW_H
+
+// Descriptor set 0 bindings, after layout.h's 0..4 (BINDING_PIXELS holds
+// the first sample's hit and the quantised average colour).
+#define BINDING_PREVIEW 5 // PreviewFrame (one)
+#define BINDING_ACCUM 6   // AccumPixel[], one per pixel, read and written
+#define BINDING_DISPLAY 7 // rgba8 storage image, copied to the window
+
+// PreviewFrame.mode: what the window shows. Colour and normal are
+// Frame.aov (AOV_COLOR, AOV_NORMAL) through sample_pixel; depth and id are
+// drawn from the hit here.
+#define PREVIEW_COLOR 0u
+#define PREVIEW_NORMAL 1u
+#define PREVIEW_DEPTH 2u
+#define PREVIEW_ID 3u
+
+struct PreviewFrame {
+    // xy: this sample's offset from the pixel centre, in pixels (0, 0 for
+    // sample 0); zw unused.
+    vec4 jitter;
+    // PREVIEW_DEPTH: x the distance drawn white, y the distance drawn
+    // black; zw unused.
+    vec4 depth_range;
+    uint sample_index; // 0 starts the sum over again
+    uint mode;         // PREVIEW_*
+    uint pad0;
+    uint pad1;
+};
+
+struct AccumPixel {
+    vec4 sum; // xyz: the sum of the samples' colours so far; w unused
+};
+
+#endif
