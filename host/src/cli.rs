@@ -34,6 +34,8 @@ enum Command {
     Render(RenderArgs),
     /// Render on the device and on the CPU build and compare every buffer bit for bit.
     Check(CheckArgs),
+    /// Show a scene in a window, refined while still, reloaded when its file or the shaders change.
+    Preview(crate::preview::PreviewArgs),
     /// List the Vulkan devices.
     Devices,
 }
@@ -117,7 +119,7 @@ enum AovArg {
 }
 
 /// A failure to report: the message and the exit code.
-struct Failure(String, u8);
+pub(crate) struct Failure(pub(crate) String, pub(crate) u8);
 
 impl<E: std::fmt::Display> From<E> for Failure {
     fn from(e: E) -> Self {
@@ -126,7 +128,7 @@ impl<E: std::fmt::Display> From<E> for Failure {
 }
 
 /// A scene error: it already reads `file:line:col: error: …`.
-fn scene_failure(e: String) -> Failure {
+pub(crate) fn scene_failure(e: String) -> Failure {
     Failure(e, 1)
 }
 
@@ -142,6 +144,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render(&args),
         Command::Check(args) => check(&args),
+        Command::Preview(args) => crate::preview::run(&args),
         Command::Devices => devices(),
     };
     match result {
@@ -153,11 +156,11 @@ pub fn main() -> ExitCode {
     }
 }
 
-fn validation_wanted(flag: bool) -> bool {
+pub(crate) fn validation_wanted(flag: bool) -> bool {
     flag || std::env::var("RAYCAST_VALIDATION").is_ok_and(|v| v == "1")
 }
 
-fn parse_device(arg: &Option<String>) -> Option<DeviceSelector> {
+pub(crate) fn parse_device(arg: &Option<String>) -> Option<DeviceSelector> {
     arg.as_ref().map(|s| match s.parse::<usize>() {
         Ok(i) => DeviceSelector::Index(i),
         Err(_) => DeviceSelector::Name(s.clone()),
@@ -165,7 +168,7 @@ fn parse_device(arg: &Option<String>) -> Option<DeviceSelector> {
 }
 
 /// Fails with exit code 3 if the validation layer said anything.
-fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
+pub(crate) fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
     if messages.is_empty() {
         return Ok(());
     }

@@ -13,5 +13,6 @@ pub mod frame;
 pub mod gpu;
 pub mod image_io;
 pub mod layout;
+pub mod preview;
 pub mod render;
 pub mod scene;

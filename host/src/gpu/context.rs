@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use ash::vk;
 
+use super::present::Surface;
 use super::{GpuError, Kernel};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -94,7 +95,7 @@ pub(crate) struct InstanceParts {
     pub(crate) instance: ash::Instance,
     /// The callback's user data points into this; it outlives the instance.
     messages: Sink,
-    entry: ash::Entry,
+    pub(crate) entry: ash::Entry,
 }
 
 /// A physical device and what we know of it.
@@ -111,13 +112,17 @@ pub(crate) struct Inner {
     /// Resources of runs that timed out, freed after waiting for the device at drop.
     abandoned: Mutex<Vec<RunResources>>,
     pub(crate) device: ash::Device,
-    queue: Mutex<vk::Queue>,
-    queue_family: u32,
+    pub(crate) queue: Mutex<vk::Queue>,
+    pub(crate) queue_family: u32,
     info: DeviceInfo,
-    limits: vk::PhysicalDeviceLimits,
+    pub(crate) limits: vk::PhysicalDeviceLimits,
     max_allocation: u64,
-    memory: vk::PhysicalDeviceMemoryProperties,
-    timeout: Duration,
+    pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
+    pub(crate) timeout: Duration,
+    pub(crate) physical: vk::PhysicalDevice,
+    /// The window surface of `GpuContext::with_surface`; destroyed after the
+    /// device, before the instance (field order).
+    pub(crate) surface: Option<Surface>,
     pub(crate) parts: InstanceParts,
 }
 
@@ -166,10 +171,16 @@ impl InstanceParts {
     pub(crate) fn new(validation: bool) -> Result<InstanceParts, GpuError> {
         // SAFETY: loading libvulkan runs its initialisers; that is what the loader is for.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::LoaderMissing { detail: e.to_string() })?;
-        Self::with_entry(entry, validation)
+        Self::with_entry(entry, validation, &[])
     }
 
-    fn with_entry(entry: ash::Entry, validation: bool) -> Result<InstanceParts, GpuError> {
+    /// [`InstanceParts::new`] with the instance extensions in `extra` enabled as well.
+    pub(crate) fn new_with(validation: bool, extra: &[String]) -> Result<InstanceParts, GpuError> {
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::LoaderMissing { detail: e.to_string() })?;
+        Self::with_entry(entry, validation, extra)
+    }
+
+    fn with_entry(entry: ash::Entry, validation: bool, extra: &[String]) -> Result<InstanceParts, GpuError> {
         let loader_version = unsafe { entry.try_enumerate_instance_version() }
             .map_err(GpuError::vk("vkEnumerateInstanceVersion"))?
             .unwrap_or(vk::API_VERSION_1_0);
@@ -183,6 +194,22 @@ impl InstanceParts {
         let has = |list: &[String], name: &CStr| list.iter().any(|e| e.as_bytes() == name.to_bytes());
 
         let mut extensions: Vec<&CStr> = Vec::new();
+        let extra: Vec<std::ffi::CString> = extra
+            .iter()
+            .map(|e| std::ffi::CString::new(e.as_str()).unwrap_or_default())
+            .collect();
+        for e in &extra {
+            if !has(&available, e) {
+                return Err(GpuError::Presentation {
+                    what: format!(
+                        "the Vulkan instance extension {} is not available; install a Vulkan driver with \
+                         window-system support (e.g. Debian's mesa-vulkan-drivers)",
+                        e.to_string_lossy()
+                    ),
+                });
+            }
+            extensions.push(e);
+        }
         let mut layers: Vec<&CStr> = Vec::new();
         let mut flags = vk::InstanceCreateFlags::empty();
         if has(&available, ash::khr::portability_enumeration::NAME) {
@@ -357,7 +384,49 @@ impl GpuContext {
     /// Opens the selected (or best) device with one compute queue.
     pub fn new(opts: &GpuOptions) -> Result<GpuContext, GpuError> {
         let parts = InstanceParts::new(opts.validation)?;
+        Self::open(opts, parts, None)
+    }
+
+    /// Opens a device that can also present to a window: creates the instance
+    /// with `instance_extensions` (the window system's, e.g. from
+    /// glfwGetRequiredInstanceExtensions), lets `create_surface` make the
+    /// window's surface on it, and opens the selected (or best) device whose
+    /// compute queue can present to that surface, with VK_KHR_swapchain.
+    pub fn with_surface(
+        opts: &GpuOptions,
+        instance_extensions: &[String],
+        create_surface: impl FnOnce(vk::Instance) -> Result<vk::SurfaceKHR, String>,
+    ) -> Result<GpuContext, GpuError> {
+        let parts = InstanceParts::new_with(opts.validation, instance_extensions)?;
+        let handle = create_surface(parts.instance.handle())
+            .map_err(|e| GpuError::Presentation { what: format!("cannot create the window's Vulkan surface: {e}") })?;
+        let surface = Surface { loader: ash::khr::surface::Instance::new(&parts.entry, &parts.instance), handle };
+        // On an error below `surface` is dropped before `parts`: surface, then instance.
+        Self::open(opts, parts, Some(surface))
+    }
+
+    fn open(opts: &GpuOptions, parts: InstanceParts, surface: Option<Surface>) -> Result<GpuContext, GpuError> {
         let mut devices = parts.physical_devices()?;
+        if let Some(surface) = &surface {
+            // Only a compute family that can present counts, on a device with VK_KHR_swapchain.
+            for d in &mut devices {
+                let swapchain = d.extensions.iter().any(|e| e.as_bytes() == ash::khr::swapchain::NAME.to_bytes());
+                let families = unsafe { parts.instance.get_physical_device_queue_family_properties(d.handle) };
+                d.compute_family = families
+                    .iter()
+                    .enumerate()
+                    .position(|(i, f)| {
+                        swapchain
+                            && f.queue_count > 0
+                            && f.queue_flags.contains(vk::QueueFlags::COMPUTE)
+                            && unsafe {
+                                surface.loader.get_physical_device_surface_support(d.handle, i as u32, surface.handle)
+                            }
+                            .unwrap_or(false)
+                    })
+                    .map(|i| i as u32);
+            }
+        }
         let chosen = match &opts.device {
             Some(DeviceSelector::Index(i)) => devices.iter().position(|d| d.info.index == *i),
             Some(DeviceSelector::Name(n)) => {
@@ -381,6 +450,15 @@ impl GpuContext {
         };
         let physical = devices.swap_remove(chosen);
         let Some(queue_family) = physical.compute_family else {
+            if surface.is_some() {
+                return Err(GpuError::Presentation {
+                    what: format!(
+                        "the Vulkan device {} has no compute queue that can present to the window \
+                         (or no VK_KHR_swapchain); select another device",
+                        physical.info.name
+                    ),
+                });
+            }
             return Err(GpuError::NoComputeQueue { device: physical.info.name });
         };
 
@@ -400,6 +478,9 @@ impl GpuContext {
         let mut device_exts: Vec<&CStr> = Vec::new();
         if physical.extensions.iter().any(|e| e == "VK_KHR_portability_subset") {
             device_exts.push(c"VK_KHR_portability_subset");
+        }
+        if surface.is_some() {
+            device_exts.push(ash::khr::swapchain::NAME);
         }
         let ext_ptrs = cstrs(&device_exts);
         let priorities = [1.0f32];
@@ -424,6 +505,8 @@ impl GpuContext {
                 max_allocation,
                 memory,
                 timeout: opts.timeout,
+                physical: physical.handle,
+                surface,
                 parts,
             }),
         })
@@ -472,6 +555,11 @@ impl GpuContext {
         if !Arc::ptr_eq(&kernel.inner, &self.inner) {
             return Err(bad("the kernel was created on another GpuContext".into()));
         }
+        if !kernel.images().is_empty() {
+            return Err(bad("run() binds storage buffers only; a kernel with storage images needs a DescriptorSet \
+                            and a FrameLoop"
+                .into()));
+        }
 
         // Check the call against the kernel and the device limits before allocating.
         let (out_binding, out_bytes) = output;
@@ -491,20 +579,7 @@ impl GpuContext {
         }
         let buffer_size = |len: usize| (len as u64).max(MIN_BUFFER).next_multiple_of(4);
         for (binding, len) in inputs.iter().map(|(b, d)| (*b, d.len())).chain([(out_binding, out_bytes)]) {
-            let bytes = buffer_size(len);
-            let what = || kernel.binding_label(binding);
-            let range = inner.limits.max_storage_buffer_range as u64;
-            if bytes > range {
-                return Err(GpuError::TooLarge { what: what(), bytes, limit: range, limit_name: "maxStorageBufferRange" });
-            }
-            if bytes > inner.max_allocation {
-                return Err(GpuError::TooLarge {
-                    what: what(),
-                    bytes,
-                    limit: inner.max_allocation,
-                    limit_name: "maxMemoryAllocationSize",
-                });
-            }
+            inner.check_storage_size(buffer_size(len), || kernel.binding_label(binding))?;
         }
 
         let _queue_guard = inner.queue.lock().unwrap_or_else(|p| p.into_inner());
@@ -637,6 +712,39 @@ impl GpuContext {
 }
 
 impl Inner {
+    /// Fails when a storage buffer of `bytes` exceeds maxStorageBufferRange or maxMemoryAllocationSize.
+    pub(crate) fn check_storage_size(&self, bytes: u64, what: impl Fn() -> String) -> Result<(), GpuError> {
+        let range = self.limits.max_storage_buffer_range as u64;
+        if bytes > range {
+            return Err(GpuError::TooLarge { what: what(), bytes, limit: range, limit_name: "maxStorageBufferRange" });
+        }
+        if bytes > self.max_allocation {
+            return Err(GpuError::TooLarge {
+                what: what(),
+                bytes,
+                limit: self.max_allocation,
+                limit_name: "maxMemoryAllocationSize",
+            });
+        }
+        Ok(())
+    }
+
+    /// One storage buffer as `create_buffer` makes it, owned by the caller
+    /// (destroy and free it); `size` is checked against the device limits.
+    pub(crate) fn create_owned_buffer(
+        &self,
+        size: u64,
+        readback: bool,
+        what: &str,
+    ) -> Result<(vk::Buffer, vk::DeviceMemory), GpuError> {
+        self.check_storage_size(size, || what.to_string())?;
+        let mut res = RunResources::new(self.device.clone());
+        let made = self.create_buffer(&mut res, size, readback, what)?;
+        // Hand it over: `res` must not destroy it.
+        res.buffers.clear();
+        Ok(made)
+    }
+
     /// A storage buffer in host-visible, host-coherent memory. Memory types are
     /// tried best first (device-local; host-cached for `readback`), falling
     /// back to the next when an allocation fails.
@@ -763,5 +871,5 @@ impl Drop for RunResources {
 #[cfg(test)]
 pub(crate) fn load_entry_from(path: &str) -> Result<InstanceParts, GpuError> {
     let entry = unsafe { ash::Entry::load_from(path) }.map_err(|e| GpuError::LoaderMissing { detail: e.to_string() })?;
-    InstanceParts::with_entry(entry, false)
+    InstanceParts::with_entry(entry, false, &[])
 }

@@ -40,6 +40,8 @@ pub enum GpuError {
     LayoutMismatch { kernel: String, mismatches: Vec<String> },
     /// `GpuContext::run` was called with buffers that do not fit the kernel.
     BadRun { kernel: String, message: String },
+    /// A window surface, swapchain or presentation problem (`what` says which and what to do).
+    Presentation { what: String },
 }
 
 impl GpuError {
@@ -170,6 +172,7 @@ impl fmt::Display for GpuError {
                 Ok(())
             }
             GpuError::BadRun { kernel, message } => write!(f, "kernel {kernel}: {message}"),
+            GpuError::Presentation { what } => write!(f, "cannot show the picture in a window: {what}"),
         }
     }
 }

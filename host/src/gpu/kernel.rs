@@ -6,7 +6,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::context::Inner;
-use super::{reflect, GpuContext, GpuError};
+use super::{reflect, GpuContext, GpuError, ImageBinding};
 use crate::layout::{BindingLayout, BufferShape};
 
 /// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
@@ -16,6 +16,7 @@ pub struct Kernel {
     pub(crate) set_layout: vk::DescriptorSetLayout,
     name: String,
     bindings: Vec<BindingLayout>,
+    images: Vec<ImageBinding>,
     workgroup_size: [u32; 3],
     /// Keeps the device alive while the kernel exists.
     pub(crate) inner: Arc<Inner>,
@@ -25,7 +26,19 @@ impl Kernel {
     /// Validates `spirv` with naga, checks its bindings and struct layouts
     /// against `expected` (`reflect::check_layouts`), then builds the pipeline.
     pub fn new(ctx: &GpuContext, name: &str, spirv: &[u8], expected: &[BindingLayout]) -> Result<Kernel, GpuError> {
-        let reflection = reflect::reflect(name, spirv, expected)?;
+        Kernel::with_images(ctx, name, spirv, expected, &[])
+    }
+
+    /// [`Kernel::new`] for a kernel that also binds storage images (`images`,
+    /// checked the same way); run it with a `DescriptorSet` and a `FrameLoop`.
+    pub fn with_images(
+        ctx: &GpuContext,
+        name: &str,
+        spirv: &[u8],
+        expected: &[BindingLayout],
+        images: &[ImageBinding],
+    ) -> Result<Kernel, GpuError> {
+        let reflection = reflect::reflect(name, spirv, expected, images)?;
         let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|e| GpuError::InvalidSpirv {
             kernel: name.to_string(),
             message: e.to_string(),
@@ -38,6 +51,7 @@ impl Kernel {
             set_layout: vk::DescriptorSetLayout::null(),
             name: name.to_string(),
             bindings: expected.to_vec(),
+            images: images.to_vec(),
             workgroup_size: reflection.workgroup_size,
             inner: ctx.inner.clone(),
         };
@@ -51,6 +65,13 @@ impl Kernel {
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
+            .chain(images.iter().map(|i| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i.binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            }))
             .collect();
         let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings);
         kernel.set_layout = unsafe { d.create_descriptor_set_layout(&info, None) }
@@ -88,6 +109,11 @@ impl Kernel {
     /// The bindings the kernel was checked against (all of descriptor set 0).
     pub fn bindings(&self) -> &[BindingLayout] {
         &self.bindings
+    }
+
+    /// The storage images the kernel was checked against (set 0).
+    pub fn images(&self) -> &[ImageBinding] {
+        &self.images
     }
 
     /// `kernel render: binding 4 (PixelOut[])`, for messages.

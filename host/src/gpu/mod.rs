@@ -1,5 +1,9 @@
 //! Vulkan: instance and device selection, validation, buffers, compute
 //! pipelines, dispatch and readback; naga validation and layout reflection.
+//! For a window: persistent buffers and storage images bound in a
+//! descriptor set (`buffer`, `image`), a swapchain (`present`) and a frame
+//! loop that dispatches, copies the image to the swapchain and presents
+//! (`frames`).
 //!
 //! Knows nothing of scenes: callers hand it SPIR-V, the expected
 //! `layout::BindingLayout`s and raw buffer bytes.
@@ -7,9 +11,13 @@
 include!("glslang_args.rs");
 
 mod compile;
+mod buffer;
 mod context;
 mod error;
+mod frames;
+mod image;
 mod kernel;
+mod present;
 pub mod reflect;
 #[cfg(test)]
 mod tests;
@@ -17,4 +25,8 @@ mod tests;
 pub use compile::compile_kernel;
 pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunTimings};
 pub use error::GpuError;
+pub use buffer::{Buffer, DescriptorSet, Resource};
+pub use frames::{FrameLoop, FrameStatus};
+pub use image::{ImageBinding, StorageImage};
 pub use kernel::Kernel;
+pub use present::{PresentMode, Swapchain};

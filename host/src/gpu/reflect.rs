@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use naga::{AddressSpace, ArraySize, Handle, Module, ShaderStage, StorageAccess, Type, TypeInner};
 
-use super::GpuError;
+use super::{GpuError, ImageBinding};
 use crate::layout::{BindingLayout, BufferShape, StructLayout};
 
 /// Where the host's layouts live, named in every host-vs-shader mismatch.
@@ -20,11 +20,26 @@ pub(crate) struct Reflection {
 /// Validates `spirv` with naga and checks its bindings and struct layouts
 /// against `expected`; every mismatch is listed in one error.
 pub fn check_layouts(name: &str, spirv: &[u8], expected: &[BindingLayout]) -> Result<(), GpuError> {
-    reflect(name, spirv, expected).map(|_| ())
+    reflect(name, spirv, expected, &[]).map(|_| ())
 }
 
-/// [`check_layouts`], returning the kernel's workgroup size.
-pub(crate) fn reflect(name: &str, spirv: &[u8], expected: &[BindingLayout]) -> Result<Reflection, GpuError> {
+/// [`check_layouts`] for a kernel that also has storage images (`images`).
+pub fn check_layouts_with_images(
+    name: &str,
+    spirv: &[u8],
+    expected: &[BindingLayout],
+    images: &[ImageBinding],
+) -> Result<(), GpuError> {
+    reflect(name, spirv, expected, images).map(|_| ())
+}
+
+/// [`check_layouts_with_images`], returning the kernel's workgroup size.
+pub(crate) fn reflect(
+    name: &str,
+    spirv: &[u8],
+    expected: &[BindingLayout],
+    images: &[ImageBinding],
+) -> Result<Reflection, GpuError> {
     let invalid = |message: String| GpuError::InvalidSpirv { kernel: name.to_string(), message };
     let options = naga::front::spv::Options {
         adjust_coordinate_space: false,
@@ -43,7 +58,7 @@ pub(crate) fn reflect(name: &str, spirv: &[u8], expected: &[BindingLayout]) -> R
     let workgroup_size = entry.workgroup_size;
 
     let access = spirv_storage_access(spirv);
-    let mismatches = Checker { kernel: name, module: &module, access: &access }.check(expected);
+    let mismatches = Checker { kernel: name, module: &module, access: &access, images }.check(expected);
     if mismatches.is_empty() {
         Ok(Reflection { workgroup_size })
     } else {
@@ -155,6 +170,8 @@ struct Checker<'a> {
     module: &'a Module,
     /// Storage access by `(set, binding)` from [`spirv_storage_access`].
     access: &'a BTreeMap<(u32, u32), StorageAccess>,
+    /// Bindings the host expects to be 2D rgba8 storage images.
+    images: &'a [ImageBinding],
 }
 
 impl Checker<'_> {
@@ -177,6 +194,15 @@ impl Checker<'_> {
                 .filter(|n| !n.is_empty())
                 .or_else(|| self.module.types[var.ty].name.clone())
                 .unwrap_or_else(|| "?".into());
+            if let (AddressSpace::Handle, Some(image)) =
+                (var.space, self.images.iter().find(|i| i.binding == rb.binding && rb.group == 0))
+            {
+                seen.insert(rb.binding, ());
+                if let Some(line) = self.check_image(image, var.ty) {
+                    out.push((rb.binding, line));
+                }
+                continue;
+            }
             let access = match var.space {
                 AddressSpace::Storage { access } => {
                     access & self.access.get(&(rb.group, rb.binding)).copied().unwrap_or(access)
@@ -213,6 +239,20 @@ impl Checker<'_> {
                 ))),
             }
         }
+        for image in self.images {
+            if by_binding.contains_key(&image.binding) {
+                out.push((image.binding, format!(
+                    "kernel {kernel}: binding {} is listed as both a buffer and an image on the host",
+                    image.binding
+                )));
+            } else if !seen.contains_key(&image.binding) {
+                out.push((image.binding, format!(
+                    "kernel {kernel}: binding {} (storage image) is expected by the host but not declared in \
+                     the shader (as `layout(rgba8) uniform image2D`)",
+                    image.binding
+                )));
+            }
+        }
         for exp in expected {
             if !seen.contains_key(&exp.binding) {
                 out.push((exp.binding, format!(
@@ -225,6 +265,29 @@ impl Checker<'_> {
         }
         out.sort_by_key(|(binding, _)| *binding);
         out.into_iter().map(|(_, line)| line).collect()
+    }
+
+    /// The mismatch, if any, of a storage image binding: a 2D, non-arrayed
+    /// rgba8 storage image, writable exactly when the host says so.
+    fn check_image(&self, exp: &ImageBinding, ty: Handle<Type>) -> Option<String> {
+        let at = format!("kernel {}: binding {} (storage image)", self.kernel, exp.binding);
+        match &self.module.types[ty].inner {
+            TypeInner::Image {
+                dim: naga::ImageDimension::D2,
+                arrayed: false,
+                class: naga::ImageClass::Storage { format: naga::StorageFormat::Rgba8Unorm, access },
+            } => {
+                let writable = access.contains(StorageAccess::STORE);
+                (writable != exp.writable).then(|| {
+                    format!(
+                        "{at}: {} in the shader, {} on the host",
+                        if writable { "writable" } else { "read-only" },
+                        if exp.writable { "writable" } else { "read-only" }
+                    )
+                })
+            }
+            other => Some(format!("{at}: the shader declares {other:?}; expected `layout(rgba8) uniform image2D`")),
+        }
     }
 
     /// `Foo[]` / `Foo` for the shader's block type, when it has the expected form.

@@ -1,0 +1,210 @@
+//! Persistent resources for kernels that run many times (the preview):
+//! `Buffer`, a host-visible storage buffer that stays mapped, and
+//! `DescriptorSet`, a kernel's set 0 bound to buffers and storage images.
+//! One-shot work uses `GpuContext::run` instead.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::context::Inner;
+use super::{GpuContext, GpuError, Kernel, StorageImage};
+
+/// Storage buffers cannot be empty; shorter ones get this many bytes.
+const MIN_BUFFER: u64 = 16;
+
+/// A storage buffer in host-visible, host-coherent memory, mapped for its
+/// whole life. Reads and writes are plain copies: the caller makes sure the
+/// device is not using it (`FrameLoop::wait`).
+pub struct Buffer {
+    pub(crate) buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    mapped: *mut u8,
+    /// Bytes the caller asked for (the buffer may be larger).
+    len: usize,
+    what: String,
+    inner: Arc<Inner>,
+}
+
+impl Buffer {
+    /// A buffer of at least `len` bytes, every byte zero. `readback` prefers
+    /// host-cached memory (for buffers the host reads); `what` names it in errors.
+    pub fn new(ctx: &GpuContext, len: usize, readback: bool, what: &str) -> Result<Buffer, GpuError> {
+        let size = (len as u64).max(MIN_BUFFER).next_multiple_of(4);
+        let (buffer, memory) = ctx.inner.create_owned_buffer(size, readback, what)?;
+        let mut b = Buffer {
+            buffer,
+            memory,
+            mapped: std::ptr::null_mut(),
+            len,
+            what: what.to_string(),
+            inner: ctx.inner.clone(),
+        };
+        let ptr = unsafe { ctx.inner.device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+            .map_err(GpuError::vk("vkMapMemory"))?;
+        b.mapped = ptr as *mut u8;
+        // SAFETY: the mapping covers the whole allocation, at least `size` bytes.
+        unsafe { std::ptr::write_bytes(b.mapped, 0, size as usize) };
+        Ok(b)
+    }
+
+    /// A buffer holding `bytes`.
+    pub fn with_data(ctx: &GpuContext, bytes: &[u8], what: &str) -> Result<Buffer, GpuError> {
+        let b = Buffer::new(ctx, bytes.len(), false, what)?;
+        b.write(0, bytes);
+        Ok(b)
+    }
+
+    /// The length asked for at creation.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Copies `bytes` to `offset`. Panics when they do not fit.
+    pub fn write(&self, offset: usize, bytes: &[u8]) {
+        assert!(offset + bytes.len() <= self.len, "{}: write of {} bytes at {offset} past its end", self.what, bytes.len());
+        // SAFETY: in bounds of the mapping (checked above); host-coherent memory.
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), self.mapped.add(offset), bytes.len()) };
+    }
+
+    /// Copies `len` bytes from `offset`. Panics when they are out of range.
+    pub fn read(&self, offset: usize, len: usize) -> Vec<u8> {
+        assert!(offset + len <= self.len, "{}: read of {len} bytes at {offset} past its end", self.what);
+        let mut out = vec![0u8; len];
+        // SAFETY: in bounds of the mapping (checked above).
+        unsafe { std::ptr::copy_nonoverlapping(self.mapped.add(offset), out.as_mut_ptr(), len) };
+        out
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        let d = &self.inner.device;
+        unsafe {
+            if !self.mapped.is_null() {
+                d.unmap_memory(self.memory);
+            }
+            d.destroy_buffer(self.buffer, None);
+            d.free_memory(self.memory, None);
+        }
+    }
+}
+
+/// What a binding of a `DescriptorSet` is bound to.
+#[derive(Clone, Copy)]
+pub enum Resource<'a> {
+    Buffer(&'a Buffer),
+    Image(&'a StorageImage),
+}
+
+/// A kernel's descriptor set 0 with every binding bound. Rebuild it when a
+/// resource is replaced (and only while no frame that uses it is in flight).
+pub struct DescriptorSet {
+    pool: vk::DescriptorPool,
+    pub(crate) set: vk::DescriptorSet,
+    /// The kernel's pipeline layout it was made for, checked at dispatch.
+    pub(crate) set_layout: vk::DescriptorSetLayout,
+    inner: Arc<Inner>,
+}
+
+impl DescriptorSet {
+    /// Binds each of the kernel's bindings (storage buffers and storage
+    /// images) to a resource; every binding must be given exactly once, with
+    /// the kind the kernel declares.
+    pub fn new(kernel: &Kernel, resources: &[(u32, Resource<'_>)]) -> Result<DescriptorSet, GpuError> {
+        let bad = |message: String| GpuError::BadRun { kernel: kernel.name().to_string(), message };
+        let inner = &kernel.inner;
+        let mut given: Vec<u32> = resources.iter().map(|(b, _)| *b).collect();
+        given.sort_unstable();
+        let mut wanted: Vec<u32> = kernel
+            .bindings()
+            .iter()
+            .map(|b| b.binding)
+            .chain(kernel.images().iter().map(|i| i.binding))
+            .collect();
+        wanted.sort_unstable();
+        if given != wanted {
+            return Err(bad(format!(
+                "the descriptor set was given bindings {given:?}, the kernel declares {wanted:?}; \
+                 pass each binding exactly once"
+            )));
+        }
+        for (binding, resource) in resources {
+            let is_image = kernel.images().iter().any(|i| i.binding == *binding);
+            let same_device = match resource {
+                Resource::Buffer(b) => Arc::ptr_eq(&b.inner, inner),
+                Resource::Image(i) => Arc::ptr_eq(i.inner(), inner),
+            };
+            if !same_device {
+                return Err(bad(format!("binding {binding}: the resource was created on another GpuContext")));
+            }
+            match (resource, is_image) {
+                (Resource::Image(_), false) => {
+                    return Err(bad(format!("{} is a storage buffer, not an image", kernel.binding_label(*binding))))
+                }
+                (Resource::Buffer(_), true) => {
+                    return Err(bad(format!("binding {binding} is a storage image, not a buffer")))
+                }
+                _ => {}
+            }
+        }
+
+        let buffers = resources.iter().filter(|(_, r)| matches!(r, Resource::Buffer(_))).count() as u32;
+        let images = resources.len() as u32 - buffers;
+        let mut sizes = Vec::new();
+        if buffers > 0 {
+            sizes.push(vk::DescriptorPoolSize::default().ty(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(buffers));
+        }
+        if images > 0 {
+            sizes.push(vk::DescriptorPoolSize::default().ty(vk::DescriptorType::STORAGE_IMAGE).descriptor_count(images));
+        }
+        let d = &inner.device;
+        let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
+        let pool = unsafe { d.create_descriptor_pool(&pool_info, None) }.map_err(GpuError::vk("vkCreateDescriptorPool"))?;
+        let mut out = DescriptorSet { pool, set: vk::DescriptorSet::null(), set_layout: kernel.set_layout, inner: inner.clone() };
+        let set_layouts = [kernel.set_layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts);
+        out.set = unsafe { d.allocate_descriptor_sets(&alloc) }.map_err(GpuError::vk("vkAllocateDescriptorSets"))?[0];
+
+        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = resources
+            .iter()
+            .map(|(_, r)| match r {
+                Resource::Buffer(b) => [vk::DescriptorBufferInfo::default().buffer(b.buffer).offset(0).range(vk::WHOLE_SIZE)],
+                Resource::Image(_) => [vk::DescriptorBufferInfo::default()],
+            })
+            .collect();
+        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
+            .iter()
+            .map(|(_, r)| match r {
+                Resource::Image(i) => {
+                    [vk::DescriptorImageInfo::default().image_view(i.view).image_layout(vk::ImageLayout::GENERAL)]
+                }
+                Resource::Buffer(_) => [vk::DescriptorImageInfo::default()],
+            })
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = resources
+            .iter()
+            .enumerate()
+            .map(|(k, (binding, r))| {
+                let w = vk::WriteDescriptorSet::default().dst_set(out.set).dst_binding(*binding);
+                match r {
+                    Resource::Buffer(_) => w.descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_infos[k]),
+                    Resource::Image(_) => w.descriptor_type(vk::DescriptorType::STORAGE_IMAGE).image_info(&image_infos[k]),
+                }
+            })
+            .collect();
+        unsafe { d.update_descriptor_sets(&writes, &[]) };
+        Ok(out)
+    }
+}
+
+impl Drop for DescriptorSet {
+    fn drop(&mut self) {
+        // Destroying the pool frees its set.
+        unsafe { self.inner.device.destroy_descriptor_pool(self.pool, None) };
+    }
+}

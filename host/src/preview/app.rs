@@ -1,0 +1,684 @@
+//! The preview window and its loop: input, camera, reloads, title, picking,
+//! screenshots. Frames come from `PreviewRenderer`; this file decides what
+//! to draw (camera, size, output mode, sample) and when.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use ash::vk::{self, Handle};
+use glam::DVec3;
+use glfw::{Action, Key, MouseButton, WindowEvent};
+
+use crate::cli::{check_validation, load_scene, parse_device, scene_failure, validation_wanted, Failure};
+use crate::frame::{self, FrameData, RenderSettings};
+use crate::gpu::{FrameStatus, GpuContext, GpuOptions, PresentMode};
+use crate::image_io::{self, Rgb8};
+use crate::layout::{self, Frame, NO_HIT};
+use crate::render::Picture;
+use crate::scene::{FlattenLimits, ParseOptions, Scene, Shape};
+
+use super::camera::{scene_bounds, Bounds, CameraControl};
+use super::layout::{PreviewFrame, PREVIEW_COLOR, PREVIEW_DEPTH, PREVIEW_ID, PREVIEW_NORMAL};
+use super::reload::{Reload, WatchConfig, Watcher, KERNEL_FILE};
+use super::renderer::{embedded_kernel, PreviewRenderer};
+use super::{PresentArg, PreviewArgs};
+
+/// Samples per pixel after which an interactive preview stops drawing until something changes.
+const MAX_SAMPLES: u32 = 1024;
+/// A press and release of the left button closer than this (pixels) is a click, not a drag.
+const CLICK_SLOP: f64 = 3.0;
+/// Orbit degrees per pixel of drag.
+const ORBIT_DEG_PER_PIXEL: f64 = 0.3;
+const TITLE_INTERVAL: Duration = Duration::from_millis(250);
+
+const HELP: &str = "\
+preview controls:
+  left drag       orbit about the focus        left click    print what the pixel sees
+  right/mid drag  pan                          wheel         dolly toward / away from the focus
+  W A S D         fly forward, left, back, right (Shift: faster)
+  Q E             fly down, up
+  R               back to the scene's camera   F             frame the whole scene
+  C               print the camera as a <cameradata> block
+  1 2 3 4         show colour, normal, depth, object id
+  H M T           toggle the shadows, reflections, textures flags (not rendered yet: the kernel ignores them)
+  F1              this help                    Esc           quit";
+
+pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
+    let settings = RenderSettings { width: args.width, height: args.height, ..RenderSettings::default() };
+    settings.validate()?;
+    let parse = ParseOptions { assets: args.assets.clone() };
+    let limits = FlattenLimits { max_primitives: args.max_primitives };
+    let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(scene_failure)?;
+    let data = frame::build(&scene, &settings);
+    for note in &data.notes {
+        eprintln!("raycast: note: {note}");
+    }
+    let (shaders, compile_at_start) = shader_folder(args.shaders.as_deref())?;
+
+    // The window. GLFW reports its errors through the callback.
+    let glfw_errors: Arc<Mutex<Vec<String>>> = Arc::default();
+    let sink = glfw_errors.clone();
+    let last_glfw_error = move || glfw_errors.lock().unwrap_or_else(|p| p.into_inner()).last().cloned().unwrap_or_default();
+    let mut glfw = glfw::init(move |_, description: String| {
+        sink.lock().unwrap_or_else(|p| p.into_inner()).push(description);
+    })
+    .map_err(|_| {
+        Failure::from(format!(
+            "cannot open a window: GLFW could not start ({}); run it on a desktop, or headless under `xvfb-run -a`",
+            last_glfw_error()
+        ))
+    })?;
+    if !glfw.vulkan_supported() {
+        return Err(Failure::from(format!(
+            "cannot open a window: GLFW finds no Vulkan loader ({}); install libvulkan1 and a driver \
+             (e.g. Debian's mesa-vulkan-drivers)",
+            last_glfw_error()
+        )));
+    }
+    let instance_extensions = glfw.get_required_instance_extensions().unwrap_or_default();
+    if instance_extensions.is_empty() {
+        return Err(Failure::from(format!(
+            "cannot open a window: no Vulkan surface extension for this window system ({})",
+            last_glfw_error()
+        )));
+    }
+    let fixed_size = args.screenshot.is_some() || args.frames.is_some();
+    glfw.window_hint(glfw::WindowHint::ClientApi(glfw::ClientApiHint::NoApi));
+    glfw.window_hint(glfw::WindowHint::Resizable(!fixed_size));
+    let (mut window, events) = glfw
+        .create_window(args.width, args.height, "raycast preview", glfw::WindowMode::Windowed)
+        .ok_or_else(|| Failure::from(format!("cannot open a window: {}", last_glfw_error())))?;
+    window.set_all_polling(true);
+
+    let options = GpuOptions {
+        device: parse_device(&args.device),
+        validation: validation_wanted(args.validate),
+        ..GpuOptions::default()
+    };
+    let context = Arc::new(GpuContext::with_surface(&options, &instance_extensions, |instance| {
+        let mut surface: glfw::ffi::VkSurfaceKHR = std::ptr::null_mut();
+        // SAFETY: `instance` is a live VkInstance with the extensions GLFW asked for.
+        let result = unsafe {
+            window.create_window_surface(instance.as_raw() as usize as glfw::ffi::VkInstance, std::ptr::null(), &mut surface)
+        };
+        if result != 0 {
+            return Err(format!("glfwCreateWindowSurface failed with {:?}", vk::Result::from_raw(result)));
+        }
+        Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
+    })?);
+    let info = context.info().clone();
+    println!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
+    println!("scene: {} ({} primitives, {} lights)", scene.path.display(), data.primitives.len(), data.lights.len());
+
+    let kernel = embedded_kernel(&context)?;
+    let (fw, fh) = window.get_framebuffer_size();
+    let window_size = [fw.max(1) as u32, fh.max(1) as u32];
+    let size = if fixed_size { [args.width, args.height] } else { window_size };
+    let mode = match args.present_mode {
+        PresentArg::Fifo => PresentMode::Fifo,
+        PresentArg::Mailbox => PresentMode::Mailbox,
+        PresentArg::Immediate => PresentMode::Immediate,
+    };
+    let renderer = PreviewRenderer::new(context.clone(), kernel, &data, size, window_size, mode)?;
+    let sc = renderer.swapchain();
+    if sc.mode() != sc.requested_mode() {
+        eprintln!("raycast: note: the window does not offer --present-mode {}; using fifo", sc.requested_mode().name());
+    }
+
+    let watcher = Watcher::spawn(WatchConfig {
+        scene: args.scene.clone(),
+        parse,
+        limits,
+        settings: settings.clone(),
+        shaders,
+        compile_at_start,
+        context: context.clone(),
+    });
+
+    let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
+    if args.screenshot.is_none() && args.frames.is_none() {
+        eprintln!("raycast: preview: F1 prints the controls, Esc quits");
+    }
+    let result = preview.run(&mut glfw, &mut window, &events, &watcher, args.frames.or(args.screenshot.as_ref().map(|_| 1)), args.screenshot.as_deref());
+
+    // Tear down in order: frames and buffers, the watcher's kernels, then
+    // what the validation layer said, then the device and the window.
+    drop(preview);
+    drop(watcher);
+    let messages = context.take_validation_messages();
+    drop(context);
+    drop(window);
+    result?;
+    check_validation(messages)
+}
+
+/// The shader folder to watch, and whether to compile from it at start
+/// (only when given on the command line).
+fn shader_folder(arg: Option<&Path>) -> Result<(Option<PathBuf>, bool), Failure> {
+    if let Some(dir) = arg {
+        if !dir.join(KERNEL_FILE).is_file() {
+            return Err(Failure::from(format!("--shaders {}: there is no {KERNEL_FILE} in it", dir.display())));
+        }
+        return Ok((Some(dir.to_path_buf()), true));
+    }
+    let source = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders"));
+    if source.join(KERNEL_FILE).is_file() {
+        Ok((Some(source.canonicalize().unwrap_or_else(|_| source.to_path_buf())), false))
+    } else {
+        eprintln!(
+            "raycast: note: shader reload is off: the source tree's shaders/ ({}) is not here; use --shaders DIR",
+            source.display()
+        );
+        Ok((None, false))
+    }
+}
+
+/// Mouse state between events.
+#[derive(Default)]
+struct Mouse {
+    cursor: (f64, f64),
+    /// Where the left button went down, while it is down.
+    left_from: Option<(f64, f64)>,
+    /// The left button moved past the click slop: it orbits.
+    orbiting: bool,
+    panning: bool,
+}
+
+/// Frame-time and ray-rate averages for the title.
+#[derive(Default)]
+struct Stats {
+    frame_ms: f64,
+    device_ms: Option<f64>,
+    last_submit: Option<Instant>,
+}
+
+impl Stats {
+    fn average(old: f64, new: f64) -> f64 {
+        if old == 0.0 {
+            new
+        } else {
+            old * 0.8 + new * 0.2
+        }
+    }
+}
+
+/// Everything the loop keeps.
+struct Preview {
+    scene: Scene,
+    data: FrameData,
+    bounds: Option<Bounds>,
+    camera: CameraControl,
+    device: String,
+    /// The picture stays at the size asked for (screenshots): the window is not resizable.
+    fixed_size: bool,
+    mode: u32,
+    shadows: bool,
+    reflections: bool,
+    textures: bool,
+    /// The sample the next frame draws; 0 restarts the accumulation.
+    sample: u32,
+    error: Option<String>,
+    mouse: Mouse,
+    stats: Stats,
+    renderer: PreviewRenderer,
+}
+
+fn mode_name(mode: u32) -> &'static str {
+    match mode {
+        PREVIEW_NORMAL => "normal",
+        PREVIEW_DEPTH => "depth",
+        PREVIEW_ID => "object id",
+        _ => "colour",
+    }
+}
+
+fn shape_name(shape: &Shape) -> &'static str {
+    match shape {
+        Shape::Cube => "cube",
+        Shape::Cone => "cone",
+        Shape::Cylinder => "cylinder",
+        Shape::Sphere => "sphere",
+        Shape::Torus => "torus",
+        Shape::Mesh { .. } => "mesh",
+    }
+}
+
+/// The i-th point of the Halton (2, 3) sequence, centred on 0: sub-pixel
+/// offsets in [-0.5, 0.5)², deterministic and evenly spread.
+fn jitter(i: u32) -> [f32; 2] {
+    fn radical_inverse(mut i: u32, base: u32) -> f64 {
+        let (mut f, mut r) = (1.0, 0.0);
+        while i > 0 {
+            f /= f64::from(base);
+            r += f * f64::from(i % base);
+            i /= base;
+        }
+        r
+    }
+    [(radical_inverse(i, 2) - 0.5) as f32, (radical_inverse(i, 3) - 0.5) as f32]
+}
+
+impl Preview {
+    fn new(scene: Scene, data: FrameData, device: String, fixed_size: bool, renderer: PreviewRenderer) -> Preview {
+        let bounds = scene_bounds(&scene);
+        let camera = CameraControl::new(&scene.camera, bounds);
+        Preview {
+            scene,
+            data,
+            bounds,
+            camera,
+            device,
+            fixed_size,
+            mode: PREVIEW_COLOR,
+            shadows: true,
+            reflections: true,
+            textures: true,
+            sample: 0,
+            error: None,
+            mouse: Mouse::default(),
+            stats: Stats::default(),
+            renderer,
+        }
+    }
+
+    /// The loop: until Esc, the window closes, or `frames` samples are drawn
+    /// (then the picture goes to `screenshot`).
+    fn run(
+        &mut self,
+        glfw: &mut glfw::Glfw,
+        window: &mut glfw::PWindow,
+        events: &glfw::GlfwReceiver<(f64, WindowEvent)>,
+        watcher: &Watcher,
+        frames: Option<u32>,
+        screenshot: Option<&Path>,
+    ) -> Result<(), Failure> {
+        let mut last_title = Instant::now() - TITLE_INTERVAL;
+        let mut last_tick = Instant::now();
+        let mut recreate = false;
+        loop {
+            // Input.
+            let idle = frames.is_none() && self.sample >= MAX_SAMPLES;
+            let (fw, fh) = window.get_framebuffer_size();
+            let minimised = fw <= 0 || fh <= 0 || window.is_iconified();
+            if idle || minimised {
+                glfw.wait_events_timeout(0.05);
+                // The pause is not a frame time.
+                self.stats.last_submit = None;
+            } else {
+                glfw.poll_events();
+            }
+            for (_, event) in glfw::flush_messages(events) {
+                match event {
+                    WindowEvent::FramebufferSize(..) => recreate = true,
+                    other => self.on_event(other, window)?,
+                }
+            }
+            if window.should_close() {
+                return Ok(());
+            }
+            let now = Instant::now();
+            let dt = (now - last_tick).as_secs_f64().min(0.1);
+            last_tick = now;
+            self.fly(window, dt);
+
+            // Reloads, done by the watcher thread.
+            while let Some(reload) = watcher.try_recv() {
+                self.on_reload(reload)?;
+            }
+
+            if last_title.elapsed() >= TITLE_INTERVAL {
+                window.set_title(&self.title());
+                last_title = Instant::now();
+            }
+            if minimised {
+                continue;
+            }
+            if recreate || self.renderer.swapchain().extent() != [fw as u32, fh as u32] {
+                recreate = false;
+                self.renderer.resize_window([fw as u32, fh as u32])?;
+                if !self.fixed_size && self.renderer.size() != [fw as u32, fh as u32] {
+                    self.renderer.resize([fw as u32, fh as u32])?;
+                    self.sample = 0;
+                }
+            }
+            if idle {
+                continue;
+            }
+
+            // One sample.
+            if let Some(t) = self.renderer.wait()? {
+                self.stats.device_ms = Some(Stats::average(self.stats.device_ms.unwrap_or(0.0), t.as_secs_f64() * 1e3));
+            }
+            let frame = self.frame();
+            let [jx, jy] = jitter(self.sample);
+            let preview = PreviewFrame {
+                jitter: [jx, jy, 0.0, 0.0],
+                depth_range: self.depth_range(),
+                sample_index: self.sample,
+                mode: self.mode,
+                pad0: 0,
+                pad1: 0,
+            };
+            match self.renderer.render(&frame, &preview, true)? {
+                FrameStatus::OutOfDate => {
+                    recreate = true;
+                    continue;
+                }
+                FrameStatus::Suboptimal => recreate = true,
+                FrameStatus::Done => {}
+            }
+            let now = Instant::now();
+            if let Some(prev) = self.stats.last_submit.replace(now) {
+                self.stats.frame_ms = Stats::average(self.stats.frame_ms, (now - prev).as_secs_f64() * 1e3);
+            }
+            self.sample += 1;
+
+            if let Some(n) = frames {
+                if self.sample >= n {
+                    if let Some(path) = screenshot {
+                        self.save(path)?;
+                    }
+                    return Ok(());
+                }
+            }
+        }
+    }
+
+    /// The Frame of this camera, size, mode and flags. The rest (scene
+    /// counts, coefficients) is `frame::build`'s, so the scene's own camera
+    /// gives its `raycast render` Frame bit for bit.
+    fn frame(&mut self) -> Frame {
+        let [w, h] = self.renderer.size();
+        let mut f = self.data.frame;
+        std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
+        let world_from_film = frame::world_from_film(&self.scene, w, h);
+        std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
+        // As frame::build: f64 to f32 per element.
+        f.world_from_film = world_from_film.to_cols_array_2d().map(|c| c.map(|x| x as f32));
+        let eye = self.camera.camera.pos;
+        f.eye = [eye.x as f32, eye.y as f32, eye.z as f32, 1.0];
+        f.width = w;
+        f.height = h;
+        f.aov = if self.mode == PREVIEW_NORMAL { layout::AOV_NORMAL } else { layout::AOV_COLOR };
+        f.flags = (if self.shadows { layout::FLAG_SHADOWS } else { 0 })
+            | (if self.reflections { layout::FLAG_REFLECTIONS } else { 0 })
+            | (if self.textures { layout::FLAG_TEXTURES } else { 0 });
+        f
+    }
+
+    /// Depth mode: white at the nearest point of the scene's bounding
+    /// sphere, black at the farthest.
+    fn depth_range(&self) -> [f32; 4] {
+        let Some(b) = self.bounds else { return [0.0, 10.0, 0.0, 0.0] };
+        let d = (b.center() - self.camera.camera.pos).length();
+        let r = b.radius();
+        [(d - r).max(0.0) as f32, (d + r).max(1e-3) as f32, 0.0, 0.0]
+    }
+
+    fn title(&self) -> String {
+        let [w, h] = self.renderer.size();
+        let rays = f64::from(w) * f64::from(h);
+        let ms = self.stats.device_ms.unwrap_or(self.stats.frame_ms);
+        let rate = if ms > 0.0 { rays / (ms * 1e-3) / 1e6 } else { 0.0 };
+        let on = |b: bool| if b { "on" } else { "off" };
+        let name = self.scene.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let mut t = format!(
+            "raycast preview | {name} | {} | {:.1} ms/frame, {rate:.2} Mrays/s | {} samples | {} | \
+             shadows {}, reflections {}, textures {} (not rendered yet)",
+            mode_name(self.mode),
+            self.stats.frame_ms,
+            self.sample,
+            self.device,
+            on(self.shadows),
+            on(self.reflections),
+            on(self.textures)
+        );
+        if let Some(e) = &self.error {
+            t.push_str(" | ERROR: ");
+            t.push_str(e);
+        }
+        t
+    }
+
+    fn restart(&mut self) {
+        self.sample = 0;
+    }
+
+    fn on_event(&mut self, event: WindowEvent, window: &mut glfw::PWindow) -> Result<(), Failure> {
+        match event {
+            WindowEvent::Close => window.set_should_close(true),
+            WindowEvent::Key(key, _, Action::Press, mods) => self.on_key(key, mods, window),
+            WindowEvent::MouseButton(button, action, _) => {
+                let at = self.mouse.cursor;
+                match (button, action) {
+                    (MouseButton::Button1, Action::Press) => {
+                        self.mouse.left_from = Some(at);
+                        self.mouse.orbiting = false;
+                    }
+                    (MouseButton::Button1, Action::Release) => {
+                        let clicked = self.mouse.left_from.take().is_some() && !self.mouse.orbiting;
+                        self.mouse.orbiting = false;
+                        if clicked {
+                            self.pick(at, window)?;
+                        }
+                    }
+                    (MouseButton::Button2 | MouseButton::Button3, Action::Press) => self.mouse.panning = true,
+                    (MouseButton::Button2 | MouseButton::Button3, Action::Release) => self.mouse.panning = false,
+                    _ => {}
+                }
+            }
+            WindowEvent::CursorPos(x, y) => {
+                let (dx, dy) = (x - self.mouse.cursor.0, y - self.mouse.cursor.1);
+                self.mouse.cursor = (x, y);
+                if let Some(from) = self.mouse.left_from {
+                    if !self.mouse.orbiting && ((x - from.0).powi(2) + (y - from.1).powi(2)).sqrt() > CLICK_SLOP {
+                        self.mouse.orbiting = true;
+                        // The drag so far counts.
+                        self.camera.orbit(-(x - from.0) * ORBIT_DEG_PER_PIXEL, (y - from.1) * ORBIT_DEG_PER_PIXEL);
+                        self.restart();
+                    } else if self.mouse.orbiting {
+                        self.camera.orbit(-dx * ORBIT_DEG_PER_PIXEL, dy * ORBIT_DEG_PER_PIXEL);
+                        self.restart();
+                    }
+                } else if self.mouse.panning && (dx != 0.0 || dy != 0.0) {
+                    let (_, wh) = window.get_size();
+                    self.camera.pan(dx, dy, f64::from(wh.max(1)));
+                    self.restart();
+                }
+            }
+            WindowEvent::Scroll(_, y) if y != 0.0 => {
+                self.camera.dolly(y);
+                self.restart();
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn on_key(&mut self, key: Key, _mods: glfw::Modifiers, window: &mut glfw::PWindow) {
+        let mode = match key {
+            Key::Num1 | Key::Kp1 => Some(PREVIEW_COLOR),
+            Key::Num2 | Key::Kp2 => Some(PREVIEW_NORMAL),
+            Key::Num3 | Key::Kp3 => Some(PREVIEW_DEPTH),
+            Key::Num4 | Key::Kp4 => Some(PREVIEW_ID),
+            _ => None,
+        };
+        if let Some(m) = mode {
+            self.mode = m;
+            self.restart();
+            return;
+        }
+        match key {
+            Key::Escape => window.set_should_close(true),
+            Key::R => {
+                self.camera.reset();
+                self.restart();
+            }
+            Key::F => {
+                if let Some(b) = self.bounds {
+                    let [w, h] = self.renderer.size();
+                    self.camera.frame(&b, f64::from(w) / f64::from(h));
+                    self.restart();
+                }
+            }
+            Key::C => println!("{}", self.camera.cameradata_block()),
+            Key::H => {
+                self.shadows = !self.shadows;
+                self.restart();
+            }
+            Key::M => {
+                self.reflections = !self.reflections;
+                self.restart();
+            }
+            Key::T => {
+                self.textures = !self.textures;
+                self.restart();
+            }
+            Key::F1 => println!("{HELP}"),
+            _ => {}
+        }
+    }
+
+    /// WASD / QE while held, at a speed relative to the scene's size.
+    fn fly(&mut self, window: &glfw::PWindow, dt: f64) {
+        let held = |k: Key| if window.get_key(k) == Action::Press { 1.0 } else { 0.0 };
+        let forward = held(Key::W) - held(Key::S);
+        let right = held(Key::D) - held(Key::A);
+        let up = held(Key::E) - held(Key::Q);
+        if forward == 0.0 && right == 0.0 && up == 0.0 {
+            return;
+        }
+        let fast = if window.get_key(Key::LeftShift) == Action::Press { 4.0 } else { 1.0 };
+        let size = self.bounds.map_or(2.0, |b| b.radius().max(1e-3));
+        let step = size * 0.5 * fast * dt;
+        self.camera.fly(forward * step, right * step, up * step);
+        self.restart();
+    }
+
+    fn on_reload(&mut self, reload: Reload) -> Result<(), Failure> {
+        match reload {
+            Reload::Scene(loaded) => {
+                let (scene, data) = *loaded;
+                for w in &scene.warnings {
+                    eprintln!("{w}");
+                }
+                for note in &data.notes {
+                    eprintln!("raycast: note: {note}");
+                }
+                self.renderer.set_scene(&data)?;
+                let new_camera = scene.camera != self.scene.camera;
+                self.bounds = scene_bounds(&scene);
+                if new_camera {
+                    self.camera = CameraControl::new(&scene.camera, self.bounds);
+                }
+                eprintln!(
+                    "raycast: preview: reloaded {} ({} primitives, {} lights)",
+                    scene.path.display(),
+                    data.primitives.len(),
+                    data.lights.len()
+                );
+                self.scene = scene;
+                self.data = data;
+                self.error = None;
+                self.restart();
+            }
+            Reload::Kernel(kernel) => {
+                self.renderer.set_kernel(kernel)?;
+                eprintln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
+                self.error = None;
+                self.restart();
+            }
+            Reload::Failed(message) => {
+                eprintln!("{message}");
+                eprintln!("raycast: preview: keeping the last good picture");
+                let first = message.lines().find(|l| l.contains("ERROR") || l.contains("error")).or(message.lines().next());
+                let first = first.unwrap_or_default().trim();
+                self.error = Some(first.strip_prefix("ERROR: ").unwrap_or(first).to_string());
+            }
+        }
+        Ok(())
+    }
+
+    /// Prints what the pixel under the cursor sees (the ray through its centre).
+    fn pick(&mut self, cursor: (f64, f64), window: &glfw::PWindow) -> Result<(), Failure> {
+        let (ww, wh) = window.get_size();
+        let [w, h] = self.renderer.size();
+        if ww <= 0 || wh <= 0 || self.sample == 0 {
+            return Ok(());
+        }
+        let j = (cursor.0 / f64::from(ww) * f64::from(w)).floor();
+        let i = (cursor.1 / f64::from(wh) * f64::from(h)).floor();
+        if j < 0.0 || i < 0.0 || j >= f64::from(w) || i >= f64::from(h) {
+            return Ok(());
+        }
+        let (j, i) = (j as u32, i as u32);
+        let p = self.renderer.pixel(j, i)?;
+        if p.id == NO_HIT {
+            println!("pixel ({j}, {i}): nothing (the ray misses every primitive)");
+            return Ok(());
+        }
+        let Some(prim) = self.scene.primitives.get(p.id as usize) else {
+            println!("pixel ({j}, {i}): primitive {} (not in the scene on the host: reloading?)", p.id);
+            return Ok(());
+        };
+        // The ray through the pixel centre, as camera_ray in raycast.glsl (in f64, for the report).
+        std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
+        let world_from_film = frame::world_from_film(&self.scene, w, h);
+        std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
+        let x = ((f64::from(j) + 0.5) / f64::from(w)) * 2.0 - 1.0;
+        let y = 1.0 - ((f64::from(i) + 0.5) / f64::from(h)) * 2.0;
+        let dir = world_from_film.transform_vector3(DVec3::new(x, y, -1.0));
+        let hit = self.camera.camera.pos + dir * f64::from(p.t);
+        let m = &self.scene.materials[prim.material as usize];
+        let v3 = |v: DVec3| format!("({:.4}, {:.4}, {:.4})", v.x, v.y, v.z);
+        let c3 = |c: [f32; 3]| format!("({}, {}, {})", c[0], c[1], c[2]);
+        println!("pixel ({j}, {i}): primitive {} ({}) at {}", p.id, shape_name(&prim.shape), prim.loc);
+        println!(
+            "  t {} (ray direction not unit; distance {:.4}), position {}, normal {}",
+            p.t,
+            f64::from(p.t) * dir.length(),
+            v3(hit),
+            v3(DVec3::new(f64::from(p.normal[0]), f64::from(p.normal[1]), f64::from(p.normal[2])))
+        );
+        println!(
+            "  material: diffuse {} ambient {} specular {} shininess {} reflective {} transparent {} emissive {} ior {} blend {}{}",
+            c3(m.diffuse),
+            c3(m.ambient),
+            c3(m.specular),
+            m.shininess,
+            c3(m.reflective),
+            c3(m.transparent),
+            c3(m.emissive),
+            m.ior,
+            m.blend,
+            m.texture.as_ref().map(|t| format!(" texture {} (repeat {} {})", t.file, t.repeat_u, t.repeat_v)).unwrap_or_default()
+        );
+        Ok(())
+    }
+
+    /// Writes the last frame's picture (the quantised bytes the kernel wrote) as RGB PNG.
+    fn save(&mut self, path: &Path) -> Result<(), Failure> {
+        let [width, height] = self.renderer.size();
+        let pixels = self.renderer.pixels()?;
+        let picture = Picture { width, height, pixels };
+        image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8() })?;
+        println!("wrote {} ({width}x{height}, {} samples per pixel)", path.display(), self.sample);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::jitter;
+
+    #[test]
+    fn jitter_is_centred_and_spread() {
+        assert_eq!(jitter(0), [-0.5, -0.5], "index 0 of Halton is 0; sample 0 does not use it");
+        assert_eq!(jitter(1), [0.0, (1.0f64 / 3.0 - 0.5) as f32]);
+        for i in 1..256 {
+            let [x, y] = jitter(i);
+            assert!((-0.5..0.5).contains(&x) && (-0.5..0.5).contains(&y), "sample {i}: {x}, {y}");
+        }
+    }
+}

@@ -1,0 +1,75 @@
+//! `raycast preview`: the scene in a window. GLFW opens the window and
+//! reports input; the gpu part renders one jittered sample per frame with
+//! shaders/preview.comp, accumulating while nothing changes, and presents
+//! it. This part owns the window, input, camera control and live reload.
+//!
+//! | file | owns |
+//! |---|---|
+//! | `app.rs` | the window, the render loop, keys and mouse, the title, picking |
+//! | `camera.rs` | orbit, pan, dolly, fly, reset, frame, `<cameradata>` |
+//! | `reload.rs` | the watcher thread: scene and shader reloads off the render thread |
+//! | `renderer.rs` | which buffer goes to which binding of preview.comp |
+//! | `layout.rs` | Rust mirrors of shaders/preview.h |
+
+mod app;
+pub mod camera;
+pub mod layout;
+mod reload;
+mod renderer;
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+
+use crate::cli::Failure;
+use crate::scene::FlattenLimits;
+
+/// `raycast preview` flags.
+#[derive(Args, Debug)]
+pub struct PreviewArgs {
+    /// Scene file (XML), reloaded when it changes. Without one, the embedded default scene.
+    pub scene: Option<PathBuf>,
+    /// Window (and picture) width.
+    #[arg(long, default_value_t = 512, value_name = "W")]
+    pub width: u32,
+    /// Window (and picture) height.
+    #[arg(long, default_value_t = 384, value_name = "H")]
+    pub height: u32,
+    /// Vulkan device: an index from `raycast devices` or part of its name.
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub device: Option<String>,
+    /// Extra folder to find textures in, after the scene file's folder (repeatable).
+    #[arg(long, value_name = "DIR")]
+    pub assets: Vec<PathBuf>,
+    /// When a finished frame replaces the one on screen (fifo: at vertical blank).
+    #[arg(long, value_enum, default_value_t = PresentArg::Fifo)]
+    pub present_mode: PresentArg,
+    /// Render N frames (N samples per pixel), then exit; with --screenshot, save the last.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub frames: Option<u32>,
+    /// Save the window's picture as PNG after the last frame (1 frame unless --frames says more).
+    #[arg(long, value_name = "PATH")]
+    pub screenshot: Option<PathBuf>,
+    /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
+    #[arg(long, value_name = "DIR")]
+    pub shaders: Option<PathBuf>,
+    /// Refuse scenes that expand to more primitives than this.
+    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
+    pub max_primitives: usize,
+    /// Enable the Khronos validation layer; any message fails the command (exit 3).
+    /// Also on when RAYCAST_VALIDATION=1.
+    #[arg(long)]
+    pub validate: bool,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum PresentArg {
+    Fifo,
+    Mailbox,
+    Immediate,
+}
+
+/// Runs `raycast preview`.
+pub(crate) fn run(args: &PreviewArgs) -> Result<(), Failure> {
+    app::run(args)
+}

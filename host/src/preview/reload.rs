@@ -1,0 +1,164 @@
+//! Live reload: a thread polls the scene file and the shader sources every
+//! 250 ms and, when one changed, does the slow part off the render thread —
+//! parse and flatten the scene and pack its buffers, or compile
+//! preview.comp with glslang and build the checked kernel (naga reflection,
+//! pipeline) — and sends the result (or the error) to the render loop.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver, Sender};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, SystemTime};
+
+use crate::frame::{self, FrameData, RenderSettings};
+use crate::gpu::{glslang_args, GpuContext, Kernel, GLSLANG};
+use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
+
+use super::layout::{preview_bindings, preview_images};
+
+const POLL: Duration = Duration::from_millis(250);
+/// The kernel that is recompiled, in the shader folder.
+pub const KERNEL_FILE: &str = "preview.comp";
+
+/// What the watcher sends.
+pub enum Reload {
+    /// The scene file changed and loads.
+    Scene(Box<(Scene, FrameData)>),
+    /// A shader source changed; this is the new kernel, checked and built.
+    Kernel(Kernel),
+    /// A reload failed; the message says where and why.
+    Failed(String),
+}
+
+/// What to watch and how to load it.
+pub struct WatchConfig {
+    pub scene: Option<PathBuf>,
+    pub parse: ParseOptions,
+    pub limits: FlattenLimits,
+    pub settings: RenderSettings,
+    /// The folder with preview.comp and what it includes; None: no shader reload.
+    pub shaders: Option<PathBuf>,
+    /// Compile the kernel once at start (a `--shaders` folder given on the command line).
+    pub compile_at_start: bool,
+    pub context: Arc<GpuContext>,
+}
+
+/// The watcher thread; stopped and joined on drop.
+pub struct Watcher {
+    rx: Receiver<Reload>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Watcher {
+    pub fn spawn(config: WatchConfig) -> Watcher {
+        let (tx, rx) = mpsc::channel();
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let thread = std::thread::Builder::new()
+            .name("raycast-reload".into())
+            .spawn(move || watch(config, tx, flag))
+            .expect("spawn the reload thread");
+        Watcher { rx, stop, thread: Some(thread) }
+    }
+
+    /// The next result, if one is ready.
+    pub fn try_recv(&self) -> Option<Reload> {
+        self.rx.try_recv().ok()
+    }
+}
+
+impl Drop for Watcher {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Modification time and length: what "changed" means.
+type Stamp = Option<(SystemTime, u64)>;
+
+fn stamp(path: &Path) -> Stamp {
+    let m = std::fs::metadata(path).ok()?;
+    Some((m.modified().ok()?, m.len()))
+}
+
+/// Every shader source in `dir`: *.comp, *.glsl, *.h.
+fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return BTreeMap::new() };
+    entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("comp" | "glsl" | "h")))
+        .map(|p| {
+            let s = stamp(&p);
+            (p, s)
+        })
+        .collect()
+}
+
+fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
+    let mut scene_stamp = config.scene.as_deref().map(stamp);
+    let mut shader_stamp = config.shaders.as_deref().map(shader_stamps);
+    if config.compile_at_start {
+        if let Some(dir) = &config.shaders {
+            if tx.send(compile(&config.context, dir)).is_err() {
+                return;
+            }
+        }
+    }
+    while !stop.load(Ordering::Relaxed) {
+        std::thread::sleep(POLL);
+        if let Some(path) = &config.scene {
+            let now = Some(stamp(path));
+            if now != scene_stamp {
+                scene_stamp = now;
+                let msg = match scene::load(path, &config.parse, &config.limits) {
+                    Ok(scene) => { let data = frame::build(&scene, &config.settings); Reload::Scene(Box::new((scene, data))) }
+                    Err(e) => Reload::Failed(e.to_string()),
+                };
+                if tx.send(msg).is_err() {
+                    return;
+                }
+            }
+        }
+        if let Some(dir) = &config.shaders {
+            let now = Some(shader_stamps(dir));
+            if now != shader_stamp {
+                shader_stamp = now;
+                if tx.send(compile(&config.context, dir)).is_err() {
+                    return;
+                }
+            }
+        }
+    }
+}
+
+/// glslang on `dir/preview.comp` (with `dir` on the include path), then the
+/// checked kernel.
+fn compile(ctx: &GpuContext, dir: &Path) -> Reload {
+    let src = dir.join(KERNEL_FILE);
+    let spv = std::env::temp_dir().join(format!("raycast-preview-{}.spv", std::process::id()));
+    let output = match std::process::Command::new(GLSLANG).args(glslang_args(&src, dir, &spv)).output() {
+        Ok(o) => o,
+        Err(e) => return Reload::Failed(format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}")),
+    };
+    if !output.status.success() {
+        let text = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+        let _ = std::fs::remove_file(&spv);
+        return Reload::Failed(format!("{}: {GLSLANG} failed:\n{}", src.display(), text.trim_end()));
+    }
+    let bytes = std::fs::read(&spv);
+    let _ = std::fs::remove_file(&spv);
+    let bytes = match bytes {
+        Ok(b) => b,
+        Err(e) => return Reload::Failed(format!("cannot read {}: {e}", spv.display())),
+    };
+    match Kernel::with_images(ctx, "preview", &bytes, &preview_bindings(), &preview_images()) {
+        Ok(k) => Reload::Kernel(k),
+        Err(e) => Reload::Failed(format!("{}: {e}", src.display())),
+    }
+}

@@ -1,0 +1,202 @@
+//! The preview kernel on a device: its buffers and display image, a
+//! swapchain, and one frame at a time. Everything Vulkan is the gpu part's;
+//! this only says which buffer goes to which binding of preview.comp.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use crate::frame::FrameData;
+use crate::gpu::{
+    Buffer, DescriptorSet, FrameLoop, FrameStatus, GpuContext, GpuError, Kernel, PresentMode, Resource,
+    StorageImage, Swapchain,
+};
+use crate::layout::{self, Frame, PixelOut};
+
+use super::layout::{preview_bindings, preview_images, AccumPixel, PreviewFrame, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW};
+
+/// The embedded preview kernel (shaders/preview.comp, compiled at build time).
+pub fn embedded_kernel(ctx: &GpuContext) -> Result<Kernel, GpuError> {
+    let spirv = crate::render::kernel_spirv("preview").expect("build.rs embeds shaders/preview.comp");
+    Kernel::with_images(ctx, "preview", spirv, &preview_bindings(), &preview_images())
+}
+
+/// Scene buffers: primitives, materials, lights, textures and their texels.
+struct SceneBuffers {
+    primitives: Buffer,
+    materials: Buffer,
+    lights: Buffer,
+}
+
+impl SceneBuffers {
+    fn new(ctx: &GpuContext, data: &FrameData) -> Result<SceneBuffers, GpuError> {
+        Ok(SceneBuffers {
+            primitives: Buffer::with_data(ctx, bytemuck::cast_slice(&data.primitives), "the primitives")?,
+            materials: Buffer::with_data(ctx, bytemuck::cast_slice(&data.materials), "the materials")?,
+            lights: Buffer::with_data(ctx, bytemuck::cast_slice(&data.lights), "the lights")?,
+        })
+    }
+}
+
+/// Per-pixel buffers and the display image of one picture size.
+struct PictureBuffers {
+    size: [u32; 2],
+    pixels: Buffer,
+    accum: Buffer,
+    display: StorageImage,
+}
+
+impl PictureBuffers {
+    fn new(ctx: &GpuContext, size: [u32; 2]) -> Result<PictureBuffers, GpuError> {
+        let count = size[0] as usize * size[1] as usize;
+        Ok(PictureBuffers {
+            size,
+            pixels: Buffer::new(ctx, count * std::mem::size_of::<PixelOut>(), true, "the pixel buffer")?,
+            accum: Buffer::new(ctx, count * std::mem::size_of::<AccumPixel>(), false, "the accumulation buffer")?,
+            display: StorageImage::new(ctx, size[0], size[1])?,
+        })
+    }
+}
+
+/// The preview kernel with everything it binds.
+pub struct PreviewRenderer {
+    // Field order is drop order: the set before what it binds, all before the context.
+    set: Option<DescriptorSet>,
+    frames: FrameLoop,
+    frame: Buffer,
+    preview: Buffer,
+    scene: SceneBuffers,
+    picture: PictureBuffers,
+    swapchain: Swapchain,
+    kernel: Kernel,
+    context: Arc<GpuContext>,
+}
+
+impl PreviewRenderer {
+    /// Buffers for `data` and a `size` picture, a swapchain for a window of `window` pixels.
+    pub fn new(
+        context: Arc<GpuContext>,
+        kernel: Kernel,
+        data: &FrameData,
+        size: [u32; 2],
+        window: [u32; 2],
+        mode: PresentMode,
+    ) -> Result<PreviewRenderer, GpuError> {
+        let ctx = &*context;
+        let mut r = PreviewRenderer {
+            set: None,
+            frames: FrameLoop::new(ctx)?,
+            frame: Buffer::new(ctx, std::mem::size_of::<Frame>(), false, "the frame")?,
+            preview: Buffer::new(ctx, std::mem::size_of::<PreviewFrame>(), false, "the preview frame")?,
+            scene: SceneBuffers::new(ctx, data)?,
+            picture: PictureBuffers::new(ctx, size)?,
+            swapchain: Swapchain::new(ctx, window, mode)?,
+            kernel,
+            context: context.clone(),
+        };
+        r.bind()?;
+        Ok(r)
+    }
+
+    pub fn swapchain(&self) -> &Swapchain {
+        &self.swapchain
+    }
+
+    /// The picture's width and height.
+    pub fn size(&self) -> [u32; 2] {
+        self.picture.size
+    }
+
+    fn bind(&mut self) -> Result<(), GpuError> {
+        self.set = None;
+        let p = &self.picture;
+        let s = &self.scene;
+        self.set = Some(DescriptorSet::new(
+            &self.kernel,
+            &[
+                (layout::BINDING_FRAME, Resource::Buffer(&self.frame)),
+                (layout::BINDING_PRIMITIVES, Resource::Buffer(&s.primitives)),
+                (layout::BINDING_MATERIALS, Resource::Buffer(&s.materials)),
+                (layout::BINDING_LIGHTS, Resource::Buffer(&s.lights)),
+                (layout::BINDING_PIXELS, Resource::Buffer(&p.pixels)),
+                (BINDING_PREVIEW, Resource::Buffer(&self.preview)),
+                (BINDING_ACCUM, Resource::Buffer(&p.accum)),
+                (BINDING_DISPLAY, Resource::Image(&p.display)),
+            ],
+        )?);
+        Ok(())
+    }
+
+    /// Replaces the kernel (a reloaded shader).
+    pub fn set_kernel(&mut self, kernel: Kernel) -> Result<(), GpuError> {
+        self.frames.wait()?;
+        self.set = None;
+        self.kernel = kernel;
+        self.bind()
+    }
+
+    /// Replaces the scene's buffers (a reloaded scene).
+    pub fn set_scene(&mut self, data: &FrameData) -> Result<(), GpuError> {
+        self.frames.wait()?;
+        self.set = None;
+        self.scene = SceneBuffers::new(&self.context, data)?;
+        self.bind()
+    }
+
+    /// A new picture size: new per-pixel buffers and display image.
+    pub fn resize(&mut self, size: [u32; 2]) -> Result<(), GpuError> {
+        if size == self.picture.size {
+            return Ok(());
+        }
+        self.frames.wait()?;
+        self.set = None;
+        self.picture = PictureBuffers::new(&self.context, size)?;
+        self.bind()
+    }
+
+    /// A new window size: a new swapchain.
+    pub fn resize_window(&mut self, window: [u32; 2]) -> Result<(), GpuError> {
+        self.frames.wait()?;
+        self.swapchain.recreate(window)
+    }
+
+    /// Draws one sample: writes `frame` (its width and height must be the
+    /// picture's) and `preview`, dispatches, presents. Returns at once.
+    pub fn render(&mut self, frame: &Frame, preview: &PreviewFrame, present: bool) -> Result<FrameStatus, GpuError> {
+        assert_eq!([frame.width, frame.height], self.picture.size, "the frame's size is the picture's");
+        self.frames.wait()?;
+        self.frame.write(0, bytemuck::bytes_of(frame));
+        self.preview.write(0, bytemuck::bytes_of(preview));
+        let wg = self.kernel.workgroup_size();
+        let groups = [frame.width.div_ceil(wg[0]), frame.height.div_ceil(wg[1]), 1];
+        let set = self.set.as_ref().expect("bound");
+        let swapchain = present.then_some(&mut self.swapchain);
+        self.frames.submit(&self.kernel, set, groups, &self.picture.display, swapchain)
+    }
+
+    /// Waits for the frame in flight; its dispatch time when the device has timestamps.
+    pub fn wait(&mut self) -> Result<Option<Duration>, GpuError> {
+        self.frames.wait()
+    }
+
+    /// Every pixel of the last frame: the first sample's hit, the average colour.
+    pub fn pixels(&mut self) -> Result<Vec<PixelOut>, GpuError> {
+        self.frames.wait()?;
+        let p = &self.picture.pixels;
+        Ok(bytemuck::pod_collect_to_vec(&p.read(0, p.len())))
+    }
+
+    /// Pixel (column j, row i) of the last frame.
+    pub fn pixel(&mut self, j: u32, i: u32) -> Result<PixelOut, GpuError> {
+        self.frames.wait()?;
+        let size = std::mem::size_of::<PixelOut>();
+        let index = i as usize * self.picture.size[0] as usize + j as usize;
+        Ok(bytemuck::pod_read_unaligned(&self.picture.pixels.read(index * size, size)))
+    }
+}
+
+impl Drop for PreviewRenderer {
+    fn drop(&mut self) {
+        // Nothing may be destroyed while the last frame runs.
+        let _ = self.frames.wait();
+    }
+}

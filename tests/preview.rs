@@ -1,0 +1,218 @@
+//! `raycast preview` in a real window: under Xvfb (`xvfb-run -a`) on
+//! lavapipe, with the validation layer on (RAYCAST_VALIDATION=1: any message
+//! fails with exit status 3).
+//!
+//! - The first frame's screenshot equals `raycast render` of the same scene
+//!   and size. Rule: bit-exact (both quantise the same centre ray with the
+//!   same code; sample 0 is not jittered). On failure: the count of
+//!   differing pixels, the first and the worst, and actual / expected / diff
+//!   PNGs in the test's output folder.
+//! - More frames accumulate jittered samples: frame 8 differs from frame 1
+//!   on silhouettes, and nowhere far from an edge.
+//! - No display: a clear error, no panic.
+//!
+//! Corpus scenes come from RAYCAST_CORPUS (skipped, saying so, without it);
+//! the default scene always runs.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::Mutex;
+
+use raycast::image_io::{self, Rgb8};
+
+/// One preview at a time: each starts its own Xvfb, and they are CPU-bound.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn out_dir() -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("preview");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn text(o: &Output) -> String {
+    format!("stdout:\n{}\nstderr:\n{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+/// `raycast ARGS`, validation on.
+fn raycast(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(args)
+        .env("RAYCAST_VALIDATION", "1")
+        .output()
+        .expect("run raycast")
+}
+
+/// `raycast preview ARGS` in a window: under `xvfb-run -a` (a private X
+/// server), which is how CI runs it.
+fn preview(args: &[&str]) -> Output {
+    let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    let mut cmd = Command::new("xvfb-run");
+    cmd.args(["-a", "-s", "-screen 0 1280x1024x24", env!("CARGO_BIN_EXE_raycast"), "preview"])
+        .args(args)
+        .env("RAYCAST_VALIDATION", "1");
+    cmd.output().unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"))
+}
+
+/// Asserts exit 0, no panic and no validation message.
+fn assert_clean(o: &Output, what: &str) {
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{what}: panic\n{}", text(o));
+    assert!(!err.contains("validation"), "{what}: validation messages\n{}", text(o));
+    assert_eq!(o.status.code(), Some(0), "{what}: exit status\n{}", text(o));
+}
+
+/// The preview's screenshot after `frames` frames of `scene` (None: the default scene).
+fn screenshot(scene: Option<&Path>, size: [u32; 2], frames: u32, name: &str) -> Rgb8 {
+    let png = out_dir().join(format!("{name}-preview-{frames}.png"));
+    let _ = std::fs::remove_file(&png);
+    let (w, h, n) = (size[0].to_string(), size[1].to_string(), frames.to_string());
+    let mut args = vec!["--width", &w, "--height", &h, "--frames", &n, "--screenshot", png.to_str().unwrap()];
+    let scene_arg;
+    if let Some(s) = scene {
+        scene_arg = s.to_str().unwrap().to_string();
+        args.insert(0, &scene_arg);
+    }
+    let o = preview(&args);
+    assert_clean(&o, &format!("preview of {name}"));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("wrote "), "{}", text(&o));
+    image_io::read_png(&png).unwrap()
+}
+
+/// `raycast render` of the same scene and size.
+fn render(scene: Option<&Path>, size: [u32; 2], name: &str) -> Rgb8 {
+    let png = out_dir().join(format!("{name}-render.png"));
+    let (w, h) = (size[0].to_string(), size[1].to_string());
+    let mut args = vec!["render", "--width", &w, "--height", &h, "-o", png.to_str().unwrap()];
+    let scene_arg;
+    if let Some(s) = scene {
+        scene_arg = s.to_str().unwrap().to_string();
+        args.insert(1, &scene_arg);
+    }
+    let o = raycast(&args);
+    assert_clean(&o, &format!("render of {name}"));
+    image_io::read_png(&png).unwrap()
+}
+
+/// Rule: bit-exact.
+fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: &str) {
+    let actual = screenshot(scene, size, 1, name);
+    let expected = render(scene, size, name);
+    let diff = image_io::compare(&actual, &expected, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
+    if diff.differing > 0 {
+        let paths = image_io::write_diff_images(&out_dir(), &format!("{name}-first-frame"), &actual, &expected, &diff)
+            .unwrap_or_else(|e| panic!("{e}"));
+        panic!(
+            "{name}: the preview's first frame is not `raycast render` (rule: bit-exact): {diff}\nactual {}\nexpected {}\ndiff {}",
+            paths[0].display(),
+            paths[1].display(),
+            paths[2].display()
+        );
+    }
+}
+
+#[test]
+fn first_frame_of_the_default_scene_is_the_render() {
+    assert_first_frame_is_the_render(None, [512, 384], "default");
+}
+
+/// A size that is not a multiple of the 8x8 work group, and a file path (watched for reloads).
+#[test]
+fn first_frame_at_an_odd_size_is_the_render() {
+    let scene = repo().join("scenes/default.xml");
+    assert_first_frame_is_the_render(Some(&scene), [203, 97], "default-203x97");
+}
+
+#[test]
+fn first_frame_of_corpus_scenes_is_the_render() {
+    let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").map(PathBuf::from) else {
+        println!("SKIPPED: preview corpus scenes: RAYCAST_CORPUS is not set (e.g. ../shared/corpus/cs1230)");
+        return;
+    };
+    for rel in ["test_unit/unit_cone.xml", "test_unit/unit_cylinder.xml"] {
+        let scene = corpus.join(rel);
+        assert!(scene.is_file(), "RAYCAST_CORPUS={} has no {rel}", corpus.display());
+        let name = rel.replace('/', "-").trim_end_matches(".xml").to_string();
+        assert_first_frame_is_the_render(Some(&scene), [512, 384], &name);
+    }
+}
+
+/// Largest channel difference between two colours.
+fn delta(a: [u8; 3], b: [u8; 3]) -> u8 {
+    (0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap()
+}
+
+/// Rules, frame 8 against frame 1 of the default scene:
+/// - at least 500 pixels differ (jittered samples smooth the silhouettes);
+/// - a black pixel of frame 1 whose 5x5 neighbourhood is all black (far
+///   from any object: a sub-pixel jitter cannot reach one) stays black;
+/// - a pixel that changed by more than 48/255 lies next to an edge of
+///   frame 1: a neighbour differs from it by more than 48/255 there.
+#[test]
+fn more_frames_accumulate_jittered_samples() {
+    let size = [256, 192];
+    let one = screenshot(None, size, 1, "default-accumulate");
+    let eight = screenshot(None, size, 8, "default-accumulate");
+    let (w, h) = (size[0] as i64, size[1] as i64);
+    let at = |img: &Rgb8, x: i64, y: i64| img.pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32);
+    let mut changed = 0;
+    let mut problems = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b) = (at(&one, x, y), at(&eight, x, y));
+            let d = delta(a, b);
+            if d > 0 {
+                changed += 1;
+            }
+            let far = (-2..=2).all(|dy| (-2..=2).all(|dx| at(&one, x + dx, y + dy) == [0, 0, 0]));
+            if far && b != [0, 0, 0] {
+                problems.push(format!("({x}, {y}) is far from every object but became {b:?}"));
+            }
+            let edge = (-1..=1).any(|dy| (-1..=1).any(|dx| delta(at(&one, x + dx, y + dy), a) > 48));
+            if d > 48 && !edge {
+                problems.push(format!("({x}, {y}) changed by {d}/255 ({a:?} -> {b:?}) away from any edge"));
+            }
+        }
+    }
+    assert!(changed >= 500, "only {changed} pixels differ between frame 1 and frame 8");
+    if !problems.is_empty() {
+        let diff = image_io::compare(&eight, &one, 0).unwrap();
+        let paths = image_io::write_diff_images(&out_dir(), "accumulate", &eight, &one, &diff).unwrap();
+        panic!(
+            "{} problem(s), first: {}\nframe 8 {}, frame 1 {}, diff {}",
+            problems.len(),
+            problems[0],
+            paths[0].display(),
+            paths[1].display(),
+            paths[2].display()
+        );
+    }
+}
+
+#[test]
+fn no_display_is_a_clear_error() {
+    let o = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(["preview", "--frames", "1"])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("run raycast");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(err.contains("cannot open a window") && err.contains("xvfb-run"), "{}", text(&o));
+    assert!(!err.contains("panicked"), "{}", text(&o));
+}
+
+#[test]
+fn bad_arguments_are_usage_errors() {
+    let o = raycast(&["preview", "--frames", "0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let o = raycast(&["preview", "--present-mode", "sometimes"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let o = raycast(&["preview", "--shaders", "/nonexistent"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no preview.comp"), "{}", text(&o));
+}
