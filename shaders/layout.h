@@ -17,6 +17,11 @@
 #define BINDING_MATERIALS 2  // Material[]
 #define BINDING_LIGHTS 3     // Light[]
 #define BINDING_PIXELS 4     // PixelOut[], written by the kernel
+// 5 to 7: the preview kernel's own (shaders/preview.h)
+#define BINDING_TEXTURES 8   // Texture[]
+#define BINDING_TEXELS 9     // Texel[]: every texture's texels, row 0 at the top
+
+#define MAX_DEPTH 16 // the most mirror bounces --depth accepts
 
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 
@@ -40,6 +45,10 @@
 #define FLAG_REFLECTIONS 2u
 #define FLAG_TEXTURES 4u
 
+// Frame.texture_filter
+#define FILTER_NEAREST 0u
+#define FILTER_BILINEAR 1u
+
 // PixelOut.id of a pixel whose ray hit nothing.
 #define NO_HIT 0xffffffffu
 
@@ -56,8 +65,12 @@ struct Frame {
     uint light_count;
     uint aov;
     uint flags;
-    uint max_depth; // mirror bounces (used once reflections land)
+    uint max_depth; // mirror bounces, at most MAX_DEPTH
+    uint spp;       // samples per pixel (fixed pattern: raycast.glsl sample_offset)
+    uint texture_filter;
     uint pad0;
+    uint pad1;
+    uint pad2;
 };
 
 struct Primitive {
@@ -80,6 +93,19 @@ struct Material {
     float ior;
     int texture; // index of the texture, -1 for none
     vec4 texture_repeat; // u, v repeat counts in x, y
+};
+
+// One texture's place in the texel buffer.
+struct Texture {
+    uint offset; // index of its first texel
+    uint width;
+    uint height;
+    uint pad0;
+};
+
+// One texel, RGBA8 with R in the low byte.
+struct Texel {
+    uint rgba;
 };
 
 struct Light {

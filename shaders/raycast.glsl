@@ -141,6 +141,53 @@ precise float acos_portable(float x) {
     return r;
 }
 
+// asin(x) = pi/2 - acos(x), radians.
+precise float asin_portable(float x) {
+    precise float r = 1.57079637f - acos_portable(x);
+    return r;
+}
+
+// atan(x) in radians: |x| > 1 through pi/2 - atan(1/x); |x| > tan(pi/12)
+// through atan(x) = pi/6 + atan((x sqrt(3) - 1) / (x + sqrt(3))); then the
+// odd series to x^11 on |x| <= 0.268 (error below 3e-9 before rounding).
+precise float atan_portable(float x) {
+    precise float a = abs(x);
+    bool invert = a > 1.0f;
+    if (invert) {
+        a = 1.0f / a;
+    }
+    precise float offset = 0.0f;
+    if (a > 0.267949194f) {
+        a = (a * 1.73205078f - 1.0f) / (a + 1.73205078f);
+        offset = 0.523598776f;
+    }
+    precise float s = a * a;
+    precise float p = a * (1.0f + s * (-0.333333343f + s * (0.200000003f + s * (-0.142857149f + s * (0.111111112f + s * -0.0909090936f)))));
+    precise float r = offset + p;
+    if (invert) {
+        r = 1.57079637f - r;
+    }
+    return (x < 0.0f) ? -r : r;
+}
+
+// atan2(y, x) in (-pi, pi], radians; atan2(0, 0) = 0.
+precise float atan2_portable(float y, float x) {
+    if (x > 0.0f) {
+        return atan_portable(y / x);
+    }
+    if (x < 0.0f) {
+        precise float r = atan_portable(y / x);
+        return (y < 0.0f) ? r - PI : r + PI;
+    }
+    if (y > 0.0f) {
+        return 1.57079637f;
+    }
+    if (y < 0.0f) {
+        return -1.57079637f;
+    }
+    return 0.0f;
+}
+
 // ---------------------------------------------------------------------------
 // Rays and hits
 
@@ -160,6 +207,8 @@ struct SceneHit {
     float t;       // T_FAR on a miss
     uint id;       // primitive index, NO_HIT on a miss
     vec3 normal;   // world-space unit normal
+    vec3 p_object; // the hit point in the primitive's object space
+    vec3 n_object; // its object-space normal as the shape test gave it (not unit)
 };
 
 ShapeHit no_hit() {
@@ -341,7 +390,15 @@ ShapeHit intersect_shape(uint shape, Ray r) {
 }
 
 // ---------------------------------------------------------------------------
-// Nearest hit
+// Nearest hit and shadow rays
+
+// The ray in primitive i's object space.
+Ray object_ray(uint i, Ray r) {
+    Ray local;
+    local.origin = transform_point(primitives[i].object_from_world, r.origin);
+    local.direction = transform_vector(primitives[i].object_from_world, r.direction);
+    return local;
+}
 
 // Every primitive, object-space test through object_from_world; the nearest
 // t > 0 wins, the lowest index on equal t.
@@ -350,29 +407,128 @@ SceneHit trace(Ray r) {
     best.t = T_FAR;
     best.id = NO_HIT;
     best.normal = vec3(0.0f, 0.0f, 0.0f);
-    vec3 n_object = vec3(0.0f, 0.0f, 0.0f);
+    best.p_object = vec3(0.0f, 0.0f, 0.0f);
+    best.n_object = vec3(0.0f, 0.0f, 0.0f);
     for (uint i = 0u; i < frame.primitive_count; i++) {
-        Ray local;
-        local.origin = transform_point(primitives[i].object_from_world, r.origin);
-        local.direction = transform_vector(primitives[i].object_from_world, r.direction);
-        ShapeHit h = intersect_shape(primitives[i].shape, local);
+        ShapeHit h = intersect_shape(primitives[i].shape, object_ray(i, r));
         if (h.t < best.t) {
             best.t = h.t;
             best.id = i;
-            n_object = h.normal;
+            best.n_object = h.normal;
         }
     }
     if (best.id != NO_HIT) {
-        best.normal = unit(transform_normal(primitives[best.id].object_from_world, n_object));
+        Ray local = object_ray(best.id, r);
+        precise vec3 p_object = local.origin + best.t * local.direction;
+        best.p_object = p_object;
+        best.normal = unit(transform_normal(primitives[best.id].object_from_world, best.n_object));
     }
     return best;
+}
+
+// True when anything is hit at 0 < t < t_max.
+bool occluded(Ray r, float t_max) {
+    for (uint i = 0u; i < frame.primitive_count; i++) {
+        ShapeHit h = intersect_shape(primitives[i].shape, object_ray(i, r));
+        if (h.t < t_max) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// ---------------------------------------------------------------------------
+// Texture mapping (docs/SCENE_FORMAT.md: UV per shape, v = 0 at the top row)
+
+// u in [0, 1) around the y axis: (-atan2(z, x) / 2 pi) mod 1.
+precise float around_y(vec3 p) {
+    precise float u = -atan2_portable(p.z, p.x) * 0.159154937f;
+    if (u < 0.0f) {
+        u = u + 1.0f;
+    }
+    return u;
+}
+
+// (u, v) of an object-space hit point p with the shape test's normal n.
+precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
+    if (shape == SHAPE_CUBE) {
+        if (n.x > 0.0f) {
+            return vec2(0.5f - p.z, 0.5f - p.y);
+        }
+        if (n.x < 0.0f) {
+            return vec2(p.z + 0.5f, 0.5f - p.y);
+        }
+        if (n.y > 0.0f) {
+            return vec2(p.x + 0.5f, p.z + 0.5f);
+        }
+        if (n.y < 0.0f) {
+            return vec2(p.x + 0.5f, 0.5f - p.z);
+        }
+        if (n.z > 0.0f) {
+            return vec2(p.x + 0.5f, 0.5f - p.y);
+        }
+        return vec2(0.5f - p.x, 0.5f - p.y);
+    }
+    if (shape == SHAPE_SPHERE) {
+        return vec2(around_y(p), 0.5f - asin_portable(2.0f * p.y) * 0.318309873f);
+    }
+    // Cylinder and cone: caps have the normal (0, +-1, 0), bodies n.y >= 0
+    // for the cone and 0 for the cylinder.
+    if (n.y < 0.0f && n.x == 0.0f && n.z == 0.0f) {
+        return vec2(p.x + 0.5f, 0.5f - p.z);
+    }
+    if (n.y > 0.0f && n.x == 0.0f && n.z == 0.0f && shape == SHAPE_CYLINDER) {
+        return vec2(p.x + 0.5f, p.z + 0.5f);
+    }
+    return vec2(around_y(p), 0.5f - p.y);
+}
+
+// Texel (column, row) of texture tex as RGB in [0, 1].
+precise vec3 texel_rgb(Texture tex, uint column, uint row) {
+    uint v = texels[tex.offset + row * tex.width + column].rgba;
+    precise vec3 c = vec3(float(v & 255u), float((v >> 8u) & 255u), float((v >> 16u) & 255u)) / 255.0f;
+    return c;
+}
+
+// Wraps a texel coordinate x (>= -1) into [0, size).
+uint wrap(float x, uint size) {
+    precise float f = floor(min_f(x, 1.0e9f));
+    if (f < 0.0f) {
+        return size - 1u;
+    }
+    return uint(f) % size;
+}
+
+// T(u, v): u, v clamped to [0, 1], scaled by the repeat counts. Nearest:
+// column floor(u r_u W) mod W, row floor(v r_v H) mod H. Bilinear: the four
+// texels around (u r_u W - 1/2, v r_v H - 1/2), wrapped, weighted in a fixed order.
+precise vec3 sample_texture(Material m, vec2 uv) {
+    Texture tex = textures[uint(m.texture)];
+    precise float x = (clamp01(uv.x) * m.texture_repeat.x) * float(tex.width);
+    precise float y = (clamp01(uv.y) * m.texture_repeat.y) * float(tex.height);
+    if (frame.texture_filter == FILTER_NEAREST) {
+        return texel_rgb(tex, wrap(max_f(x, 0.0f), tex.width), wrap(max_f(y, 0.0f), tex.height));
+    }
+    precise float bx = max_f(x - 0.5f, -1.0f);
+    precise float by = max_f(y - 0.5f, -1.0f);
+    precise float fx = bx - floor(bx);
+    precise float fy = by - floor(by);
+    uint c0 = wrap(bx, tex.width);
+    uint c1 = (c0 + 1u) % tex.width;
+    uint r0 = wrap(by, tex.height);
+    uint r1 = (r0 + 1u) % tex.height;
+    precise vec3 top = texel_rgb(tex, c0, r0) * (1.0f - fx) + texel_rgb(tex, c1, r0) * fx;
+    precise vec3 bottom = texel_rgb(tex, c0, r1) * (1.0f - fx) + texel_rgb(tex, c1, r1) * fx;
+    precise vec3 c = top * (1.0f - fy) + bottom * fy;
+    return c;
 }
 
 // ---------------------------------------------------------------------------
 // Local lighting (docs/SCENE_FORMAT.md, "Lighting model of the official renders")
 
 // The intensity of light `l` arriving along unit `to_light` (pointing at the
-// light) from `dist` away, before shadows: colour, distance attenuation and spot falloff.
+// light) from `dist` away, before shadows: colour, distance attenuation and
+// spot falloff.
 precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
     precise vec3 intensity = xyz(l.color);
     if (l.kind == LIGHT_DIRECTIONAL) {
@@ -398,15 +554,21 @@ precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
     return intensity;
 }
 
-// Phong at the hit: ambient + emissive + for each light diffuse and
-// specular. Returns the colour clamped to [0, 1].
-precise vec3 shade(Ray r, SceneHit hit) {
-    Material m = materials[primitives[hit.id].material];
+// Phong at a hit seen along ray r: ambient + emissive + for each light that
+// is not shadowed, diffuse (textured: blended with the texel) and specular.
+// Not clamped: the caller clamps after adding the reflection.
+precise vec3 local_color(Ray r, SceneHit hit) {
+    Primitive prim = primitives[hit.id];
+    Material m = materials[prim.material];
     precise vec3 p = r.origin + hit.t * r.direction;
     precise vec3 n = hit.normal;
     precise vec3 v = -unit(r.direction);
     precise vec3 color = frame.k.x * xyz(m.ambient) + xyz(m.emissive);
     precise vec3 diffuse = frame.k.y * xyz(m.diffuse);
+    if (m.texture >= 0 && (frame.flags & FLAG_TEXTURES) != 0u) {
+        precise vec3 texel = sample_texture(m, surface_uv(prim.shape, hit.p_object, hit.n_object));
+        diffuse = (1.0f - m.blend) * diffuse + m.blend * texel;
+    }
     precise vec3 specular = frame.k.z * xyz(m.specular);
     for (uint li = 0u; li < frame.light_count; li++) {
         Light l = lights[li];
@@ -416,6 +578,22 @@ precise vec3 shade(Ray r, SceneHit hit) {
             precise vec3 d = xyz(l.position) - p;
             dist = sqrt(dot3(d, d));
             to_light = d / dist;
+        }
+        if ((frame.flags & FLAG_SHADOWS) != 0u) {
+            // From 0.001 along L toward the light: blocked by anything closer
+            // than the light (anything at all for a directional light).
+            precise vec3 shadow_origin = p + 0.001f * to_light;
+            Ray shadow;
+            shadow.origin = shadow_origin;
+            shadow.direction = to_light;
+            precise float t_max = T_FAR;
+            if (l.kind != LIGHT_DIRECTIONAL) {
+                precise vec3 rest = xyz(l.position) - shadow_origin;
+                t_max = sqrt(dot3(rest, rest));
+            }
+            if (occluded(shadow, t_max)) {
+                continue;
+            }
         }
         precise vec3 intensity = light_intensity(l, to_light, dist);
         precise float n_dot_l = dot3(n, to_light);
@@ -427,7 +605,55 @@ precise vec3 shade(Ray r, SceneHit hit) {
         }
         color = color + intensity * term;
     }
-    return vec3(clamp01(color.x), clamp01(color.y), clamp01(color.z));
+    return color;
+}
+
+precise vec3 clamp3(vec3 c) {
+    return vec3(clamp01(c.x), clamp01(c.y), clamp01(c.z));
+}
+
+// color(ray, depth) of the lighting model without recursion: walk the
+// mirror path, keeping each level's local colour and mirror weight
+// k_s O_r, then fold from the deepest level up, clamping at every level:
+//   c_k = clamp(local_k + weight_k c_(k+1)).
+// `first` is the primary ray's hit (already traced).
+precise vec3 radiance(Ray r, SceneHit first) {
+    vec3 local_at[MAX_DEPTH + 1];
+    vec3 weight_at[MAX_DEPTH + 1];
+    uint depth = min(frame.max_depth, uint(MAX_DEPTH));
+    bool reflections = (frame.flags & FLAG_REFLECTIONS) != 0u;
+    uint levels = 0u;
+    Ray ray = r;
+    SceneHit hit = first;
+    for (uint level = 0u; level <= depth; level++) {
+        if (hit.id == NO_HIT) {
+            break;
+        }
+        local_at[level] = local_color(ray, hit);
+        levels = level + 1u;
+        precise vec3 w = frame.k.z * xyz(materials[primitives[hit.id].material].reflective);
+        weight_at[level] = w;
+        if (!reflections || level == depth || (w.x == 0.0f && w.y == 0.0f && w.z == 0.0f)) {
+            break;
+        }
+        // Mirror direction of the unit ray direction about N, from 0.001 along it.
+        precise vec3 d = unit(ray.direction);
+        precise vec3 mirror = d - (2.0f * dot3(hit.normal, d)) * hit.normal;
+        precise vec3 p = ray.origin + hit.t * ray.direction;
+        precise vec3 mirror_origin = p + 0.001f * mirror;
+        ray.origin = mirror_origin;
+        ray.direction = mirror;
+        hit = trace(ray);
+    }
+    precise vec3 c = vec3(0.0f, 0.0f, 0.0f);
+    for (uint k = levels; k > 0u; k--) {
+        if (k == levels) {
+            c = clamp3(local_at[k - 1u]);
+        } else {
+            c = clamp3(local_at[k - 1u] + weight_at[k - 1u] * c);
+        }
+    }
+    return c;
 }
 
 // ---------------------------------------------------------------------------
@@ -442,7 +668,8 @@ uint pack_rgba8(vec3 c) {
 }
 
 // One sample of a pixel: the primary ray's nearest hit and the colour it
-// gives (the shaded colour, or the normal AOV), each channel in [0, 1].
+// gives (the shaded colour with reflections, or the normal AOV), each
+// channel in [0, 1].
 struct PixelSample {
     SceneHit hit;
     vec3 color;
@@ -456,12 +683,40 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     if (s.hit.id != NO_HIT) {
         if (frame.aov == AOV_NORMAL) {
             precise vec3 c = (s.hit.normal + 1.0f) * 0.5f;
-            s.color = vec3(clamp01(c.x), clamp01(c.y), clamp01(c.z));
+            s.color = clamp3(c);
         } else {
-            s.color = shade(r, s.hit);
+            s.color = radiance(r, s.hit);
         }
     }
     return s;
+}
+
+// The radical inverse of s in base 2 (van der Corput): its bits mirrored
+// about the binary point. Exact in float for s < 2^24.
+precise float radical_inverse(uint s) {
+    precise float r = 0.0f;
+    precise float f = 0.5f;
+    for (uint k = s; k != 0u; k = k >> 1u) {
+        if ((k & 1u) != 0u) {
+            r = r + f;
+        }
+        f = f * 0.5f;
+    }
+    return r;
+}
+
+// Supersampling pattern: sample s of n is at ((s + 1/2) / n, frac(vdc(s) +
+// 1/(2n))) in the pixel (a Hammersley set shifted by half a stratum), as an
+// offset from the pixel centre. n = 1 gives the centre; n = 4 gives
+// (+-1/8 or +-3/8) in both axes, one sample per row and column stratum.
+vec2 sample_offset(uint s, uint n) {
+    precise float x = (float(s) + 0.5f) / float(n) - 0.5f;
+    precise float y = radical_inverse(s) + 0.5f / float(n);
+    if (y >= 1.0f) {
+        y = y - 1.0f;
+    }
+    precise float y_offset = y - 0.5f;
+    return vec2(x, y_offset);
 }
 
 // What a pixel stores: the hit's t, id and normal (0, NO_HIT and 0 on a
@@ -482,10 +737,18 @@ PixelOut pixel_out(SceneHit hit, vec3 color) {
     return o;
 }
 
-// Everything one pixel computes, with one ray through its centre.
+// Everything one pixel computes: frame.spp samples in the fixed pattern,
+// their colours summed in sample order and divided by the count; t, id and
+// normal from the first sample (the pixel centre when spp = 1).
 PixelOut render_pixel(uint j, uint i) {
-    PixelSample s = sample_pixel(j, i, vec2(0.0f, 0.0f));
-    return pixel_out(s.hit, s.color);
+    uint n = max(frame.spp, 1u);
+    PixelSample first = sample_pixel(j, i, sample_offset(0u, n));
+    precise vec3 sum = first.color;
+    for (uint s = 1u; s < n; s++) {
+        sum = sum + sample_pixel(j, i, sample_offset(s, n)).color;
+    }
+    precise vec3 average = sum / float(n);
+    return pixel_out(first.hit, average);
 }
 
 #endif

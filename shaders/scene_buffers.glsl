@@ -8,5 +8,7 @@ layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame
 layout(std430, binding = BINDING_PRIMITIVES) readonly buffer PrimitiveBlock { Primitive primitives[]; };
 layout(std430, binding = BINDING_MATERIALS) readonly buffer MaterialBlock { Material materials[]; };
 layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light lights[]; };
+layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };
+layout(std430, binding = BINDING_TEXELS) readonly buffer TexelBlock { Texel texels[]; };
 
 #endif

@@ -5,13 +5,16 @@
 //! Scenes: every scene in scenes/, the stress scenes in tests/scenes/stress
 //! (also at an odd size, where the centre rays are exactly axis-parallel),
 //! and every corpus scene when RAYCAST_CORPUS is set (skipped, and said so,
-//! otherwise); each in colour and with the normal AOV at 512x384. A failure
+//! otherwise); each in colour and with the normal AOV at 512x384, with
+//! shadows, reflections and textures on. Our scenes and the corpus's
+//! test_feature scenes also with 4 samples per pixel and bilinear texture
+//! filtering. A failure
 //! prints the per-buffer report and writes the diff image. Ends with
 //! `N passed, M failed`.
 
 use raycast::check;
 use raycast::cpu::CpuRenderer;
-use raycast::frame::{self, Aov, RenderSettings};
+use raycast::frame::{self, Aov, RenderSettings, TextureFilter};
 use raycast::gpu::GpuOptions;
 use raycast::image_io;
 use raycast::render::GpuRenderer;
@@ -84,11 +87,27 @@ fn main() -> ExitCode {
                 continue;
             }
         };
+        let supersample = path.starts_with(repo.join("scenes")) || name.starts_with("test_feature");
+        let mut variants: Vec<(u32, u32, Aov, u32, TextureFilter)> = Vec::new();
         for &(width, height) in *sizes {
-            for aov in [Aov::Color, Aov::Normal] {
-                let label = format!("{name} {aov:?} {width}x{height}");
-                let settings = RenderSettings { width, height, aov, ..RenderSettings::default() };
-                let data = frame::build(&scene, &settings);
+            variants.push((width, height, Aov::Color, 1, TextureFilter::Nearest));
+            variants.push((width, height, Aov::Normal, 1, TextureFilter::Nearest));
+        }
+        if supersample {
+            variants.push((512, 384, Aov::Color, 4, TextureFilter::Bilinear));
+        }
+        for (width, height, aov, spp, texture_filter) in variants {
+            {
+                let label = format!("{name} {aov:?} {width}x{height}{}", if spp > 1 { " spp 4 bilinear" } else { "" });
+                let settings = RenderSettings { width, height, aov, spp, texture_filter, ..RenderSettings::default() };
+                let data = match frame::build(&scene, &settings) {
+                    Ok(d) => d,
+                    Err(e) => {
+                        failed += 1;
+                        println!("FAILED {label}: {e}");
+                        continue;
+                    }
+                };
                 let gpu_picture = match gpu.render(&data) {
                     Ok((p, _)) => p,
                     Err(e) => {

@@ -210,3 +210,54 @@ fn shaders_folder_with_a_syntax_error() {
     let o = raycast(&["render", "--shaders", broken.to_str().unwrap(), "-o", "/dev/null"], &[]);
     assert_fails(&o, 1, "glslangValidator failed on");
 }
+
+#[test]
+fn missing_texture_is_an_error_naming_the_element_unless_textures_are_off() {
+    let scene = repo().join("tests/scenes/missing_texture.xml");
+    let o = raycast(&["render", scene.to_str().unwrap(), "-o", "/dev/null"], &[]);
+    assert_fails(&o, 1, "missing_texture.xml:6:9: error: texture \"no/such/texture.png\" not found");
+    let png = out_dir().join("no-textures.png");
+    let o = raycast(&["render", scene.to_str().unwrap(), "--no-textures", "-o", png.to_str().unwrap()], &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+}
+
+#[test]
+fn render_settings_out_of_range() {
+    assert_fails(&raycast(&["render", "--spp", "0"], &[]), 1, "--spp 0 is out of range");
+    assert_fails(&raycast(&["render", "--depth", "17"], &[]), 1, "--depth 17 is out of range");
+    assert_fails(&raycast(&["render", "--texture-filter", "cubic"], &[]), 2, "invalid value 'cubic'");
+}
+
+/// Shadows, reflections and supersampling each change the default scene's
+/// picture, and each --no-… flag turns its feature off.
+#[test]
+fn feature_flags_change_the_picture() {
+    let render = |name: &str, extra: &[&str]| {
+        let png = out_dir().join(format!("features-{name}.png"));
+        let mut args = vec!["render", "--width", "128", "--height", "96", "-o", png.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = raycast(&args, &[]);
+        assert!(o.status.success(), "{:?}", text(&o));
+        raycast::image_io::read_png(&png).unwrap()
+    };
+    let all = render("all", &[]);
+    let differing = |other: &raycast::image_io::Rgb8| raycast::image_io::compare(&all, other, 0).unwrap().differing;
+    assert!(differing(&render("no-shadows", &["--no-shadows"])) > 100, "shadows should darken the floor");
+    assert!(differing(&render("spp4", &["--spp", "4"])) > 50, "supersampling should soften edges");
+    assert_eq!(differing(&render("no-refl", &["--no-reflections"])), 0, "the default scene has no mirrors");
+}
+
+#[test]
+fn compare_reports_and_fails_beyond_the_threshold() {
+    let (a, b) = (out_dir().join("cmp-a.png"), out_dir().join("cmp-b.png"));
+    assert!(raycast(&["render", "--width", "64", "--height", "48", "-o", a.to_str().unwrap()], &[]).status.success());
+    assert!(raycast(&["render", "--width", "64", "--height", "48", "--no-shadows", "-o", b.to_str().unwrap()], &[]).status.success());
+    let same = raycast(&["compare", a.to_str().unwrap(), a.to_str().unwrap()], &[]);
+    assert!(same.status.success(), "{:?}", text(&same));
+    assert!(text(&same).0.starts_with("0 of 3072 pixels (0.0000%) differ by more than 2/255"), "{:?}", text(&same));
+    let diff = out_dir().join("cmp-diff.png");
+    let o = raycast(&["compare", a.to_str().unwrap(), b.to_str().unwrap(), "-o", diff.to_str().unwrap()], &[]);
+    assert_fails(&o, 4, "more than --max-percent 0.1");
+    assert!(text(&o).0.contains("first at ("), "{:?}", text(&o));
+    assert!(diff.exists());
+}

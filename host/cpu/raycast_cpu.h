@@ -15,7 +15,8 @@ extern "C" {
  * row, out[0] is the first pixel of row_begin). Safe to call from many
  * threads at once. */
 void raycast_cpu_render_rows(const void* frame, const void* primitives, const void* materials,
-                             const void* lights, uint32_t row_begin, uint32_t row_end, void* out);
+                             const void* lights, const void* textures, const void* texels,
+                             uint32_t row_begin, uint32_t row_end, void* out);
 
 /* The C++ layout of struct `type` (e.g. "Material"): its size when member is
  * NULL, else the member's offset; -1 when unknown. */

@@ -21,6 +21,8 @@ struct Scene {
     const Primitive* primitives;
     const Material* materials;
     const Light* lights;
+    const Texture* textures;
+    const Texel* texels;
 };
 
 // The names the shared GLSL reads: `frame.width`, `primitives[i]`, …
@@ -28,12 +30,16 @@ inline thread_local Frame frame;
 inline thread_local const Primitive* primitives;
 inline thread_local const Material* materials;
 inline thread_local const Light* lights;
+inline thread_local const Texture* textures;
+inline thread_local const Texel* texels;
 
 inline void bind_scene(const Scene& s) {
     frame = s.frame;
     primitives = s.primitives;
     materials = s.materials;
     lights = s.lights;
+    textures = s.textures;
+    texels = s.texels;
 }
 
 #include "raycast.glsl"

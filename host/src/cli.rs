@@ -6,7 +6,7 @@
 
 use crate::check;
 use crate::cpu::CpuRenderer;
-use crate::frame::{self, Aov, FrameData, RenderSettings};
+use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gpu::{self, DeviceSelector, GpuOptions};
 use crate::image_io::{self, Rgb8};
 use crate::render::{GpuRenderer, Picture};
@@ -36,6 +36,11 @@ enum Command {
     Check(CheckArgs),
     /// Show a scene in a window, refined while still, reloaded when its file or the shaders change.
     Preview(crate::preview::PreviewArgs),
+    /// Compare two pictures (say, your render and a course reference): how many
+    /// pixels differ by more than a tolerance, the first and the worst.
+    Compare(CompareArgs),
+    /// Run shader unit tests (tests/shaders/*.toml by default) on the device and the CPU build.
+    ShaderTest(crate::harness::cli::ShaderTestArgs),
     /// List the Vulkan devices.
     Devices,
 }
@@ -52,7 +57,7 @@ struct FrameArgs {
     /// What the picture shows.
     #[arg(long, value_enum, default_value_t = AovArg::Color)]
     aov: AovArg,
-    /// Turn shadow rays off (they land with issue "shadows, reflections, textures").
+    /// Turn shadow rays off.
     #[arg(long)]
     no_shadows: bool,
     /// Turn mirror reflections off.
@@ -61,6 +66,15 @@ struct FrameArgs {
     /// Turn texture mapping off.
     #[arg(long)]
     no_textures: bool,
+    /// Mirror bounces (at most 16).
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    depth: u32,
+    /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    spp: u32,
+    /// How textures are sampled: the nearest texel, as the course's renders, or bilinear.
+    #[arg(long, value_enum, default_value_t = FilterArg::Nearest)]
+    texture_filter: FilterArg,
     /// Vulkan device: an index from `raycast devices` or part of its name.
     #[arg(long, value_name = "NAME|INDEX")]
     device: Option<String>,
@@ -106,6 +120,29 @@ struct CheckArgs {
     allow_pixels: usize,
 }
 
+#[derive(Args, Debug)]
+struct CompareArgs {
+    /// The picture to judge (PNG).
+    actual: PathBuf,
+    /// The picture it should match (PNG).
+    expected: PathBuf,
+    /// A pixel differs when a channel is off by more than this (0 to 255).
+    #[arg(long, default_value_t = 2, value_name = "N")]
+    tolerance: u8,
+    /// Fail (exit 4) when more than this percentage of pixels differ.
+    #[arg(long, default_value_t = 0.1, value_name = "PERCENT")]
+    max_percent: f64,
+    /// Where to write the diff image (red where pixels differ).
+    #[arg(short, long, value_name = "DIFF.png")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum FilterArg {
+    Nearest,
+    Bilinear,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Backend {
     Gpu,
@@ -144,8 +181,10 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render(&args),
         Command::Check(args) => check(&args),
+        Command::Compare(args) => compare(&args),
         Command::Preview(args) => crate::preview::run(&args),
         Command::Devices => devices(),
+        Command::ShaderTest(args) => crate::harness::cli::run(&args).map_err(|(message, code)| Failure(message, code)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -223,14 +262,19 @@ fn prepare(args: &FrameArgs) -> Result<Prepared, Failure> {
         shadows: !args.no_shadows,
         reflections: !args.no_reflections,
         textures: !args.no_textures,
-        ..RenderSettings::default()
+        max_depth: args.depth,
+        spp: args.spp,
+        texture_filter: match args.texture_filter {
+            FilterArg::Nearest => TextureFilter::Nearest,
+            FilterArg::Bilinear => TextureFilter::Bilinear,
+        },
     };
     settings.validate()?;
     let start = Instant::now();
     let parse = ParseOptions { assets: args.assets.clone() };
     let scene = load_scene(args.scene.as_deref(), &parse, &FlattenLimits { max_primitives: args.max_primitives })
         .map_err(scene_failure)?;
-    let data = frame::build(&scene, &settings);
+    let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
         eprintln!("raycast: note: {note}");
     }
@@ -355,4 +399,25 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         format!("raycast: check failed: {} pixels differ between the device and the CPU build", report.differing_pixels),
         4,
     ))
+}
+
+fn compare(args: &CompareArgs) -> Result<(), Failure> {
+    if !(0.0..=100.0).contains(&args.max_percent) {
+        return Err(Failure(format!("raycast: error: --max-percent {} is out of range: 0 to 100", args.max_percent), 1));
+    }
+    let actual = image_io::read_png(&args.actual)?;
+    let expected = image_io::read_png(&args.expected)?;
+    let diff = image_io::compare(&actual, &expected, args.tolerance)?;
+    println!("{diff}");
+    if let Some(path) = &args.output {
+        image_io::write_png(path, &diff.diff_image)?;
+        println!("wrote {} (red: pixels that differ)", path.display());
+    }
+    if diff.fraction() * 100.0 > args.max_percent {
+        return Err(Failure(
+            format!("raycast: compare failed: {:.4}% of pixels differ, more than --max-percent {}", diff.fraction() * 100.0, args.max_percent),
+            4,
+        ));
+    }
+    Ok(())
 }

@@ -2,7 +2,7 @@
 //! through its C ABI, rows handed out to every core.
 
 use crate::frame::FrameData;
-use crate::layout::{self, PixelOut, StructLayout};
+use crate::layout::{self, PixelOut};
 use crate::render::Picture;
 use std::ffi::{c_void, CString};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -14,6 +14,8 @@ extern "C" {
         primitives: *const c_void,
         materials: *const c_void,
         lights: *const c_void,
+        textures: *const c_void,
+        texels: *const c_void,
         row_begin: u32,
         row_end: u32,
         out: *mut c_void,
@@ -27,11 +29,13 @@ const ROWS_PER_JOB: u32 = 4;
 /// Checks the C++ layout of every struct in `shaders/layout.h` against the
 /// Rust mirror (which the GPU side checks against naga's reflection).
 pub fn check_layouts() -> Result<(), String> {
-    let structs: [StructLayout; 5] = [
+    let structs = [
         layout::Frame::layout(),
         layout::Primitive::layout(),
         layout::Material::layout(),
         layout::Light::layout(),
+        layout::Texture::layout(),
+        layout::Texel::layout(),
         layout::PixelOut::layout(),
     ];
     let mut errors = Vec::new();
@@ -87,13 +91,17 @@ impl CpuRenderer {
                     // structs of layout.h (checked by check_layouts);
                     // `slice` holds exactly (end - begin) rows; the C++ code
                     // reads only primitive_count primitives and light_count
-                    // lights, and materials indexed by primitives.
+                    // lights, materials indexed by primitives, textures
+                    // indexed by materials and texels inside each texture's
+                    // range (frame::build guarantees all three).
                     unsafe {
                         raycast_cpu_render_rows(
                             (&data.frame as *const layout::Frame).cast(),
                             data.primitives.as_ptr().cast(),
                             data.materials.as_ptr().cast(),
                             data.lights.as_ptr().cast(),
+                            data.textures.as_ptr().cast(),
+                            data.texels.as_ptr().cast(),
                             begin,
                             end,
                             slice.as_mut_ptr().cast(),

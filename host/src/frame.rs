@@ -4,11 +4,17 @@
 //! once, in f64, and handed to both backends as the same f32 bits.
 
 use crate::layout::{self, Mat4, Vec4};
-use crate::scene::{LightKind, Scene, Shape};
+use crate::scene::{LightKind, Scene, Shape, TextureRef};
 use glam::{DMat4, DVec3, DVec4};
+use std::collections::HashMap;
+use std::path::PathBuf;
 
 /// Largest width or height accepted (the pixel buffer of 16384² is 8 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Most samples per pixel accepted.
+pub const MAX_SPP: u32 = 4096;
+/// Most texels of all textures together (4 bytes each).
+pub const MAX_TEXELS: u64 = 1 << 28;
 
 /// What the picture shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -18,6 +24,16 @@ pub enum Aov {
     Color,
     /// floor(255·clamp((n+1)/2)) of the world-space normal, black on a miss.
     Normal,
+}
+
+/// How textures are sampled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TextureFilter {
+    /// The texel the point falls in, as the official renders.
+    #[default]
+    Nearest,
+    /// The four nearest texels, weighted.
+    Bilinear,
 }
 
 /// Settings of one render, independent of the backend.
@@ -31,6 +47,9 @@ pub struct RenderSettings {
     pub textures: bool,
     /// Mirror bounces.
     pub max_depth: u32,
+    /// Samples per pixel (the fixed pattern of raycast.glsl's sample_offset).
+    pub spp: u32,
+    pub texture_filter: TextureFilter,
 }
 
 impl Default for RenderSettings {
@@ -43,6 +62,8 @@ impl Default for RenderSettings {
             reflections: true,
             textures: true,
             max_depth: 4,
+            spp: 1,
+            texture_filter: TextureFilter::Nearest,
         }
     }
 }
@@ -68,6 +89,16 @@ impl RenderSettings {
                 )));
             }
         }
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return Err(SettingsError(format!("--spp {} is out of range: between 1 and {MAX_SPP} samples per pixel", self.spp)));
+        }
+        if self.max_depth > layout::MAX_DEPTH {
+            return Err(SettingsError(format!(
+                "--depth {} is out of range: at most {} mirror bounces",
+                self.max_depth,
+                layout::MAX_DEPTH
+            )));
+        }
         Ok(())
     }
 }
@@ -79,8 +110,52 @@ pub struct FrameData {
     pub primitives: Vec<layout::Primitive>,
     pub materials: Vec<layout::Material>,
     pub lights: Vec<layout::Light>,
+    pub textures: Vec<layout::Texture>,
+    /// Every texture's texels, one after the other.
+    pub texels: Vec<layout::Texel>,
     /// Things about the scene the renderer does not draw as written.
     pub notes: Vec<String>,
+}
+
+/// Textures loaded for one frame, each file once.
+#[derive(Default)]
+struct TextureTable {
+    index: HashMap<PathBuf, i32>,
+    textures: Vec<layout::Texture>,
+    texels: Vec<layout::Texel>,
+}
+
+impl TextureTable {
+    /// The index of `t`'s image, loading it on first use. Errors name the
+    /// scene element: `file:line:col: error: …`.
+    fn add(&mut self, t: &TextureRef) -> Result<i32, String> {
+        let Some(path) = &t.resolved else {
+            return Err(format!(
+                "{}: error: texture \"{}\" not found; pass the folder that holds it with --assets DIR, or render with --no-textures",
+                t.loc, t.file
+            ));
+        };
+        if let Some(&i) = self.index.get(path) {
+            return Ok(i);
+        }
+        let image = image::open(path)
+            .map_err(|e| format!("{}: error: cannot read texture {}: {e}", t.loc, path.display()))?
+            .to_rgba8();
+        let (width, height) = image.dimensions();
+        let total = self.texels.len() as u64 + u64::from(width) * u64::from(height);
+        if width == 0 || height == 0 || total > MAX_TEXELS {
+            return Err(format!(
+                "{}: error: texture {} ({width}x{height}) does not fit: all textures together may hold at most {MAX_TEXELS} texels",
+                t.loc,
+                path.display()
+            ));
+        }
+        let i = self.textures.len() as i32;
+        self.textures.push(layout::Texture { offset: self.texels.len() as u32, width, height, pad0: 0 });
+        self.texels.extend(image.pixels().map(|p| layout::Texel { rgba: u32::from_le_bytes(p.0) }));
+        self.index.insert(path.clone(), i);
+        Ok(i)
+    }
 }
 
 fn vec4(v: DVec3, w: f32) -> Vec4 {
@@ -113,9 +188,12 @@ pub fn world_from_film(scene: &Scene, width: u32, height: u32) -> DMat4 {
     translate * rotate * scale_inv
 }
 
-/// Packs `scene` for rendering with `settings`.
-pub fn build(scene: &Scene, settings: &RenderSettings) -> FrameData {
+/// Packs `scene` for rendering with `settings`. With textures on, loads
+/// every texture; one that cannot be found or read is an error naming the
+/// scene element.
+pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, String> {
     let mut notes = Vec::new();
+    let mut table = TextureTable::default();
 
     let primitives: Vec<layout::Primitive> = scene
         .primitives
@@ -141,7 +219,12 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> FrameData {
     let materials = scene
         .materials
         .iter()
-        .map(|m| layout::Material {
+        .map(|m| {
+            let texture = match (&m.texture, settings.textures) {
+                (Some(t), true) => table.add(t)?,
+                _ => -1,
+            };
+            Ok(layout::Material {
             diffuse: rgb(m.diffuse),
             ambient: rgb(m.ambient),
             specular: rgb(m.specular),
@@ -151,14 +234,15 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> FrameData {
             shininess: m.shininess,
             blend: m.blend,
             ior: m.ior,
-            texture: -1,
+            texture,
             texture_repeat: m
                 .texture
                 .as_ref()
                 .map(|t| [t.repeat_u, t.repeat_v, 0.0, 0.0])
                 .unwrap_or([1.0, 1.0, 0.0, 0.0]),
+            })
         })
-        .collect();
+        .collect::<Result<Vec<_>, String>>()?;
 
     let lights = scene
         .lights
@@ -218,9 +302,14 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> FrameData {
         },
         flags,
         max_depth: settings.max_depth,
-        pad0: 0,
+        spp: settings.spp,
+        texture_filter: match settings.texture_filter {
+            TextureFilter::Nearest => layout::FILTER_NEAREST,
+            TextureFilter::Bilinear => layout::FILTER_BILINEAR,
+        },
+        ..Default::default()
     };
-    FrameData { frame, primitives, materials, lights, notes }
+    Ok(FrameData { frame, primitives, materials, lights, textures: table.textures, texels: table.texels, notes })
 }
 
 #[cfg(test)]

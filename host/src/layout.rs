@@ -28,7 +28,11 @@ pub struct Frame {
     pub aov: u32,
     pub flags: u32,
     pub max_depth: u32,
+    pub spp: u32,
+    pub texture_filter: u32,
     pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 #[repr(C)]
@@ -55,6 +59,21 @@ pub struct Material {
     pub ior: f32,
     pub texture: i32,
     pub texture_repeat: Vec4,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Texture {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub pad0: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Texel {
+    pub rgba: u32,
 }
 
 #[repr(C)]
@@ -137,7 +156,7 @@ macro_rules! struct_layout {
 impl Frame {
     pub fn layout() -> StructLayout {
         struct_layout!(Frame, "Frame", [world_from_film, eye, k, width, height,
-            primitive_count, light_count, aov, flags, max_depth, pad0])
+            primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, pad0, pad1, pad2])
     }
 }
 
@@ -151,6 +170,18 @@ impl Material {
     pub fn layout() -> StructLayout {
         struct_layout!(Material, "Material", [diffuse, ambient, specular, reflective,
             transparent, emissive, shininess, blend, ior, texture, texture_repeat])
+    }
+}
+
+impl Texture {
+    pub fn layout() -> StructLayout {
+        struct_layout!(Texture, "Texture", [offset, width, height, pad0])
+    }
+}
+
+impl Texel {
+    pub fn layout() -> StructLayout {
+        struct_layout!(Texel, "Texel", [rgba])
     }
 }
 
@@ -175,6 +206,8 @@ pub fn scene_bindings() -> Vec<BindingLayout> {
         BindingLayout { binding: BINDING_PRIMITIVES, shape: BufferShape::RuntimeArray(Primitive::layout()), writable: false },
         BindingLayout { binding: BINDING_MATERIALS, shape: BufferShape::RuntimeArray(Material::layout()), writable: false },
         BindingLayout { binding: BINDING_LIGHTS, shape: BufferShape::RuntimeArray(Light::layout()), writable: false },
+        BindingLayout { binding: BINDING_TEXTURES, shape: BufferShape::RuntimeArray(Texture::layout()), writable: false },
+        BindingLayout { binding: BINDING_TEXELS, shape: BufferShape::RuntimeArray(Texel::layout()), writable: false },
     ]
 }
 

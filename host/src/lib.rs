@@ -11,6 +11,7 @@ pub mod check;
 pub mod cpu;
 pub mod frame;
 pub mod gpu;
+pub mod harness;
 pub mod image_io;
 pub mod layout;
 pub mod preview;

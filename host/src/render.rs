@@ -87,6 +87,8 @@ impl GpuRenderer {
                 (layout::BINDING_PRIMITIVES, bytemuck::cast_slice(&data.primitives)),
                 (layout::BINDING_MATERIALS, bytemuck::cast_slice(&data.materials)),
                 (layout::BINDING_LIGHTS, bytemuck::cast_slice(&data.lights)),
+                (layout::BINDING_TEXTURES, bytemuck::cast_slice(&data.textures)),
+                (layout::BINDING_TEXELS, bytemuck::cast_slice(&data.texels)),
             ],
             (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
             // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.

@@ -247,10 +247,7 @@ fn render_like_src(pixels_qualifier: &str) -> String {
 #extension GL_GOOGLE_include_directive : require
 #include "layout.h"
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE) in;
-layout(std430, set = 0, binding = BINDING_FRAME) readonly buffer FrameBuf {{ Frame frame; }};
-layout(std430, set = 0, binding = BINDING_PRIMITIVES) readonly buffer Primitives {{ Primitive primitives[]; }};
-layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials {{ Material materials[]; }};
-layout(std430, set = 0, binding = BINDING_LIGHTS) readonly buffer Lights {{ Light lights[]; }};
+#include "scene_buffers.glsl"
 layout(std430, set = 0, binding = BINDING_PIXELS) {pixels_qualifier} buffer Pixels {{ PixelOut pixels[]; }};
 void main() {{
     uint i = gl_GlobalInvocationID.y * frame.width + gl_GlobalInvocationID.x;
@@ -289,7 +286,8 @@ fn check_layouts_reports_every_planted_mismatch() {
     // Writability flipped.
     host[0].writable = true;
     // A host field the shader lacks (and so a shader member the host lacks).
-    struct_of(&mut host[3]).fields.iter_mut().find(|f| f.name == "pad0").unwrap().name = "spare";
+    let pixels = host.iter_mut().find(|b| b.binding == 4).unwrap();
+    struct_of(pixels).fields.iter_mut().find(|f| f.name == "pad0").unwrap().name = "spare";
 
     let e = reflect::check_layouts("render", &spv, &host).unwrap_err();
     let GpuError::LayoutMismatch { mismatches, .. } = &e else { panic!("{e:?}") };

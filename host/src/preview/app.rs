@@ -50,7 +50,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let parse = ParseOptions { assets: args.assets.clone() };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
     let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(scene_failure)?;
-    let data = frame::build(&scene, &settings);
+    let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
         eprintln!("raycast: note: {note}");
     }

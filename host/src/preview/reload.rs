@@ -117,7 +117,10 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
             if now != scene_stamp {
                 scene_stamp = now;
                 let msg = match scene::load(path, &config.parse, &config.limits) {
-                    Ok(scene) => { let data = frame::build(&scene, &config.settings); Reload::Scene(Box::new((scene, data))) }
+                    Ok(scene) => match frame::build(&scene, &config.settings) {
+                        Ok(data) => Reload::Scene(Box::new((scene, data))),
+                        Err(e) => Reload::Failed(e),
+                    },
                     Err(e) => Reload::Failed(e.to_string()),
                 };
                 if tx.send(msg).is_err() {

@@ -25,6 +25,8 @@ struct SceneBuffers {
     primitives: Buffer,
     materials: Buffer,
     lights: Buffer,
+    textures: Buffer,
+    texels: Buffer,
 }
 
 impl SceneBuffers {
@@ -33,6 +35,8 @@ impl SceneBuffers {
             primitives: Buffer::with_data(ctx, bytemuck::cast_slice(&data.primitives), "the primitives")?,
             materials: Buffer::with_data(ctx, bytemuck::cast_slice(&data.materials), "the materials")?,
             lights: Buffer::with_data(ctx, bytemuck::cast_slice(&data.lights), "the lights")?,
+            textures: Buffer::with_data(ctx, bytemuck::cast_slice(&data.textures), "the textures")?,
+            texels: Buffer::with_data(ctx, bytemuck::cast_slice(&data.texels), "the texels")?,
         })
     }
 }
@@ -117,6 +121,8 @@ impl PreviewRenderer {
                 (layout::BINDING_PRIMITIVES, Resource::Buffer(&s.primitives)),
                 (layout::BINDING_MATERIALS, Resource::Buffer(&s.materials)),
                 (layout::BINDING_LIGHTS, Resource::Buffer(&s.lights)),
+                (layout::BINDING_TEXTURES, Resource::Buffer(&s.textures)),
+                (layout::BINDING_TEXELS, Resource::Buffer(&s.texels)),
                 (layout::BINDING_PIXELS, Resource::Buffer(&p.pixels)),
                 (BINDING_PREVIEW, Resource::Buffer(&self.preview)),
                 (BINDING_ACCUM, Resource::Buffer(&p.accum)),

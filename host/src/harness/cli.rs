@@ -1,0 +1,119 @@
+//! `raycast shader-test [FILE…] [--shaders DIR] [--device …] [--validate]`:
+//! runs the cases of shader-test files (default: every tests/shaders/*.toml
+//! of the source tree) and ends with the line `N passed, M failed`.
+//!
+//! Exit status: 0 every case passed, 1 an error (a file, the device), 3 a
+//! validation-layer message, 4 a case failed.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use super::{file, source_root, summary, Harness, HarnessOptions};
+use crate::gpu::DeviceSelector;
+
+#[derive(Args, Debug)]
+pub struct ShaderTestArgs {
+    /// Test files (TOML) [default: every tests/shaders/*.toml of the source tree]
+    files: Vec<PathBuf>,
+    /// Test the layout.h, scene_buffers.glsl and raycast.glsl of DIR instead of
+    /// the source tree's shaders/ (on the device and in the C++ build).
+    #[arg(long, value_name = "DIR")]
+    shaders: Option<PathBuf>,
+    /// Vulkan device: an index from `raycast devices` or part of its name.
+    #[arg(long, value_name = "NAME|INDEX")]
+    device: Option<String>,
+    /// Enable the Khronos validation layer; any message fails the command (exit 3).
+    /// Also on when RAYCAST_VALIDATION=1.
+    #[arg(long)]
+    validate: bool,
+}
+
+/// Runs the command; Err is (message for stderr, exit status).
+pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
+    let fail = |e: String| (format!("raycast: error: {e}"), 1u8);
+    let root = source_root();
+    let files = if args.files.is_empty() { default_files(&root).map_err(fail)? } else { args.files.clone() };
+
+    let validation = args.validate || std::env::var("RAYCAST_VALIDATION").is_ok_and(|v| v == "1");
+    let device = args.device.as_ref().map(|s| match s.parse::<usize>() {
+        Ok(i) => DeviceSelector::Index(i),
+        Err(_) => DeviceSelector::Name(s.clone()),
+    });
+    let mut harness = Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation }).map_err(fail)?;
+
+    let mut per_file = Vec::new();
+    for path in &files {
+        let shown = shown_path(path, &root);
+        // File errors already read `file:line: error: …`.
+        let cases = file::load(path, &shown, harness.shaders()).map_err(|e| (e, 1u8))?;
+        per_file.push((shown, cases));
+    }
+    let total: usize = per_file.iter().map(|(_, c)| c.len()).sum();
+    let d = harness.device();
+    println!(
+        "shader-test: {total} cases from {} files; device {} ({}); shaders {}",
+        per_file.len(),
+        d.name,
+        d.kind,
+        harness.shaders().dir.display()
+    );
+
+    let all: Vec<_> = per_file.iter().flat_map(|(_, c)| c.iter().cloned()).collect();
+    let results = harness.run(&all);
+    let mut at = 0;
+    for (shown, cases) in &per_file {
+        let mine = &results[at..at + cases.len()];
+        at += cases.len();
+        let failed = mine.iter().filter(|r| !r.passed).count();
+        if failed == 0 {
+            println!("ok   {shown}: {} cases", cases.len());
+        } else {
+            println!("FAIL {shown}: {failed} of {} cases failed", cases.len());
+        }
+    }
+    for r in results.iter().filter(|r| !r.passed) {
+        print!("\n{}", r.report);
+    }
+    let failed = results.iter().filter(|r| !r.passed).count();
+    if failed > 0 {
+        println!();
+    }
+    println!("{}", summary(&results));
+
+    let messages = harness.take_validation_messages();
+    drop(harness);
+    if !messages.is_empty() {
+        for m in &messages {
+            eprintln!("raycast: validation: {m}");
+        }
+        return Err((format!("raycast: error: the Vulkan validation layer reported {} message(s)", messages.len()), 3));
+    }
+    if failed > 0 {
+        return Err((format!("raycast: shader-test failed: {failed} of {} cases", results.len()), 4));
+    }
+    Ok(())
+}
+
+/// Every tests/shaders/*.toml of the source tree, sorted.
+fn default_files(root: &Path) -> Result<Vec<PathBuf>, String> {
+    let dir = root.join("tests/shaders");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("toml"))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(format!("no test files in {}", dir.display()));
+    }
+    Ok(files)
+}
+
+/// A path relative to the source tree when it is inside it, else as given.
+fn shown_path(path: &Path, root: &Path) -> String {
+    path.canonicalize()
+        .ok()
+        .and_then(|p| p.strip_prefix(root).ok().map(|r| r.display().to_string()))
+        .unwrap_or_else(|| path.display().to_string())
+}

@@ -1,0 +1,465 @@
+//! Reading what the harness needs from the shared GLSL, so that adding a
+//! function to `raycast.glsl` needs no registry: the top-level functions
+//! (`[precise] TYPE name(TYPE a, TYPE b) {`), the structs of `layout.h` and
+//! `raycast.glsl`, their constants (`const float T_FAR = …;`, `#define NO_HIT
+//! 0xffffffffu`) and the scene buffers of `scene_buffers.glsl`.
+//!
+//! This is not a GLSL parser: it reads the shapes the shared code is written
+//! in (top-level declarations, brace-delimited bodies) and says so when it
+//! meets something else.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::value::{Scalar, StructDef, Type, Value};
+
+/// A top-level function of `raycast.glsl`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Function {
+    pub name: String,
+    pub ret: Type,
+    pub params: Vec<(String, Type)>,
+    /// Line of its header in raycast.glsl.
+    pub line: usize,
+}
+
+impl Function {
+    /// `vec3 cone_quadratic(Ray r)`.
+    pub fn signature(&self) -> String {
+        let params: Vec<String> = self.params.iter().map(|(n, t)| format!("{} {n}", t.glsl_name())).collect();
+        format!("{} {}({})", self.ret.glsl_name(), self.name, params.join(", "))
+    }
+
+    /// Words of all inputs, one u32 per scalar.
+    pub fn input_words(&self) -> usize {
+        self.params.iter().map(|(_, t)| t.words()).sum()
+    }
+}
+
+/// One storage buffer of `scene_buffers.glsl`: `Frame frame;` or `Primitive primitives[];`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneBuffer {
+    /// The variable the shared code reads (`frame`, `primitives`).
+    pub name: String,
+    pub binding: u32,
+    pub ty: Arc<StructDef>,
+    pub array: bool,
+}
+
+/// What the harness knows about one folder of shaders.
+#[derive(Clone, Debug)]
+pub struct ShaderInfo {
+    pub dir: PathBuf,
+    pub functions: Vec<Function>,
+    pub structs: BTreeMap<String, Arc<StructDef>>,
+    /// `const` values of raycast.glsl and numeric `#define`s of layout.h, by name.
+    pub constants: BTreeMap<String, Value>,
+    pub scene_buffers: Vec<SceneBuffer>,
+    /// Functions that could not be read (name, why); an error only when used.
+    pub unsupported: BTreeMap<String, String>,
+}
+
+/// The files a harness kernel includes, in order.
+pub const LAYOUT: &str = "layout.h";
+pub const SCENE_BUFFERS: &str = "scene_buffers.glsl";
+pub const SHARED: &str = "raycast.glsl";
+
+impl ShaderInfo {
+    /// Reads layout.h, scene_buffers.glsl and raycast.glsl of `dir`.
+    pub fn load(dir: &Path) -> Result<ShaderInfo, String> {
+        let read = |name: &str| {
+            let path = dir.join(name);
+            std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+        };
+        let (layout, buffers, shared) = (read(LAYOUT)?, read(SCENE_BUFFERS)?, read(SHARED)?);
+        let mut info = ShaderInfo {
+            dir: dir.to_path_buf(),
+            functions: Vec::new(),
+            structs: BTreeMap::new(),
+            constants: BTreeMap::new(),
+            scene_buffers: Vec::new(),
+            unsupported: BTreeMap::new(),
+        };
+        info.read_defines(&layout);
+        let at = |file: &str| dir.join(file).display().to_string();
+        info.read_file(&layout, &at(LAYOUT))?;
+        info.read_file(&buffers, &at(SCENE_BUFFERS))?;
+        info.read_file(&shared, &at(SHARED))?;
+        if info.scene_buffers.is_empty() {
+            return Err(format!("{}: no storage buffers found", at(SCENE_BUFFERS)));
+        }
+        Ok(info)
+    }
+
+    pub fn function(&self, name: &str) -> Result<&Function, String> {
+        if let Some(why) = self.unsupported.get(name) {
+            return Err(format!("function {name} of {} cannot be tested: {why}", self.dir.join(SHARED).display()));
+        }
+        self.functions.iter().find(|f| f.name == name).ok_or_else(|| {
+            let near = self
+                .functions
+                .iter()
+                .map(|f| f.name.as_str())
+                .filter(|n| n.contains(name) || name.contains(n))
+                .collect::<Vec<_>>();
+            let hint = if near.is_empty() { String::new() } else { format!(" (did you mean {}?)", near.join(", ")) };
+            format!("{} has no top-level function {name:?}{hint}", self.dir.join(SHARED).display())
+        })
+    }
+
+    /// The type named `name` (`vec3`, `Ray`, `uint`).
+    pub fn resolve(&self, name: &str) -> Option<Type> {
+        builtin_type(name).or_else(|| self.structs.get(name).map(|s| Type::Struct(s.clone())))
+    }
+
+    /// `#define NAME 12`, `3u`, `0xffffffffu` as uint constants.
+    fn read_defines(&mut self, text: &str) {
+        for line in text.lines() {
+            let mut words = line.split_whitespace();
+            if words.next() != Some("#define") {
+                continue;
+            }
+            let (Some(name), Some(value)) = (words.next(), words.next()) else { continue };
+            let digits = value.trim_end_matches('u');
+            let parsed = match digits.strip_prefix("0x") {
+                Some(hex) => u32::from_str_radix(hex, 16).ok(),
+                None => digits.parse::<u32>().ok(),
+            };
+            if let Some(v) = parsed {
+                self.constants.insert(name.to_string(), Value::Uint(v));
+            }
+        }
+    }
+
+    fn read_file(&mut self, text: &str, file: &str) -> Result<(), String> {
+        let clean = strip_comments_and_directives(text);
+        for decl in top_level(&clean) {
+            let header = decl.header.split_whitespace().collect::<Vec<_>>().join(" ");
+            let at = format!("{file}:{}", decl.line);
+            match &decl.body {
+                Some(body) if header.starts_with("struct ") => {
+                    let name = header["struct ".len()..].trim().to_string();
+                    let def = self.read_struct(&name, body).map_err(|e| format!("{at}: struct {name}: {e}"))?;
+                    self.structs.insert(name, Arc::new(def));
+                }
+                Some(body) if header.split(' ').any(|w| w == "buffer") => {
+                    self.read_buffer(&header, body).map_err(|e| format!("{at}: {e}"))?;
+                }
+                Some(_) if header.contains('(') => self.read_function(&header, decl.line),
+                Some(_) => {}
+                None => self.read_const(&header),
+            }
+        }
+        Ok(())
+    }
+
+    fn read_struct(&self, name: &str, body: &str) -> Result<StructDef, String> {
+        let mut members = Vec::new();
+        for stmt in body.split(';').map(str::trim).filter(|s| !s.is_empty()) {
+            let words: Vec<&str> = stmt.split_whitespace().filter(|w| !is_qualifier(w)).collect();
+            let Some((ty_name, names)) = words.split_first() else { continue };
+            let ty = self.resolve(ty_name).ok_or_else(|| format!("member type {ty_name} is not known"))?;
+            for n in names.join(" ").split(',').map(str::trim) {
+                if n.contains('[') {
+                    return Err(format!("array member {n} is not supported"));
+                }
+                members.push((n.to_string(), ty.clone()));
+            }
+        }
+        Ok(StructDef { name: name.to_string(), members })
+    }
+
+    /// `layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock` { `Frame frame;` }
+    fn read_buffer(&mut self, header: &str, body: &str) -> Result<(), String> {
+        let binding_expr = header
+            .split_once("binding")
+            .and_then(|(_, rest)| rest.trim_start().strip_prefix('='))
+            .map(|rest| rest.trim_start().split(|c: char| c == ',' || c == ')' || c.is_whitespace()).next().unwrap_or(""))
+            .ok_or_else(|| format!("buffer without a binding: {header}"))?;
+        let binding = match self.constants.get(binding_expr) {
+            Some(Value::Uint(v)) => *v,
+            _ => binding_expr.parse::<u32>().map_err(|_| format!("binding {binding_expr} is not a number or a #define"))?,
+        };
+        let member = body.split(';').map(str::trim).find(|s| !s.is_empty()).unwrap_or("");
+        let words: Vec<&str> = member.split_whitespace().collect();
+        let [ty_name, var] = words[..] else {
+            return Err(format!("expected one member `Type name;` or `Type name[];` in the buffer block, found {member:?}"));
+        };
+        let Some(def) = self.structs.get(ty_name).cloned() else {
+            return Err(format!("buffer member type {ty_name} is not a struct of layout.h"));
+        };
+        let (name, array) = match var.strip_suffix("[]") {
+            Some(n) => (n.to_string(), true),
+            None => (var.to_string(), false),
+        };
+        self.scene_buffers.push(SceneBuffer { name, binding, ty: def, array });
+        Ok(())
+    }
+
+    fn read_function(&mut self, header: &str, line: usize) {
+        let Some((head, rest)) = header.split_once('(') else { return };
+        let Some(params_text) = rest.strip_suffix(')') else { return };
+        let words: Vec<&str> = head.split_whitespace().filter(|w| !is_qualifier(w)).collect();
+        let [ret_name, name] = words[..] else { return };
+        let name = name.to_string();
+        if name == "main" {
+            return;
+        }
+        let ret = match ret_name {
+            "void" => {
+                self.unsupported.insert(name, "it returns void: the harness tests return values".into());
+                return;
+            }
+            n => match self.resolve(n) {
+                Some(t) => t,
+                None => {
+                    self.unsupported.insert(name, format!("return type {n} is not supported"));
+                    return;
+                }
+            },
+        };
+        let mut params = Vec::new();
+        let text = params_text.trim();
+        if !text.is_empty() && text != "void" {
+            for p in text.split(',') {
+                let words: Vec<&str> = p.split_whitespace().collect();
+                if words.iter().any(|w| *w == "out" || *w == "inout") {
+                    self.unsupported.insert(name, format!("parameter {:?} is out/inout", p.trim()));
+                    return;
+                }
+                let words: Vec<&str> = words.into_iter().filter(|w| !is_qualifier(w) && *w != "in").collect();
+                let [ty_name, pname] = words[..] else {
+                    self.unsupported.insert(name, format!("cannot read parameter {:?}", p.trim()));
+                    return;
+                };
+                match self.resolve(ty_name) {
+                    Some(t) if !pname.contains('[') => params.push((pname.to_string(), t)),
+                    _ => {
+                        self.unsupported.insert(name, format!("parameter type of {:?} is not supported", p.trim()));
+                        return;
+                    }
+                }
+            }
+        }
+        if self.functions.iter().any(|f| f.name == name) {
+            self.unsupported.insert(name, "it is overloaded".into());
+            return;
+        }
+        self.functions.push(Function { name, ret, params, line });
+    }
+
+    /// `const float T_FAR = 3.40282347e38f;`
+    fn read_const(&mut self, header: &str) {
+        let Some(rest) = header.strip_prefix("const ") else { return };
+        let Some((lhs, rhs)) = rest.split_once('=') else { return };
+        let words: Vec<&str> = lhs.split_whitespace().collect();
+        let [ty, name] = words[..] else { return };
+        let literal = rhs.trim();
+        let value = match ty {
+            "float" => literal.trim_end_matches(['f', 'F']).parse::<f32>().ok().map(Value::Float),
+            "int" => literal.parse::<i32>().ok().map(Value::Int),
+            "uint" => literal.trim_end_matches(['u', 'U']).parse::<u32>().ok().map(Value::Uint),
+            _ => None,
+        };
+        if let Some(v) = value {
+            self.constants.insert(name.to_string(), v);
+        }
+    }
+}
+
+fn is_qualifier(w: &str) -> bool {
+    matches!(w, "precise" | "const" | "highp" | "mediump" | "lowp" | "invariant")
+}
+
+/// The GLSL built-in types the harness moves in and out of buffers.
+pub fn builtin_type(name: &str) -> Option<Type> {
+    let scalar = |s: &str| match s {
+        "float" => Some(Scalar::Float),
+        "int" => Some(Scalar::Int),
+        "uint" => Some(Scalar::Uint),
+        "bool" => Some(Scalar::Bool),
+        _ => None,
+    };
+    if let Some(s) = scalar(name) {
+        return Some(Type::Scalar(s));
+    }
+    let n = |c: char| c.to_digit(10).filter(|d| (2..=4).contains(d)).map(|d| d as usize);
+    let last = name.chars().last()?;
+    let prefix = &name[..name.len() - 1];
+    match prefix {
+        "vec" => n(last).map(|k| Type::Vector(Scalar::Float, k)),
+        "ivec" => n(last).map(|k| Type::Vector(Scalar::Int, k)),
+        "uvec" => n(last).map(|k| Type::Vector(Scalar::Uint, k)),
+        "bvec" => n(last).map(|k| Type::Vector(Scalar::Bool, k)),
+        "mat" => n(last).map(Type::Matrix),
+        _ => None,
+    }
+}
+
+/// Comments and preprocessor lines blanked, newlines kept (for line numbers).
+fn strip_comments_and_directives(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let b = text.as_bytes();
+    let mut i = 0;
+    let mut line_start = true;
+    while i < b.len() {
+        let c = b[i];
+        if line_start && text[i..].trim_start_matches([' ', '\t']).starts_with('#') {
+            // A directive: up to the end of the line (continuations are not used here).
+            while i < b.len() && b[i] != b'\n' {
+                i += 1;
+            }
+            continue;
+        }
+        if c == b'/' && b.get(i + 1) == Some(&b'/') {
+            while i < b.len() && b[i] != b'\n' {
+                i += 1;
+            }
+            continue;
+        }
+        if c == b'/' && b.get(i + 1) == Some(&b'*') {
+            i += 2;
+            while i < b.len() && !(b[i] == b'*' && b.get(i + 1) == Some(&b'/')) {
+                if b[i] == b'\n' {
+                    out.push('\n');
+                }
+                i += 1;
+            }
+            i += 2;
+            continue;
+        }
+        line_start = c == b'\n';
+        // Keep multi-byte characters (in strings and comments only) intact.
+        let ch = text[i..].chars().next().unwrap_or(' ');
+        out.push(ch);
+        i += ch.len_utf8();
+    }
+    out
+}
+
+/// A top-level declaration: its text up to `{` or `;`, and the body between
+/// the braces when it has one.
+struct Decl {
+    header: String,
+    body: Option<String>,
+    /// 1-based line of the header's first non-blank character.
+    line: usize,
+}
+
+fn top_level(text: &str) -> Vec<Decl> {
+    let mut out = Vec::new();
+    let mut header = String::new();
+    let mut header_line = 0;
+    let mut line = 1;
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '{' => {
+                let mut depth = 1;
+                let mut body = String::new();
+                for c in chars.by_ref() {
+                    if c == '\n' {
+                        line += 1;
+                    }
+                    match c {
+                        '{' => depth += 1,
+                        '}' => {
+                            depth -= 1;
+                            if depth == 0 {
+                                break;
+                            }
+                        }
+                        _ => {}
+                    }
+                    body.push(c);
+                }
+                out.push(Decl { header: header.trim().to_string(), body: Some(body), line: header_line });
+                header.clear();
+                // A struct or block ends with `;` (possibly after an instance name): skip it.
+                while let Some(&n) = chars.peek() {
+                    if n == ';' {
+                        chars.next();
+                        break;
+                    }
+                    if !n.is_whitespace() {
+                        break;
+                    }
+                    if n == '\n' {
+                        line += 1;
+                    }
+                    chars.next();
+                }
+            }
+            ';' => {
+                if !header.trim().is_empty() {
+                    out.push(Decl { header: header.trim().to_string(), body: None, line: header_line });
+                }
+                header.clear();
+            }
+            _ => {
+                if c == '\n' {
+                    line += 1;
+                }
+                if header.trim().is_empty() && !c.is_whitespace() {
+                    header_line = line;
+                }
+                header.push(c);
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> ShaderInfo {
+        let dir = std::env::temp_dir().join(format!("raycast-glsl-parse-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(LAYOUT), "#define BINDING_THING 3 // x\n#define NO_HIT 0xffffffffu\nstruct Thing {\n  vec4 a; // c\n  uint b, c;\n};\n").unwrap();
+        std::fs::write(dir.join(SCENE_BUFFERS), "layout(std430, binding = BINDING_THING) readonly buffer ThingBlock { Thing things[]; };\n").unwrap();
+        std::fs::write(
+            dir.join(SHARED),
+            "const float T_FAR = 3.40282347e38f;\n/* block\ncomment */\nstruct Ray {\n    vec3 origin;\n    vec3 direction;\n};\n\
+             precise float\nsquare(float x) {\n  { return x * x; }\n}\nvoid nothing() {}\nRay make(vec3 o, const vec3 d) { Ray r; r.origin = o; r.direction = d; return r; }\n\
+             uint count(Thing t, bool b) { return b ? t.b : 0u; }\nfloat bad(out float x) { x = 1.0f; return x; }\n",
+        )
+        .unwrap();
+        let info = ShaderInfo::load(&dir).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        info
+    }
+
+    #[test]
+    fn reads_functions_structs_constants_and_buffers() {
+        let info = sample();
+        let names: Vec<&str> = info.functions.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["square", "make", "count"]);
+        assert_eq!(info.function("square").unwrap().signature(), "float square(float x)");
+        assert_eq!(info.function("square").unwrap().line, 8);
+        assert_eq!(info.function("make").unwrap().signature(), "Ray make(vec3 o, vec3 d)");
+        assert_eq!(info.function("count").unwrap().input_words(), 7);
+        assert!(info.function("bad").unwrap_err().contains("out/inout"), "{}", info.function("bad").unwrap_err());
+        assert!(info.function("nothing").unwrap_err().contains("void"));
+        assert!(info.function("squar").unwrap_err().contains("did you mean square"));
+        assert_eq!(info.constants.get("T_FAR"), Some(&Value::Float(f32::MAX)));
+        assert_eq!(info.constants.get("NO_HIT"), Some(&Value::Uint(u32::MAX)));
+        let thing = &info.structs["Thing"];
+        assert_eq!(thing.members.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(), ["a", "b", "c"]);
+        assert_eq!(info.scene_buffers.len(), 1);
+        assert_eq!((info.scene_buffers[0].name.as_str(), info.scene_buffers[0].binding, info.scene_buffers[0].array), ("things", 3, true));
+    }
+
+    #[test]
+    fn reads_the_real_shaders() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
+        let info = ShaderInfo::load(&dir).unwrap();
+        for name in ["dot3", "intersect_cube", "cone_quadratic", "trace", "camera_ray"] {
+            info.function(name).unwrap();
+        }
+        assert!(info.scene_buffers.iter().any(|b| b.name == "frame" && !b.array));
+        assert!(info.scene_buffers.iter().any(|b| b.name == "primitives" && b.array));
+    }
+}

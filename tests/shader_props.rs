@@ -1,0 +1,1 @@
+//! Shader property tests (in progress).
