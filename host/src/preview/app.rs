@@ -41,7 +41,7 @@ preview controls:
   R               back to the scene's camera   F             frame the whole scene
   C               print the camera as a <cameradata> block
   1 2 3 4         show colour, normal, depth, object id
-  H M T           toggle the shadows, reflections, textures flags (not rendered yet: the kernel ignores them)
+  H M T           toggle shadows, mirror reflections, textures
   F1              this help                    Esc           quit";
 
 pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
@@ -425,7 +425,7 @@ impl Preview {
         let name = self.scene.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let mut t = format!(
             "raycast preview | {name} | {} | {:.1} ms/frame, {rate:.2} Mrays/s | {} samples | {} | \
-             shadows {}, reflections {}, textures {} (not rendered yet)",
+             shadows {}, reflections {}, textures {}",
             mode_name(self.mode),
             self.stats.frame_ms,
             self.sample,
