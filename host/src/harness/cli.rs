@@ -52,8 +52,9 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
     let total: usize = per_file.iter().map(|(_, c)| c.len()).sum();
     let d = harness.device();
     println!(
-        "shader-test: {total} cases from {} files; device {} ({}); shaders {}",
+        "shader-test: {total} cases from {} file{}; device {} ({}); shaders {}",
         per_file.len(),
+        if per_file.len() == 1 { "" } else { "s" },
         d.name,
         d.kind,
         harness.shaders().dir.display()

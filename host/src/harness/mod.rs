@@ -282,20 +282,16 @@ impl Harness {
             std::process::id(),
             COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
         ));
-        std::fs::create_dir_all(&work).map_err(|e| format!("cannot create {}: {e}", work.display()))?;
-        for entry in std::fs::read_dir(&dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))? {
-            let path = entry.map_err(|e| e.to_string())?.path();
-            if matches!(path.extension().and_then(|e| e.to_str()), Some("h" | "glsl")) {
-                let to = work.join(path.file_name().unwrap_or_default());
-                std::fs::copy(&path, &to).map_err(|e| format!("cannot copy {}: {e}", path.display()))?;
-            }
-        }
         let ctx = GpuContext::new(&GpuOptions {
             device: opts.device.clone(),
             validation: opts.validation,
             ..GpuOptions::default()
         })
         .map_err(|e| e.to_string())?;
+        if let Err(e) = copy_shaders(&dir, &work) {
+            let _ = std::fs::remove_dir_all(&work);
+            return Err(e);
+        }
         Ok(Harness {
             kernels: HashMap::new(),
             ctx,
@@ -468,18 +464,8 @@ impl Harness {
     }
 
     fn build_kernel(&self, f: &Function) -> Result<Kernel, String> {
-        let src = self.work.join(format!("harness_{}.comp", f.name));
-        std::fs::write(&src, codegen::kernel_source(f)).map_err(|e| format!("cannot write {}: {e}", src.display()))?;
-        // Name the real files in glslang's messages, not the working copies.
-        let real = |msg: String| {
-            let mut msg = msg;
-            for file in [glsl::LAYOUT, glsl::SCENE_BUFFERS, glsl::SHARED] {
-                msg = msg.replace(&self.work.join(file).display().to_string(), &self.info.dir.join(file).display().to_string());
-            }
-            msg
-        };
-        let spirv = gpu::compile_kernel(&src).map_err(|e| format!("the kernel for {} did not compile:\n{}", f.name, real(e)))?;
-        Kernel::new(&self.ctx, &format!("harness_{}", f.name), &spirv, &kernel_bindings()).map_err(|e| real(e.to_string()))
+        let spirv = compile_in(&self.work, &self.info.dir, f)?;
+        Kernel::new(&self.ctx, &kernel_name(f), &spirv, &kernel_bindings()).map_err(|e| e.to_string())
     }
 
     fn run_device(&self, f: &Function, scene: &[Vec<u32>], input: &[u32], out_words: usize) -> Result<Vec<u32>, String> {
@@ -499,6 +485,56 @@ impl Harness {
             .map_err(|e| e.to_string())?;
         Ok(bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
+}
+
+/// `harness_trace`: the kernel of function `f`, in messages.
+pub fn kernel_name(f: &Function) -> String {
+    format!("harness_{}", f.name)
+}
+
+/// Copies the .h and .glsl files of `from` into `to`, where the generated
+/// kernels are written beside them.
+fn copy_shaders(from: &Path, to: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(to).map_err(|e| format!("cannot create {}: {e}", to.display()))?;
+    for entry in std::fs::read_dir(from).map_err(|e| format!("cannot read {}: {e}", from.display()))? {
+        let path = entry.map_err(|e| e.to_string())?.path();
+        if matches!(path.extension().and_then(|e| e.to_str()), Some("h" | "glsl")) {
+            let dest = to.join(path.file_name().unwrap_or_default());
+            std::fs::copy(&path, &dest).map_err(|e| format!("cannot copy {}: {e}", path.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Generates the kernel of `f` in `work` (a copy of `real_dir`) and compiles
+/// it with glslang. Messages name the files of `real_dir`.
+fn compile_in(work: &Path, real_dir: &Path, f: &Function) -> Result<Vec<u8>, String> {
+    let src = work.join(format!("{}.comp", kernel_name(f)));
+    std::fs::write(&src, codegen::kernel_source(f)).map_err(|e| format!("cannot write {}: {e}", src.display()))?;
+    gpu::compile_kernel(&src).map_err(|e| {
+        let mut msg = e;
+        for file in [glsl::LAYOUT, glsl::SCENE_BUFFERS, glsl::SHARED] {
+            msg = msg.replace(&work.join(file).display().to_string(), &real_dir.join(file).display().to_string());
+        }
+        format!("the kernel for {} did not compile:\n{msg}", f.name)
+    })
+}
+
+/// The SPIR-V of the harness kernel for `function` of the shaders in
+/// `shaders`, without a device: for checking every generated kernel with
+/// naga (`gpu::reflect::check_layouts` against [`kernel_bindings`]).
+pub fn kernel_spirv(shaders: &Path, function: &str) -> Result<Vec<u8>, String> {
+    let info = ShaderInfo::load(shaders)?;
+    let f = info.function(function)?;
+    static COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let work = std::env::temp_dir().join(format!(
+        "raycast-harness-spirv-{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    let result = copy_shaders(shaders, &work).and_then(|()| compile_in(&work, shaders, f));
+    let _ = std::fs::remove_dir_all(&work);
+    result
 }
 
 fn title(case: &Case) -> String {
