@@ -426,6 +426,21 @@ SceneHit trace(Ray r) {
     return best;
 }
 
+precise float max_abs3(vec3 v) {
+    return max_f(max_f(abs(v.x), abs(v.y)), abs(v.z));
+}
+
+// How far a shadow or mirror ray starts from the surface point p, hit by a
+// ray from `origin`: the course's 0.001, or 2^-14 of the largest coordinate
+// of p and origin when that is larger. p = origin + t d is rounded at the
+// scale of both; beyond 16 units a fixed 0.001 is only a few float steps,
+// less than that rounding, and the ray would hit the surface it leaves.
+// Scenes within 16 units of the origin are unaffected.
+precise float ray_offset(vec3 p, vec3 origin) {
+    precise float scaled = max_f(max_abs3(p), max_abs3(origin)) * 6.10351562e-5f;
+    return max_f(0.001f, scaled);
+}
+
 // True when anything is hit at 0 < t < t_max.
 bool occluded(Ray r, float t_max) {
     for (uint i = 0u; i < frame.primitive_count; i++) {
@@ -580,9 +595,10 @@ precise vec3 local_color(Ray r, SceneHit hit) {
             to_light = d / dist;
         }
         if ((frame.flags & FLAG_SHADOWS) != 0u) {
-            // From 0.001 along L toward the light: blocked by anything closer
-            // than the light (anything at all for a directional light).
-            precise vec3 shadow_origin = p + 0.001f * to_light;
+            // From 0.001 (ray_offset) along L toward the light: blocked by
+            // anything closer than the light (anything at all for a
+            // directional light).
+            precise vec3 shadow_origin = p + ray_offset(p, r.origin) * to_light;
             Ray shadow;
             shadow.origin = shadow_origin;
             shadow.direction = to_light;
@@ -636,11 +652,12 @@ precise vec3 radiance(Ray r, SceneHit first) {
         if (!reflections || level == depth || (w.x == 0.0f && w.y == 0.0f && w.z == 0.0f)) {
             break;
         }
-        // Mirror direction of the unit ray direction about N, from 0.001 along it.
+        // Mirror direction of the unit ray direction about N, from 0.001
+        // (ray_offset) along it.
         precise vec3 d = unit(ray.direction);
         precise vec3 mirror = d - (2.0f * dot3(hit.normal, d)) * hit.normal;
         precise vec3 p = ray.origin + hit.t * ray.direction;
-        precise vec3 mirror_origin = p + 0.001f * mirror;
+        precise vec3 mirror_origin = p + ray_offset(p, ray.origin) * mirror;
         ray.origin = mirror_origin;
         ray.direction = mirror;
         hit = trace(ray);

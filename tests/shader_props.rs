@@ -34,13 +34,12 @@
 //! correctly rounded sqrt of a three-term dot product, each step within
 //! half an ULP; measured worst 1.14 * 2^-23.
 //!
-//! LEAVING: from p, offset 1e-3 R along a direction d_out leaving the
-//! surface (the mirror direction, or a random one where the mirror is within
-//! 6 degrees of the tangent plane: n . d_out >= 0.1), no hit. The offset
-//! moves the origin at least 1e-4 R (over 800 ULP(R)) off the surface,
-//! beyond every SURFACE bound, so a hit means a ray leaving a convex
-//! primitive re-entered it. (The renderer offsets shadow and mirror rays by
-//! an absolute 0.001, which is below the rounding of coordinates above 2^13.)
+//! LEAVING: from p, offset along a direction d_out leaving the surface (the
+//! mirror direction, or a random one where the mirror is within 6 degrees
+//! of the tangent plane: n . d_out >= 0.1) by the renderer's own rule for
+//! shadow and mirror rays (raycast.glsl ray_offset: 0.001, or 2^-14 of the
+//! largest coordinate of the point and the eye when larger), no hit: a hit means a ray the
+//! renderer would cast re-enters the convex primitive it leaves.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -53,7 +52,10 @@ use raycast::layout::{self, Frame, Primitive};
 
 const CASES_PER_SHAPE: usize = 128;
 const NORMAL_BOUND: f64 = 1.0 / (1u64 << 22) as f64;
-const LEAVE_OFFSET: f64 = 1e-3;
+/// raycast.glsl ray_offset: max(0.001, 2^-14 max(|p_i|, |eye_i|)).
+fn leave_offset(p: DVec3, eye: DVec3) -> f64 {
+    (p.abs().max_element().max(eye.abs().max_element()) * (1.0 / 16384.0)).max(1e-3)
+}
 const LEAVE_MIN_COS: f64 = 0.1;
 const DEFAULT_SEED: u64 = 0x5eed_2024_0004;
 
@@ -374,7 +376,7 @@ fn property_test(shape: Shape) {
                 }
             }
         };
-        let origin = f32x3(f64x3(p) + out * (LEAVE_OFFSET * big));
+        let origin = f32x3(f64x3(p) + out * leave_offset(f64x3(p), f64x3(s.origin)));
         let case = Case::new("trace")
             .named(format!("{shape:?} case {k}: leaving ray"))
             .input("r", ray_value(origin, f32x3(out)))

@@ -117,6 +117,21 @@ pub struct FrameData {
     pub notes: Vec<String>,
 }
 
+impl FrameData {
+    /// The scene's storage buffers other than the frame itself, as
+    /// (binding, what it is for messages, bytes): the one list every kernel
+    /// that includes raycast.glsl binds (shaders/scene_buffers.glsl).
+    pub fn scene_buffers(&self) -> [(u32, &'static str, &[u8]); 5] {
+        [
+            (layout::BINDING_PRIMITIVES, "the primitives", bytemuck::cast_slice(&self.primitives)),
+            (layout::BINDING_MATERIALS, "the materials", bytemuck::cast_slice(&self.materials)),
+            (layout::BINDING_LIGHTS, "the lights", bytemuck::cast_slice(&self.lights)),
+            (layout::BINDING_TEXTURES, "the textures", bytemuck::cast_slice(&self.textures)),
+            (layout::BINDING_TEXELS, "the texels", bytemuck::cast_slice(&self.texels)),
+        ]
+    }
+}
+
 /// Textures loaded for one frame, each file once.
 #[derive(Default)]
 struct TextureTable {

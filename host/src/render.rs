@@ -80,16 +80,11 @@ impl GpuRenderer {
         let f = &data.frame;
         let count = f.width as usize * f.height as usize;
         let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), f.height.div_ceil(layout::WORKGROUP_SIZE), 1];
+        let mut inputs = vec![(layout::BINDING_FRAME, bytemuck::bytes_of(&data.frame))];
+        inputs.extend(data.scene_buffers().iter().map(|&(binding, _, bytes)| (binding, bytes)));
         let (bytes, t) = self.context.run(
             &self.kernel,
-            &[
-                (layout::BINDING_FRAME, bytemuck::bytes_of(&data.frame)),
-                (layout::BINDING_PRIMITIVES, bytemuck::cast_slice(&data.primitives)),
-                (layout::BINDING_MATERIALS, bytemuck::cast_slice(&data.materials)),
-                (layout::BINDING_LIGHTS, bytemuck::cast_slice(&data.lights)),
-                (layout::BINDING_TEXTURES, bytemuck::cast_slice(&data.textures)),
-                (layout::BINDING_TEXELS, bytemuck::cast_slice(&data.texels)),
-            ],
+            &inputs,
             (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
             // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.
             0xffff_ffff,

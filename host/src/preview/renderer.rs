@@ -20,24 +20,17 @@ pub fn embedded_kernel(ctx: &GpuContext) -> Result<Kernel, GpuError> {
     Kernel::with_images(ctx, "preview", spirv, &preview_bindings(), &preview_images())
 }
 
-/// Scene buffers: primitives, materials, lights, textures and their texels.
-struct SceneBuffers {
-    primitives: Buffer,
-    materials: Buffer,
-    lights: Buffer,
-    textures: Buffer,
-    texels: Buffer,
-}
+/// The scene's buffers (FrameData::scene_buffers) on the device, by binding.
+struct SceneBuffers(Vec<(u32, Buffer)>);
 
 impl SceneBuffers {
     fn new(ctx: &GpuContext, data: &FrameData) -> Result<SceneBuffers, GpuError> {
-        Ok(SceneBuffers {
-            primitives: Buffer::with_data(ctx, bytemuck::cast_slice(&data.primitives), "the primitives")?,
-            materials: Buffer::with_data(ctx, bytemuck::cast_slice(&data.materials), "the materials")?,
-            lights: Buffer::with_data(ctx, bytemuck::cast_slice(&data.lights), "the lights")?,
-            textures: Buffer::with_data(ctx, bytemuck::cast_slice(&data.textures), "the textures")?,
-            texels: Buffer::with_data(ctx, bytemuck::cast_slice(&data.texels), "the texels")?,
-        })
+        let buffers = data
+            .scene_buffers()
+            .iter()
+            .map(|&(binding, what, bytes)| Ok((binding, Buffer::with_data(ctx, bytes, what)?)))
+            .collect::<Result<_, GpuError>>()?;
+        Ok(SceneBuffers(buffers))
     }
 }
 
@@ -114,21 +107,15 @@ impl PreviewRenderer {
         self.set = None;
         let p = &self.picture;
         let s = &self.scene;
-        self.set = Some(DescriptorSet::new(
-            &self.kernel,
-            &[
-                (layout::BINDING_FRAME, Resource::Buffer(&self.frame)),
-                (layout::BINDING_PRIMITIVES, Resource::Buffer(&s.primitives)),
-                (layout::BINDING_MATERIALS, Resource::Buffer(&s.materials)),
-                (layout::BINDING_LIGHTS, Resource::Buffer(&s.lights)),
-                (layout::BINDING_TEXTURES, Resource::Buffer(&s.textures)),
-                (layout::BINDING_TEXELS, Resource::Buffer(&s.texels)),
-                (layout::BINDING_PIXELS, Resource::Buffer(&p.pixels)),
-                (BINDING_PREVIEW, Resource::Buffer(&self.preview)),
-                (BINDING_ACCUM, Resource::Buffer(&p.accum)),
-                (BINDING_DISPLAY, Resource::Image(&p.display)),
-            ],
-        )?);
+        let mut resources = vec![(layout::BINDING_FRAME, Resource::Buffer(&self.frame))];
+        resources.extend(s.0.iter().map(|(binding, buffer)| (*binding, Resource::Buffer(buffer))));
+        resources.extend([
+            (layout::BINDING_PIXELS, Resource::Buffer(&p.pixels)),
+            (BINDING_PREVIEW, Resource::Buffer(&self.preview)),
+            (BINDING_ACCUM, Resource::Buffer(&p.accum)),
+            (BINDING_DISPLAY, Resource::Image(&p.display)),
+        ]);
+        self.set = Some(DescriptorSet::new(&self.kernel, &resources)?);
         Ok(())
     }
 
