@@ -163,18 +163,24 @@ fn check_passes_on_the_default_scene() {
     assert!(diff.exists());
 }
 
+/// A fresh copy of shaders/ in the test output folder, to plant changes in.
+fn copy_of_shaders(name: &str) -> PathBuf {
+    let dir = out_dir().join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for entry in std::fs::read_dir(repo().join("shaders")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
+    }
+    dir
+}
+
 /// The check itself is tested: a copy of the shaders with one sum reordered
 /// (dot3 summed right to left) must be reported, with counts, values and
 /// ULP distances, and exit status 4.
 #[test]
 fn check_reports_a_planted_difference() {
-    let planted = out_dir().join("planted-shaders");
-    let _ = std::fs::remove_dir_all(&planted);
-    std::fs::create_dir_all(&planted).unwrap();
-    for entry in std::fs::read_dir(repo().join("shaders")).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, planted.join(path.file_name().unwrap())).unwrap();
-    }
+    let planted = copy_of_shaders("planted-shaders");
     let glsl = planted.join("raycast.glsl");
     let source = std::fs::read_to_string(&glsl).unwrap();
     let sum = "precise float r = (a.x * b.x + a.y * b.y) + a.z * b.z;";
@@ -199,13 +205,7 @@ fn check_reports_a_planted_difference() {
 
 #[test]
 fn shaders_folder_with_a_syntax_error() {
-    let broken = out_dir().join("broken-shaders");
-    let _ = std::fs::remove_dir_all(&broken);
-    std::fs::create_dir_all(&broken).unwrap();
-    for entry in std::fs::read_dir(repo().join("shaders")).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, broken.join(path.file_name().unwrap())).unwrap();
-    }
+    let broken = copy_of_shaders("broken-shaders");
     std::fs::write(broken.join("raycast.glsl"), "this is not GLSL\n").unwrap();
     let o = raycast(&["render", "--shaders", broken.to_str().unwrap(), "-o", "/dev/null"], &[]);
     assert_fails(&o, 1, "glslangValidator failed on");
