@@ -20,6 +20,19 @@
 // 5 to 7: the preview kernel's own (shaders/preview.h)
 #define BINDING_TEXTURES 8   // Texture[]
 #define BINDING_TEXELS 9     // Texel[]: every texture's texels, row 0 at the top
+#define BINDING_NODES 10     // BvhNode[]: every group's hierarchy
+#define BINDING_LEAF_ITEMS 11 // LeafItem[]: what the leaves hold
+#define BINDING_INSTANCES 12 // Instance[]: placed copies of a group (a master tree)
+// 20, 21: the shader-test harness's own
+#define BINDING_COUNT 13     // bindings 0 .. BINDING_COUNT-1 of the scene and the pixels
+
+#define MAX_LEVELS 16  // deepest nesting of instances
+#define STACK_SIZE 64  // traversal stack entries (the host proves a scene fits)
+#define ITEM_INSTANCE 2147483648u // LeafItem.item bit: an instance, not a primitive
+// A stack word: ITEM_INSTANCE | index or a node index in bits 0-26, the level in 27-30.
+#define STACK_LEVEL_SHIFT 27u
+#define STACK_ENTRY_MASK 2281701375u // 0x87ffffff: the flag and 27 index bits
+#define MAX_INDEX 134217727u // 2^27 - 1: most nodes, instances or primitives
 
 #define MAX_DEPTH 16 // the most mirror bounces --depth accepts
 
@@ -44,6 +57,7 @@
 #define FLAG_SHADOWS 1u
 #define FLAG_REFLECTIONS 2u
 #define FLAG_TEXTURES 4u
+#define FLAG_NO_BVH 8u // test every primitive: the hierarchy's boxes are ignored
 
 // Frame.texture_filter
 #define FILTER_NEAREST 0u
@@ -68,15 +82,43 @@ struct Frame {
     uint max_depth; // mirror bounces, at most MAX_DEPTH
     uint spp;       // samples per pixel (fixed pattern: raycast.glsl sample_offset)
     uint texture_filter;
+    uint root_node;  // the root group's hierarchy
+    uint node_count; // 0: no hierarchy; primitives are tested in order
     uint pad0;
-    uint pad1;
-    uint pad2;
 };
 
+// A primitive of a group. Its matrix maps the group's space (the world for
+// the root group) to the primitive's object space.
 struct Primitive {
     mat4 object_from_world;
     uint shape;
     uint material;
+    uint id_offset; // its id is the group's first id plus this
+    uint pad1;
+};
+
+// A node of a group's bounding volume hierarchy, in the group's space.
+// count > 0: a leaf holding leaf_items[first .. first + count);
+// count = 0: children first and first + 1, split along axis.
+struct BvhNode {
+    vec4 lo;
+    vec4 hi;
+    uint first;
+    uint count;
+    uint axis;
+    uint pad0;
+};
+
+// ITEM_INSTANCE | instance index, or a primitive index.
+struct LeafItem {
+    uint item;
+};
+
+// A group placed in its parent group's space.
+struct Instance {
+    mat4 object_from_parent; // parent group's space -> the placed group's space
+    uint root;      // the placed group's root node
+    uint id_offset; // ids of its primitives start at the parent's first id plus this
     uint pad0;
     uint pad1;
 };

@@ -209,6 +209,8 @@ struct SceneHit {
     vec3 normal;   // world-space unit normal
     vec3 p_object; // the hit point in the primitive's object space
     vec3 n_object; // its object-space normal as the shape test gave it (not unit)
+    uint material; // the hit primitive's material and shape
+    uint shape;
 };
 
 ShapeHit no_hit() {
@@ -392,40 +394,6 @@ ShapeHit intersect_shape(uint shape, Ray r) {
 // ---------------------------------------------------------------------------
 // Nearest hit and shadow rays
 
-// The ray in primitive i's object space.
-Ray object_ray(uint i, Ray r) {
-    Ray local;
-    local.origin = transform_point(primitives[i].object_from_world, r.origin);
-    local.direction = transform_vector(primitives[i].object_from_world, r.direction);
-    return local;
-}
-
-// Every primitive, object-space test through object_from_world; the nearest
-// t > 0 wins, the lowest index on equal t.
-SceneHit trace(Ray r) {
-    SceneHit best;
-    best.t = T_FAR;
-    best.id = NO_HIT;
-    best.normal = vec3(0.0f, 0.0f, 0.0f);
-    best.p_object = vec3(0.0f, 0.0f, 0.0f);
-    best.n_object = vec3(0.0f, 0.0f, 0.0f);
-    for (uint i = 0u; i < frame.primitive_count; i++) {
-        ShapeHit h = intersect_shape(primitives[i].shape, object_ray(i, r));
-        if (h.t < best.t) {
-            best.t = h.t;
-            best.id = i;
-            best.n_object = h.normal;
-        }
-    }
-    if (best.id != NO_HIT) {
-        Ray local = object_ray(best.id, r);
-        precise vec3 p_object = local.origin + best.t * local.direction;
-        best.p_object = p_object;
-        best.normal = unit(transform_normal(primitives[best.id].object_from_world, best.n_object));
-    }
-    return best;
-}
-
 precise float max_abs3(vec3 v) {
     return max_f(max_f(abs(v.x), abs(v.y)), abs(v.z));
 }
@@ -441,12 +409,219 @@ precise float ray_offset(vec3 p, vec3 origin) {
     return max_f(0.001f, scaled);
 }
 
-// True when anything is hit at 0 < t < t_max.
+// The ray in the object space of a primitive whose matrix is m.
+Ray ray_through(mat4 m, Ray r) {
+    Ray local;
+    local.origin = transform_point(m, r.origin);
+    local.direction = transform_vector(m, r.direction);
+    return local;
+}
+
+// Whether ray r meets the box [lo, hi] at some t in [0, t_max]. Axes the
+// ray is parallel to are decided by the origin alone, so no 0/0 or inf
+// arises; min/max are the NaN-safe ternaries.
+bool box_hit(Ray r, vec4 lo, vec4 hi, float t_max) {
+    precise float t_near = 0.0f;
+    precise float t_far = t_max;
+    for (int a = 0; a < 3; a++) {
+        float o = r.origin[a];
+        float d = r.direction[a];
+        if (d == 0.0f) {
+            if (o < lo[a] || o > hi[a]) {
+                return false;
+            }
+            continue;
+        }
+        precise float t0 = (lo[a] - o) / d;
+        precise float t1 = (hi[a] - o) / d;
+        t_near = max_f(t_near, min_f(t0, t1));
+        t_far = min_f(t_far, max_f(t0, t1));
+        if (t_near > t_far) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// A traversal stack entry: the instance flag and index (or a node index) in
+// the low bits, the level whose ray it uses above them.
+uint stack_word(uint entry, uint level) {
+    return entry | (level << STACK_LEVEL_SHIFT);
+}
+
+// The nearest hit of ray r: t > 0, and on equal t the lowest primitive id,
+// so the answer does not depend on the order things are tested in.
+//
+// The scene is a two-level (in general, nested) hierarchy: each group (the
+// root tree, each master tree) has a BVH over its primitives and its
+// instances of other groups; entering an instance maps the ray into the
+// placed group's space, one matrix per level. Ids number primitives depth
+// first in file order (as the host flattens them). Stack entries pair a
+// node or an instance with the level whose ray it uses; deeper levels only
+// ever sit above shallower ones, so each level keeps one ray. With
+// FLAG_NO_BVH the boxes are ignored: every primitive is tested, through the
+// same matrices, so the answer is bit for bit the same. frame.node_count 0
+// means no hierarchy: primitives in order, each in world space.
+SceneHit trace(Ray r) {
+    SceneHit best;
+    best.t = T_FAR;
+    best.id = NO_HIT;
+    best.normal = vec3(0.0f, 0.0f, 0.0f);
+    best.p_object = vec3(0.0f, 0.0f, 0.0f);
+    best.n_object = vec3(0.0f, 0.0f, 0.0f);
+    best.material = 0u;
+    best.shape = 0u;
+    if (frame.node_count == 0u) {
+        for (uint i = 0u; i < frame.primitive_count; i++) {
+            Ray local = ray_through(primitives[i].object_from_world, r);
+            ShapeHit h = intersect_shape(primitives[i].shape, local);
+            if (h.t < best.t) {
+                precise vec3 p_object = local.origin + h.t * local.direction;
+                best.t = h.t;
+                best.id = i;
+                best.n_object = h.normal;
+                best.p_object = p_object;
+                best.normal = transform_normal(primitives[i].object_from_world, h.normal);
+                best.material = primitives[i].material;
+                best.shape = primitives[i].shape;
+            }
+        }
+    } else {
+        bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
+        vec3 level_origin[MAX_LEVELS];
+        vec3 level_direction[MAX_LEVELS];
+        uint level_first_id[MAX_LEVELS];
+        uint level_instance[MAX_LEVELS];
+        level_origin[0] = r.origin;
+        level_direction[0] = r.direction;
+        level_first_id[0] = 0u;
+        level_instance[0] = 0u;
+        uint stack[STACK_SIZE];
+        stack[0] = frame.root_node;
+        int top = 1;
+        while (top > 0) {
+            top = top - 1;
+            uint entry = stack[top] & STACK_ENTRY_MASK;
+            uint level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
+            Ray lr;
+            lr.origin = level_origin[level];
+            lr.direction = level_direction[level];
+            if ((entry & ITEM_INSTANCE) != 0u) {
+                // Enter the instance: its group's ray one level down.
+                uint k = entry & (ITEM_INSTANCE - 1u);
+                Ray inner = ray_through(instances[k].object_from_parent, lr);
+                uint child = level + 1u;
+                level_origin[child] = inner.origin;
+                level_direction[child] = inner.direction;
+                level_first_id[child] = level_first_id[level] + instances[k].id_offset;
+                level_instance[child] = k;
+                stack[top] = stack_word(instances[k].root, child);
+                top = top + 1;
+                continue;
+            }
+            BvhNode node = nodes[entry];
+            if (use_boxes && !box_hit(lr, node.lo, node.hi, best.t)) {
+                continue;
+            }
+            if (node.count == 0u) {
+                // Nearer child (by the ray's sign on the split axis) on top.
+                bool left_first = lr.direction[node.axis] >= 0.0f;
+                stack[top] = stack_word(left_first ? node.first + 1u : node.first, level);
+                stack[top + 1] = stack_word(left_first ? node.first : node.first + 1u, level);
+                top = top + 2;
+                continue;
+            }
+            for (uint n = 0u; n < node.count; n++) {
+                uint item = leaf_items[node.first + n].item;
+                if ((item & ITEM_INSTANCE) != 0u) {
+                    stack[top] = stack_word(item, level);
+                    top = top + 1;
+                    continue;
+                }
+                Ray local = ray_through(primitives[item].object_from_world, lr);
+                ShapeHit h = intersect_shape(primitives[item].shape, local);
+                uint id = level_first_id[level] + primitives[item].id_offset;
+                if (h.t < best.t || (h.t == best.t && h.t < T_FAR && id < best.id)) {
+                    precise vec3 p_object = local.origin + h.t * local.direction;
+                    best.t = h.t;
+                    best.id = id;
+                    best.n_object = h.normal;
+                    best.p_object = p_object;
+                    // The normal rule, level by level back to the world.
+                    precise vec3 n_world = transform_normal(primitives[item].object_from_world, h.normal);
+                    for (uint l = level; l > 0u; l--) {
+                        n_world = transform_normal(instances[level_instance[l]].object_from_parent, n_world);
+                    }
+                    best.normal = n_world;
+                    best.material = primitives[item].material;
+                    best.shape = primitives[item].shape;
+                }
+            }
+        }
+    }
+    if (best.id != NO_HIT) {
+        best.normal = unit(best.normal);
+    }
+    return best;
+}
+
+// True when anything is hit at 0 < t < t_max: trace's walk, stopping at the
+// first hit (which one does not matter).
 bool occluded(Ray r, float t_max) {
-    for (uint i = 0u; i < frame.primitive_count; i++) {
-        ShapeHit h = intersect_shape(primitives[i].shape, object_ray(i, r));
-        if (h.t < t_max) {
-            return true;
+    if (frame.node_count == 0u) {
+        for (uint i = 0u; i < frame.primitive_count; i++) {
+            ShapeHit h = intersect_shape(primitives[i].shape, ray_through(primitives[i].object_from_world, r));
+            if (h.t < t_max) {
+                return true;
+            }
+        }
+        return false;
+    }
+    bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
+    vec3 level_origin[MAX_LEVELS];
+    vec3 level_direction[MAX_LEVELS];
+    level_origin[0] = r.origin;
+    level_direction[0] = r.direction;
+    uint stack[STACK_SIZE];
+    stack[0] = frame.root_node;
+    int top = 1;
+    while (top > 0) {
+        top = top - 1;
+        uint entry = stack[top] & STACK_ENTRY_MASK;
+        uint level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
+        Ray lr;
+        lr.origin = level_origin[level];
+        lr.direction = level_direction[level];
+        if ((entry & ITEM_INSTANCE) != 0u) {
+            uint k = entry & (ITEM_INSTANCE - 1u);
+            Ray inner = ray_through(instances[k].object_from_parent, lr);
+            level_origin[level + 1u] = inner.origin;
+            level_direction[level + 1u] = inner.direction;
+            stack[top] = stack_word(instances[k].root, level + 1u);
+            top = top + 1;
+            continue;
+        }
+        BvhNode node = nodes[entry];
+        if (use_boxes && !box_hit(lr, node.lo, node.hi, t_max)) {
+            continue;
+        }
+        if (node.count == 0u) {
+            stack[top] = stack_word(node.first + 1u, level);
+            stack[top + 1] = stack_word(node.first, level);
+            top = top + 2;
+            continue;
+        }
+        for (uint n = 0u; n < node.count; n++) {
+            uint item = leaf_items[node.first + n].item;
+            if ((item & ITEM_INSTANCE) != 0u) {
+                stack[top] = stack_word(item, level);
+                top = top + 1;
+                continue;
+            }
+            ShapeHit h = intersect_shape(primitives[item].shape, ray_through(primitives[item].object_from_world, lr));
+            if (h.t < t_max) {
+                return true;
+            }
         }
     }
     return false;
@@ -573,15 +748,14 @@ precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
 // is not shadowed, diffuse (textured: blended with the texel) and specular.
 // Not clamped: the caller clamps after adding the reflection.
 precise vec3 local_color(Ray r, SceneHit hit) {
-    Primitive prim = primitives[hit.id];
-    Material m = materials[prim.material];
+    Material m = materials[hit.material];
     precise vec3 p = r.origin + hit.t * r.direction;
     precise vec3 n = hit.normal;
     precise vec3 v = -unit(r.direction);
     precise vec3 color = frame.k.x * xyz(m.ambient) + xyz(m.emissive);
     precise vec3 diffuse = frame.k.y * xyz(m.diffuse);
     if (m.texture >= 0 && (frame.flags & FLAG_TEXTURES) != 0u) {
-        precise vec3 texel = sample_texture(m, surface_uv(prim.shape, hit.p_object, hit.n_object));
+        precise vec3 texel = sample_texture(m, surface_uv(hit.shape, hit.p_object, hit.n_object));
         diffuse = (1.0f - m.blend) * diffuse + m.blend * texel;
     }
     precise vec3 specular = frame.k.z * xyz(m.specular);
@@ -647,7 +821,7 @@ precise vec3 radiance(Ray r, SceneHit first) {
         }
         local_at[level] = local_color(ray, hit);
         levels = level + 1u;
-        precise vec3 w = frame.k.z * xyz(materials[primitives[hit.id].material].reflective);
+        precise vec3 w = frame.k.z * xyz(materials[hit.material].reflective);
         weight_at[level] = w;
         if (!reflections || level == depth || (w.x == 0.0f && w.y == 0.0f && w.z == 0.0f)) {
             break;

@@ -10,5 +10,8 @@ layout(std430, binding = BINDING_MATERIALS) readonly buffer MaterialBlock { Mate
 layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light lights[]; };
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };
 layout(std430, binding = BINDING_TEXELS) readonly buffer TexelBlock { Texel texels[]; };
+layout(std430, binding = BINDING_NODES) readonly buffer NodeBlock { BvhNode nodes[]; };
+layout(std430, binding = BINDING_LEAF_ITEMS) readonly buffer LeafItemBlock { LeafItem leaf_items[]; };
+layout(std430, binding = BINDING_INSTANCES) readonly buffer InstanceBlock { Instance instances[]; };
 
 #endif

@@ -8,17 +8,18 @@
 
 using namespace raycast_cpu;
 
-extern "C" void raycast_cpu_render_rows(const void* frame_in, const void* primitives_in,
-                                        const void* materials_in, const void* lights_in,
-                                        const void* textures_in, const void* texels_in,
-                                        uint32_t row_begin, uint32_t row_end, void* out) {
+extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
+                                        void* out) {
     Scene s;
-    std::memcpy(&s.frame, frame_in, sizeof(Frame));
-    s.primitives = static_cast<const Primitive*>(primitives_in);
-    s.materials = static_cast<const Material*>(materials_in);
-    s.lights = static_cast<const Light*>(lights_in);
-    s.textures = static_cast<const Texture*>(textures_in);
-    s.texels = static_cast<const Texel*>(texels_in);
+    std::memcpy(&s.frame, buffers[BINDING_FRAME], sizeof(Frame));
+    s.primitives = static_cast<const Primitive*>(buffers[BINDING_PRIMITIVES]);
+    s.materials = static_cast<const Material*>(buffers[BINDING_MATERIALS]);
+    s.lights = static_cast<const Light*>(buffers[BINDING_LIGHTS]);
+    s.textures = static_cast<const Texture*>(buffers[BINDING_TEXTURES]);
+    s.texels = static_cast<const Texel*>(buffers[BINDING_TEXELS]);
+    s.nodes = static_cast<const BvhNode*>(buffers[BINDING_NODES]);
+    s.leaf_items = static_cast<const LeafItem*>(buffers[BINDING_LEAF_ITEMS]);
+    s.instances = static_cast<const Instance*>(buffers[BINDING_INSTANCES]);
     bind_scene(s);
     PixelOut* pixels = static_cast<PixelOut*>(out);
     for (uint32_t i = row_begin; i < row_end; i++) {
@@ -41,11 +42,16 @@ const Field fields[] = {
     SIZE(Frame), AT(Frame, world_from_film), AT(Frame, eye), AT(Frame, k), AT(Frame, width),
     AT(Frame, height), AT(Frame, primitive_count), AT(Frame, light_count), AT(Frame, aov),
     AT(Frame, flags), AT(Frame, max_depth), AT(Frame, spp), AT(Frame, texture_filter),
-    AT(Frame, pad0), AT(Frame, pad1), AT(Frame, pad2),
+    AT(Frame, root_node), AT(Frame, node_count), AT(Frame, pad0),
+    SIZE(BvhNode), AT(BvhNode, lo), AT(BvhNode, hi), AT(BvhNode, first), AT(BvhNode, count),
+    AT(BvhNode, axis), AT(BvhNode, pad0),
+    SIZE(LeafItem), AT(LeafItem, item),
+    SIZE(Instance), AT(Instance, object_from_parent), AT(Instance, root), AT(Instance, id_offset),
+    AT(Instance, pad0), AT(Instance, pad1),
     SIZE(Texture), AT(Texture, offset), AT(Texture, width), AT(Texture, height), AT(Texture, pad0),
     SIZE(Texel), AT(Texel, rgba),
     SIZE(Primitive), AT(Primitive, object_from_world), AT(Primitive, shape), AT(Primitive, material),
-    AT(Primitive, pad0), AT(Primitive, pad1),
+    AT(Primitive, id_offset), AT(Primitive, pad1),
     SIZE(Material), AT(Material, diffuse), AT(Material, ambient), AT(Material, specular),
     AT(Material, reflective), AT(Material, transparent), AT(Material, emissive),
     AT(Material, shininess), AT(Material, blend), AT(Material, ior), AT(Material, texture),

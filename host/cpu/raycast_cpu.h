@@ -12,11 +12,10 @@ extern "C" {
 #endif
 
 /* Renders rows [row_begin, row_end) of the frame into out (width pixels a
- * row, out[0] is the first pixel of row_begin). Safe to call from many
- * threads at once. */
-void raycast_cpu_render_rows(const void* frame, const void* primitives, const void* materials,
-                             const void* lights, const void* textures, const void* texels,
-                             uint32_t row_begin, uint32_t row_end, void* out);
+ * row, out[0] is the first pixel of row_begin). buffers[b] is the buffer the
+ * kernel binds at binding b (layout.h BINDING_*, up to BINDING_COUNT; the
+ * pixel binding is unused). Safe to call from many threads at once. */
+void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end, void* out);
 
 /* The C++ layout of struct `type` (e.g. "Material"): its size when member is
  * NULL, else the member's offset; -1 when unknown. */

@@ -23,6 +23,9 @@ struct Scene {
     const Light* lights;
     const Texture* textures;
     const Texel* texels;
+    const BvhNode* nodes;
+    const LeafItem* leaf_items;
+    const Instance* instances;
 };
 
 // The names the shared GLSL reads: `frame.width`, `primitives[i]`, …
@@ -32,6 +35,9 @@ inline thread_local const Material* materials;
 inline thread_local const Light* lights;
 inline thread_local const Texture* textures;
 inline thread_local const Texel* texels;
+inline thread_local const BvhNode* nodes;
+inline thread_local const LeafItem* leaf_items;
+inline thread_local const Instance* instances;
 
 inline void bind_scene(const Scene& s) {
     frame = s.frame;
@@ -40,6 +46,9 @@ inline void bind_scene(const Scene& s) {
     lights = s.lights;
     textures = s.textures;
     texels = s.texels;
+    nodes = s.nodes;
+    leaf_items = s.leaf_items;
+    instances = s.instances;
 }
 
 #include "raycast.glsl"

@@ -69,6 +69,10 @@ struct FrameArgs {
     /// Mirror bounces (at most 16).
     #[arg(long, default_value_t = 4, value_name = "N")]
     depth: u32,
+    /// Test every primitive for every ray: no bounding volume hierarchy. The
+    /// picture is identical; only slower.
+    #[arg(long)]
+    no_bvh: bool,
     /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
     #[arg(long, default_value_t = 1, value_name = "N")]
     spp: u32,
@@ -263,6 +267,7 @@ fn prepare(args: &FrameArgs) -> Result<Prepared, Failure> {
         reflections: !args.no_reflections,
         textures: !args.no_textures,
         max_depth: args.depth,
+        bvh: !args.no_bvh,
         spp: args.spp,
         texture_filter: match args.texture_filter {
             FilterArg::Nearest => TextureFilter::Nearest,

@@ -9,17 +9,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
 extern "C" {
-    fn raycast_cpu_render_rows(
-        frame: *const c_void,
-        primitives: *const c_void,
-        materials: *const c_void,
-        lights: *const c_void,
-        textures: *const c_void,
-        texels: *const c_void,
-        row_begin: u32,
-        row_end: u32,
-        out: *mut c_void,
-    );
+    fn raycast_cpu_render_rows(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
     fn raycast_cpu_field_offset(ty: *const std::ffi::c_char, member: *const std::ffi::c_char) -> i64;
 }
 
@@ -36,6 +26,9 @@ pub fn check_layouts() -> Result<(), String> {
         layout::Light::layout(),
         layout::Texture::layout(),
         layout::Texel::layout(),
+        layout::BvhNode::layout(),
+        layout::LeafItem::layout(),
+        layout::Instance::layout(),
         layout::PixelOut::layout(),
     ];
     let mut errors = Vec::new();
@@ -61,6 +54,12 @@ pub fn check_layouts() -> Result<(), String> {
     }
 }
 
+/// Buffer pointers shared by the render threads, which only read through them.
+struct SendPtrs([*const c_void; layout::BINDING_COUNT as usize]);
+// SAFETY: the pointers are only read, and the data they point to outlives
+// the scoped threads (it is borrowed from `data` for the whole render).
+unsafe impl Sync for SendPtrs {}
+
 /// Renders on the CPU with the shared GLSL built as C++.
 pub struct CpuRenderer {
     pub threads: usize,
@@ -81,6 +80,14 @@ impl CpuRenderer {
         // Jobs: disjoint slices of ROWS_PER_JOB rows, taken in order by whichever thread is free.
         let jobs = Mutex::new(pixels.chunks_mut(row_len * ROWS_PER_JOB as usize).enumerate());
         let done = AtomicU32::new(0);
+        // The kernel's buffers by binding number, as raycast_cpu.h takes them.
+        let mut buffers = [std::ptr::null::<c_void>(); layout::BINDING_COUNT as usize];
+        buffers[layout::BINDING_FRAME as usize] = (&data.frame as *const layout::Frame).cast();
+        for (binding, _, bytes) in data.scene_buffers() {
+            buffers[binding as usize] = bytes.as_ptr().cast();
+        }
+        let buffers = SendPtrs(buffers);
+        let buffers = &buffers;
         std::thread::scope(|scope| {
             for _ in 0..self.threads.max(1) {
                 scope.spawn(|| loop {
@@ -95,17 +102,7 @@ impl CpuRenderer {
                     // indexed by materials and texels inside each texture's
                     // range (frame::build guarantees all three).
                     unsafe {
-                        raycast_cpu_render_rows(
-                            (&data.frame as *const layout::Frame).cast(),
-                            data.primitives.as_ptr().cast(),
-                            data.materials.as_ptr().cast(),
-                            data.lights.as_ptr().cast(),
-                            data.textures.as_ptr().cast(),
-                            data.texels.as_ptr().cast(),
-                            begin,
-                            end,
-                            slice.as_mut_ptr().cast(),
-                        );
+                        raycast_cpu_render_rows(buffers.0.as_ptr(), begin, end, slice.as_mut_ptr().cast());
                     }
                     done.fetch_add(end - begin, Ordering::Relaxed);
                 });

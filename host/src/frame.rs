@@ -3,6 +3,7 @@
 //! Everything computed here (camera matrix, light directions) is computed
 //! once, in f64, and handed to both backends as the same f32 bits.
 
+use crate::bvh::{self, Aabb};
 use crate::layout::{self, Mat4, Vec4};
 use crate::scene::{LightKind, Scene, Shape, TextureRef};
 use glam::{DMat4, DVec3, DVec4};
@@ -11,6 +12,9 @@ use std::path::PathBuf;
 
 /// Largest width or height accepted (the pixel buffer of 16384² is 8 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Scenes keep masters as instanced groups: memory grows with the file.
+pub const INSTANCING: bool = true;
+
 /// Most samples per pixel accepted.
 pub const MAX_SPP: u32 = 4096;
 /// Most texels of all textures together (4 bytes each).
@@ -47,6 +51,9 @@ pub struct RenderSettings {
     pub textures: bool,
     /// Mirror bounces.
     pub max_depth: u32,
+    /// Cull with the bounding volume hierarchy (off: every primitive is
+    /// tested, through the same matrices, for the identical picture).
+    pub bvh: bool,
     /// Samples per pixel (the fixed pattern of raycast.glsl's sample_offset).
     pub spp: u32,
     pub texture_filter: TextureFilter,
@@ -62,6 +69,7 @@ impl Default for RenderSettings {
             reflections: true,
             textures: true,
             max_depth: 4,
+            bvh: true,
             spp: 1,
             texture_filter: TextureFilter::Nearest,
         }
@@ -113,6 +121,13 @@ pub struct FrameData {
     pub textures: Vec<layout::Texture>,
     /// Every texture's texels, one after the other.
     pub texels: Vec<layout::Texel>,
+    pub nodes: Vec<layout::BvhNode>,
+    pub leaf_items: Vec<layout::LeafItem>,
+    pub instances: Vec<layout::Instance>,
+    /// Primitives the scene expands to (every instance counted).
+    pub expanded: u64,
+    /// Time to build the hierarchies and pack the groups.
+    pub build_time: std::time::Duration,
     /// Things about the scene the renderer does not draw as written.
     pub notes: Vec<String>,
 }
@@ -121,13 +136,16 @@ impl FrameData {
     /// The scene's storage buffers other than the frame itself, as
     /// (binding, what it is for messages, bytes): the one list every kernel
     /// that includes raycast.glsl binds (shaders/scene_buffers.glsl).
-    pub fn scene_buffers(&self) -> [(u32, &'static str, &[u8]); 5] {
+    pub fn scene_buffers(&self) -> [(u32, &'static str, &[u8]); 8] {
         [
             (layout::BINDING_PRIMITIVES, "the primitives", bytemuck::cast_slice(&self.primitives)),
             (layout::BINDING_MATERIALS, "the materials", bytemuck::cast_slice(&self.materials)),
             (layout::BINDING_LIGHTS, "the lights", bytemuck::cast_slice(&self.lights)),
             (layout::BINDING_TEXTURES, "the textures", bytemuck::cast_slice(&self.textures)),
             (layout::BINDING_TEXELS, "the texels", bytemuck::cast_slice(&self.texels)),
+            (layout::BINDING_NODES, "the hierarchy's nodes", bytemuck::cast_slice(&self.nodes)),
+            (layout::BINDING_LEAF_ITEMS, "the hierarchy's leaf items", bytemuck::cast_slice(&self.leaf_items)),
+            (layout::BINDING_INSTANCES, "the instances", bytemuck::cast_slice(&self.instances)),
         ]
     }
 }
@@ -210,26 +228,9 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
     let mut notes = Vec::new();
     let mut table = TextureTable::default();
 
-    let primitives: Vec<layout::Primitive> = scene
-        .primitives
-        .iter()
-        .filter_map(|p| {
-            let shape = match p.shape {
-                Shape::Cube => layout::SHAPE_CUBE,
-                Shape::Cone => layout::SHAPE_CONE,
-                Shape::Cylinder => layout::SHAPE_CYLINDER,
-                Shape::Sphere => layout::SHAPE_SPHERE,
-                // flatten() already dropped these with a warning.
-                Shape::Torus | Shape::Mesh { .. } => return None,
-            };
-            Some(layout::Primitive {
-                object_from_world: mat4(&p.object_from_world),
-                shape,
-                material: p.material,
-                ..Default::default()
-            })
-        })
-        .collect();
+    let start = std::time::Instant::now();
+    let packed = pack_groups(scene)?;
+    let build_time = start.elapsed();
 
     let materials = scene
         .materials
@@ -294,6 +295,9 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
 
     let g = &scene.globals;
     let mut flags = 0;
+    if !settings.bvh {
+        flags |= layout::FLAG_NO_BVH;
+    }
     if settings.shadows {
         flags |= layout::FLAG_SHADOWS;
     }
@@ -309,7 +313,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         k: [g.ka, g.kd, g.ks, g.kt],
         width: settings.width,
         height: settings.height,
-        primitive_count: primitives.len() as u32,
+        primitive_count: packed.primitives.len() as u32,
         light_count: lights.len() as u32,
         aov: match settings.aov {
             Aov::Color => layout::AOV_COLOR,
@@ -322,9 +326,181 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
             TextureFilter::Nearest => layout::FILTER_NEAREST,
             TextureFilter::Bilinear => layout::FILTER_BILINEAR,
         },
+        root_node: packed.root_node,
+        node_count: packed.nodes.len() as u32,
         ..Default::default()
     };
-    Ok(FrameData { frame, primitives, materials, lights, textures: table.textures, texels: table.texels, notes })
+    Ok(FrameData {
+        frame,
+        primitives: packed.primitives,
+        materials,
+        lights,
+        textures: table.textures,
+        texels: table.texels,
+        nodes: packed.nodes,
+        leaf_items: packed.leaf_items,
+        instances: packed.instances,
+        expanded: scene.primitive_count(),
+        build_time,
+        notes,
+    })
+}
+
+/// Scenes of one group with at most this many primitives skip the hierarchy.
+const SMALL_SCENE: usize = 8;
+
+/// The groups of a scene as the device buffers hold them.
+struct Packed {
+    primitives: Vec<layout::Primitive>,
+    nodes: Vec<layout::BvhNode>,
+    leaf_items: Vec<layout::LeafItem>,
+    instances: Vec<layout::Instance>,
+    root_node: u32,
+}
+
+fn shape_code(shape: &Shape) -> u32 {
+    match shape {
+        Shape::Cube => layout::SHAPE_CUBE,
+        Shape::Cone => layout::SHAPE_CONE,
+        Shape::Cylinder => layout::SHAPE_CYLINDER,
+        // flatten() keeps only drawn shapes.
+        Shape::Sphere | Shape::Torus | Shape::Mesh { .. } => layout::SHAPE_SPHERE,
+    }
+}
+
+/// Builds each group's hierarchy (children before the groups that place
+/// them, so instance boxes are known) and packs primitives, nodes, leaf
+/// items and instances, with global indices. Proves that traversal fits the
+/// shader's fixed stack and level arrays.
+fn pack_groups(scene: &Scene) -> Result<Packed, String> {
+    let groups = &scene.groups;
+    let n = groups.len();
+    if scene.primitive_count() >= u64::from(layout::NO_HIT) {
+        return Err(format!("the scene expands to {} primitives; ids are 32-bit, so at most {}", scene.primitive_count(), layout::NO_HIT - 1));
+    }
+    let post = scene.groups_children_first();
+    let mut prim_base = vec![0u32; n];
+    let mut inst_base = vec![0u32; n];
+    let (mut p_total, mut i_total) = (0u32, 0u32);
+    for g in 0..n {
+        prim_base[g] = p_total;
+        inst_base[g] = i_total;
+        p_total += groups[g].primitives.len() as u32;
+        i_total += groups[g].instances.len() as u32;
+    }
+
+    let mut nodes: Vec<layout::BvhNode> = Vec::new();
+    let mut leaf_items: Vec<layout::LeafItem> = Vec::new();
+    let mut group_root = vec![u32::MAX; n];
+    let mut group_bounds = vec![Aabb::EMPTY; n];
+    // Stack entries and instance levels a traversal starting in the group needs.
+    let mut need = vec![0u32; n];
+    let mut levels = vec![0u32; n];
+    for &g in &post {
+        let group = &groups[g];
+        let np = group.primitives.len();
+        let bounds: Vec<Aabb> = group
+            .primitives
+            .iter()
+            .map(|p| Aabb::UNIT.transformed(&p.world_from_object))
+            .chain(group.instances.iter().map(|i| group_bounds[i.group as usize].transformed(&i.parent_from_group)))
+            .collect();
+        let built = bvh::build(&bounds);
+        if built.nodes.is_empty() {
+            continue;
+        }
+        let (node_base, leaf_base) = (nodes.len() as u32, leaf_items.len() as u32);
+        group_root[g] = node_base;
+        group_bounds[g] = built.nodes[0].bounds;
+        leaf_items.extend(built.order.iter().map(|&k| layout::LeafItem {
+            item: if (k as usize) < np {
+                prim_base[g] + k
+            } else {
+                layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32)
+            },
+        }));
+        // Depth of each node, for the stack bound.
+        let mut depth = vec![0u32; built.nodes.len()];
+        for (i, node) in built.nodes.iter().enumerate() {
+            let (lo, hi) = node.bounds.padded_f32();
+            let interior = node.count == 0;
+            if interior {
+                depth[node.first as usize] = depth[i] + 1;
+                depth[node.first as usize + 1] = depth[i] + 1;
+            } else {
+                let placed: Vec<usize> = built.order[node.first as usize..(node.first + node.count) as usize]
+                    .iter()
+                    .filter(|&&k| k as usize >= np)
+                    .map(|&k| group.instances[k as usize - np].group as usize)
+                    .collect();
+                let child_need = placed.iter().map(|&c| need[c]).max().unwrap_or(0);
+                let k = placed.len() as u32;
+                let leaf_need = depth[i] + if k == 0 { 1 } else { k.max(k - 1 + child_need) };
+                need[g] = need[g].max(leaf_need);
+                levels[g] = levels[g].max(placed.iter().map(|&c| levels[c] + 1).max().unwrap_or(0));
+            }
+            nodes.push(layout::BvhNode {
+                lo,
+                hi,
+                first: if interior { node_base + node.first } else { leaf_base + node.first },
+                count: node.count,
+                axis: node.axis,
+                pad0: 0,
+            });
+        }
+        // An interior node's two children are pushed at once: one more entry.
+        need[g] += 1;
+    }
+    if need[0] > layout::STACK_SIZE {
+        return Err(format!(
+            "the scene's hierarchy needs a traversal stack of {} entries, more than the shader's {} (masters nested too deeply)",
+            need[0],
+            layout::STACK_SIZE
+        ));
+    }
+    if levels[0] >= layout::MAX_LEVELS {
+        return Err(format!(
+            "masters are nested {} deep, more than the shader's {} levels",
+            levels[0],
+            layout::MAX_LEVELS - 1
+        ));
+    }
+    let primitives = groups
+        .iter()
+        .flat_map(|g| &g.primitives)
+        .map(|p| layout::Primitive {
+            object_from_world: mat4(&p.object_from_world),
+            shape: shape_code(&p.shape),
+            material: p.material,
+            id_offset: p.id_offset as u32,
+            pad1: 0,
+        })
+        .collect();
+    let instances = groups
+        .iter()
+        .flat_map(|g| &g.instances)
+        .map(|i| layout::Instance {
+            object_from_parent: mat4(&i.group_from_parent),
+            root: group_root[i.group as usize],
+            id_offset: i.id_offset as u32,
+            ..Default::default()
+        })
+        .collect();
+    for (what, count) in [("nodes", nodes.len()), ("primitives", p_total as usize), ("instances", i_total as usize)] {
+        if count > layout::MAX_INDEX as usize {
+            return Err(format!("the scene needs {count} {what}, more than the shader can index ({})", layout::MAX_INDEX));
+        }
+    }
+    if group_root[0] == u32::MAX {
+        // Nothing to draw: no hierarchy, no primitives.
+        return Ok(Packed { primitives: vec![], nodes: vec![], leaf_items: vec![], instances: vec![], root_node: 0 });
+    }
+    if n == 1 && p_total as usize <= SMALL_SCENE {
+        // A few primitives and no instances: testing them in order is cheaper
+        // than walking a hierarchy, and computes exactly the same.
+        return Ok(Packed { primitives, nodes: vec![], leaf_items: vec![], instances: vec![], root_node: 0 });
+    }
+    Ok(Packed { primitives, nodes, leaf_items, instances, root_node: group_root[0] })
 }
 
 #[cfg(test)]
@@ -340,7 +516,7 @@ mod tests {
             globals: Globals::default(),
             camera,
             lights: vec![],
-            primitives: vec![],
+            groups: vec![],
             materials: vec![],
             warnings: vec![],
         }
@@ -364,6 +540,62 @@ mod tests {
         assert!((p - expect).length() < 1e-12, "film corner went to {p}, expected {expect}");
         let eye = m.transform_point3(DVec3::ZERO);
         assert!((eye - DVec3::new(1.0, 2.0, 3.0)).length() < 1e-12, "film origin went to {eye}, expected the eye");
+    }
+
+    /// Every primitive id is reached exactly once walking the packed
+    /// hierarchy from the root through every instance, and every node's box
+    /// holds its children's.
+    #[test]
+    fn packed_hierarchy_reaches_every_primitive_once() {
+        let xml = r#"<scenefile>
+          <object type="tree" name="leaf"><transblock><object type="primitive" name="sphere"/></transblock>
+            <transblock><translate x="1" y="0" z="0"/><object type="primitive" name="cube"/></transblock></object>
+          <object type="tree" name="mid">
+            <transblock><object type="primitive" name="cone"/></transblock>
+            <transblock><translate x="3" y="0" z="0"/><object type="master" name="leaf"/></transblock>
+            <transblock><translate x="0" y="3" z="0"/><scale x="2" y="2" z="2"/><object type="master" name="leaf"/></transblock></object>
+          <object type="tree" name="root">
+            <transblock><object type="master" name="mid"/></transblock>
+            <transblock><rotate x="0" y="1" z="0" angle="30"/><translate x="10" y="0" z="0"/><object type="master" name="mid"/></transblock>
+            <transblock><object type="primitive" name="cylinder"/></transblock>
+            <transblock><translate x="-4" y="0" z="0"/><object type="master" name="leaf"/></transblock>
+          </object></scenefile>"#;
+        let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        assert_eq!(scene.primitive_count(), 2 * 5 + 1 + 2);
+        let data = build(&scene, &RenderSettings::default()).unwrap();
+        assert!(data.frame.node_count > 0);
+        let mut seen = vec![0u32; scene.primitive_count() as usize];
+        // (node, first id of the group)
+        let mut stack = vec![(data.frame.root_node, 0u32)];
+        while let Some((n, first_id)) = stack.pop() {
+            let node = data.nodes[n as usize];
+            if node.count == 0 {
+                for c in [node.first, node.first + 1] {
+                    let child = data.nodes[c as usize];
+                    for a in 0..3 {
+                        assert!(node.lo[a] <= child.lo[a] && node.hi[a] >= child.hi[a], "node {n} does not hold child {c}");
+                    }
+                    stack.push((c, first_id));
+                }
+                continue;
+            }
+            for k in node.first..node.first + node.count {
+                let item = data.leaf_items[k as usize].item;
+                if item & layout::ITEM_INSTANCE != 0 {
+                    let inst = data.instances[(item & !layout::ITEM_INSTANCE) as usize];
+                    stack.push((inst.root, first_id + inst.id_offset));
+                } else {
+                    seen[(first_id + data.primitives[item as usize].id_offset) as usize] += 1;
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1), "ids reached other than once: {seen:?}");
+        // Ids follow flatten order: the world matrices of primitive(id) agree.
+        let flat = scene.flat_primitives();
+        for (id, p) in flat.iter().enumerate() {
+            assert_eq!(scene.primitive(id as u64).unwrap().world_from_object, p.world_from_object, "id {id}");
+        }
     }
 
     #[test]

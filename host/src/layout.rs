@@ -30,9 +30,9 @@ pub struct Frame {
     pub max_depth: u32,
     pub spp: u32,
     pub texture_filter: u32,
+    pub root_node: u32,
+    pub node_count: u32,
     pub pad0: u32,
-    pub pad1: u32,
-    pub pad2: u32,
 }
 
 #[repr(C)]
@@ -41,6 +41,33 @@ pub struct Primitive {
     pub object_from_world: Mat4,
     pub shape: u32,
     pub material: u32,
+    pub id_offset: u32,
+    pub pad1: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct BvhNode {
+    pub lo: Vec4,
+    pub hi: Vec4,
+    pub first: u32,
+    pub count: u32,
+    pub axis: u32,
+    pub pad0: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct LeafItem {
+    pub item: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Instance {
+    pub object_from_parent: Mat4,
+    pub root: u32,
+    pub id_offset: u32,
     pub pad0: u32,
     pub pad1: u32,
 }
@@ -156,13 +183,31 @@ macro_rules! struct_layout {
 impl Frame {
     pub fn layout() -> StructLayout {
         struct_layout!(Frame, "Frame", [world_from_film, eye, k, width, height,
-            primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, pad0, pad1, pad2])
+            primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, root_node, node_count, pad0])
     }
 }
 
 impl Primitive {
     pub fn layout() -> StructLayout {
-        struct_layout!(Primitive, "Primitive", [object_from_world, shape, material, pad0, pad1])
+        struct_layout!(Primitive, "Primitive", [object_from_world, shape, material, id_offset, pad1])
+    }
+}
+
+impl BvhNode {
+    pub fn layout() -> StructLayout {
+        struct_layout!(BvhNode, "BvhNode", [lo, hi, first, count, axis, pad0])
+    }
+}
+
+impl LeafItem {
+    pub fn layout() -> StructLayout {
+        struct_layout!(LeafItem, "LeafItem", [item])
+    }
+}
+
+impl Instance {
+    pub fn layout() -> StructLayout {
+        struct_layout!(Instance, "Instance", [object_from_parent, root, id_offset, pad0, pad1])
     }
 }
 
@@ -208,6 +253,9 @@ pub fn scene_bindings() -> Vec<BindingLayout> {
         BindingLayout { binding: BINDING_LIGHTS, shape: BufferShape::RuntimeArray(Light::layout()), writable: false },
         BindingLayout { binding: BINDING_TEXTURES, shape: BufferShape::RuntimeArray(Texture::layout()), writable: false },
         BindingLayout { binding: BINDING_TEXELS, shape: BufferShape::RuntimeArray(Texel::layout()), writable: false },
+        BindingLayout { binding: BINDING_NODES, shape: BufferShape::RuntimeArray(BvhNode::layout()), writable: false },
+        BindingLayout { binding: BINDING_LEAF_ITEMS, shape: BufferShape::RuntimeArray(LeafItem::layout()), writable: false },
+        BindingLayout { binding: BINDING_INSTANCES, shape: BufferShape::RuntimeArray(Instance::layout()), writable: false },
     ]
 }
 

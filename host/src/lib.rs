@@ -6,6 +6,7 @@
 //! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
 //! and compares pictures, `cli` is the command line.
 
+pub mod bvh;
 pub mod cli;
 pub mod check;
 pub mod cpu;

@@ -618,7 +618,7 @@ impl Preview {
             println!("pixel ({j}, {i}): nothing (the ray misses every primitive)");
             return Ok(());
         }
-        let Some(prim) = self.scene.primitives.get(p.id as usize) else {
+        let Some(prim) = self.scene.primitive(u64::from(p.id)) else {
             println!("pixel ({j}, {i}): primitive {} (not in the scene on the host: reloading?)", p.id);
             return Ok(());
         };

@@ -50,23 +50,27 @@ impl Bounds {
 
 /// The world-space box around every primitive: each primitive's
 /// world_from_object applied to the corners of the canonical box
-/// [-0.5, 0.5]³ (which holds all four canonical shapes). None without primitives.
+/// [-0.5, 0.5]³ (which holds all four canonical shapes), group by group
+/// through the instances without expanding them. None without primitives.
 pub fn scene_bounds(scene: &Scene) -> Option<Bounds> {
-    let unit = Bounds { min: DVec3::splat(-0.5), max: DVec3::splat(0.5) };
-    let mut out: Option<Bounds> = None;
-    for p in &scene.primitives {
-        for c in unit.corners() {
-            let w = p.world_from_object.transform_point3(c);
-            if !w.is_finite() {
-                continue;
-            }
-            out = Some(match out {
-                None => Bounds { min: w, max: w },
-                Some(b) => Bounds { min: b.min.min(w), max: b.max.max(w) },
-            });
-        }
+    use crate::bvh::Aabb;
+    if scene.groups.is_empty() {
+        return None;
     }
-    out
+    let mut boxes = vec![Aabb::EMPTY; scene.groups.len()];
+    for g in scene.groups_children_first() {
+        let group = &scene.groups[g];
+        let mut b = Aabb::EMPTY;
+        for p in &group.primitives {
+            b = b.union(Aabb::UNIT.transformed(&p.world_from_object));
+        }
+        for i in &group.instances {
+            b = b.union(boxes[i.group as usize].transformed(&i.parent_from_group));
+        }
+        boxes[g] = b;
+    }
+    let b = boxes[0];
+    (!b.is_empty() && b.lo.is_finite() && b.hi.is_finite()).then_some(Bounds { min: b.lo, max: b.hi })
 }
 
 /// Smallest angle between the view direction and the up axis while orbiting.

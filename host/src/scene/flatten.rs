@@ -1,5 +1,7 @@
-//! [`SceneFile`] → [`Scene`]: expands the root tree and its masters into one
-//! [`Primitive`] per drawn shape, with its CTM and inverse.
+//! [`SceneFile`] → [`Scene`]: the root tree and every master it places, each
+//! as one [`Group`] of primitives (inline trees merged in, each with its
+//! matrix within the group) and [`Instance`]s of other groups. Nothing is
+//! expanded: memory grows with the file, not with the expansion.
 
 use super::model::*;
 use super::parse::{parse_file, unit, ParseOptions};
@@ -10,13 +12,14 @@ use std::path::Path;
 /// Limits of [`flatten`].
 #[derive(Clone, Debug)]
 pub struct FlattenLimits {
-    /// Most primitives a scene may expand to (masters multiply).
+    /// Most primitives a scene may expand to (masters multiply). Ids are
+    /// 32-bit on the device, so at most 2^32 - 2.
     pub max_primitives: usize,
 }
 
 impl Default for FlattenLimits {
     fn default() -> Self {
-        FlattenLimits { max_primitives: 5_000_000 }
+        FlattenLimits { max_primitives: 1_000_000_000 }
     }
 }
 
@@ -62,7 +65,7 @@ fn check_invertible(m: &DMat4) -> Result<(), &'static str> {
     Ok(())
 }
 
-/// Expands `file.trees[file.root]` into drawn primitives.
+/// Groups `file.trees[file.root]` and the masters it places.
 pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneError> {
     let err = |loc: Option<SourceLoc>, message: String| SceneError {
         loc,
@@ -73,17 +76,22 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
         return Err(err(None, format!("internal error: root tree index {} is out of range", file.root)));
     };
 
-    // Expansion size per tree, in declaration order: a master refers only to
-    // an earlier tree, so each count needs only counts already known (this
-    // also rules out cycles in a hand-built SceneFile).
-    let mut counts: Vec<usize> = Vec::with_capacity(file.root + 1);
+    // Drawn primitives per tree, in declaration order: a master refers only
+    // to an earlier tree, so each count needs only counts already known
+    // (this also rules out cycles in a hand-built SceneFile). Torus and mesh
+    // are not drawn and not counted.
+    let mut counts: Vec<u64> = Vec::with_capacity(file.root + 1);
     for (i, tree) in file.trees.iter().enumerate().take(file.root + 1) {
-        let mut total = 0usize;
+        let mut total = 0u64;
         let mut stack: Vec<&[TransBlock]> = vec![&tree.blocks];
         while let Some(blocks) = stack.pop() {
             for b in blocks {
                 match &b.object {
-                    Node::Primitive { .. } => total = total.saturating_add(1),
+                    Node::Primitive { shape, .. } => {
+                        if drawn(shape) {
+                            total = total.saturating_add(1);
+                        }
+                    }
                     Node::Tree { blocks, .. } => stack.push(blocks),
                     Node::Master { tree: t, loc } => {
                         if *t >= i {
@@ -100,8 +108,8 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
         counts.push(total);
     }
     let total = counts[file.root];
-    if total > limits.max_primitives {
-        let n = if total == usize::MAX { format!("at least {total}") } else { total.to_string() };
+    if total > limits.max_primitives as u64 {
+        let n = if total == u64::MAX { format!("at least {total}") } else { total.to_string() };
         return Err(err(
             Some(root.loc.clone()),
             format!(
@@ -112,70 +120,107 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
     }
 
     let mut warnings = file.warnings.clone();
-    let mut primitives: Vec<Primitive> = Vec::with_capacity(total.min(1 << 20));
     let mut materials: Vec<Material> = Vec::new();
     let mut material_of: HashMap<*const Material, u32> = HashMap::new();
     let mut skipped: HashSet<(u32, u32)> = HashSet::new();
+    // One group per tree that is drawn: the root first, then each master in
+    // the order it is first placed.
+    let mut groups: Vec<Group> = Vec::new();
+    let mut group_of: HashMap<usize, u32> = HashMap::new();
+    let mut pending: Vec<usize> = vec![file.root];
+    group_of.insert(file.root, 0);
+    groups.push(Group { name: root.name.clone(), primitives: vec![], instances: vec![], expanded: total });
 
-    // Depth first in file order, with an explicit stack (masters can nest
-    // deeply): (blocks, next index, matrix of the enclosing transblocks).
-    let mut stack: Vec<(&[TransBlock], usize, DMat4)> = vec![(&root.blocks, 0, DMat4::IDENTITY)];
-    while let Some(top) = stack.last_mut() {
-        let (blocks, idx, parent) = (top.0, top.1, top.2);
-        let Some(b) = blocks.get(idx) else {
-            stack.pop();
-            continue;
-        };
-        top.1 += 1;
-        if let Err(why) = check_invertible(&b.matrix) {
-            return Err(err(Some(b.loc.clone()), why.to_string()));
-        }
-        let ctm = parent * b.matrix;
-        match &b.object {
-            Node::Tree { blocks, .. } => stack.push((blocks, 0, ctm)),
-            Node::Master { tree, loc } => match file.trees.get(*tree) {
-                Some(t) => stack.push((&t.blocks, 0, ctm)),
-                None => return Err(err(Some(loc.clone()), format!("internal error: master tree index {tree} is out of range"))),
-            },
-            Node::Primitive { shape, material, loc } => {
-                let skip = match shape {
-                    Shape::Torus => Some("torus is not rendered (no canonical size is defined); skipped"),
-                    Shape::Mesh { .. } => Some("mesh is not rendered (meshes are not supported yet); skipped"),
-                    _ => None,
-                };
-                if let Some(msg) = skip {
-                    if skipped.insert((loc.line, loc.col)) {
-                        warnings.push(Warning { loc: loc.clone(), message: msg.to_string() });
+    while let Some(tree_index) = pending.pop() {
+        let group_index = group_of[&tree_index] as usize;
+        let tree = &file.trees[tree_index];
+        let mut group = Group { name: tree.name.clone(), primitives: vec![], instances: vec![], expanded: counts[tree_index] };
+        let mut next_id = 0u64;
+        // Depth first in file order, inline trees merged into the group, with
+        // an explicit stack: (blocks, next index, matrix of the enclosing
+        // transblocks within the group).
+        let mut stack: Vec<(&[TransBlock], usize, DMat4)> = vec![(&tree.blocks, 0, DMat4::IDENTITY)];
+        while let Some(top) = stack.last_mut() {
+            let (blocks, idx, parent) = (top.0, top.1, top.2);
+            let Some(b) = blocks.get(idx) else {
+                stack.pop();
+                continue;
+            };
+            top.1 += 1;
+            if let Err(why) = check_invertible(&b.matrix) {
+                return Err(err(Some(b.loc.clone()), why.to_string()));
+            }
+            let ctm = parent * b.matrix;
+            match &b.object {
+                Node::Tree { blocks, .. } => stack.push((blocks, 0, ctm)),
+                Node::Master { tree, loc } => {
+                    if file.trees.get(*tree).is_none() {
+                        return Err(err(Some(loc.clone()), format!("internal error: master tree index {tree} is out of range")));
                     }
-                    continue;
+                    // A group even when it draws nothing, so that its
+                    // skipped primitives are reported; no instance then.
+                    let child = *group_of.entry(*tree).or_insert_with(|| {
+                        pending.push(*tree);
+                        groups.push(Group::default_named(&file.trees[*tree].name));
+                        (groups.len() - 1) as u32
+                    });
+                    if counts[*tree] == 0 {
+                        continue;
+                    }
+                    if let Err(why) = check_invertible(&ctm) {
+                        return Err(err(Some(b.loc.clone()), format!("{why}: the combined transform of this master cannot be inverted")));
+                    }
+                    group.instances.push(Instance {
+                        group: child,
+                        parent_from_group: ctm,
+                        group_from_parent: ctm.inverse(),
+                        id_offset: next_id,
+                        loc: loc.clone(),
+                    });
+                    next_id += counts[*tree];
                 }
-                if let Err(why) = check_invertible(&ctm) {
-                    return Err(err(
-                        Some(b.loc.clone()),
-                        format!("{why}: the combined transform of this primitive cannot be inverted"),
-                    ));
-                }
-                let key = material as *const Material;
-                let index = match material_of.get(&key) {
-                    Some(&i) => i,
-                    None => {
-                        let Ok(i) = u32::try_from(materials.len()) else {
-                            return Err(err(Some(loc.clone()), "more than 2^32 materials".to_string()));
+                Node::Primitive { shape, material, loc } => {
+                    if !drawn(shape) {
+                        let msg = match shape {
+                            Shape::Torus => "torus is not rendered (no canonical size is defined); skipped",
+                            _ => "mesh is not rendered (meshes are not supported yet); skipped",
                         };
-                        materials.push(material.clone());
-                        material_of.insert(key, i);
-                        i
+                        if skipped.insert((loc.line, loc.col)) {
+                            warnings.push(Warning { loc: loc.clone(), message: msg.to_string() });
+                        }
+                        continue;
                     }
-                };
-                primitives.push(Primitive {
-                    shape: shape.clone(),
-                    material: index,
-                    world_from_object: ctm,
-                    object_from_world: ctm.inverse(),
-                    loc: loc.clone(),
-                });
+                    if let Err(why) = check_invertible(&ctm) {
+                        return Err(err(
+                            Some(b.loc.clone()),
+                            format!("{why}: the combined transform of this primitive cannot be inverted"),
+                        ));
+                    }
+                    let key = material as *const Material;
+                    let index = match material_of.get(&key) {
+                        Some(&i) => i,
+                        None => {
+                            let Ok(i) = u32::try_from(materials.len()) else {
+                                return Err(err(Some(loc.clone()), "more than 2^32 materials".to_string()));
+                            };
+                            materials.push(material.clone());
+                            material_of.insert(key, i);
+                            i
+                        }
+                    };
+                    group.primitives.push(Primitive {
+                        shape: shape.clone(),
+                        material: index,
+                        world_from_object: ctm,
+                        object_from_world: ctm.inverse(),
+                        id_offset: next_id,
+                        loc: loc.clone(),
+                    });
+                    next_id += 1;
+                }
             }
         }
+        groups[group_index] = group;
     }
 
     Ok(Scene {
@@ -183,10 +228,20 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
         globals: file.globals,
         camera: file.camera.clone(),
         lights: file.lights.clone(),
-        primitives,
+        groups,
         materials,
         warnings,
     })
+}
+
+fn drawn(shape: &Shape) -> bool {
+    !matches!(shape, Shape::Torus | Shape::Mesh { .. })
+}
+
+impl Group {
+    fn default_named(name: &str) -> Group {
+        Group { name: name.to_string(), primitives: vec![], instances: vec![], expanded: 0 }
+    }
 }
 
 #[cfg(test)]
@@ -233,8 +288,8 @@ mod tests {
 
     fn one(transforms: &str) -> Primitive {
         let s = scene(&doc("", &cube_block(transforms)));
-        assert_eq!(s.primitives.len(), 1);
-        s.primitives[0].clone()
+        assert_eq!(s.flat_primitives().len(), 1);
+        s.flat_primitives()[0].clone()
     }
 
     fn close(a: DVec3, b: DVec3) -> bool {
@@ -296,14 +351,14 @@ mod tests {
             </object></transblock>\
             <transblock><object type=\"primitive\" name=\"cylinder\"/></transblock>";
         let s = scene(&doc("", body));
-        let shapes: Vec<&Shape> = s.primitives.iter().map(|p| &p.shape).collect();
-        assert_eq!(shapes, [&Shape::Sphere, &Shape::Cone, &Shape::Cylinder]);
-        let m = |i: usize| s.primitives[i].world_from_object;
+        let shapes: Vec<Shape> = s.flat_primitives().into_iter().map(|p| p.shape).collect();
+        assert_eq!(shapes, [Shape::Sphere, Shape::Cone, Shape::Cylinder]);
+        let m = |i: usize| s.flat_primitives()[i].world_from_object;
         assert!(close(m(0).transform_point3(DVec3::X), DVec3::new(3.0, 0.0, 0.0)));
         assert!(close(m(1).transform_point3(DVec3::ZERO), DVec3::new(1.0, 1.0, 0.0)));
         assert_eq!(m(2), DMat4::IDENTITY);
         assert_eq!(s.materials.len(), 3);
-        assert_eq!(s.primitives.iter().map(|p| p.material).collect::<Vec<_>>(), [0, 1, 2]);
+        assert_eq!(s.flat_primitives().iter().map(|p| p.material).collect::<Vec<_>>(), [0, 1, 2]);
     }
 
     #[test]
@@ -314,8 +369,8 @@ mod tests {
             <transblock><object type=\"primitive\" name=\"cube\"/></transblock>\
             <transblock><translate x=\"-10\" y=\"0\" z=\"0\"/><object type=\"master\" name=\"m\"/></transblock>";
         let s = scene(&doc(top, body));
-        assert_eq!(s.primitives.len(), 3);
-        let (a, b, c) = (&s.primitives[0], &s.primitives[1], &s.primitives[2]);
+        assert_eq!(s.flat_primitives().len(), 3);
+        let (a, b, c) = (&s.flat_primitives()[0], &s.flat_primitives()[1], &s.flat_primitives()[2]);
         assert_eq!((&a.shape, &b.shape, &c.shape), (&Shape::Sphere, &Shape::Cube, &Shape::Sphere));
         assert_eq!(a.material, c.material);
         assert_ne!(a.material, b.material);
@@ -334,7 +389,7 @@ mod tests {
             <transblock><object type=\"master\" name=\"m0\"/></transblock><transblock><object type=\"primitive\" name=\"cone\"/></transblock></object>\n";
         let body = "<transblock><object type=\"master\" name=\"m1\"/></transblock>".repeat(3);
         let s = scene(&doc(top, &body));
-        assert_eq!(s.primitives.len(), 9);
+        assert_eq!(s.flat_primitives().len(), 9);
         assert_eq!(s.materials.len(), 2);
     }
 
@@ -404,7 +459,7 @@ mod tests {
         // 2^10 = 1024 primitives.
         let f = parse(&exponential(11, 2));
         let s = flatten(&f, &FlattenLimits { max_primitives: 1024 }).unwrap();
-        assert_eq!(s.primitives.len(), 1024);
+        assert_eq!(s.flat_primitives().len(), 1024);
         assert_eq!(s.materials.len(), 1);
         let e = flatten(&f, &FlattenLimits { max_primitives: 1000 }).unwrap_err();
         let root_line = 2 + 11;
@@ -414,15 +469,15 @@ mod tests {
         let f = parse(&exponential(41, 10));
         let e = flatten(&f, &FlattenLimits::default()).unwrap_err();
         assert!(e.message.contains("expands to at least 18446744073709551615 primitives"), "{e}");
-        assert!(e.message.contains("limit of 5000000"), "{e}");
-        assert_eq!(FlattenLimits::default().max_primitives, 5_000_000);
+        assert!(e.message.contains("limit of 1000000000"), "{e}");
+        assert_eq!(FlattenLimits::default().max_primitives, 1_000_000_000);
     }
 
     #[test]
     fn deep_master_chains_do_not_overflow_the_stack() {
         let f = parse(&exponential(20_000, 1));
         let s = flatten(&f, &FlattenLimits::default()).unwrap();
-        assert_eq!(s.primitives.len(), 1);
+        assert_eq!(s.flat_primitives().len(), 1);
     }
 
     #[test]
@@ -432,9 +487,9 @@ mod tests {
         let body = "<transblock><object type=\"master\" name=\"m\"/></transblock>".repeat(3)
             + "<transblock><object type=\"primitive\" name=\"sphere\"/></transblock>";
         let s = scene(&doc(top, &body));
-        assert_eq!(s.primitives.len(), 1);
+        assert_eq!(s.flat_primitives().len(), 1);
         assert_eq!(s.materials.len(), 1);
-        assert_eq!(s.primitives[0].material, 0);
+        assert_eq!(s.flat_primitives()[0].material, 0);
         let torus: Vec<&Warning> = s.warnings.iter().filter(|w| w.message.contains("torus")).collect();
         assert_eq!(torus.len(), 1);
         assert_eq!(torus[0].message, "torus is not rendered (no canonical size is defined); skipped");
@@ -473,7 +528,7 @@ mod tests {
         let path = dir.join("s.xml");
         std::fs::write(&path, doc("", &cube_block(""))).unwrap();
         let s = load(&path, &ParseOptions::default(), &FlattenLimits::default()).unwrap();
-        assert_eq!(s.primitives.len(), 1);
+        assert_eq!(s.flat_primitives().len(), 1);
         assert!(load(&dir.join("none.xml"), &ParseOptions::default(), &FlattenLimits::default()).is_err());
         let _ = std::fs::remove_dir_all(&dir);
     }
@@ -538,7 +593,7 @@ mod tests {
                     Err(e) => panic!("{e}"),
                 };
                 assert!(s.warnings.is_empty(), "{}: {:?}", f.display(), s.warnings);
-                assert!(!s.primitives.is_empty(), "{}", f.display());
+                assert!(!s.flat_primitives().is_empty(), "{}", f.display());
                 for m in &s.materials {
                     if let Some(t) = &m.texture {
                         assert!(t.resolved.is_some(), "{}: {}", f.display(), t.file);
@@ -558,14 +613,14 @@ mod tests {
         // recursiveSpheres4: level3 = 1 sphere; level2 = 1 + 5 × level3 = 6;
         // level1 = 1 + 5 × level2 = 31; root = 1 + 6 × level1 = 187.
         let s = load(&root.join("test_efficiency/recursiveSpheres4.xml"), &opts, &limits).unwrap();
-        assert_eq!(s.primitives.len(), 187);
-        assert!(s.primitives.iter().all(|p| p.shape == Shape::Sphere));
+        assert_eq!(s.flat_primitives().len(), 187);
+        assert!(s.flat_primitives().iter().all(|p| p.shape == Shape::Sphere));
         // One material per source primitive: 4 (one per tree).
         assert_eq!(s.materials.len(), 4);
         // recursiveCones4: no masters, 187 cone primitives written out.
         let s = load(&root.join("test_efficiency/recursiveCones4.xml"), &opts, &limits).unwrap();
-        assert_eq!(s.primitives.len(), 187);
-        assert!(s.primitives.iter().all(|p| p.shape == Shape::Cone));
+        assert_eq!(s.flat_primitives().len(), 187);
+        assert!(s.flat_primitives().iter().all(|p| p.shape == Shape::Cone));
         assert_eq!(s.materials.len(), 187);
         // Without assets folders the corpus textures are not found: warnings only.
         let s = load(&root.join("test_efficiency/recursiveSpheres4.xml"), &ParseOptions::default(), &limits).unwrap();

@@ -240,7 +240,9 @@ pub struct SceneFile {
     pub warnings: Vec<Warning>,
 }
 
-/// One drawn primitive after flattening.
+/// A drawn primitive. In a [`Group`] its matrices map between the group's
+/// space and the primitive's object space; from [`Scene::flat_primitives`]
+/// and [`Scene::primitive`], between the world and object space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Primitive {
     pub shape: Shape,
@@ -248,20 +250,130 @@ pub struct Primitive {
     pub material: u32,
     pub world_from_object: DMat4,
     pub object_from_world: DMat4,
+    /// Its id among its group's expanded primitives (depth first in file
+    /// order); in the world, its scene-wide id.
+    pub id_offset: u64,
     pub loc: SourceLoc,
 }
 
-/// A flattened scene: what a renderer draws.
+/// A group placed in its parent group's space (a `type="master"` object).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into `Scene::groups`.
+    pub group: u32,
+    pub parent_from_group: DMat4,
+    pub group_from_parent: DMat4,
+    /// The id of its first primitive among the parent group's.
+    pub id_offset: u64,
+    pub loc: SourceLoc,
+}
+
+/// One tree as drawn: its primitives (inline trees merged in) and its
+/// placed copies of other groups. Memory grows with the file, not with the
+/// expansion.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Group {
+    pub name: String,
+    pub primitives: Vec<Primitive>,
+    pub instances: Vec<Instance>,
+    /// How many primitives it expands to.
+    pub expanded: u64,
+}
+
+/// A scene ready to draw: groups[0] is the root tree (in world space), the
+/// others the master trees it places through instances.
 #[derive(Clone, Debug)]
 pub struct Scene {
     pub path: Arc<PathBuf>,
     pub globals: Globals,
     pub camera: Camera,
     pub lights: Vec<Light>,
-    /// Renderable primitives only (cube, cone, cylinder, sphere).
-    pub primitives: Vec<Primitive>,
+    pub groups: Vec<Group>,
     /// Materials, deduplicated by source location (an instanced primitive
     /// shares one material).
     pub materials: Vec<Material>,
     pub warnings: Vec<Warning>,
+}
+
+impl Scene {
+    /// How many primitives the scene draws (every instance expanded).
+    pub fn primitive_count(&self) -> u64 {
+        self.groups.first().map_or(0, |g| g.expanded)
+    }
+
+    /// Every drawn primitive in world space, in id order. Expands every
+    /// instance: for small scenes and tests.
+    pub fn flat_primitives(&self) -> Vec<Primitive> {
+        let mut out = Vec::new();
+        // Explicit stack: masters can nest thousands deep.
+        let mut todo = if self.groups.is_empty() { vec![] } else { vec![(0usize, DMat4::IDENTITY, 0u64)] };
+        while let Some((group, world_from_group, first_id)) = todo.pop() {
+            let g = &self.groups[group];
+            for p in &g.primitives {
+                let world_from_object = world_from_group * p.world_from_object;
+                out.push(Primitive {
+                    world_from_object,
+                    object_from_world: world_from_object.inverse(),
+                    id_offset: first_id + p.id_offset,
+                    ..p.clone()
+                });
+            }
+            for i in &g.instances {
+                todo.push((i.group as usize, world_from_group * i.parent_from_group, first_id + i.id_offset));
+            }
+        }
+        out.sort_by_key(|p| p.id_offset);
+        out
+    }
+
+    /// Every group reachable from the root, each after every group it
+    /// places (children first), the root last.
+    pub fn groups_children_first(&self) -> Vec<usize> {
+        let mut order = Vec::with_capacity(self.groups.len());
+        if self.groups.is_empty() {
+            return order;
+        }
+        let mut done = vec![false; self.groups.len()];
+        let mut stack = vec![(0usize, 0usize)];
+        while let Some(&mut (g, ref mut next)) = stack.last_mut() {
+            if let Some(i) = self.groups[g].instances.get(*next) {
+                *next += 1;
+                let c = i.group as usize;
+                // flatten() only places trees declared earlier: no cycles.
+                if c < done.len() && !done[c] && !stack.iter().any(|&(s, _)| s == c) {
+                    stack.push((c, 0));
+                }
+                continue;
+            }
+            done[g] = true;
+            order.push(g);
+            stack.pop();
+        }
+        order
+    }
+
+    /// The primitive with scene-wide id `id`, in world space, found without
+    /// expanding the scene.
+    pub fn primitive(&self, id: u64) -> Option<Primitive> {
+        let (mut group, mut world_from_group, mut rest) = (0usize, DMat4::IDENTITY, id);
+        loop {
+            let g = self.groups.get(group)?;
+            if let Some(p) = g.primitives.iter().find(|p| p.id_offset == rest) {
+                let world_from_object = world_from_group * p.world_from_object;
+                return Some(Primitive {
+                    world_from_object,
+                    object_from_world: world_from_object.inverse(),
+                    id_offset: id,
+                    ..p.clone()
+                });
+            }
+            let i = g
+                .instances
+                .iter()
+                .find(|i| rest >= i.id_offset && rest < i.id_offset + self.groups[i.group as usize].expanded)?;
+            rest -= i.id_offset;
+            world_from_group *= i.parent_from_group;
+            group = i.group as usize;
+        }
+    }
 }
