@@ -310,10 +310,13 @@ fn gpu_renderer(args: &FrameArgs) -> Result<GpuRenderer, Failure> {
 
 fn print_scene(p: &Prepared) {
     println!(
-        "scene: {} ({} primitives, {} lights)",
+        "scene: {} ({} primitives, {} unique in {} groups, {} lights; hierarchy built in {})",
         p.scene.path.display(),
+        p.data.expanded,
         p.data.primitives.len(),
-        p.data.lights.len()
+        p.scene.groups.len(),
+        p.data.lights.len(),
+        ms(p.data.build_time)
     );
 }
 
