@@ -449,8 +449,9 @@ uint stack_word(uint entry, uint level) {
     return entry | (level << STACK_LEVEL_SHIFT);
 }
 
-// The nearest hit of ray r: t > 0, and on equal t the lowest primitive id,
-// so the answer does not depend on the order things are tested in.
+// The nearest hit of ray r with 0 < t < t_max (or, with any_hit, the first
+// one found): on equal t the lowest primitive id, so the answer does not
+// depend on the order things are tested in.
 //
 // The scene is a two-level (in general, nested) hierarchy: each group (the
 // root tree, each master tree) has a BVH over its primitives and its
@@ -462,47 +463,45 @@ uint stack_word(uint entry, uint level) {
 // FLAG_NO_BVH the boxes are ignored: every primitive is tested, through the
 // same matrices, so the answer is bit for bit the same. frame.node_count 0
 // means no hierarchy: primitives in order, each in world space.
-SceneHit trace(Ray r) {
+SceneHit walk(Ray r, float t_max, bool any_hit) {
     SceneHit best;
-    best.t = T_FAR;
+    best.t = t_max;
     best.id = NO_HIT;
     best.normal = vec3(0.0f, 0.0f, 0.0f);
     best.p_object = vec3(0.0f, 0.0f, 0.0f);
     best.n_object = vec3(0.0f, 0.0f, 0.0f);
     best.material = 0u;
     best.shape = 0u;
-    if (frame.node_count == 0u) {
-        for (uint i = 0u; i < frame.primitive_count; i++) {
-            Ray local = ray_through(primitives[i].object_from_world, r);
-            ShapeHit h = intersect_shape(primitives[i].shape, local);
-            if (h.t < best.t) {
-                precise vec3 p_object = local.origin + h.t * local.direction;
-                best.t = h.t;
-                best.id = i;
-                best.n_object = h.normal;
-                best.p_object = p_object;
-                best.normal = transform_normal(primitives[i].object_from_world, h.normal);
-                best.material = primitives[i].material;
-                best.shape = primitives[i].shape;
-            }
-        }
-    } else {
-        bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
-        vec3 level_origin[MAX_LEVELS];
-        vec3 level_direction[MAX_LEVELS];
-        uint level_first_id[MAX_LEVELS];
-        uint level_instance[MAX_LEVELS];
-        level_origin[0] = r.origin;
-        level_direction[0] = r.direction;
-        level_first_id[0] = 0u;
-        level_instance[0] = 0u;
-        uint stack[STACK_SIZE];
+    bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
+    vec3 level_origin[MAX_LEVELS];
+    vec3 level_direction[MAX_LEVELS];
+    uint level_first_id[MAX_LEVELS];
+    uint level_instance[MAX_LEVELS];
+    level_origin[0] = r.origin;
+    level_direction[0] = r.direction;
+    level_first_id[0] = 0u;
+    level_instance[0] = 0u;
+    uint stack[STACK_SIZE];
+    int top = 0;
+    if (frame.node_count > 0u) {
         stack[0] = frame.root_node;
-        int top = 1;
-        while (top > 0) {
+        top = 1;
+    }
+    // Without a hierarchy: primitive `next` of primitive_count, in order.
+    uint next = (frame.node_count > 0u) ? frame.primitive_count : 0u;
+    while (top > 0 || next < frame.primitive_count) {
+        uint first_item = 0u;
+        uint item_count = 0u;
+        uint level = 0u;
+        bool direct = top == 0; // a primitive index, not a leaf's item range
+        if (direct) {
+            first_item = next;
+            item_count = 1u;
+            next = next + 1u;
+        } else {
             top = top - 1;
             uint entry = stack[top] & STACK_ENTRY_MASK;
-            uint level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
+            level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
             Ray lr;
             lr.origin = level_origin[level];
             lr.direction = level_direction[level];
@@ -531,100 +530,58 @@ SceneHit trace(Ray r) {
                 top = top + 2;
                 continue;
             }
-            for (uint n = 0u; n < node.count; n++) {
-                uint item = leaf_items[node.first + n].item;
-                if ((item & ITEM_INSTANCE) != 0u) {
-                    stack[top] = stack_word(item, level);
-                    top = top + 1;
-                    continue;
+            first_item = node.first;
+            item_count = node.count;
+        }
+        Ray lr;
+        lr.origin = level_origin[level];
+        lr.direction = level_direction[level];
+        for (uint n = 0u; n < item_count; n++) {
+            uint item = direct ? first_item : leaf_items[first_item + n].item;
+            if ((item & ITEM_INSTANCE) != 0u) {
+                stack[top] = stack_word(item, level);
+                top = top + 1;
+                continue;
+            }
+            Ray local = ray_through(primitives[item].object_from_world, lr);
+            ShapeHit h = intersect_shape(primitives[item].shape, local);
+            uint id = level_first_id[level] + primitives[item].id_offset;
+            if (h.t < best.t || (h.t == best.t && best.id != NO_HIT && id < best.id)) {
+                precise vec3 p_object = local.origin + h.t * local.direction;
+                best.t = h.t;
+                best.id = id;
+                best.n_object = h.normal;
+                best.p_object = p_object;
+                // The normal rule, level by level back to the world.
+                precise vec3 n_world = transform_normal(primitives[item].object_from_world, h.normal);
+                for (uint l = level; l > 0u; l--) {
+                    n_world = transform_normal(instances[level_instance[l]].object_from_parent, n_world);
                 }
-                Ray local = ray_through(primitives[item].object_from_world, lr);
-                ShapeHit h = intersect_shape(primitives[item].shape, local);
-                uint id = level_first_id[level] + primitives[item].id_offset;
-                if (h.t < best.t || (h.t == best.t && h.t < T_FAR && id < best.id)) {
-                    precise vec3 p_object = local.origin + h.t * local.direction;
-                    best.t = h.t;
-                    best.id = id;
-                    best.n_object = h.normal;
-                    best.p_object = p_object;
-                    // The normal rule, level by level back to the world.
-                    precise vec3 n_world = transform_normal(primitives[item].object_from_world, h.normal);
-                    for (uint l = level; l > 0u; l--) {
-                        n_world = transform_normal(instances[level_instance[l]].object_from_parent, n_world);
-                    }
-                    best.normal = n_world;
-                    best.material = primitives[item].material;
-                    best.shape = primitives[item].shape;
+                best.normal = n_world;
+                best.material = primitives[item].material;
+                best.shape = primitives[item].shape;
+                if (any_hit) {
+                    return best;
                 }
             }
         }
     }
     if (best.id != NO_HIT) {
         best.normal = unit(best.normal);
+    } else {
+        best.t = T_FAR;
     }
     return best;
 }
 
-// True when anything is hit at 0 < t < t_max: trace's walk, stopping at the
-// first hit (which one does not matter).
+// The nearest hit of ray r with t > 0 (T_FAR and NO_HIT on a miss).
+SceneHit trace(Ray r) {
+    return walk(r, T_FAR, false);
+}
+
+// True when anything is hit at 0 < t < t_max.
 bool occluded(Ray r, float t_max) {
-    if (frame.node_count == 0u) {
-        for (uint i = 0u; i < frame.primitive_count; i++) {
-            ShapeHit h = intersect_shape(primitives[i].shape, ray_through(primitives[i].object_from_world, r));
-            if (h.t < t_max) {
-                return true;
-            }
-        }
-        return false;
-    }
-    bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
-    vec3 level_origin[MAX_LEVELS];
-    vec3 level_direction[MAX_LEVELS];
-    level_origin[0] = r.origin;
-    level_direction[0] = r.direction;
-    uint stack[STACK_SIZE];
-    stack[0] = frame.root_node;
-    int top = 1;
-    while (top > 0) {
-        top = top - 1;
-        uint entry = stack[top] & STACK_ENTRY_MASK;
-        uint level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
-        Ray lr;
-        lr.origin = level_origin[level];
-        lr.direction = level_direction[level];
-        if ((entry & ITEM_INSTANCE) != 0u) {
-            uint k = entry & (ITEM_INSTANCE - 1u);
-            Ray inner = ray_through(instances[k].object_from_parent, lr);
-            level_origin[level + 1u] = inner.origin;
-            level_direction[level + 1u] = inner.direction;
-            stack[top] = stack_word(instances[k].root, level + 1u);
-            top = top + 1;
-            continue;
-        }
-        BvhNode node = nodes[entry];
-        if (use_boxes && !box_hit(lr, node.lo, node.hi, t_max)) {
-            continue;
-        }
-        if (node.count == 0u) {
-            stack[top] = stack_word(node.first + 1u, level);
-            stack[top + 1] = stack_word(node.first, level);
-            top = top + 2;
-            continue;
-        }
-        for (uint n = 0u; n < node.count; n++) {
-            uint item = leaf_items[node.first + n].item;
-            if ((item & ITEM_INSTANCE) != 0u) {
-                stack[top] = stack_word(item, level);
-                top = top + 1;
-                continue;
-            }
-            ShapeHit h = intersect_shape(primitives[item].shape, ray_through(primitives[item].object_from_world, lr));
-            if (h.t < t_max) {
-                return true;
-            }
-        }
-    }
-    return false;
+    return walk(r, t_max, true).id != NO_HIT;
 }
 
 // ---------------------------------------------------------------------------
