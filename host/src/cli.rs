@@ -43,6 +43,10 @@ enum Command {
     ShaderTest(crate::harness::cli::ShaderTestArgs),
     /// List the Vulkan devices.
     Devices,
+    /// Write a scale-test scene: the corpus's recursive spheres, cones or cubes, N levels deep.
+    Gen(crate::gen::GenArgs),
+    /// Time scenes per backend: median frame time, ray rates, primitives, memory.
+    Bench(crate::bench::BenchArgs),
 }
 
 /// What to render and how: shared by every command that renders.
@@ -189,6 +193,8 @@ pub fn main() -> ExitCode {
         Command::Preview(args) => crate::preview::run(&args),
         Command::Devices => devices(),
         Command::ShaderTest(args) => crate::harness::cli::run(&args).map_err(|(message, code)| Failure(message, code)),
+        Command::Gen(args) => crate::gen::run(&args),
+        Command::Bench(args) => crate::bench::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -7,10 +7,12 @@
 //! and compares pictures, `cli` is the command line.
 
 pub mod bvh;
+pub mod bench;
 pub mod cli;
 pub mod check;
 pub mod cpu;
 pub mod frame;
+pub mod gen;
 pub mod gpu;
 pub mod harness;
 pub mod image_io;

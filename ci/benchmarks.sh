@@ -1,0 +1,111 @@
+#!/usr/bin/env bash
+# Regenerates BENCHMARKS.md in one command:
+#
+#   ci/benchmarks.sh [--no-build] [FILE]     (FILE: BENCHMARKS.md by default)
+#
+# Every block of FILE that opens with `<!-- bench: COMMAND -->` and closes
+# with `<!-- /bench -->` is replaced by what COMMAND prints, run from the
+# repository root; the prose around the blocks is kept. COMMAND may use
+# $CORPUS (RAYCAST_CORPUS, else ../shared/corpus/cs1230). Builds
+# build/raycast first unless --no-build.
+#
+# Two helpers print blocks of their own:
+#   ci/benchmarks.sh machine            the machine: CPU, cores, memory, Vulkan device, Mesa, load
+#   ci/benchmarks.sh wall [--max-primitives N] SCENE...
+#                                       `build/raycast render` wall time per scene (median of 3
+#                                       runs, /usr/bin/time) and peak RSS: the whole command,
+#                                       as the issue's targets and POV-Ray's times are.
+#                                       SCENE is a file or gen:FAMILY:DEPTH.
+source "$(dirname "$0")/common.sh"
+cd "$ROOT"
+RAYCAST=build/raycast
+export CORPUS="${RAYCAST_CORPUS:-../shared/corpus/cs1230}"
+
+machine() {
+  local commit
+  commit="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+  if [ "$commit" != unknown ] && [ -n "$(git status --porcelain --untracked-files=no 2>/dev/null)" ]; then
+    commit="$commit (with uncommitted changes)"
+  fi
+  echo "\`ci/benchmarks.sh machine\`, $(date -u '+%Y-%m-%d %H:%M UTC'), commit $commit:"
+  echo
+  echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//'), \`nproc\` $(nproc)"
+  echo "- memory: $(awk '/MemTotal/ { printf "%.1f GiB", $2 / 1048576 }' /proc/meminfo); kernel $(uname -r)"
+  echo "- Vulkan device: $("$RAYCAST" devices | grep -m1 -i llvmpipe || "$RAYCAST" devices | head -1)"
+  echo "- mesa-vulkan-drivers $(dpkg-query -W -f '${Version}' mesa-vulkan-drivers 2>/dev/null || echo '(not a Debian package)'); $(rustc --version 2>/dev/null || echo 'rustc unknown')"
+  echo "- load average when the run began (other work on the machine slows every number): $(cut -d' ' -f1-3 /proc/loadavg)"
+}
+
+wall() {
+  local max=() tmp
+  if [ "${1:-}" = --max-primitives ]; then max=(--max-primitives "$2"); shift 2; fi
+  tmp="$(mktemp -d)"
+  echo "\`ci/benchmarks.sh wall ${max[*]}${max:+ }$*\`: \`$RAYCAST render SCENE --assets $CORPUS${max:+ }${max[*]}\` (512x384, shadows, reflections and textures on), run 3 times; the median wall time and the largest peak RSS (\`/usr/bin/time\`)."
+  echo
+  echo "| scene | primitives | wall time (median of 3) | peak RSS |"
+  echo "|---|---|---|---|"
+  local s file walls rss out n t m
+  for s in "$@"; do
+    file="$s"
+    if [[ "$s" == gen:* ]]; then
+      IFS=: read -r _ family depth <<<"$s"
+      file="$tmp/$family-$depth.xml"
+      "$RAYCAST" gen "$family" --depth "$depth" -o "$file" 2>/dev/null
+    fi
+    walls=() rss=0 n=""
+    for _ in 1 2 3; do
+      if ! out="$(/usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" "${max[@]}" -o "$tmp/out.png" 2>&1)"; then
+        if grep -q 'more than the limit' <<<"$out"; then
+          n="skipped"
+          break
+        fi
+        echo "$out" >&2
+        exit 1
+      fi
+      read -r _ t m <<<"$(grep '^TIME' <<<"$out")"
+      walls+=("$t")
+      if [ "$m" -gt "$rss" ]; then rss="$m"; fi
+      n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
+    done
+    if [ "$n" = skipped ]; then
+      echo "| ${s##*/} | – | skipped: over --max-primitives ${max[1]} | – |"
+    else
+      n="$(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n")"
+      echo "| ${s##*/} | $n | $(printf '%s\n' "${walls[@]}" | sort -n | sed -n 2p) s | $((rss / 1024)) MiB |"
+    fi
+  done
+  rm -rf "$tmp"
+}
+
+case "${1:-}" in
+  machine) machine; exit ;;
+  wall) shift; wall "$@"; exit ;;
+esac
+
+build=1
+if [ "${1:-}" = --no-build ]; then build=0; shift; fi
+FILE="${1:-BENCHMARKS.md}"
+[ "$build" = 1 ] && build_raycast
+[ -x "$RAYCAST" ] || { echo "benchmarks: $RAYCAST is missing: run without --no-build" >&2; exit 1; }
+[ -d "$CORPUS/test_efficiency" ] || { echo "benchmarks: no corpus at $CORPUS: set RAYCAST_CORPUS" >&2; exit 1; }
+
+out="$(mktemp)"
+in_block=0
+while IFS= read -r line || [ -n "$line" ]; do
+  if [ "$in_block" = 0 ] && [[ "$line" =~ ^'<!-- bench: '(.*)' -->'$ ]]; then
+    printf '%s\n' "$line" >>"$out"
+    echo "benchmarks: ${BASH_REMATCH[1]}" >&2
+    eval "${BASH_REMATCH[1]}" >>"$out" </dev/null
+    in_block=1
+  elif [ "$in_block" = 1 ]; then
+    if [ "$line" = '<!-- /bench -->' ]; then
+      printf '%s\n' "$line" >>"$out"
+      in_block=0
+    fi
+  else
+    printf '%s\n' "$line" >>"$out"
+  fi
+done <"$FILE"
+[ "$in_block" = 0 ] || { echo "benchmarks: $FILE: a block is not closed with <!-- /bench -->" >&2; exit 1; }
+mv "$out" "$FILE"
+echo "benchmarks: wrote $FILE" >&2

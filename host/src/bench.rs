@@ -1,0 +1,794 @@
+//! `raycast bench`: frame times, ray rates and memory per scene and backend,
+//! for people (a block per scene), machines (`--json`, one object a line)
+//! and BENCHMARKS.md (`--markdown`, a table).
+//!
+//! Per scene: the file is parsed, counted (expanded and unique primitives,
+//! without expanding), grouped (`scene::flatten`) and packed
+//! (`frame::build`). The build is the part of that `frame::build` reports
+//! as `FrameData::build_time`: the bounding volume hierarchies and the
+//! packing of the groups; the load is all the rest (parse, count, flatten,
+//! textures). Per backend: K warm-up frames, then N timed frames; the
+//! median, min and max of their wall times. Every backend runs on the same
+//! FrameData in the same process, so ratios compare like with like.
+
+use crate::cli::{check_validation, parse_device, scene_failure, validation_wanted, Failure, DEFAULT_SCENE};
+use crate::cpu::CpuRenderer;
+use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
+use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
+use crate::gpu::{self, GpuOptions};
+use crate::layout::{Frame, PixelOut};
+use crate::render::{GpuRenderer, Picture};
+use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
+use clap::{Args, ValueEnum};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// `raycast bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Scene files, or generated scenes as gen:FAMILY:DEPTH (gen:recursive-spheres:6; see
+    /// `raycast gen --help`). Without any, the embedded default scene.
+    #[arg(value_name = "SCENE")]
+    pub scenes: Vec<String>,
+    /// Where to render: the Vulkan device, the CPU build, or both side by side.
+    #[arg(long, value_enum, default_value_t = BenchBackend::Gpu)]
+    pub backend: BenchBackend,
+    /// Timed frames per scene and backend (the median is reported).
+    #[arg(long, default_value_t = 5, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub frames: u32,
+    /// Untimed frames before them.
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    pub warmup: u32,
+    #[command(flatten)]
+    pub render: BenchRenderArgs,
+    /// One JSON object per scene and backend, one per line.
+    #[arg(long, conflicts_with = "markdown")]
+    pub json: bool,
+    /// A Markdown table (BENCHMARKS.md), with the command line that made it.
+    #[arg(long)]
+    pub markdown: bool,
+    /// After the results, how each scene's frame median grows against the
+    /// first scene's, beside ln N / ln N0 (what logarithmic growth in the
+    /// primitive count N allows).
+    #[arg(long)]
+    pub growth: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchBackend {
+    Gpu,
+    Cpu,
+    Both,
+}
+
+/// The render options of `raycast render` (its FrameArgs without the scene).
+#[derive(Args, Debug)]
+pub struct BenchRenderArgs {
+    #[arg(long, default_value_t = 512, value_name = "W")]
+    pub width: u32,
+    #[arg(long, default_value_t = 384, value_name = "H")]
+    pub height: u32,
+    /// What the picture shows.
+    #[arg(long, value_enum, default_value_t = BenchAov::Color)]
+    pub aov: BenchAov,
+    /// Turn shadow rays off.
+    #[arg(long)]
+    pub no_shadows: bool,
+    /// Turn mirror reflections off.
+    #[arg(long)]
+    pub no_reflections: bool,
+    /// Turn texture mapping off.
+    #[arg(long)]
+    pub no_textures: bool,
+    /// Mirror bounces (at most 16).
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    pub depth: u32,
+    /// Test every primitive for every ray: no bounding volume hierarchy.
+    #[arg(long)]
+    pub no_bvh: bool,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub spp: u32,
+    /// How textures are sampled.
+    #[arg(long, value_enum, default_value_t = BenchFilter::Nearest)]
+    pub texture_filter: BenchFilter,
+    /// Vulkan device: an index from `raycast devices` or part of its name.
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub device: Option<String>,
+    /// Extra folder to find textures in, after the scene file's folder (repeatable).
+    /// Generated scenes name the corpus's texture: pass the corpus root.
+    #[arg(long, value_name = "DIR")]
+    pub assets: Vec<PathBuf>,
+    /// Skip scenes that expand to more primitives than this (listed as skipped, not an error).
+    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
+    pub max_primitives: usize,
+    /// Compile the device's kernel from DIR/render.comp instead of the built-in one.
+    #[arg(long, value_name = "DIR")]
+    pub shaders: Option<PathBuf>,
+    /// Enable the Khronos validation layer (slow: not for timing); any message fails (exit 3).
+    #[arg(long)]
+    pub validate: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchAov {
+    Color,
+    Normal,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchFilter {
+    Nearest,
+    Bilinear,
+}
+
+impl BenchRenderArgs {
+    pub fn settings(&self) -> RenderSettings {
+        RenderSettings {
+            width: self.width,
+            height: self.height,
+            aov: match self.aov {
+                BenchAov::Color => Aov::Color,
+                BenchAov::Normal => Aov::Normal,
+            },
+            shadows: !self.no_shadows,
+            reflections: !self.no_reflections,
+            textures: !self.no_textures,
+            max_depth: self.depth,
+            bvh: !self.no_bvh,
+            spp: self.spp,
+            texture_filter: match self.texture_filter {
+                BenchFilter::Nearest => TextureFilter::Nearest,
+                BenchFilter::Bilinear => TextureFilter::Bilinear,
+            },
+        }
+    }
+}
+
+/// The process's peak resident set so far (VmHWM of /proc/self/status), in
+/// bytes; None where there is no /proc.
+pub fn peak_host_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.trim_start_matches("VmHWM:").trim().trim_end_matches("kB").trim().parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Starts a new peak: VmHWM drops to the current resident set (Linux 4.0+,
+/// `echo 5 > /proc/self/clear_refs`). False where that is not possible;
+/// the peak is then the whole process's so far.
+pub fn reset_peak_host() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// Bytes a GPU frame of `data` puts on the device: the frame block, every
+/// scene buffer (`FrameData::scene_buffers`: primitives, materials, lights,
+/// textures, texels, and whatever else the frame binds) and the pixel
+/// buffer read back. The driver's rounding of each allocation is not
+/// counted, nor the kernel itself.
+pub fn device_bytes(data: &FrameData) -> u64 {
+    let scene: u64 = data.scene_buffers().iter().map(|b| b.2.len() as u64).sum();
+    let pixels = u64::from(data.frame.width) * u64::from(data.frame.height) * std::mem::size_of::<PixelOut>() as u64;
+    std::mem::size_of::<Frame>() as u64 + scene + pixels
+}
+
+/// A scene loaded for benchmarking, with what it took.
+pub struct LoadedScene {
+    pub name: String,
+    pub counts: PrimitiveCounts,
+    pub lights: usize,
+    /// Parse (generate, for gen: names), count, flatten, and `frame::build`
+    /// apart from its `build_time`.
+    pub load: Duration,
+    /// `FrameData::build_time`: the hierarchies and the packing of the groups.
+    pub build: Duration,
+    pub data: FrameData,
+}
+
+/// The scene file `name` (a path, `gen:FAMILY:DEPTH`, or None for the
+/// embedded default scene), parsed. Errors read `file:line:col: error: …`.
+pub fn parse_scene(name: Option<&str>, opts: &ParseOptions) -> Result<SceneFile, String> {
+    match name {
+        None => scene::parse_str(DEFAULT_SCENE, Path::new("<default scene>"), opts).map_err(|e| e.to_string()),
+        Some(n) => match gen::parse_scene_name(n) {
+            Some(Ok((family, depth))) => {
+                let xml = gen::generate(family, depth, &GenOptions::default())?;
+                scene::parse_str(&xml, Path::new(n), opts).map_err(|e| e.to_string())
+            }
+            Some(Err(e)) => Err(format!("raycast: error: {e}")),
+            None => scene::parse_file(Path::new(n), opts).map_err(|e| e.to_string()),
+        },
+    }
+}
+
+/// Loads, counts, flattens and builds one scene, timing each part. Prints
+/// the scene's warnings and notes to stderr.
+pub fn load_scene(name: Option<&str>, opts: &ParseOptions, limits: &FlattenLimits, settings: &RenderSettings) -> Result<LoadedScene, String> {
+    let start = Instant::now();
+    let file = parse_scene(name, opts)?;
+    let counts = count_primitives(&file);
+    load_parsed(name, file, counts, start, limits, settings)
+}
+
+/// The rest of `load_scene` once the file is parsed (at `start`) and counted.
+fn load_parsed(
+    name: Option<&str>,
+    file: SceneFile,
+    counts: PrimitiveCounts,
+    start: Instant,
+    limits: &FlattenLimits,
+    settings: &RenderSettings,
+) -> Result<LoadedScene, String> {
+    let scene = scene::flatten(&file, limits).map_err(|e| e.to_string())?;
+    drop(file);
+    for w in &scene.warnings {
+        eprintln!("{w}");
+    }
+    let data = frame::build(&scene, settings)?;
+    let build = data.build_time;
+    let load = start.elapsed().saturating_sub(build);
+    for note in &data.notes {
+        eprintln!("raycast: note: {note}");
+    }
+    Ok(LoadedScene {
+        name: name.unwrap_or("<default scene>").to_string(),
+        counts,
+        lights: data.lights.len(),
+        load,
+        build,
+        data,
+    })
+}
+
+/// One scene on one backend.
+struct Row {
+    scene: String,
+    backend: &'static str,
+    device: String,
+    counts: PrimitiveCounts,
+    lights: usize,
+    load: Duration,
+    build: Duration,
+    /// Timed frames, sorted.
+    frames: Vec<Duration>,
+    /// The device's dispatch alone, sorted (GPU only).
+    dispatch: Vec<Duration>,
+    primary_rays: u64,
+    host_peak: Option<u64>,
+    device_bytes: Option<u64>,
+    /// CPU rows: the CPU's frame median over the GPU's, and whether their pictures are identical.
+    cpu_over_gpu: Option<f64>,
+    identical: Option<bool>,
+}
+
+fn median(sorted: &[Duration]) -> Duration {
+    let n = sorted.len();
+    if n % 2 == 1 {
+        sorted[n / 2]
+    } else {
+        (sorted[n / 2 - 1] + sorted[n / 2]) / 2
+    }
+}
+
+impl Row {
+    fn median(&self) -> Duration {
+        median(&self.frames)
+    }
+
+    fn mrays(&self) -> f64 {
+        self.primary_rays as f64 / self.median().as_secs_f64().max(1e-12) / 1e6
+    }
+}
+
+/// Milliseconds with three significant digits (at least one decimal).
+fn ms(d: Duration) -> String {
+    let v = d.as_secs_f64() * 1e3;
+    let decimals = if v >= 100.0 { 1 } else if v >= 10.0 { 1 } else if v >= 1.0 { 2 } else { 3 };
+    format!("{v:.decimals$} ms")
+}
+
+fn mib(bytes: Option<u64>) -> String {
+    match bytes {
+        None => "n/a".to_string(),
+        Some(b) if b < 1 << 20 => format!("{:.1} KiB", b as f64 / 1024.0),
+        Some(b) => format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64),
+    }
+}
+
+fn thousands(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+fn json_str(s: &str) -> String {
+    let mut out = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            c if (c as u32) < 0x20 => {
+                let _ = write!(out, "\\u{:04x}", c as u32);
+            }
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
+
+fn json_num(v: Option<f64>) -> String {
+    match v {
+        Some(v) if v.is_finite() => format!("{v}"),
+        _ => "null".to_string(),
+    }
+}
+
+fn ms_f(d: Duration) -> f64 {
+    (d.as_secs_f64() * 1e6).round() / 1e3
+}
+
+fn settings_text(s: &RenderSettings) -> String {
+    let on = |b: bool| if b { "on" } else { "off" };
+    format!(
+        "{}x{}, {}, shadows {}, reflections {} ({} bounces), textures {}, {} spp, {}",
+        s.width,
+        s.height,
+        match s.aov {
+            Aov::Color => "colour",
+            Aov::Normal => "normal AOV",
+        },
+        on(s.shadows),
+        on(s.reflections),
+        s.max_depth,
+        on(s.textures),
+        s.spp,
+        if s.bvh { "BVH" } else { "no BVH (--no-bvh)" }
+    )
+}
+
+/// The command line as typed, quoted where needed.
+fn command_line() -> String {
+    std::env::args()
+        .map(|a| {
+            if a.is_empty() || a.contains(|c: char| c.is_whitespace() || "\"'$`\\<>|&;*?".contains(c)) {
+                format!("'{}'", a.replace('\'', "'\\''"))
+            } else {
+                a
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+const ALL_RAYS: &str = "n/a (the renderer does not count secondary rays yet)";
+
+impl Row {
+    fn json(&self, settings: &RenderSettings, warmup: u32) -> String {
+        let d = |v: &[Duration], f: fn(&[Duration]) -> Duration| if v.is_empty() { None } else { Some(ms_f(f(v))) };
+        format!(
+            concat!(
+                "{{\"scene\":{},\"backend\":{},\"device\":{},\"width\":{},\"height\":{},\"spp\":{},",
+                "\"shadows\":{},\"reflections\":{},\"textures\":{},\"max_depth\":{},\"bvh\":{},",
+                "\"primitives_expanded\":{},\"primitives_unique\":{},\"lights\":{},",
+                "\"load_ms\":{},\"build_ms\":{},\"warmup\":{},\"frames\":{},",
+                "\"frame_ms_median\":{},\"frame_ms_min\":{},\"frame_ms_max\":{},\"dispatch_ms_median\":{},",
+                "\"primary_rays_per_frame\":{},\"primary_mrays_per_s\":{},\"all_rays_per_s\":null,",
+                "\"host_peak_bytes\":{},\"device_bytes\":{},\"cpu_over_gpu\":{},\"identical_to_gpu\":{}}}"
+            ),
+            json_str(&self.scene),
+            json_str(self.backend),
+            json_str(&self.device),
+            settings.width,
+            settings.height,
+            settings.spp,
+            settings.shadows,
+            settings.reflections,
+            settings.textures,
+            settings.max_depth,
+            settings.bvh,
+            self.counts.expanded,
+            self.counts.unique,
+            self.lights,
+            ms_f(self.load),
+            ms_f(self.build),
+            warmup,
+            self.frames.len(),
+            ms_f(self.median()),
+            ms_f(self.frames[0]),
+            ms_f(*self.frames.last().unwrap()),
+            json_num(d(&self.dispatch, median)),
+            self.primary_rays,
+            json_num(Some((self.mrays() * 1e4).round() / 1e4)),
+            self.host_peak.map_or("null".into(), |b| b.to_string()),
+            self.device_bytes.map_or("null".into(), |b| b.to_string()),
+            json_num(self.cpu_over_gpu.map(|r| (r * 1e3).round() / 1e3)),
+            self.identical.map_or("null".into(), |b| b.to_string()),
+        )
+    }
+
+    fn human(&self) -> String {
+        let mut s = format!(
+            "  {:<4} frame {} median (min {}, max {}; {} frames)",
+            self.backend,
+            ms(self.median()),
+            ms(self.frames[0]),
+            ms(*self.frames.last().unwrap()),
+            self.frames.len()
+        );
+        if !self.dispatch.is_empty() {
+            let _ = write!(s, ", dispatch {} median", ms(median(&self.dispatch)));
+        }
+        let _ = write!(
+            s,
+            "\n       {:.3} M primary rays/s, all rays/s {ALL_RAYS}\n       host peak {}, device {}",
+            self.mrays(),
+            mib(self.host_peak),
+            self.device_bytes.map_or("- (no upload)".to_string(), |b| mib(Some(b)))
+        );
+        if let Some(r) = self.cpu_over_gpu {
+            let _ = write!(s, "\n       cpu/gpu frame median {r:.2}");
+        }
+        match self.identical {
+            Some(true) => s.push_str(", picture identical to the gpu's (every buffer, bit for bit)"),
+            Some(false) => s.push_str(", picture DIFFERS from the gpu's"),
+            None => {}
+        }
+        s
+    }
+
+    fn markdown(&self) -> String {
+        format!(
+            "| {} | {} | {} / {} | {} | {} | {} | {} – {} | {:.3} | n/a | {} | {} | {} |",
+            short_name(&self.scene),
+            self.backend,
+            thousands(self.counts.expanded),
+            thousands(self.counts.unique),
+            ms(self.load),
+            ms(self.build),
+            ms(self.median()),
+            ms(self.frames[0]),
+            ms(*self.frames.last().unwrap()),
+            self.mrays(),
+            mib(self.host_peak),
+            self.device_bytes.map_or("–".to_string(), |b| mib(Some(b))),
+            match (self.cpu_over_gpu, self.identical) {
+                (Some(r), Some(true)) => format!("{r:.2}, identical"),
+                (Some(r), Some(false)) => format!("{r:.2}, pictures DIFFER"),
+                (Some(r), None) => format!("{r:.2}"),
+                (None, _) => "–".to_string(),
+            },
+        )
+    }
+}
+
+const MARKDOWN_HEADER: &str = "\
+| scene | backend | primitives (expanded / unique) | load | build | frame (median) | frame (min – max) | primary Mrays/s | all rays/s | host peak | device | cpu ÷ gpu, pictures |
+|---|---|---|---|---|---|---|---|---|---|---|---|";
+
+/// A scene's name for a table: a file's name without its folder (the
+/// command line above the table has the whole path); gen: names as they are.
+fn short_name(scene: &str) -> &str {
+    if scene.starts_with("gen:") || scene.starts_with('<') {
+        return scene;
+    }
+    Path::new(scene).file_name().and_then(|n| n.to_str()).unwrap_or(scene)
+}
+
+/// A scene over --max-primitives: listed, not rendered, and not an error,
+/// so that one table can name every depth while only some are feasible.
+fn skipped(scene: &str, counts: PrimitiveCounts, limit: usize, args: &BenchArgs) {
+    let why = format!("skipped: expands to more than --max-primitives {}", thousands(limit as u64));
+    if args.json {
+        println!(
+            "{{\"scene\":{},\"skipped\":{},\"primitives_expanded\":{},\"primitives_unique\":{}}}",
+            json_str(scene),
+            json_str(&why),
+            counts.expanded,
+            counts.unique
+        );
+    } else if args.markdown {
+        println!(
+            "| {} | – | {} / {} | {why} |{}",
+            short_name(scene),
+            thousands(counts.expanded),
+            thousands(counts.unique),
+            " – |".repeat(MARKDOWN_HEADER.lines().next().unwrap_or("").matches('|').count() - 5)
+        );
+    } else {
+        println!(
+            "scene: {scene} ({} primitives expanded, {} unique): {why}",
+            thousands(counts.expanded),
+            thousands(counts.unique)
+        );
+    }
+}
+
+/// Each scene's frame median over the first scene's, per backend, beside
+/// the ratio of the logarithms of their expanded primitive counts.
+fn print_growth(rows: &[Row], markdown: bool) {
+    let Some(first) = rows.first() else { return };
+    let base = |backend: &str| rows.iter().find(|r| r.scene == first.scene && r.backend == backend).map(Row::median);
+    let (gpu0, cpu0) = (base("gpu"), base("cpu"));
+    let n0 = first.counts.expanded as f64;
+    let mut scenes: Vec<&Row> = Vec::new();
+    for r in rows {
+        if !scenes.iter().any(|s| s.scene == r.scene) {
+            scenes.push(r);
+        }
+    }
+    println!();
+    println!(
+        "Growth against {} ({} primitives): frame median over its frame median, and ln N / ln N0, the ratio logarithmic growth allows.",
+        first.scene,
+        thousands(first.counts.expanded)
+    );
+    if markdown {
+        println!();
+        println!("| scene | primitives N | ln N / ln N0 | gpu frame / first | cpu frame / first |");
+        println!("|---|---|---|---|---|");
+    }
+    for s in scenes {
+        let log_ratio = if n0 > 1.0 { format!("{:.2}", (s.counts.expanded as f64).ln() / n0.ln()) } else { "–".to_string() };
+        let ratio = |backend: &str, base: Option<Duration>| {
+            match (rows.iter().find(|r| r.scene == s.scene && r.backend == backend), base) {
+                (Some(r), Some(b)) => format!("{:.2}", r.median().as_secs_f64() / b.as_secs_f64().max(1e-12)),
+                _ => "–".to_string(),
+            }
+        };
+        let (g, c) = (ratio("gpu", gpu0), ratio("cpu", cpu0));
+        if markdown {
+            println!("| {} | {} | {log_ratio} | {g} | {c} |", short_name(&s.scene), thousands(s.counts.expanded));
+        } else {
+            println!("  {}: N = {}, ln N / ln N0 {log_ratio}, gpu {g}, cpu {c}", s.scene, thousands(s.counts.expanded));
+        }
+    }
+}
+
+pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
+    let settings = args.render.settings();
+    settings.validate()?;
+    let r = &args.render;
+    let (want_gpu, want_cpu) = match args.backend {
+        BenchBackend::Gpu => (true, false),
+        BenchBackend::Cpu => (false, true),
+        BenchBackend::Both => (true, true),
+    };
+    let gpu = if want_gpu {
+        let options = GpuOptions { device: parse_device(&r.device), validation: validation_wanted(r.validate), ..GpuOptions::default() };
+        Some(match &r.shaders {
+            Some(dir) => GpuRenderer::with_spirv(&options, &gpu::compile_kernel(&dir.join("render.comp"))?)?,
+            None => GpuRenderer::new(&options)?,
+        })
+    } else {
+        None
+    };
+    let cpu = if want_cpu { Some(CpuRenderer::new()?) } else { None };
+    let gpu_device = gpu.as_ref().map(|g| {
+        let i = g.context().info();
+        format!("{} ({})", i.name, i.kind)
+    });
+    let cpu_device = cpu.as_ref().map(|c| format!("CPU build, {} threads", c.threads));
+    let peaks_per_scene = reset_peak_host();
+
+    let plural = |n: u32, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    let frames_text = format!("median of {} after {}", plural(args.frames, "frame"), plural(args.warmup, "warm-up frame"));
+    if args.markdown {
+        println!("`{}`", command_line());
+        println!();
+        let devices: Vec<&str> = [gpu_device.as_deref(), cpu_device.as_deref()].into_iter().flatten().collect();
+        println!("{}; {frames_text}; {}.", settings_text(&settings), devices.join("; "));
+        println!();
+        println!("{MARKDOWN_HEADER}");
+    } else if !args.json {
+        for d in [&gpu_device, &cpu_device].into_iter().flatten() {
+            println!("device: {d}");
+        }
+        println!("settings: {}; {frames_text}", settings_text(&settings));
+        if !peaks_per_scene {
+            println!("note: cannot reset the peak resident set (/proc/self/clear_refs): host peaks are the process's so far");
+        }
+    }
+
+    let opts = ParseOptions { assets: r.assets.clone() };
+    let limits = FlattenLimits { max_primitives: r.max_primitives };
+    let names: Vec<Option<&str>> = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    let primary_rays = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
+    let mut all_rows: Vec<Row> = Vec::new();
+    for name in names {
+        reset_peak_host();
+        let start = Instant::now();
+        let file = parse_scene(name, &opts).map_err(scene_failure)?;
+        let counts = count_primitives(&file);
+        if counts.expanded > limits.max_primitives as u64 {
+            skipped(name.unwrap_or("<default scene>"), counts, limits.max_primitives, args);
+            continue;
+        }
+        let loaded = load_parsed(name, file, counts, start, &limits, &settings).map_err(scene_failure)?;
+        let load_peak = peak_host_bytes();
+        let row = |backend: &'static str, device: &str| Row {
+            scene: loaded.name.clone(),
+            backend,
+            device: device.to_string(),
+            counts: loaded.counts,
+            lights: loaded.lights,
+            load: loaded.load,
+            build: loaded.build,
+            frames: Vec::new(),
+            dispatch: Vec::new(),
+            primary_rays,
+            host_peak: None,
+            device_bytes: None,
+            cpu_over_gpu: None,
+            identical: None,
+        };
+        let peak = |since_reset: Option<u64>| match (load_peak, since_reset) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        };
+        let mut rows = Vec::new();
+        let mut gpu_picture: Option<Picture> = None;
+        if let (Some(g), Some(device)) = (&gpu, &gpu_device) {
+            let mut row = row("gpu", device);
+            reset_peak_host();
+            for _ in 0..args.warmup {
+                g.render(&loaded.data)?;
+            }
+            for _ in 0..args.frames {
+                let start = Instant::now();
+                let (picture, t) = g.render(&loaded.data)?;
+                row.frames.push(start.elapsed());
+                row.dispatch.push(t.dispatch);
+                gpu_picture = Some(picture);
+            }
+            row.host_peak = peak(peak_host_bytes());
+            row.device_bytes = Some(device_bytes(&loaded.data));
+            rows.push(row);
+        }
+        if let (Some(c), Some(device)) = (&cpu, &cpu_device) {
+            let mut row = row("cpu", device);
+            reset_peak_host();
+            for _ in 0..args.warmup {
+                c.render(&loaded.data);
+            }
+            let mut last = None;
+            for _ in 0..args.frames {
+                let start = Instant::now();
+                let picture = c.render(&loaded.data);
+                row.frames.push(start.elapsed());
+                last = Some(picture);
+            }
+            row.host_peak = peak(peak_host_bytes());
+            if let (Some(g), Some(p)) = (rows.first(), &gpu_picture) {
+                row.frames.sort();
+                row.cpu_over_gpu = Some(median(&row.frames).as_secs_f64() / g.median().as_secs_f64().max(1e-12));
+                row.identical = last.map(|c| bytemuck::cast_slice::<PixelOut, u8>(&c.pixels) == bytemuck::cast_slice::<PixelOut, u8>(&p.pixels));
+            }
+            rows.push(row);
+        }
+        for row in &mut rows {
+            row.frames.sort();
+            row.dispatch.sort();
+        }
+        if args.json {
+            for row in &rows {
+                println!("{}", row.json(&settings, args.warmup));
+            }
+        } else if args.markdown {
+            for row in &rows {
+                println!("{}", row.markdown());
+            }
+        } else {
+            println!(
+                "scene: {} ({} primitives expanded, {} unique; {} lights)\n  load {} (parse, count, flatten, textures), build {} (hierarchy)",
+                loaded.name,
+                thousands(loaded.counts.expanded),
+                thousands(loaded.counts.unique),
+                loaded.lights,
+                ms(loaded.load),
+                ms(loaded.build)
+            );
+            for row in &rows {
+                println!("{}", row.human());
+            }
+        }
+        all_rows.extend(rows);
+    }
+    if args.markdown {
+        println!();
+        println!(
+            "load: parse, count, flatten, textures; build: the bounding volume hierarchies and the packing of the groups (`FrameData::build_time`); frame: one whole render call (gpu: upload, dispatch, readback; cpu: every row on every thread); \
+             primary Mrays/s: {}x{}x{} camera rays over the frame median; all rays/s: {ALL_RAYS}; \
+             host peak: VmHWM while loading that scene and rendering it on that backend (the Vulkan driver included); \
+             device: bytes uploaded (frame, scene buffers) plus the pixel buffer read back; \
+             cpu ÷ gpu: the CPU's frame median over the device's, and whether their pictures are identical (every buffer, bit for bit).",
+            settings.width, settings.height, settings.spp
+        );
+    }
+    if args.growth && !args.json {
+        print_growth(&all_rows, args.markdown);
+    }
+    if let Some(g) = gpu {
+        let messages = g.context().take_validation_messages();
+        drop(g);
+        check_validation(messages)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn peak_host_memory_is_read_and_reset() {
+        let before = peak_host_bytes().expect("VmHWM in /proc/self/status");
+        assert!(before > 0);
+        // Touch 64 MiB: the peak must see it.
+        let block = vec![1u8; 64 << 20];
+        let touched: u64 = block.iter().step_by(4096).map(|&b| u64::from(b)).sum();
+        assert_eq!(touched, (64 << 20) / 4096);
+        let high = peak_host_bytes().unwrap();
+        assert!(high >= 64 << 20, "VmHWM {high} after touching 64 MiB");
+        drop(block);
+        if reset_peak_host() {
+            let after = peak_host_bytes().unwrap();
+            assert!(after < high, "VmHWM {after} not reset below {high}");
+        }
+    }
+
+    #[test]
+    fn device_bytes_counts_every_buffer() {
+        let settings = RenderSettings { width: 10, height: 4, textures: false, ..RenderSettings::default() };
+        let loaded = load_scene(Some("gen:recursive-spheres:2"), &ParseOptions::default(), &FlattenLimits::default(), &settings).unwrap();
+        assert_eq!(loaded.counts, PrimitiveCounts { expanded: 7, unique: 2 });
+        let scene: u64 = loaded.data.scene_buffers().iter().map(|b| b.2.len() as u64).sum();
+        assert!(scene > 0);
+        let expect = std::mem::size_of::<Frame>() as u64 + scene + 40 * std::mem::size_of::<PixelOut>() as u64;
+        assert_eq!(device_bytes(&loaded.data), expect);
+    }
+
+    #[test]
+    fn json_and_markdown_rows() {
+        let row = Row {
+            scene: "a \"b\"".into(),
+            backend: "gpu",
+            device: "llvmpipe".into(),
+            counts: PrimitiveCounts { expanded: 2_929_687, unique: 10 },
+            lights: 3,
+            load: Duration::from_micros(1500),
+            build: Duration::from_micros(250),
+            frames: vec![Duration::from_millis(10), Duration::from_millis(20), Duration::from_millis(40)],
+            dispatch: vec![Duration::from_millis(9)],
+            primary_rays: 1_000_000,
+            host_peak: Some(3 << 20),
+            device_bytes: Some(2048),
+            cpu_over_gpu: None,
+            identical: None,
+        };
+        let j = row.json(&RenderSettings::default(), 1);
+        assert!(j.starts_with("{\"scene\":\"a \\\"b\\\"\",\"backend\":\"gpu\""), "{j}");
+        for needle in [
+            "\"primitives_expanded\":2929687",
+            "\"frame_ms_median\":20,",
+            "\"frame_ms_min\":10,",
+            "\"primary_mrays_per_s\":50,",
+            "\"all_rays_per_s\":null",
+            "\"device_bytes\":2048",
+            "\"cpu_over_gpu\":null",
+        ] {
+            assert!(j.contains(needle), "{needle} in {j}");
+        }
+        assert!(!j.contains('\n'));
+        let m = row.markdown();
+        assert!(m.contains("| 2,929,687 / 10 |") && m.contains("| 20.0 ms |") && m.contains("| 3.0 MiB | 2.0 KiB |"), "{m}");
+        assert_eq!(m.matches('|').count(), MARKDOWN_HEADER.lines().next().unwrap().matches('|').count());
+    }
+}
