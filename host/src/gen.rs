@@ -474,15 +474,7 @@ mod tests {
     use glam::DMat4;
     use std::path::{Path, PathBuf};
 
-    fn corpus() -> Option<PathBuf> {
-        match std::env::var_os("RAYCAST_CORPUS") {
-            Some(p) => Some(PathBuf::from(p)),
-            None => {
-                println!("skipped: RAYCAST_CORPUS is not set (e.g. RAYCAST_CORPUS=../shared/corpus/cs1230)");
-                None
-            }
-        }
-    }
+    use crate::scene::test_corpus as corpus;
 
     fn corpus_file(family: Family, depth: u32) -> &'static str {
         match (family, depth) {

@@ -559,15 +559,7 @@ mod tests {
         assert_eq!(n, xmls, "every fixture is listed in EXPECTED.txt");
     }
 
-    fn corpus() -> Option<PathBuf> {
-        match std::env::var_os("RAYCAST_CORPUS") {
-            Some(p) => Some(PathBuf::from(p)),
-            None => {
-                println!("skipped: RAYCAST_CORPUS is not set (e.g. RAYCAST_CORPUS=../shared/corpus/cs1230)");
-                None
-            }
-        }
-    }
+    use crate::scene::test_corpus as corpus;
 
     #[test]
     fn corpus_scenes_parse_and_flatten() {

@@ -8,3 +8,16 @@ pub mod parse;
 pub use flatten::{flatten, load, FlattenLimits};
 pub use model::*;
 pub use parse::{parse_file, parse_str, ParseOptions};
+
+/// Tests: the course corpus from RAYCAST_CORPUS, or None after printing
+/// that the test is skipped.
+#[cfg(test)]
+pub(crate) fn test_corpus() -> Option<std::path::PathBuf> {
+    match std::env::var_os("RAYCAST_CORPUS") {
+        Some(p) => Some(std::path::PathBuf::from(p)),
+        None => {
+            println!("skipped: RAYCAST_CORPUS is not set (e.g. RAYCAST_CORPUS=../shared/corpus/cs1230)");
+            None
+        }
+    }
+}
