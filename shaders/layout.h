@@ -167,7 +167,7 @@ struct PixelOut {
     float t;     // ray parameter of the nearest hit (ray direction not unit); 0 on a miss
     uint id;     // index of the primitive hit, NO_HIT on a miss
     uint rgba;   // 8-bit RGBA, R in the low byte
-    uint pad0;
+    uint rays;   // rays traced for the pixel: camera, shadow and mirror rays of every sample
 };
 
 #endif

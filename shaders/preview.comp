@@ -53,6 +53,7 @@ void main() {
 
     SceneHit hit;
     vec3 color;
+    uint rays = 1u;
     if (preview.mode == PREVIEW_DEPTH || preview.mode == PREVIEW_ID) {
         Ray r = camera_ray(j, i, offset);
         hit = trace(r);
@@ -61,6 +62,7 @@ void main() {
         PixelSample s = sample_pixel(j, i, offset);
         hit = s.hit;
         color = s.color;
+        rays = s.rays;
     }
 
     // Sum the samples; sample 0 divides by exactly 1, so it quantises as render.comp.
@@ -74,7 +76,7 @@ void main() {
     // Sample 0's hit (the pixel centre's) stays in the pixel buffer for picking.
     uint rgba = pack_rgba8(average);
     if (preview.sample_index == 0u) {
-        pixels[index] = pixel_out(hit, average);
+        pixels[index] = pixel_out(hit, average, rays);
     } else {
         pixels[index].rgba = rgba;
     }

@@ -701,10 +701,18 @@ precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
     return intensity;
 }
 
+// A colour and how many rays were traced for it (shadow and mirror rays;
+// the camera ray is counted by the caller).
+struct Shading {
+    vec3 color;
+    uint rays;
+};
+
 // Phong at a hit seen along ray r: ambient + emissive + for each light that
 // is not shadowed, diffuse (textured: blended with the texel) and specular.
 // Not clamped: the caller clamps after adding the reflection.
-precise vec3 local_color(Ray r, SceneHit hit) {
+Shading local_color(Ray r, SceneHit hit) {
+    uint rays = 0u;
     Material m = materials[hit.material];
     precise vec3 p = r.origin + hit.t * r.direction;
     precise vec3 n = hit.normal;
@@ -738,6 +746,7 @@ precise vec3 local_color(Ray r, SceneHit hit) {
                 precise vec3 rest = xyz(l.position) - shadow_origin;
                 t_max = sqrt(dot3(rest, rest));
             }
+            rays = rays + 1u;
             if (occluded(shadow, t_max)) {
                 continue;
             }
@@ -752,7 +761,10 @@ precise vec3 local_color(Ray r, SceneHit hit) {
         }
         color = color + intensity * term;
     }
-    return color;
+    Shading result;
+    result.color = color;
+    result.rays = rays;
+    return result;
 }
 
 precise vec3 clamp3(vec3 c) {
@@ -764,19 +776,22 @@ precise vec3 clamp3(vec3 c) {
 // k_s O_r, then fold from the deepest level up, clamping at every level:
 //   c_k = clamp(local_k + weight_k c_(k+1)).
 // `first` is the primary ray's hit (already traced).
-precise vec3 radiance(Ray r, SceneHit first) {
+Shading radiance(Ray r, SceneHit first) {
     vec3 local_at[MAX_DEPTH + 1];
     vec3 weight_at[MAX_DEPTH + 1];
     uint depth = min(frame.max_depth, uint(MAX_DEPTH));
     bool reflections = (frame.flags & FLAG_REFLECTIONS) != 0u;
     uint levels = 0u;
+    uint rays = 0u;
     Ray ray = r;
     SceneHit hit = first;
     for (uint level = 0u; level <= depth; level++) {
         if (hit.id == NO_HIT) {
             break;
         }
-        local_at[level] = local_color(ray, hit);
+        Shading local = local_color(ray, hit);
+        local_at[level] = local.color;
+        rays = rays + local.rays;
         levels = level + 1u;
         precise vec3 w = frame.k.z * xyz(materials[hit.material].reflective);
         weight_at[level] = w;
@@ -792,6 +807,7 @@ precise vec3 radiance(Ray r, SceneHit first) {
         ray.origin = mirror_origin;
         ray.direction = mirror;
         hit = trace(ray);
+        rays = rays + 1u;
     }
     precise vec3 c = vec3(0.0f, 0.0f, 0.0f);
     for (uint k = levels; k > 0u; k--) {
@@ -801,7 +817,10 @@ precise vec3 radiance(Ray r, SceneHit first) {
             c = clamp3(local_at[k - 1u] + weight_at[k - 1u] * c);
         }
     }
-    return c;
+    Shading result;
+    result.color = c;
+    result.rays = rays;
+    return result;
 }
 
 // ---------------------------------------------------------------------------
@@ -817,10 +836,11 @@ uint pack_rgba8(vec3 c) {
 
 // One sample of a pixel: the primary ray's nearest hit and the colour it
 // gives (the shaded colour with reflections, or the normal AOV), each
-// channel in [0, 1].
+// channel in [0, 1], and every ray traced for it, the camera ray included.
 struct PixelSample {
     SceneHit hit;
     vec3 color;
+    uint rays;
 };
 
 PixelSample sample_pixel(uint j, uint i, vec2 offset) {
@@ -828,12 +848,15 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     PixelSample s;
     s.hit = trace(r);
     s.color = vec3(0.0f, 0.0f, 0.0f);
+    s.rays = 1u;
     if (s.hit.id != NO_HIT) {
         if (frame.aov == AOV_NORMAL) {
             precise vec3 c = (s.hit.normal + 1.0f) * 0.5f;
             s.color = clamp3(c);
         } else {
-            s.color = radiance(r, s.hit);
+            Shading shaded = radiance(r, s.hit);
+            s.color = shaded.color;
+            s.rays = s.rays + shaded.rays;
         }
     }
     return s;
@@ -868,10 +891,10 @@ vec2 sample_offset(uint s, uint n) {
 }
 
 // What a pixel stores: the hit's t, id and normal (0, NO_HIT and 0 on a
-// miss) and `color` quantised.
-PixelOut pixel_out(SceneHit hit, vec3 color) {
+// miss), `color` quantised and the number of rays traced for it.
+PixelOut pixel_out(SceneHit hit, vec3 color, uint rays) {
     PixelOut o;
-    o.pad0 = 0u;
+    o.rays = rays;
     o.rgba = pack_rgba8(color);
     if (hit.id == NO_HIT) {
         o.normal = vec4(0.0f, 0.0f, 0.0f, 0.0f);
@@ -887,16 +910,20 @@ PixelOut pixel_out(SceneHit hit, vec3 color) {
 
 // Everything one pixel computes: frame.spp samples in the fixed pattern,
 // their colours summed in sample order and divided by the count; t, id and
-// normal from the first sample (the pixel centre when spp = 1).
+// normal from the first sample (the pixel centre when spp = 1); the rays of
+// every sample.
 PixelOut render_pixel(uint j, uint i) {
     uint n = max(frame.spp, 1u);
     PixelSample first = sample_pixel(j, i, sample_offset(0u, n));
     precise vec3 sum = first.color;
+    uint rays = first.rays;
     for (uint s = 1u; s < n; s++) {
-        sum = sum + sample_pixel(j, i, sample_offset(s, n)).color;
+        PixelSample next = sample_pixel(j, i, sample_offset(s, n));
+        sum = sum + next.color;
+        rays = rays + next.rays;
     }
     precise vec3 average = sum / float(n);
-    return pixel_out(first.hit, average);
+    return pixel_out(first.hit, average, rays);
 }
 
 #endif

@@ -1,5 +1,5 @@
 //! The exactness guarantee: on lavapipe, the device and the CPU build of the
-//! shared GLSL give the same bits in every buffer (t, hit id, normal, RGBA)
+//! shared GLSL give the same bits in every buffer (t, hit id, normal, RGBA, ray count)
 //! for every pixel. Rule: bit-exact, no tolerance.
 //!
 //! Scenes: every scene in scenes/, the stress scenes in tests/scenes/stress

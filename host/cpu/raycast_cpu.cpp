@@ -60,7 +60,7 @@ const Field fields[] = {
     AT(Light, spot_axis), AT(Light, attenuation), AT(Light, kind), AT(Light, angle_deg),
     AT(Light, penumbra_deg), AT(Light, pad0),
     SIZE(PixelOut), AT(PixelOut, normal), AT(PixelOut, t), AT(PixelOut, id), AT(PixelOut, rgba),
-    AT(PixelOut, pad0),
+    AT(PixelOut, rays),
 };
 #undef SIZE
 #undef AT

@@ -255,6 +255,8 @@ struct Row {
     /// The device's dispatch alone, sorted (GPU only).
     dispatch: Vec<Duration>,
     primary_rays: u64,
+    /// Every ray of one frame (camera, shadow and mirror), as the pixels count them.
+    all_rays: u64,
     host_peak: Option<u64>,
     device_bytes: Option<u64>,
     /// CPU rows: the CPU's frame median over the GPU's, and whether their pictures are identical.
@@ -278,6 +280,10 @@ impl Row {
 
     fn mrays(&self) -> f64 {
         self.primary_rays as f64 / self.median().as_secs_f64().max(1e-12) / 1e6
+    }
+
+    fn all_mrays(&self) -> f64 {
+        self.all_rays as f64 / self.median().as_secs_f64().max(1e-12) / 1e6
     }
 }
 
@@ -368,8 +374,6 @@ fn command_line() -> String {
         .join(" ")
 }
 
-const ALL_RAYS: &str = "n/a (the renderer does not count secondary rays yet)";
-
 impl Row {
     fn json(&self, settings: &RenderSettings, warmup: u32) -> String {
         let d = |v: &[Duration], f: fn(&[Duration]) -> Duration| if v.is_empty() { None } else { Some(ms_f(f(v))) };
@@ -380,7 +384,7 @@ impl Row {
                 "\"primitives_expanded\":{},\"primitives_unique\":{},\"lights\":{},",
                 "\"load_ms\":{},\"build_ms\":{},\"warmup\":{},\"frames\":{},",
                 "\"frame_ms_median\":{},\"frame_ms_min\":{},\"frame_ms_max\":{},\"dispatch_ms_median\":{},",
-                "\"primary_rays_per_frame\":{},\"primary_mrays_per_s\":{},\"all_rays_per_s\":null,",
+                "\"primary_rays_per_frame\":{},\"primary_mrays_per_s\":{},\"all_rays_per_frame\":{},\"all_mrays_per_s\":{},",
                 "\"host_peak_bytes\":{},\"device_bytes\":{},\"cpu_over_gpu\":{},\"identical_to_gpu\":{}}}"
             ),
             json_str(&self.scene),
@@ -407,6 +411,8 @@ impl Row {
             json_num(d(&self.dispatch, median)),
             self.primary_rays,
             json_num(Some((self.mrays() * 1e4).round() / 1e4)),
+            self.all_rays,
+            json_num(Some((self.all_mrays() * 1e4).round() / 1e4)),
             self.host_peak.map_or("null".into(), |b| b.to_string()),
             self.device_bytes.map_or("null".into(), |b| b.to_string()),
             json_num(self.cpu_over_gpu.map(|r| (r * 1e3).round() / 1e3)),
@@ -428,8 +434,10 @@ impl Row {
         }
         let _ = write!(
             s,
-            "\n       {:.3} M primary rays/s, all rays/s {ALL_RAYS}\n       host peak {}, device {}",
+            "\n       {:.3} M primary rays/s, {:.3} M rays/s in all ({:.2} rays per camera ray)\n       host peak {}, device {}",
             self.mrays(),
+            self.all_mrays(),
+            self.all_rays as f64 / (self.primary_rays as f64).max(1.0),
             mib(self.host_peak),
             self.device_bytes.map_or("- (no upload)".to_string(), |b| mib(Some(b)))
         );
@@ -446,7 +454,7 @@ impl Row {
 
     fn markdown(&self) -> String {
         format!(
-            "| {} | {} | {} / {} | {} | {} | {} | {} – {} | {:.3} | n/a | {} | {} | {} |",
+            "| {} | {} | {} / {} | {} | {} | {} | {} – {} | {:.3} | {:.3} | {} | {} | {} |",
             short_name(&self.scene),
             self.backend,
             thousands(self.counts.expanded),
@@ -457,6 +465,7 @@ impl Row {
             ms(self.frames[0]),
             ms(*self.frames.last().unwrap()),
             self.mrays(),
+            self.all_mrays(),
             mib(self.host_peak),
             self.device_bytes.map_or("–".to_string(), |b| mib(Some(b))),
             match (self.cpu_over_gpu, self.identical) {
@@ -470,7 +479,7 @@ impl Row {
 }
 
 const MARKDOWN_HEADER: &str = "\
-| scene | backend | primitives (expanded / unique) | load | build | frame (median) | frame (min – max) | primary Mrays/s | all rays/s | host peak | device | cpu ÷ gpu, pictures |
+| scene | backend | primitives (expanded / unique) | load | build | frame (median) | frame (min – max) | primary Mrays/s | all Mrays/s | host peak | device | cpu ÷ gpu, pictures |
 |---|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// A scene's name for a table: a file's name without its folder (the
@@ -624,6 +633,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             frames: Vec::new(),
             dispatch: Vec::new(),
             primary_rays,
+            all_rays: 0,
             host_peak: None,
             device_bytes: None,
             cpu_over_gpu: None,
@@ -646,6 +656,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
                 let (picture, t) = g.render(&loaded.data)?;
                 row.frames.push(start.elapsed());
                 row.dispatch.push(t.dispatch);
+                row.all_rays = picture.rays();
                 gpu_picture = Some(picture);
             }
             row.host_peak = peak(peak_host_bytes());
@@ -663,6 +674,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
                 let start = Instant::now();
                 let picture = c.render(&loaded.data);
                 row.frames.push(start.elapsed());
+                row.all_rays = picture.rays();
                 last = Some(picture);
             }
             row.host_peak = peak(peak_host_bytes());
@@ -705,7 +717,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         println!();
         println!(
             "load: parse, count, flatten, textures; build: the bounding volume hierarchies and the packing of the groups (`FrameData::build_time`); frame: one whole render call (gpu: upload, dispatch, readback; cpu: every row on every thread); \
-             primary Mrays/s: {}x{}x{} camera rays over the frame median; all rays/s: {ALL_RAYS}; \
+             primary Mrays/s: {}x{}x{} camera rays over the frame median; all Mrays/s: every ray of the frame (camera, shadow, mirror; the pixels count them) over the frame median; \
              host peak: VmHWM while loading that scene and rendering it on that backend (the Vulkan driver included); \
              device: bytes uploaded (frame, scene buffers) plus the pixel buffer read back; \
              cpu ÷ gpu: the CPU's frame median over the device's, and whether their pictures are identical (every buffer, bit for bit).",
@@ -768,6 +780,7 @@ mod tests {
             frames: vec![Duration::from_millis(10), Duration::from_millis(20), Duration::from_millis(40)],
             dispatch: vec![Duration::from_millis(9)],
             primary_rays: 1_000_000,
+            all_rays: 4_000_000,
             host_peak: Some(3 << 20),
             device_bytes: Some(2048),
             cpu_over_gpu: None,
@@ -780,7 +793,7 @@ mod tests {
             "\"frame_ms_median\":20,",
             "\"frame_ms_min\":10,",
             "\"primary_mrays_per_s\":50,",
-            "\"all_rays_per_s\":null",
+            "\"all_rays_per_frame\":4000000,\"all_mrays_per_s\":200,",
             "\"device_bytes\":2048",
             "\"cpu_over_gpu\":null",
         ] {

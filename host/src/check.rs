@@ -1,5 +1,5 @@
 //! Bit-for-bit comparison of two renders of one frame (a device and the CPU
-//! build): per buffer — t, hit id, normal, RGBA — how many pixels differ,
+//! build): per buffer — t, hit id, normal, RGBA, ray count — how many pixels differ,
 //! the first difference with both values in decimal and hex and its ULP
 //! distance, and the worst ULP distance.
 
@@ -79,6 +79,7 @@ pub fn compare(a: &Picture, a_name: &str, b: &Picture, b_name: &str) -> Result<C
     let mut id = BufferDiff { name: "id", unit: "", ..Default::default() };
     let mut normal = BufferDiff { name: "normal", unit: "ULP", ..Default::default() };
     let mut rgba = BufferDiff { name: "rgba", unit: "/255", ..Default::default() };
+    let mut rays = BufferDiff { name: "rays", unit: " rays", ..Default::default() };
     let mut diff_image = Rgb8 { width: a.width, height: a.height, data: vec![0; 3 * a.pixels.len()] };
     let mut differing_pixels = 0;
 
@@ -119,6 +120,10 @@ pub fn compare(a: &Picture, a_name: &str, b: &Picture, b_name: &str) -> Result<C
             note(&mut rgba, x, y, fmt(ca), fmt(cb), Some(dist));
             any = true;
         }
+        if pa.rays != pb.rays {
+            note(&mut rays, x, y, pa.rays.to_string(), pb.rays.to_string(), Some(u64::from(pa.rays.abs_diff(pb.rays))));
+            any = true;
+        }
         let px = &mut diff_image.data[3 * i..3 * i + 3];
         if any {
             differing_pixels += 1;
@@ -133,7 +138,7 @@ pub fn compare(a: &Picture, a_name: &str, b: &Picture, b_name: &str) -> Result<C
         height: a.height,
         a_name: a_name.to_string(),
         b_name: b_name.to_string(),
-        buffers: vec![t, id, normal, rgba],
+        buffers: vec![t, id, normal, rgba, rays],
         differing_pixels,
         diff_image,
     })
@@ -195,12 +200,13 @@ mod tests {
 
     #[test]
     fn reports_count_first_and_worst_per_buffer() {
-        let base = PixelOut { normal: [0.0, 1.0, 0.0, 0.0], t: 2.0, id: 3, rgba: 0xff00_0000, pad0: 0 };
+        let base = PixelOut { normal: [0.0, 1.0, 0.0, 0.0], t: 2.0, id: 3, rgba: 0xff00_0000, rays: 4 };
         let a = picture(vec![base; 4], 2);
         let mut b = a.clone();
         b.pixels[1].t = f32::from_bits(2.0f32.to_bits() + 1);
         b.pixels[3].t = f32::from_bits(2.0f32.to_bits() + 5);
         b.pixels[2].rgba = 0xff00_0003;
+        b.pixels[3].rays = 6;
         let r = compare(&a, "gpu", &b, "cpu").unwrap();
         assert_eq!(r.differing_pixels, 3);
         let t = &r.buffers[0];
@@ -209,8 +215,10 @@ mod tests {
         assert_eq!(t.worst, Some((1, 1, 5)));
         assert_eq!(r.buffers[1].differing, 0);
         assert_eq!(r.buffers[3].differing, 1);
+        assert_eq!(r.buffers[4].worst, Some((1, 1, 2)));
         let text = r.to_string();
         assert!(text.contains("t:      2 of 4 pixels differ; first at (1, 0): gpu 2.0 (0x40000000), cpu 2.0000002 (0x40000001), 1 ULP; worst 5 ULP at (1, 1)"), "{text}");
+        assert!(text.contains("rays:   1 of 4 pixels differ; first at (1, 1): gpu 4, cpu 6, 2 rays; worst 2 rays at (1, 1)"), "{text}");
         assert!(text.contains("3 of 4 pixels differ in at least one buffer"), "{text}");
         assert_eq!(r.diff_image.pixel(1, 0), [255, 0, 0]);
         assert!(compare(&a, "gpu", &a, "cpu").unwrap().identical());

@@ -326,10 +326,16 @@ fn print_scene(p: &Prepared) {
     );
 }
 
-fn rate_line(rays: u64, time: Duration) -> String {
+/// Camera rays (width x height x spp) and every ray the pixels counted, per second of `time`.
+fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> String {
+    let f = &data.frame;
+    let primary = u64::from(f.width) * u64::from(f.height) * u64::from(f.spp.max(1));
+    let all = picture.rays();
+    let per_s = |n: u64| n as f64 / time.as_secs_f64().max(1e-9) / 1e6;
     format!(
-        "rate: {:.2} M primary rays/s ({rays} rays in {})",
-        rays as f64 / time.as_secs_f64().max(1e-9) / 1e6,
+        "rate: {:.2} M primary rays/s, {:.2} M rays/s in all ({primary} camera rays, {all} in all, in {})",
+        per_s(primary),
+        per_s(all),
         ms(time)
     )
 }
@@ -344,7 +350,6 @@ fn write_picture(path: &Path, picture: &Picture) -> Result<(), Failure> {
 fn render(args: &RenderArgs) -> Result<(), Failure> {
     let p = prepare(&args.frame)?;
     let output = args.output.clone().unwrap_or_else(|| default_output(&args.frame, ""));
-    let rays = u64::from(p.data.frame.width) * u64::from(p.data.frame.height);
     if args.backend == Backend::Cpu {
         let cpu = CpuRenderer::new()?;
         println!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
@@ -353,7 +358,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         let picture = cpu.render(&p.data);
         let time = start.elapsed();
         println!("time: load {}, render {}", ms(p.load), ms(time));
-        println!("{}", rate_line(rays, time));
+        println!("{}", rate_line(&p.data, &picture, time));
         return write_picture(&output, &picture);
     }
     let renderer = gpu_renderer(&args.frame)?;
@@ -369,7 +374,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         ms(t.dispatch),
         ms(t.readback)
     );
-    println!("{}", rate_line(rays, t.dispatch));
+    println!("{}", rate_line(&p.data, &picture, t.dispatch));
     write_picture(&output, &picture)?;
     let messages = renderer.context().take_validation_messages();
     drop(renderer);

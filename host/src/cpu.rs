@@ -121,4 +121,49 @@ mod tests {
     fn cpp_layouts_match_the_host() {
         check_layouts().unwrap();
     }
+
+    /// The camera between two facing mirrors (wide mirror cubes at z = -5
+    /// and z = +5), two lights: every camera ray bounces to the depth limit,
+    /// so every pixel traces 1 camera ray + (depth + 1) shaded hits x 2
+    /// shadow rays + depth mirror rays. Rule: exact count in every pixel.
+    #[test]
+    fn pixels_count_camera_shadow_and_mirror_rays() {
+        const MIRRORS: &str = r#"<scenefile>
+  <globaldata><ambientcoeff v="0.5"/><diffusecoeff v="0.5"/><specularcoeff v="0.5"/></globaldata>
+  <cameradata><pos x="0" y="0" z="0"/><look x="0" y="0" z="-1"/><up x="0" y="1" z="0"/><heightangle v="30"/></cameradata>
+  <lightdata><id v="0"/><type v="point"/><color r="1" g="1" b="1"/><position x="0" y="2" z="0"/></lightdata>
+  <lightdata><id v="1"/><type v="directional"/><color r="1" g="1" b="1"/><direction x="0" y="-1" z="0"/></lightdata>
+  <object type="tree" name="root">
+    <transblock><translate x="0" y="0" z="-5"/><scale x="40" y="40" z="1"/>
+      <object type="primitive" name="cube"><diffuse r="1" g="1" b="1"/><reflective r="1" g="1" b="1"/></object></transblock>
+    <transblock><translate x="0" y="0" z="5"/><scale x="40" y="40" z="1"/>
+      <object type="primitive" name="cube"><diffuse r="1" g="1" b="1"/><reflective r="1" g="1" b="1"/></object></transblock>
+  </object>
+</scenefile>"#;
+        let file = crate::scene::parse_str(MIRRORS, std::path::Path::new("mirrors.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &crate::scene::FlattenLimits { max_primitives: 10 }).unwrap();
+        let renderer = CpuRenderer::new().unwrap();
+        let depth = 4;
+        for (shadows, reflections, want) in [(true, true, 1 + (depth + 1) * 2 + depth), (false, true, 1 + depth), (true, false, 1 + 2)] {
+            let settings = crate::frame::RenderSettings {
+                width: 16,
+                height: 12,
+                shadows,
+                reflections,
+                max_depth: depth,
+                ..Default::default()
+            };
+            let picture = renderer.render(&crate::frame::build(&scene, &settings).unwrap());
+            let wrong: Vec<(usize, u32)> =
+                picture.pixels.iter().enumerate().filter(|(_, p)| p.rays != want).map(|(i, p)| (i, p.rays)).collect();
+            assert!(
+                wrong.is_empty(),
+                "shadows {shadows}, reflections {reflections}: {} of {} pixels do not count {want} rays; first (pixel, rays) {:?}, all {:?}",
+                wrong.len(),
+                picture.pixels.len(),
+                wrong.first(),
+                wrong
+            );
+        }
+    }
 }

@@ -124,7 +124,8 @@ pub struct PixelOut {
     pub t: f32,
     pub id: u32,
     pub rgba: u32,
-    pub pad0: u32,
+    /// Rays traced for the pixel: camera, shadow and mirror rays of every sample.
+    pub rays: u32,
 }
 
 /// One member of a struct as the host lays it out.
@@ -239,7 +240,7 @@ impl Light {
 
 impl PixelOut {
     pub fn layout() -> StructLayout {
-        struct_layout!(PixelOut, "PixelOut", [normal, t, id, rgba, pad0])
+        struct_layout!(PixelOut, "PixelOut", [normal, t, id, rgba, rays])
     }
 }
 

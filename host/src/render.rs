@@ -38,6 +38,11 @@ impl Picture {
             })
             .collect()
     }
+
+    /// Every ray the frame traced (camera, shadow and mirror): the sum of the pixels' counts.
+    pub fn rays(&self) -> u64 {
+        self.pixels.iter().map(|p| u64::from(p.rays)).sum()
+    }
 }
 
 /// Where the time of one GPU render went.
@@ -91,8 +96,9 @@ impl GpuRenderer {
             groups,
         )?;
         let pixels: Vec<PixelOut> = bytemuck::pod_collect_to_vec(&bytes);
-        // The kernel writes pad0 = 0 in every pixel it covers.
-        let unwritten = pixels.iter().filter(|p| p.pad0 != 0).count();
+        // Every pixel the kernel covers counts at least its camera ray, far
+        // fewer than the sentinel.
+        let unwritten = pixels.iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();
         if unwritten > 0 {
             return Err(GpuError::BadRun {
                 kernel: "render".into(),

@@ -287,7 +287,7 @@ fn check_layouts_reports_every_planted_mismatch() {
     host[0].writable = true;
     // A host field the shader lacks (and so a shader member the host lacks).
     let pixels = host.iter_mut().find(|b| b.binding == 4).unwrap();
-    struct_of(pixels).fields.iter_mut().find(|f| f.name == "pad0").unwrap().name = "spare";
+    struct_of(pixels).fields.iter_mut().find(|f| f.name == "rays").unwrap().name = "spare";
 
     let e = reflect::check_layouts("render", &spv, &host).unwrap_err();
     let GpuError::LayoutMismatch { mismatches, .. } = &e else { panic!("{e:?}") };
@@ -298,7 +298,7 @@ fn check_layouts_reports_every_planted_mismatch() {
         r#"kernel render: binding 2 (Material[]): struct size 128 in the shader, 144 on the host (host/src/layout.rs)"#,
         r#"kernel render: binding 3 (Light[]) is declared in the shader but not on the host (host/src/layout.rs)"#,
         r#"kernel render: binding 4 (PixelOut[]): member "spare" is on the host but not in the shader (host/src/layout.rs)"#,
-        r#"kernel render: binding 4 (PixelOut[]): member "pad0" (offset 28) is in the shader but not on the host (host/src/layout.rs)"#,
+        r#"kernel render: binding 4 (PixelOut[]): member "rays" (offset 28) is in the shader but not on the host (host/src/layout.rs)"#,
         r#"kernel render: binding 7 (Item[]) is expected by the host (host/src/layout.rs) but not declared in the shader"#,
     ];
     for w in want {
