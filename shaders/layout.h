@@ -66,6 +66,13 @@
 // PixelOut.id of a pixel whose ray hit nothing.
 #define NO_HIT 0xffffffffu
 
+// Frame.loop_canary: what the host sets (raycast.glsl loop_budget_ok).
+#define LOOP_CANARY 2u
+// PixelOut.rays bit: the device cut this pixel's loops short (Mesa's
+// llvmpipe gives an invocation 65535 loop iterations in all); every value of
+// the pixel is suspect. Never set by the CPU build.
+#define RAYS_CUT_SHORT 0x80000000u
+
 struct Frame {
     // Maps film space (x, y in [-1, 1], z = -1 on the film plane) to world
     // space: translate(eye) * rotation(u, v, w) * scale^-1 (seed handout).
@@ -84,7 +91,7 @@ struct Frame {
     uint texture_filter;
     uint root_node;  // the root group's hierarchy
     uint node_count; // 0: no hierarchy; primitives are tested in order
-    uint pad0;
+    uint loop_canary; // LOOP_CANARY: the trip count of raycast.glsl's loop_budget_ok
 };
 
 // A primitive of a group. Its matrix maps the group's space (the world for
@@ -167,7 +174,8 @@ struct PixelOut {
     float t;     // ray parameter of the nearest hit (ray direction not unit); 0 on a miss
     uint id;     // index of the primitive hit, NO_HIT on a miss
     uint rgba;   // 8-bit RGBA, R in the low byte
-    uint rays;   // rays traced for the pixel: camera, shadow and mirror rays of every sample
+    uint rays;   // rays traced for the pixel: camera, shadow and mirror rays of every sample;
+                 // RAYS_CUT_SHORT added when the device cut its loops short
 };
 
 #endif

@@ -75,10 +75,17 @@ void main() {
 
     // Sample 0's hit (the pixel centre's) stays in the pixel buffer for picking.
     uint rgba = pack_rgba8(average);
+    bool cut_short = !loop_budget_ok();
+    if (cut_short) {
+        rays = rays | RAYS_CUT_SHORT;
+    }
     if (preview.sample_index == 0u) {
         pixels[index] = pixel_out(hit, average, rays);
     } else {
         pixels[index].rgba = rgba;
+        if (cut_short) {
+            pixels[index].rays = rays;
+        }
     }
     imageStore(display, ivec2(int(j), int(i)), unpackUnorm4x8(rgba));
 }

@@ -908,6 +908,23 @@ PixelOut pixel_out(SceneHit hit, vec3 color, uint rays) {
     return o;
 }
 
+// Whether the device ran every loop of this invocation to its end.
+// Mesa's llvmpipe (lavapipe) gives each shader invocation 65535 loop
+// iterations in all, counted over every loop it runs
+// (LP_MAX_TGSI_LOOP_ITERATIONS), then ends each loop after its first pass
+// without a word: a pixel that needs more comes out wrong. Run last, this
+// loop of frame.loop_canary passes (LOOP_CANARY, 2, unknown to the
+// compiler, so it is not unrolled) finds out: cut short, it runs once. The
+// CPU build always runs it to the end; a frame with loop_canary 0 (the
+// harness's zeroed default) asks nothing.
+bool loop_budget_ok() {
+    uint passes = 0u;
+    for (uint k = 0u; k < frame.loop_canary; k++) {
+        passes = passes + 1u;
+    }
+    return passes == frame.loop_canary;
+}
+
 // Everything one pixel computes: frame.spp samples in the fixed pattern,
 // their colours summed in sample order and divided by the count; t, id and
 // normal from the first sample (the pixel centre when spp = 1); the rays of
@@ -923,7 +940,11 @@ PixelOut render_pixel(uint j, uint i) {
         rays = rays + next.rays;
     }
     precise vec3 average = sum / float(n);
-    return pixel_out(first.hit, average, rays);
+    PixelOut o = pixel_out(first.hit, average, rays);
+    if (!loop_budget_ok()) {
+        o.rays = o.rays | RAYS_CUT_SHORT;
+    }
+    return o;
 }
 
 #endif

@@ -42,7 +42,7 @@ const Field fields[] = {
     SIZE(Frame), AT(Frame, world_from_film), AT(Frame, eye), AT(Frame, k), AT(Frame, width),
     AT(Frame, height), AT(Frame, primitive_count), AT(Frame, light_count), AT(Frame, aov),
     AT(Frame, flags), AT(Frame, max_depth), AT(Frame, spp), AT(Frame, texture_filter),
-    AT(Frame, root_node), AT(Frame, node_count), AT(Frame, pad0),
+    AT(Frame, root_node), AT(Frame, node_count), AT(Frame, loop_canary),
     SIZE(BvhNode), AT(BvhNode, lo), AT(BvhNode, hi), AT(BvhNode, first), AT(BvhNode, count),
     AT(BvhNode, axis), AT(BvhNode, pad0),
     SIZE(LeafItem), AT(LeafItem, item),

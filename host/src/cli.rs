@@ -126,6 +126,22 @@ struct CheckArgs {
     /// is not expected; the output says the check was not exact.
     #[arg(long, default_value_t = 0, value_name = "K")]
     allow_pixels: usize,
+    /// Also run pixel (X, Y) alone through the shader-test harness:
+    /// render_pixel(X, Y) in a one-invocation kernel on the device and in a
+    /// C++ build compiled at run time, both from --shaders DIR (or the source
+    /// tree's shaders/), compared bit for bit. Tells a difference that
+    /// follows the code from one that follows the whole-frame kernel, and
+    /// lets instrumentation of DIR run on both sides. Repeatable.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    pixel: Vec<(u32, u32)>,
+}
+
+fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    let parse = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{s:?} is not X,Y (two whole numbers, say 29,4)"));
+    match s.split_once(',') {
+        Some((x, y)) => Ok((parse(x)?, parse(y)?)),
+        None => Err(format!("{s:?} is not X,Y (two whole numbers, say 29,4)")),
+    }
 }
 
 #[derive(Args, Debug)]
@@ -404,6 +420,9 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     let messages = renderer.context().take_validation_messages();
     drop(renderer);
     check_validation(messages)?;
+    if !args.pixel.is_empty() {
+        isolated_pixels(args, &p.data, &gpu_picture, &cpu_picture)?;
+    }
     if report.identical() {
         return Ok(());
     }
@@ -418,6 +437,56 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         format!("raycast: check failed: {} pixels differ between the device and the CPU build", report.differing_pixels),
         4,
     ))
+}
+
+/// `check --pixel`: each pixel's render_pixel alone, through the harness.
+fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cpu_picture: &Picture) -> Result<(), Failure> {
+    use crate::harness::{Case, Harness, HarnessOptions, SceneBuffers};
+    let (width, height) = (data.frame.width, data.frame.height);
+    if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
+        return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
+    }
+    let mut harness = Harness::new(&HarnessOptions {
+        shaders: args.frame.shaders.clone(),
+        device: parse_device(&args.frame.device),
+        validation: validation_wanted(args.frame.validate),
+    })
+    .map_err(|e| Failure(format!("raycast: error: --pixel: {e}"), 1))?;
+    // The frame's buffers under the names scene_buffers.glsl gives them.
+    let mut scene = SceneBuffers::new().frame(&data.frame);
+    for (binding, what, bytes) in data.scene_buffers() {
+        let Some(b) = harness.shaders().scene_buffers.iter().find(|b| b.binding == binding) else {
+            return Err(Failure(format!("raycast: error: --pixel: scene_buffers.glsl declares no binding {binding} ({what})"), 1));
+        };
+        let words = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        scene = scene.with_words(&b.name, words);
+    }
+    let scene = std::sync::Arc::new(scene);
+    let cases: Vec<Case> = args
+        .pixel
+        .iter()
+        .map(|&(x, y)| Case::new("render_pixel").named(format!("pixel ({x}, {y}) alone")).input("j", x).input("i", y).scene(scene.clone()))
+        .collect();
+    let results = harness.run(&cases);
+    for (&(x, y), r) in args.pixel.iter().zip(&results) {
+        let index = (y * width + x) as usize;
+        println!("pixel ({x}, {y}) in the frame:  device {}", pixel_text(&gpu_picture.pixels[index]));
+        println!("                              cpu    {}", pixel_text(&cpu_picture.pixels[index]));
+        let alone = |v: &Option<crate::harness::Value>| v.as_ref().map_or("did not run".to_string(), |v| v.text());
+        println!("  alone (harness, {}): device {}", if r.passed { "identical" } else { "DIFFER" }, alone(&r.device));
+        println!("                              cpu    {}", alone(&r.cpu));
+        if r.device.is_none() || r.cpu.is_none() {
+            println!("{}", r.report);
+        }
+    }
+    check_validation(harness.take_validation_messages())
+}
+
+fn pixel_text(p: &crate::layout::PixelOut) -> String {
+    format!(
+        "{{ t = {:?}, id = {}, normal = [{:?}, {:?}, {:?}], rgba = 0x{:08x}, rays = {} }}",
+        p.t, p.id, p.normal[0], p.normal[1], p.normal[2], p.rgba, p.rays
+    )
 }
 
 fn compare(args: &CompareArgs) -> Result<(), Failure> {

@@ -32,7 +32,8 @@ pub struct Frame {
     pub texture_filter: u32,
     pub root_node: u32,
     pub node_count: u32,
-    pub pad0: u32,
+    /// LOOP_CANARY (raycast.glsl loop_budget_ok).
+    pub loop_canary: u32,
 }
 
 #[repr(C)]
@@ -184,7 +185,7 @@ macro_rules! struct_layout {
 impl Frame {
     pub fn layout() -> StructLayout {
         struct_layout!(Frame, "Frame", [world_from_film, eye, k, width, height,
-            primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, root_node, node_count, pad0])
+            primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, root_node, node_count, loop_canary])
     }
 }
 

@@ -105,6 +105,18 @@ impl GpuRenderer {
                 message: format!("the kernel left {unwritten} of {count} pixels unwritten (the sentinel is still in place)"),
             });
         }
+        // The kernel marks pixels whose loops the device ended early
+        // (raycast.glsl loop_budget_ok).
+        let cut = pixels.iter().filter(|p| p.rays & layout::RAYS_CUT_SHORT != 0).count();
+        if cut > 0 {
+            let first = pixels.iter().position(|p| p.rays & layout::RAYS_CUT_SHORT != 0).unwrap_or(0) as u32;
+            return Err(GpuError::CutShort {
+                device: self.context.info().name.clone(),
+                count: cut,
+                total: count,
+                first: (first % f.width, first / f.width),
+            });
+        }
         let timings = GpuTimings { upload: t.upload, dispatch: t.dispatch, readback: t.readback };
         Ok((Picture { width: f.width, height: f.height, pixels }, timings))
     }
