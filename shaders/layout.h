@@ -25,6 +25,7 @@
 #define BINDING_INSTANCES 12 // Instance[]: placed copies of a group (a master tree)
 // 20, 21: the shader-test harness's own
 #define BINDING_COUNT 13     // bindings 0 .. BINDING_COUNT-1 of the scene and the pixels
+#define BINDING_SAMPLE_SUMS 13 // SampleSum[]: render.comp's own, read and written
 
 #define MAX_LEVELS 16  // deepest nesting of instances
 #define STACK_SIZE 64  // traversal stack entries (the host proves a scene fits)
@@ -176,6 +177,16 @@ struct PixelOut {
     uint rgba;   // 8-bit RGBA, R in the low byte
     uint rays;   // rays traced for the pixel: camera, shadow and mirror rays of every sample;
                  // RAYS_CUT_SHORT added when the device cut its loops short
+};
+
+// A pixel's samples summed so far, kept by render.comp between its
+// dispatches (one sample of every pixel each; the host zeroes it first).
+struct SampleSum {
+    vec4 color;   // xyz: the samples' colours added in sample order; w unused
+    uint samples; // how many are in it: the next dispatch computes this sample
+    uint rays;    // their rays (RAYS_CUT_SHORT added when any was cut short)
+    uint pad0;
+    uint pad1;
 };
 
 #endif

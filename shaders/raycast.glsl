@@ -925,7 +925,14 @@ bool loop_budget_ok() {
     return passes == frame.loop_canary;
 }
 
-// Everything one pixel computes: frame.spp samples in the fixed pattern,
+// The colour a pixel stores: its n samples' colour sum over n.
+precise vec3 sample_average(vec3 sum, uint n) {
+    precise vec3 average = sum / float(n);
+    return average;
+}
+
+// Everything one pixel computes (the CPU build's and the harness's way;
+// render.comp computes the same one sample per dispatch): frame.spp samples in the fixed pattern,
 // their colours summed in sample order and divided by the count; t, id and
 // normal from the first sample (the pixel centre when spp = 1); the rays of
 // every sample.
@@ -939,8 +946,7 @@ PixelOut render_pixel(uint j, uint i) {
         sum = sum + next.color;
         rays = rays + next.rays;
     }
-    precise vec3 average = sum / float(n);
-    PixelOut o = pixel_out(first.hit, average, rays);
+    PixelOut o = pixel_out(first.hit, sample_average(sum, n), rays);
     if (!loop_budget_ok()) {
         o.rays = o.rays | RAYS_CUT_SHORT;
     }

@@ -129,6 +129,16 @@ pub struct PixelOut {
     pub rays: u32,
 }
 
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct SampleSum {
+    pub color: Vec4,
+    pub samples: u32,
+    pub rays: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
 /// One member of a struct as the host lays it out.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FieldLayout {
@@ -245,6 +255,12 @@ impl PixelOut {
     }
 }
 
+impl SampleSum {
+    pub fn layout() -> StructLayout {
+        struct_layout!(SampleSum, "SampleSum", [color, samples, rays, pad0, pad1])
+    }
+}
+
 /// The scene's read-only bindings, as shaders/scene_buffers.glsl declares them
 /// for every kernel that includes raycast.glsl.
 pub fn scene_bindings() -> Vec<BindingLayout> {
@@ -261,9 +277,17 @@ pub fn scene_bindings() -> Vec<BindingLayout> {
     ]
 }
 
-/// The bindings of the render kernel (`shaders/render.comp`): the scene and the pixels.
-pub fn render_bindings() -> Vec<BindingLayout> {
+/// The bindings of every kernel that writes pixels: the scene and the pixels.
+pub fn pixel_kernel_bindings() -> Vec<BindingLayout> {
     let mut b = scene_bindings();
     b.push(BindingLayout { binding: BINDING_PIXELS, shape: BufferShape::RuntimeArray(PixelOut::layout()), writable: true });
+    b
+}
+
+/// The bindings of the render kernel (`shaders/render.comp`): the scene, the
+/// pixels and the running sums of their samples.
+pub fn render_bindings() -> Vec<BindingLayout> {
+    let mut b = pixel_kernel_bindings();
+    b.push(BindingLayout { binding: BINDING_SAMPLE_SUMS, shape: BufferShape::RuntimeArray(SampleSum::layout()), writable: true });
     b
 }

@@ -87,13 +87,18 @@ impl GpuRenderer {
         let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), f.height.div_ceil(layout::WORKGROUP_SIZE), 1];
         let mut inputs = vec![(layout::BINDING_FRAME, bytemuck::bytes_of(&data.frame))];
         inputs.extend(data.scene_buffers().iter().map(|&(binding, _, bytes)| (binding, bytes)));
-        let (bytes, t) = self.context.run(
+        // The samples' running sums start at zero: sample 0 is next.
+        let sums = vec![0u8; count * std::mem::size_of::<layout::SampleSum>()];
+        inputs.push((layout::BINDING_SAMPLE_SUMS, &sums));
+        let (bytes, t) = self.context.run_passes(
             &self.kernel,
             &inputs,
             (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
             // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.
             0xffff_ffff,
             groups,
+            // One sample of every pixel per dispatch (render.comp).
+            f.spp.max(1),
         )?;
         let pixels: Vec<PixelOut> = bytemuck::pod_collect_to_vec(&bytes);
         // Every pixel the kernel covers counts at least its camera ray, far

@@ -550,6 +550,21 @@ impl GpuContext {
         fill: u32,
         groups: [u32; 3],
     ) -> Result<(Vec<u8>, RunTimings), GpuError> {
+        self.run_passes(kernel, inputs, output, fill, groups, 1)
+    }
+
+    /// `run` with `passes` dispatches of `groups` in one submission, each
+    /// seeing the writes of the one before (a kernel that keeps its own
+    /// state in its buffers, like render.comp's one sample per pass).
+    pub fn run_passes(
+        &self,
+        kernel: &Kernel,
+        inputs: &[(u32, &[u8])],
+        output: (u32, usize),
+        fill: u32,
+        groups: [u32; 3],
+        passes: u32,
+    ) -> Result<(Vec<u8>, RunTimings), GpuError> {
         let inner = &*self.inner;
         let bad = |message: String| GpuError::BadRun { kernel: kernel.name().to_string(), message };
         if !Arc::ptr_eq(&kernel.inner, &self.inner) {
@@ -665,7 +680,24 @@ impl GpuContext {
             d.begin_command_buffer(cmd, &begin).map_err(GpuError::vk("vkBeginCommandBuffer"))?;
             d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
             d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
-            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+            for pass in 0..passes {
+                if pass > 0 {
+                    // The pass before's writes, visible to this one's reads and writes.
+                    let between = [vk::MemoryBarrier::default()
+                        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                        .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
+                    d.cmd_pipeline_barrier(
+                        cmd,
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
+                        vk::DependencyFlags::empty(),
+                        &between,
+                        &[],
+                        &[],
+                    );
+                }
+                d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+            }
             let barrier = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE)
                 .dst_access_mask(vk::AccessFlags::HOST_READ)];

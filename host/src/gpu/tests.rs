@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use super::error::fmt_bytes;
 use super::*;
-use crate::layout::{render_bindings, BindingLayout, BufferShape, FieldLayout, StructLayout};
+use crate::layout::{pixel_kernel_bindings, BindingLayout, BufferShape, FieldLayout, StructLayout};
 
 /// The device every test runs on (present wherever mesa-vulkan-drivers is).
 fn lavapipe() -> Option<DeviceSelector> {
@@ -268,14 +268,14 @@ fn struct_of(b: &mut BindingLayout) -> &mut StructLayout {
 fn check_layouts_accepts_the_render_layout() {
     for qualifier in ["", "writeonly"] {
         let spv = compile("render_like", &render_like_src(qualifier));
-        reflect::check_layouts("render", &spv, &render_bindings()).unwrap_or_else(|e| panic!("{e}"));
+        reflect::check_layouts("render", &spv, &pixel_kernel_bindings()).unwrap_or_else(|e| panic!("{e}"));
     }
 }
 
 #[test]
 fn check_layouts_reports_every_planted_mismatch() {
     let spv = compile("render_like", &render_like_src(""));
-    let mut host = render_bindings();
+    let mut host = pixel_kernel_bindings();
     // One offset wrong on the host.
     struct_of(&mut host[1]).fields.iter_mut().find(|f| f.name == "material").unwrap().offset = 64;
     // A wrong stride / struct size.
