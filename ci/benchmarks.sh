@@ -11,11 +11,15 @@
 #
 # Two helpers print blocks of their own:
 #   ci/benchmarks.sh machine            the machine: CPU, cores, memory, Vulkan device, Mesa, load
-#   ci/benchmarks.sh wall [--max-primitives N] SCENE...
+#   ci/benchmarks.sh wall [--max-primitives N] [--device NAME] SCENE...
 #                                       `build/raycast render` wall time per scene (median of 3
 #                                       runs, /usr/bin/time) and peak RSS: the whole command,
 #                                       as the issue's targets and POV-Ray's times are.
 #                                       SCENE is a file or gen:FAMILY:DEPTH.
+#   ci/benchmarks.sh checks [--device NAME] SCENE...
+#                                       `build/raycast check` per scene: how many pixels
+#                                       differ between the device and the CPU build, per
+#                                       buffer (0 everywhere on lavapipe; counts on GPUs).
 source "$(dirname "$0")/common.sh"
 cd "$ROOT"
 RAYCAST=build/raycast
@@ -38,7 +42,7 @@ machine() {
 
 wall() {
   local max=() tmp
-  if [ "${1:-}" = --max-primitives ]; then max=(--max-primitives "$2"); shift 2; fi
+  while [ "${1:-}" = --max-primitives ] || [ "${1:-}" = --device ]; do max+=("$1" "$2"); shift 2; done
   tmp="$(mktemp -d)"
   echo "\`ci/benchmarks.sh wall ${max[*]}${max:+ }$*\`: \`$RAYCAST render SCENE --assets $CORPUS${max:+ }${max[*]}\` (512x384, shadows, reflections and textures on), run 3 times; the median wall time and the largest peak RSS (\`/usr/bin/time\`)."
   echo
@@ -68,7 +72,7 @@ wall() {
       n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
     done
     if [ "$n" = skipped ]; then
-      echo "| ${s##*/} | – | skipped: over --max-primitives ${max[1]} | – |"
+      echo "| ${s##*/} | – | skipped: over the --max-primitives limit | – |"
     else
       n="$(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n")"
       echo "| ${s##*/} | $n | $(printf '%s\n' "${walls[@]}" | sort -n | sed -n 2p) s | $((rss / 1024)) MiB |"
@@ -77,9 +81,43 @@ wall() {
   rm -rf "$tmp"
 }
 
+checks() {
+  local dev=() tmp s out any b n cells worst
+  if [ "${1:-}" = --device ]; then dev=(--device "$2"); shift 2; fi
+  tmp="$(mktemp -d)"
+  echo "\`ci/benchmarks.sh checks ${dev[*]}${dev:+ }SCENE...\`: \`$RAYCAST check SCENE --assets $CORPUS${dev:+ }${dev[*]}\` (512x384, every setting at its default): pixels of 196,608 that differ between the device and the CPU build, per buffer; rgba with its worst channel difference."
+  echo
+  echo "| scene | any buffer | t | id | normal | rgba (worst) | rays |"
+  echo "|---|---|---|---|---|---|---|"
+  for s in "$@"; do
+    out="$("$RAYCAST" check "$s" --assets "$CORPUS" "${dev[@]}" -o "$tmp/diff.png" 2>&1)" || true
+    if grep -q '^identical' <<<"$out"; then
+      any=0
+    else
+      any="$(sed -n 's/^\([0-9]*\) of [0-9]* pixels differ in at least one buffer.*/\1/p' <<<"$out")"
+    fi
+    if [ -z "$any" ]; then
+      echo "| ${s#"$CORPUS"/} | error: $(grep -m1 'error' <<<"$out" | cut -c1-120) | | | | | |"
+      continue
+    fi
+    cells=""
+    for b in t id normal rgba rays; do
+      n="$(sed -n "s/^$b: *\([0-9]*\) of .*/\1/p" <<<"$out")"
+      if [ "$b" = rgba ] && [ "${n:-0}" != 0 ]; then
+        worst="$(sed -n 's/^rgba:.*worst \([0-9]*\/255\).*/\1/p' <<<"$out")"
+        n="$n ($worst)"
+      fi
+      cells="$cells | ${n:-?}"
+    done
+    echo "| ${s#"$CORPUS"/} | $any$cells |"
+  done
+  rm -rf "$tmp"
+}
+
 case "${1:-}" in
   machine) machine; exit ;;
   wall) shift; wall "$@"; exit ;;
+  checks) shift; checks "$@"; exit ;;
 esac
 
 build=1

@@ -16,6 +16,7 @@ layout(std430, binding = BINDING_PIXELS) writeonly buffer PixelBlock { PixelOut 
 layout(std430, binding = BINDING_PREVIEW) readonly buffer PreviewBlock { PreviewFrame preview; };
 layout(std430, binding = BINDING_ACCUM) buffer AccumBlock { AccumPixel accum[]; };
 layout(binding = BINDING_DISPLAY, rgba8) writeonly uniform image2D display;
+layout(std430, binding = BINDING_STATUS) buffer StatusBlock { PreviewStatus status; };
 
 #include "raycast.glsl"
 
@@ -78,6 +79,7 @@ void main() {
     bool cut_short = !loop_budget_ok();
     if (cut_short) {
         rays = rays | RAYS_CUT_SHORT;
+        atomicAdd(status.cut_short, 1u);
     }
     if (preview.sample_index == 0u) {
         pixels[index] = pixel_out(hit, average, rays);

@@ -12,6 +12,7 @@
 #define BINDING_PREVIEW 5 // PreviewFrame (one)
 #define BINDING_ACCUM 6   // AccumPixel[], one per pixel, read and written
 #define BINDING_DISPLAY 7 // rgba8 storage image, copied to the window
+#define BINDING_STATUS 14 // PreviewStatus (one), read and written
 
 // PreviewFrame.mode: what the window shows. Colour and normal are
 // Frame.aov (AOV_COLOR, AOV_NORMAL) through sample_pixel; depth and id are
@@ -32,6 +33,14 @@ struct PreviewFrame {
     uint mode;         // PREVIEW_*
     uint pad0;
     uint pad1;
+};
+
+// What the host reads back after every frame (and zeroes before the next).
+struct PreviewStatus {
+    uint cut_short; // pixels whose loops the device cut short (RAYS_CUT_SHORT)
+    uint pad0;
+    uint pad1;
+    uint pad2;
 };
 
 struct AccumPixel {

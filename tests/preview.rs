@@ -216,3 +216,34 @@ fn bad_arguments_are_usage_errors() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no preview.comp"), "{}", text(&o));
 }
+
+/// A preview frame the device cut short (lavapipe's 65535 loop iterations
+/// per invocation; here a planted loop of 70,000 in a copy of preview.comp,
+/// which --shaders compiles before the first frame) is named on stderr, and
+/// its screenshot is refused, not written wrong.
+#[test]
+fn pixels_cut_short_are_reported_and_not_saved() {
+    let dir = out_dir().join("planted-loop-shaders");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for entry in std::fs::read_dir(repo().join("shaders")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
+    }
+    let comp = dir.join("preview.comp");
+    let source = std::fs::read_to_string(&comp).unwrap();
+    let anchor = "    bool cut_short = !loop_budget_ok();";
+    assert_eq!(source.matches(anchor).count(), 1, "preview.comp changed: update this test");
+    let planted = "    uint spin = 0u;\n    for (uint k = 0u; k < 70000u + preview.pad0; k++) {\n        spin = spin * 1664525u + k;\n    }\n    if (spin == 1u) {\n        rays = rays + 1u;\n    }\n";
+    std::fs::write(&comp, source.replace(anchor, &format!("{planted}{anchor}"))).unwrap();
+
+    let png = out_dir().join("planted-loop.png");
+    let _ = std::fs::remove_file(&png);
+    let o = preview(&["--shaders", dir.to_str().unwrap(), "--width", "24", "--height", "16", "--frames", "2", "--screenshot", png.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(err.contains("the picture is WRONG: the device cut 384 pixels short"), "{}", text(&o));
+    assert!(err.contains("cut 384 of 384 pixels short") && err.contains("nothing was written"), "{}", text(&o));
+    assert!(!err.contains("panicked"), "{}", text(&o));
+    assert!(!png.exists(), "the screenshot was written");
+}

@@ -15,7 +15,7 @@ use crate::cli::{check_validation, parse_device, scene_failure, validation_wante
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
-use crate::gpu::{self, GpuOptions};
+use crate::gpu::{self, GpuError, GpuOptions};
 use crate::layout::{Frame, PixelOut};
 use crate::render::{GpuRenderer, Picture};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
@@ -491,31 +491,34 @@ fn short_name(scene: &str) -> &str {
     Path::new(scene).file_name().and_then(|n| n.to_str()).unwrap_or(scene)
 }
 
-/// A scene over --max-primitives: listed, not rendered, and not an error,
-/// so that one table can name every depth while only some are feasible.
-fn skipped(scene: &str, counts: PrimitiveCounts, limit: usize, args: &BenchArgs) {
-    let why = format!("skipped: expands to more than --max-primitives {}", thousands(limit as u64));
+/// A scene (or one backend of it) listed but not timed, and not an error,
+/// so that one table can name every depth while only some are feasible:
+/// over --max-primitives, or cut short by the device (lavapipe's loop budget).
+fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCounts, why: &str, args: &BenchArgs) {
     if args.json {
         println!(
-            "{{\"scene\":{},\"skipped\":{},\"primitives_expanded\":{},\"primitives_unique\":{}}}",
+            "{{\"scene\":{},{}\"skipped\":{},\"primitives_expanded\":{},\"primitives_unique\":{}}}",
             json_str(scene),
-            json_str(&why),
+            backend.map(|b| format!("\"backend\":{},", json_str(b))).unwrap_or_default(),
+            json_str(why),
             counts.expanded,
             counts.unique
         );
     } else if args.markdown {
         println!(
-            "| {} | – | {} / {} | {why} |{}",
+            "| {} | {} | {} / {} | {why} |{}",
             short_name(scene),
+            backend.unwrap_or("–"),
             thousands(counts.expanded),
             thousands(counts.unique),
             " – |".repeat(MARKDOWN_HEADER.lines().next().unwrap_or("").matches('|').count() - 5)
         );
     } else {
         println!(
-            "scene: {scene} ({} primitives expanded, {} unique): {why}",
+            "scene: {scene} ({} primitives expanded, {} unique){}: {why}",
             thousands(counts.expanded),
-            thousands(counts.unique)
+            thousands(counts.unique),
+            backend.map(|b| format!(", {b}")).unwrap_or_default()
         );
     }
 }
@@ -617,7 +620,8 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         let file = parse_scene(name, &opts).map_err(scene_failure)?;
         let counts = count_primitives(&file);
         if counts.expanded > limits.max_primitives as u64 {
-            skipped(name.unwrap_or("<default scene>"), counts, limits.max_primitives, args);
+            let why = format!("skipped: expands to more than --max-primitives {}", thousands(limits.max_primitives as u64));
+            skipped(name.unwrap_or("<default scene>"), None, counts, &why, args);
             continue;
         }
         let loaded = load_parsed(name, file, counts, start, &limits, &settings).map_err(scene_failure)?;
@@ -648,20 +652,36 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         if let (Some(g), Some(device)) = (&gpu, &gpu_device) {
             let mut row = row("gpu", device);
             reset_peak_host();
-            for _ in 0..args.warmup {
-                g.render(&loaded.data)?;
+            let timed = (|| {
+                for _ in 0..args.warmup {
+                    g.render(&loaded.data)?;
+                }
+                for _ in 0..args.frames {
+                    let start = Instant::now();
+                    let (picture, t) = g.render(&loaded.data)?;
+                    row.frames.push(start.elapsed());
+                    row.dispatch.push(t.dispatch);
+                    row.all_rays = picture.rays();
+                    gpu_picture = Some(picture);
+                }
+                Ok::<(), GpuError>(())
+            })();
+            match timed {
+                Ok(()) => {
+                    row.host_peak = peak(peak_host_bytes());
+                    row.device_bytes = Some(device_bytes(&loaded.data));
+                    rows.push(row);
+                }
+                Err(GpuError::CutShort { count, total, .. }) => {
+                    let why = format!(
+                        "not timed: the device cut {} of {} pixels short (Mesa's loop budget per invocation; `raycast render` says more)",
+                        thousands(count as u64),
+                        thousands(total as u64)
+                    );
+                    skipped(&loaded.name, Some("gpu"), loaded.counts, &why, args);
+                }
+                Err(e) => return Err(e.into()),
             }
-            for _ in 0..args.frames {
-                let start = Instant::now();
-                let (picture, t) = g.render(&loaded.data)?;
-                row.frames.push(start.elapsed());
-                row.dispatch.push(t.dispatch);
-                row.all_rays = picture.rays();
-                gpu_picture = Some(picture);
-            }
-            row.host_peak = peak(peak_host_bytes());
-            row.device_bytes = Some(device_bytes(&loaded.data));
-            rows.push(row);
         }
         if let (Some(c), Some(device)) = (&cpu, &cpu_device) {
             let mut row = row("cpu", device);

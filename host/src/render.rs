@@ -62,6 +62,20 @@ pub struct GpuRenderer {
     pub compile_time: Duration,
 }
 
+/// An error when the kernel marked pixels whose loops the device ended
+/// early (raycast.glsl loop_budget_ok): such a picture is wrong.
+pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str) -> Result<(), GpuError> {
+    let is_cut = |p: &PixelOut| p.rays & layout::RAYS_CUT_SHORT != 0;
+    let Some(first) = pixels.iter().position(is_cut) else { return Ok(()) };
+    let first = first as u32;
+    Err(GpuError::CutShort {
+        device: device.to_string(),
+        count: pixels.iter().filter(|p| is_cut(p)).count(),
+        total: pixels.len(),
+        first: (first % width, first / width),
+    })
+}
+
 impl GpuRenderer {
     /// The device of `options` with the embedded render kernel.
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer, GpuError> {
@@ -110,18 +124,7 @@ impl GpuRenderer {
                 message: format!("the kernel left {unwritten} of {count} pixels unwritten (the sentinel is still in place)"),
             });
         }
-        // The kernel marks pixels whose loops the device ended early
-        // (raycast.glsl loop_budget_ok).
-        let cut = pixels.iter().filter(|p| p.rays & layout::RAYS_CUT_SHORT != 0).count();
-        if cut > 0 {
-            let first = pixels.iter().position(|p| p.rays & layout::RAYS_CUT_SHORT != 0).unwrap_or(0) as u32;
-            return Err(GpuError::CutShort {
-                device: self.context.info().name.clone(),
-                count: cut,
-                total: count,
-                first: (first % f.width, first / f.width),
-            });
-        }
+        refuse_cut_short(&pixels, f.width, &self.context.info().name)?;
         let timings = GpuTimings { upload: t.upload, dispatch: t.dispatch, readback: t.readback };
         Ok((Picture { width: f.width, height: f.height, pixels }, timings))
     }

@@ -20,7 +20,7 @@ use crate::scene::{FlattenLimits, ParseOptions, Scene, Shape};
 
 use super::camera::{scene_bounds, Bounds, CameraControl};
 use super::layout::{PreviewFrame, PREVIEW_COLOR, PREVIEW_DEPTH, PREVIEW_ID, PREVIEW_NORMAL};
-use super::reload::{Reload, WatchConfig, Watcher, KERNEL_FILE};
+use super::reload::{self, Reload, WatchConfig, Watcher, KERNEL_FILE};
 use super::renderer::{embedded_kernel, PreviewRenderer};
 use super::{PresentArg, PreviewArgs};
 
@@ -111,7 +111,16 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     println!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
     println!("scene: {} ({} primitives, {} lights)", scene.path.display(), data.primitives.len(), data.lights.len());
 
-    let kernel = embedded_kernel(&context)?;
+    // A --shaders folder's kernel from the first frame on (so --frames and
+    // --screenshot see it); a compile error ends the command.
+    let kernel = match (&shaders, compile_at_start) {
+        (Some(dir), true) => match reload::compile(&context, dir) {
+            Reload::Kernel(kernel) => kernel,
+            Reload::Failed(e) => return Err(Failure::from(format!("--shaders {}: {e}", dir.display()))),
+            Reload::Scene(_) => unreachable!("compile gives a kernel or a failure"),
+        },
+        _ => embedded_kernel(&context)?,
+    };
     let (fw, fh) = window.get_framebuffer_size();
     let window_size = [fw.max(1) as u32, fh.max(1) as u32];
     let size = if fixed_size { [args.width, args.height] } else { window_size };
@@ -132,7 +141,6 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         limits,
         settings: settings.clone(),
         shaders,
-        compile_at_start,
         context: context.clone(),
     });
 
@@ -218,6 +226,8 @@ struct Preview {
     textures: bool,
     /// The sample the next frame draws; 0 restarts the accumulation.
     sample: u32,
+    /// Pixels of the last frame the device cut short (wrong; lavapipe's loop budget).
+    cut_short: u32,
     error: Option<String>,
     mouse: Mouse,
     stats: Stats,
@@ -275,6 +285,7 @@ impl Preview {
             reflections: true,
             textures: true,
             sample: 0,
+            cut_short: 0,
             error: None,
             mouse: Mouse::default(),
             stats: Stats::default(),
@@ -350,6 +361,15 @@ impl Preview {
             if let Some(t) = self.renderer.wait()? {
                 self.stats.device_ms = Some(Stats::average(self.stats.device_ms.unwrap_or(0.0), t.as_secs_f64() * 1e3));
             }
+            let cut = self.renderer.cut_short()?;
+            if cut > 0 && self.cut_short == 0 {
+                eprintln!(
+                    "raycast: preview: the picture is WRONG: the device cut {cut} pixels short. Mesa's lavapipe gives each \
+                     shader invocation 65535 loop iterations in all and these pixels need more; \
+                     reflections off (M) or another Vulkan device avoid it"
+                );
+            }
+            self.cut_short = cut;
             let frame = self.frame();
             let [jx, jy] = jitter(self.sample);
             let preview = PreviewFrame {
@@ -434,6 +454,9 @@ impl Preview {
             on(self.reflections),
             on(self.textures)
         );
+        if self.cut_short > 0 {
+            t.push_str(&format!(" | WRONG: {} pixels cut short by the device's loop budget", self.cut_short));
+        }
         if let Some(e) = &self.error {
             t.push_str(" | ERROR: ");
             t.push_str(e);
@@ -661,6 +684,7 @@ impl Preview {
     fn save(&mut self, path: &Path) -> Result<(), Failure> {
         let [width, height] = self.renderer.size();
         let pixels = self.renderer.pixels()?;
+        crate::render::refuse_cut_short(&pixels, width, &self.device)?;
         let picture = Picture { width, height, pixels };
         image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8() })?;
         println!("wrote {} ({width}x{height}, {} samples per pixel)", path.display(), self.sample);

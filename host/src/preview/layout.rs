@@ -24,6 +24,15 @@ pub struct PreviewFrame {
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct PreviewStatus {
+    pub cut_short: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct AccumPixel {
     pub sum: [f32; 4],
 }
@@ -50,6 +59,22 @@ impl PreviewFrame {
     }
 }
 
+impl PreviewStatus {
+    pub fn layout() -> StructLayout {
+        use std::mem::offset_of;
+        StructLayout {
+            name: "PreviewStatus",
+            size: std::mem::size_of::<PreviewStatus>() as u32,
+            fields: vec![
+                field::<u32>("cut_short", offset_of!(PreviewStatus, cut_short)),
+                field::<u32>("pad0", offset_of!(PreviewStatus, pad0)),
+                field::<u32>("pad1", offset_of!(PreviewStatus, pad1)),
+                field::<u32>("pad2", offset_of!(PreviewStatus, pad2)),
+            ],
+        }
+    }
+}
+
 impl AccumPixel {
     pub fn layout() -> StructLayout {
         StructLayout {
@@ -60,12 +85,13 @@ impl AccumPixel {
     }
 }
 
-/// The storage buffers of the preview kernel: the render kernel's (the
-/// pixel buffer writable) plus the per-frame struct and the accumulation.
+/// The storage buffers of the preview kernel: the scene and the pixels, the
+/// per-frame struct, the accumulation and the status word.
 pub fn preview_bindings() -> Vec<BindingLayout> {
     let mut b = pixel_kernel_bindings();
     b.push(BindingLayout { binding: BINDING_PREVIEW, shape: BufferShape::Single(PreviewFrame::layout()), writable: false });
     b.push(BindingLayout { binding: BINDING_ACCUM, shape: BufferShape::RuntimeArray(AccumPixel::layout()), writable: true });
+    b.push(BindingLayout { binding: BINDING_STATUS, shape: BufferShape::Single(PreviewStatus::layout()), writable: true });
     b
 }
 

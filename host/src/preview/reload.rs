@@ -40,8 +40,6 @@ pub struct WatchConfig {
     pub settings: RenderSettings,
     /// The folder with preview.comp and what it includes; None: no shader reload.
     pub shaders: Option<PathBuf>,
-    /// Compile the kernel once at start (a `--shaders` folder given on the command line).
-    pub compile_at_start: bool,
     pub context: Arc<GpuContext>,
 }
 
@@ -103,13 +101,6 @@ fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
 fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
     let mut scene_stamp = config.scene.as_deref().map(stamp);
     let mut shader_stamp = config.shaders.as_deref().map(shader_stamps);
-    if config.compile_at_start {
-        if let Some(dir) = &config.shaders {
-            if tx.send(compile(&config.context, dir)).is_err() {
-                return;
-            }
-        }
-    }
     while !stop.load(Ordering::Relaxed) {
         std::thread::sleep(POLL);
         if let Some(path) = &config.scene {
@@ -142,7 +133,7 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
 
 /// glslang on `dir/preview.comp` (with `dir` on the include path), then the
 /// checked kernel.
-fn compile(ctx: &GpuContext, dir: &Path) -> Reload {
+pub fn compile(ctx: &GpuContext, dir: &Path) -> Reload {
     let src = dir.join(KERNEL_FILE);
     let spv = std::env::temp_dir().join(format!("raycast-preview-{}.spv", std::process::id()));
     let output = match std::process::Command::new(GLSLANG).args(glslang_args(&src, dir, &spv)).output() {

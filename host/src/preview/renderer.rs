@@ -12,7 +12,10 @@ use crate::gpu::{
 };
 use crate::layout::{self, Frame, PixelOut};
 
-use super::layout::{preview_bindings, preview_images, AccumPixel, PreviewFrame, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW};
+use super::layout::{
+    preview_bindings, preview_images, AccumPixel, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW,
+    BINDING_STATUS,
+};
 
 /// The embedded preview kernel (shaders/preview.comp, compiled at build time).
 pub fn embedded_kernel(ctx: &GpuContext) -> Result<Kernel, GpuError> {
@@ -61,6 +64,7 @@ pub struct PreviewRenderer {
     frames: FrameLoop,
     frame: Buffer,
     preview: Buffer,
+    status: Buffer,
     scene: SceneBuffers,
     picture: PictureBuffers,
     swapchain: Swapchain,
@@ -84,6 +88,7 @@ impl PreviewRenderer {
             frames: FrameLoop::new(ctx)?,
             frame: Buffer::new(ctx, std::mem::size_of::<Frame>(), false, "the frame")?,
             preview: Buffer::new(ctx, std::mem::size_of::<PreviewFrame>(), false, "the preview frame")?,
+            status: Buffer::new(ctx, std::mem::size_of::<PreviewStatus>(), true, "the status word")?,
             scene: SceneBuffers::new(ctx, data)?,
             picture: PictureBuffers::new(ctx, size)?,
             swapchain: Swapchain::new(ctx, window, mode)?,
@@ -114,6 +119,7 @@ impl PreviewRenderer {
             (BINDING_PREVIEW, Resource::Buffer(&self.preview)),
             (BINDING_ACCUM, Resource::Buffer(&p.accum)),
             (BINDING_DISPLAY, Resource::Image(&p.display)),
+            (BINDING_STATUS, Resource::Buffer(&self.status)),
         ]);
         self.set = Some(DescriptorSet::new(&self.kernel, &resources)?);
         Ok(())
@@ -157,6 +163,7 @@ impl PreviewRenderer {
     pub fn render(&mut self, frame: &Frame, preview: &PreviewFrame, present: bool) -> Result<FrameStatus, GpuError> {
         assert_eq!([frame.width, frame.height], self.picture.size, "the frame's size is the picture's");
         self.frames.wait()?;
+        self.status.write(0, bytemuck::bytes_of(&PreviewStatus::default()));
         self.frame.write(0, bytemuck::bytes_of(frame));
         self.preview.write(0, bytemuck::bytes_of(preview));
         let wg = self.kernel.workgroup_size();
@@ -169,6 +176,14 @@ impl PreviewRenderer {
     /// Waits for the frame in flight; its dispatch time when the device has timestamps.
     pub fn wait(&mut self) -> Result<Option<Duration>, GpuError> {
         self.frames.wait()
+    }
+
+    /// How many pixels of the last frame the device cut short (Mesa's loop
+    /// budget per invocation; raycast.glsl loop_budget_ok): they are wrong.
+    pub fn cut_short(&mut self) -> Result<u32, GpuError> {
+        self.frames.wait()?;
+        let status: PreviewStatus = bytemuck::pod_read_unaligned(&self.status.read(0, std::mem::size_of::<PreviewStatus>()));
+        Ok(status.cut_short)
     }
 
     /// Every pixel of the last frame: the first sample's hit, the average colour.
