@@ -110,19 +110,30 @@ impl FrameLoop {
     }
 
     /// Dispatches `kernel` over `groups` work groups with `set`; then, with a
-    /// swapchain, blits `image` (which the kernel writes) to the next
-    /// swapchain image, scaled to fill it, and presents it. Waits for the
-    /// previous frame first. Returns at once: call `wait` before reading what
-    /// the kernel wrote or changing anything it uses.
+    /// swapchain, blits the top-left `extent` of `image` (which the kernel
+    /// writes; at most its size) to the next swapchain image, scaled to fill
+    /// it, and presents it. Waits for the previous frame first. Returns at
+    /// once: call `wait` before reading what the kernel wrote or changing
+    /// anything it uses.
     pub fn submit(
         &mut self,
         kernel: &Kernel,
         set: &DescriptorSet,
         groups: [u32; 3],
         image: &StorageImage,
+        extent: [u32; 2],
         swapchain: Option<&mut Swapchain>,
     ) -> Result<FrameStatus, GpuError> {
         let bad = |message: String| GpuError::BadRun { kernel: kernel.name().to_string(), message };
+        if extent[0] == 0 || extent[1] == 0 || extent[0] > image.width() || extent[1] > image.height() {
+            return Err(bad(format!(
+                "blit extent {}x{} is empty or outside the {}x{} image",
+                extent[0],
+                extent[1],
+                image.width(),
+                image.height()
+            )));
+        }
         if !Arc::ptr_eq(&kernel.inner, &self.inner) || !Arc::ptr_eq(image.inner(), &self.inner) {
             return Err(bad("the kernel or image was created on another GpuContext".into()));
         }
@@ -251,7 +262,7 @@ impl FrameLoop {
                 let corner = |x: u32, y: u32| vk::Offset3D { x: x as i32, y: y as i32, z: 1 };
                 let region = [vk::ImageBlit::default()
                     .src_subresource(layers)
-                    .src_offsets([vk::Offset3D::default(), corner(image.width(), image.height())])
+                    .src_offsets([vk::Offset3D::default(), corner(extent[0], extent[1])])
                     .dst_subresource(layers)
                     .dst_offsets([vk::Offset3D::default(), corner(w, h)])];
                 d.cmd_blit_image(
@@ -400,7 +411,7 @@ void main() {
         for sample in 0..2u32 {
             frames.wait().unwrap();
             params.write(0, bytemuck::bytes_of(&[sample, 0, 0, 0]));
-            assert_eq!(frames.submit(&kernel, &set, [1, 1, 1], &image, None).unwrap(), FrameStatus::Done);
+            assert_eq!(frames.submit(&kernel, &set, [1, 1, 1], &image, [image.width(), image.height()], None).unwrap(), FrameStatus::Done);
             frames.wait().unwrap();
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out.read(0, 64 * 16));
             for i in 0..64u32 {

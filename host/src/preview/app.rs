@@ -31,6 +31,14 @@ const CLICK_SLOP: f64 = 3.0;
 /// Orbit degrees per pixel of drag.
 const ORBIT_DEG_PER_PIXEL: f64 = 0.3;
 const TITLE_INTERVAL: Duration = Duration::from_millis(250);
+/// After the camera's last move, frames stay at the motion resolution this long.
+const MOTION_HOLD: Duration = Duration::from_millis(300);
+/// While the camera moves, a frame should take at most this long (8 a second).
+const MOTION_FRAME_MS: f64 = 125.0;
+/// The most the motion resolution divides the width and height by.
+const MAX_MOTION_SCALE: u32 = 8;
+/// `--moving`: how far the camera orbits before each frame.
+const MOVING_DEG_PER_FRAME: f64 = 2.0;
 
 const HELP: &str = "\
 preview controls:
@@ -145,6 +153,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     });
 
     let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
+    preview.moving_frames = args.moving;
     if args.screenshot.is_none() && args.frames.is_none() {
         eprintln!("raycast: preview: F1 prints the controls, Esc quits");
     }
@@ -226,6 +235,20 @@ struct Preview {
     textures: bool,
     /// The sample the next frame draws; 0 restarts the accumulation.
     sample: u32,
+    /// Scripted runs (--moving N): the first N frames turn the camera.
+    moving_frames: u32,
+    /// Frames submitted so far.
+    rendered: u32,
+    /// The size of the frame submitted last.
+    frame_sizes: (u32, u32),
+    /// Submit-to-submit times of the --moving frames, and their sizes.
+    moving_times: Vec<(Duration, [u32; 2])>,
+    /// When the camera last moved (`moved`).
+    last_move: Option<Instant>,
+    /// Device (or frame) milliseconds per pixel, averaged over frames.
+    ms_per_pixel: Option<f64>,
+    /// Pixels of the frame in flight, for `ms_per_pixel`.
+    pixels_in_flight: u64,
     /// Pixels of the last frame the device cut short (wrong; lavapipe's loop budget).
     cut_short: u32,
     error: Option<String>,
@@ -252,6 +275,17 @@ fn shape_name(shape: &Shape) -> &'static str {
         Shape::Torus => "torus",
         Shape::Mesh { .. } => "mesh",
     }
+}
+
+/// The divisor of width and height that brings a frame of `pixels` pixels,
+/// at `ms_per_pixel`, within MOTION_FRAME_MS: the smallest whole number
+/// (1 when the cost is not known yet), at most MAX_MOTION_SCALE.
+fn motion_scale(ms_per_pixel: Option<f64>, pixels: u64) -> u32 {
+    let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return 1 };
+    let full_ms = cost * pixels as f64;
+    // Dividing both sides by s divides the pixels by s².
+    let s = (full_ms / MOTION_FRAME_MS).sqrt().ceil();
+    (s as u32).clamp(1, MAX_MOTION_SCALE)
 }
 
 /// The i-th point of the Halton (2, 3) sequence, centred on 0: sub-pixel
@@ -285,6 +319,13 @@ impl Preview {
             reflections: true,
             textures: true,
             sample: 0,
+            moving_frames: 0,
+            rendered: 0,
+            frame_sizes: (0, 0),
+            moving_times: Vec::new(),
+            last_move: None,
+            ms_per_pixel: None,
+            pixels_in_flight: 0,
             cut_short: 0,
             error: None,
             mouse: Mouse::default(),
@@ -358,8 +399,20 @@ impl Preview {
             }
 
             // One sample.
-            if let Some(t) = self.renderer.wait()? {
+            let waited = Instant::now();
+            let device = self.renderer.wait()?;
+            if let Some(t) = device {
                 self.stats.device_ms = Some(Stats::average(self.stats.device_ms.unwrap_or(0.0), t.as_secs_f64() * 1e3));
+            }
+            if self.pixels_in_flight > 0 {
+                // The frame's own time: the device's, or else since its submission.
+                let ms = device.map(|t| t.as_secs_f64() * 1e3).or_else(|| {
+                    self.stats.last_submit.map(|s| (waited.max(s) - s).as_secs_f64() * 1e3)
+                });
+                if let Some(ms) = ms {
+                    let per_pixel = ms / self.pixels_in_flight as f64;
+                    self.ms_per_pixel = Some(self.ms_per_pixel.map_or(per_pixel, |old| Stats::average(old, per_pixel)));
+                }
             }
             let cut = self.renderer.cut_short()?;
             if cut > 0 && self.cut_short == 0 {
@@ -370,7 +423,18 @@ impl Preview {
                 );
             }
             self.cut_short = cut;
-            let frame = self.frame();
+            let steering = frames.is_some() && self.rendered < self.moving_frames;
+            if steering {
+                self.camera.orbit(MOVING_DEG_PER_FRAME, 0.0);
+                self.moved();
+            }
+            let scale = self.motion_scale(frames.is_some() && !steering);
+            if scale > 1 || self.renderer.frame_size() != self.renderer.size() {
+                // Moving, or the first frame at rest after moving: no samples to add to.
+                self.sample = 0;
+            }
+            let frame = self.frame(scale);
+            self.pixels_in_flight = u64::from(frame.width) * u64::from(frame.height);
             let [jx, jy] = jitter(self.sample);
             let preview = PreviewFrame {
                 jitter: [jx, jy, 0.0, 0.0],
@@ -391,11 +455,21 @@ impl Preview {
             let now = Instant::now();
             if let Some(prev) = self.stats.last_submit.replace(now) {
                 self.stats.frame_ms = Stats::average(self.stats.frame_ms, (now - prev).as_secs_f64() * 1e3);
+                if self.rendered > 0 && self.rendered <= self.moving_frames {
+                    // The frame before this one was a --moving frame: its time is now known.
+                    self.moving_times.push((now - prev, [self.frame_sizes.0, self.frame_sizes.1]));
+                }
             }
+            self.frame_sizes = (frame.width, frame.height);
             self.sample += 1;
+            self.rendered += 1;
 
             if let Some(n) = frames {
-                if self.sample >= n {
+                if self.rendered >= n {
+                    self.renderer.wait()?;
+                    if self.moving_frames > 0 {
+                        self.report_moving();
+                    }
                     if let Some(path) = screenshot {
                         self.save(path)?;
                     }
@@ -408,8 +482,9 @@ impl Preview {
     /// The Frame of this camera, size, mode and flags. The rest (scene
     /// counts, coefficients) is `frame::build`'s, so the scene's own camera
     /// gives its `raycast render` Frame bit for bit.
-    fn frame(&mut self) -> Frame {
+    fn frame(&mut self, scale: u32) -> Frame {
         let [w, h] = self.renderer.size();
+        let [w, h] = [w.div_ceil(scale), h.div_ceil(scale)];
         let mut f = self.data.frame;
         std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
         let world_from_film = frame::world_from_film(&self.scene, w, h);
@@ -437,7 +512,7 @@ impl Preview {
     }
 
     fn title(&self) -> String {
-        let [w, h] = self.renderer.size();
+        let [w, h] = self.renderer.frame_size();
         let rays = f64::from(w) * f64::from(h);
         let ms = self.stats.device_ms.unwrap_or(self.stats.frame_ms);
         let rate = if ms > 0.0 { rays / (ms * 1e-3) / 1e6 } else { 0.0 };
@@ -454,6 +529,9 @@ impl Preview {
             on(self.reflections),
             on(self.textures)
         );
+        if [w, h] != self.renderer.size() {
+            t.push_str(&format!(" | {w}x{h} while moving"));
+        }
         if self.cut_short > 0 {
             t.push_str(&format!(" | WRONG: {} pixels cut short by the device's loop budget", self.cut_short));
         }
@@ -466,6 +544,54 @@ impl Preview {
 
     fn restart(&mut self) {
         self.sample = 0;
+    }
+
+    /// `--moving N`: the frame rate of those frames, the first left out (it
+    /// renders at full size, before any cost is known).
+    fn report_moving(&self) {
+        let mut times: Vec<(Duration, [u32; 2])> = self.moving_times.iter().skip(1).copied().collect();
+        if times.is_empty() {
+            println!("moving: too few frames to time (--moving 2 or more, with --frames more than that)");
+            return;
+        }
+        let sizes: Vec<String> = {
+            let mut s: Vec<[u32; 2]> = times.iter().map(|t| t.1).collect();
+            s.dedup();
+            s.iter().map(|[w, h]| format!("{w}x{h}")).collect()
+        };
+        times.sort();
+        let median = times[times.len() / 2].0.as_secs_f64();
+        println!(
+            "moving: {} frames at {} (the picture {}x{}): median {:.1} ms a frame, {:.1} frames a second",
+            times.len(),
+            sizes.join(" then "),
+            self.renderer.size()[0],
+            self.renderer.size()[1],
+            median * 1e3,
+            1.0 / median.max(1e-9)
+        );
+    }
+
+    /// The camera moved: start over, at a lower resolution for a moment
+    /// (`motion_scale`).
+    fn moved(&mut self) {
+        self.restart();
+        self.last_move = Some(Instant::now());
+    }
+
+    /// The divisor of the picture's width and height for the next frame:
+    /// 1 at rest and in scripted runs (but for --moving); while the camera moves (and for
+    /// MOTION_HOLD after), the smallest that keeps a frame within
+    /// MOTION_FRAME_MS at the cost per pixel measured so far, at most
+    /// MAX_MOTION_SCALE. A slow device (lavapipe) stays interactive while
+    /// you steer; the picture sharpens once you stop.
+    fn motion_scale(&self, at_rest: bool) -> u32 {
+        let moving = self.last_move.is_some_and(|t| t.elapsed() < MOTION_HOLD);
+        if at_rest || !moving {
+            return 1;
+        }
+        let [w, h] = self.renderer.size();
+        motion_scale(self.ms_per_pixel, u64::from(w) * u64::from(h))
     }
 
     fn on_event(&mut self, event: WindowEvent, window: &mut glfw::PWindow) -> Result<(), Failure> {
@@ -499,20 +625,20 @@ impl Preview {
                         self.mouse.orbiting = true;
                         // The drag so far counts.
                         self.camera.orbit(-(x - from.0) * ORBIT_DEG_PER_PIXEL, (y - from.1) * ORBIT_DEG_PER_PIXEL);
-                        self.restart();
+                        self.moved();
                     } else if self.mouse.orbiting {
                         self.camera.orbit(-dx * ORBIT_DEG_PER_PIXEL, dy * ORBIT_DEG_PER_PIXEL);
-                        self.restart();
+                        self.moved();
                     }
                 } else if self.mouse.panning && (dx != 0.0 || dy != 0.0) {
                     let (_, wh) = window.get_size();
                     self.camera.pan(dx, dy, f64::from(wh.max(1)));
-                    self.restart();
+                    self.moved();
                 }
             }
             WindowEvent::Scroll(_, y) if y != 0.0 => {
                 self.camera.dolly(y);
-                self.restart();
+                self.moved();
             }
             _ => {}
         }
@@ -576,7 +702,7 @@ impl Preview {
         let size = self.bounds.map_or(2.0, |b| b.radius().max(1e-3));
         let step = size * 0.5 * fast * dt;
         self.camera.fly(forward * step, right * step, up * step);
-        self.restart();
+        self.moved();
     }
 
     fn on_reload(&mut self, reload: Reload) -> Result<(), Failure> {
@@ -626,7 +752,7 @@ impl Preview {
     /// Prints what the pixel under the cursor sees (the ray through its centre).
     fn pick(&mut self, cursor: (f64, f64), window: &glfw::PWindow) -> Result<(), Failure> {
         let (ww, wh) = window.get_size();
-        let [w, h] = self.renderer.size();
+        let [w, h] = self.renderer.frame_size();
         if ww <= 0 || wh <= 0 || self.sample == 0 {
             return Ok(());
         }
@@ -682,7 +808,7 @@ impl Preview {
 
     /// Writes the last frame's picture (the quantised bytes the kernel wrote) as RGB PNG.
     fn save(&mut self, path: &Path) -> Result<(), Failure> {
-        let [width, height] = self.renderer.size();
+        let [width, height] = self.renderer.frame_size();
         let pixels = self.renderer.pixels()?;
         crate::render::refuse_cut_short(&pixels, width, &self.device)?;
         let picture = Picture { width, height, pixels };
@@ -694,7 +820,24 @@ impl Preview {
 
 #[cfg(test)]
 mod tests {
-    use super::jitter;
+    use super::{jitter, motion_scale, MAX_MOTION_SCALE};
+
+    #[test]
+    fn motion_scale_keeps_a_moving_frame_within_its_budget() {
+        let pixels = 512 * 384;
+        // Unknown cost, or a fast device: full resolution.
+        assert_eq!(motion_scale(None, pixels), 1);
+        assert_eq!(motion_scale(Some(f64::NAN), pixels), 1);
+        assert_eq!(motion_scale(Some(10.0 / pixels as f64), pixels), 1);
+        // 2.69 s a frame (depth 6 on lavapipe): 2690 / 125 = 21.5, sqrt 4.6 -> 5,
+        // 103x77 pixels, about 107 ms.
+        assert_eq!(motion_scale(Some(2690.0 / pixels as f64), pixels), 5);
+        // Exactly at the budget stays; just over takes the next divisor.
+        assert_eq!(motion_scale(Some(125.0 * 4.0 / pixels as f64), pixels), 2);
+        assert_eq!(motion_scale(Some(125.0 * 4.01 / pixels as f64), pixels), 3);
+        // Never beyond the cap.
+        assert_eq!(motion_scale(Some(1.0), pixels), MAX_MOTION_SCALE);
+    }
 
     #[test]
     fn jitter_is_centred_and_spread() {

@@ -50,6 +50,12 @@ pub struct PreviewArgs {
     /// Save the window's picture as PNG after the last frame (1 frame unless --frames says more).
     #[arg(long, value_name = "PATH")]
     pub screenshot: Option<PathBuf>,
+    /// With --frames: turn the camera a little before each of the first N
+    /// frames, as a drag would, so that they render at the resolution the
+    /// preview uses while you steer; then print their frame rate. Measures
+    /// how steering feels on a device.
+    #[arg(long, value_name = "N", default_value_t = 0, requires = "frames")]
+    pub moving: u32,
     /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,

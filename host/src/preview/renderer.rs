@@ -65,6 +65,8 @@ pub struct PreviewRenderer {
     frame: Buffer,
     preview: Buffer,
     status: Buffer,
+    /// The last frame's size (render).
+    frame_size: [u32; 2],
     scene: SceneBuffers,
     picture: PictureBuffers,
     swapchain: Swapchain,
@@ -89,6 +91,7 @@ impl PreviewRenderer {
             frame: Buffer::new(ctx, std::mem::size_of::<Frame>(), false, "the frame")?,
             preview: Buffer::new(ctx, std::mem::size_of::<PreviewFrame>(), false, "the preview frame")?,
             status: Buffer::new(ctx, std::mem::size_of::<PreviewStatus>(), true, "the status word")?,
+            frame_size: size,
             scene: SceneBuffers::new(ctx, data)?,
             picture: PictureBuffers::new(ctx, size)?,
             swapchain: Swapchain::new(ctx, window, mode)?,
@@ -149,6 +152,7 @@ impl PreviewRenderer {
         self.frames.wait()?;
         self.set = None;
         self.picture = PictureBuffers::new(&self.context, size)?;
+        self.frame_size = size;
         self.bind()
     }
 
@@ -158,11 +162,14 @@ impl PreviewRenderer {
         self.swapchain.recreate(window)
     }
 
-    /// Draws one sample: writes `frame` (its width and height must be the
-    /// picture's) and `preview`, dispatches, presents. Returns at once.
+    /// Draws one sample: writes `frame` (at most the picture's size: a
+    /// smaller frame fills the top-left of the buffers and is scaled up to
+    /// the window) and `preview`, dispatches, presents. Returns at once.
     pub fn render(&mut self, frame: &Frame, preview: &PreviewFrame, present: bool) -> Result<FrameStatus, GpuError> {
-        assert_eq!([frame.width, frame.height], self.picture.size, "the frame's size is the picture's");
+        let [w, h] = self.picture.size;
+        assert!(frame.width >= 1 && frame.height >= 1 && frame.width <= w && frame.height <= h, "the frame fits the picture");
         self.frames.wait()?;
+        self.frame_size = [frame.width, frame.height];
         self.status.write(0, bytemuck::bytes_of(&PreviewStatus::default()));
         self.frame.write(0, bytemuck::bytes_of(frame));
         self.preview.write(0, bytemuck::bytes_of(preview));
@@ -170,7 +177,7 @@ impl PreviewRenderer {
         let groups = [frame.width.div_ceil(wg[0]), frame.height.div_ceil(wg[1]), 1];
         let set = self.set.as_ref().expect("bound");
         let swapchain = present.then_some(&mut self.swapchain);
-        self.frames.submit(&self.kernel, set, groups, &self.picture.display, swapchain)
+        self.frames.submit(&self.kernel, set, groups, &self.picture.display, self.frame_size, swapchain)
     }
 
     /// Waits for the frame in flight; its dispatch time when the device has timestamps.
@@ -186,18 +193,23 @@ impl PreviewRenderer {
         Ok(status.cut_short)
     }
 
-    /// Every pixel of the last frame: the first sample's hit, the average colour.
+    /// The last frame's width and height (the picture's, or less while the camera moves).
+    pub fn frame_size(&self) -> [u32; 2] {
+        self.frame_size
+    }
+
+    /// Every pixel of the last frame, row by row: the first sample's hit, the average colour.
     pub fn pixels(&mut self) -> Result<Vec<PixelOut>, GpuError> {
         self.frames.wait()?;
-        let p = &self.picture.pixels;
-        Ok(bytemuck::pod_collect_to_vec(&p.read(0, p.len())))
+        let count = self.frame_size[0] as usize * self.frame_size[1] as usize;
+        Ok(bytemuck::pod_collect_to_vec(&self.picture.pixels.read(0, count * std::mem::size_of::<PixelOut>())))
     }
 
     /// Pixel (column j, row i) of the last frame.
     pub fn pixel(&mut self, j: u32, i: u32) -> Result<PixelOut, GpuError> {
         self.frames.wait()?;
         let size = std::mem::size_of::<PixelOut>();
-        let index = i as usize * self.picture.size[0] as usize + j as usize;
+        let index = i as usize * self.frame_size[0] as usize + j as usize;
         Ok(bytemuck::pod_read_unaligned(&self.picture.pixels.read(index * size, size)))
     }
 }
