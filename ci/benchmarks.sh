@@ -16,6 +16,10 @@
 #                                       runs, /usr/bin/time) and peak RSS: the whole command,
 #                                       as the issue's targets and POV-Ray's times are.
 #                                       SCENE is a file or gen:FAMILY:DEPTH.
+#   ci/benchmarks.sh preview [PREVIEW OPTION...] SCENE...
+#                                       the preview's frame rate while the camera turns
+#                                       (`raycast preview --frames 12 --moving 11` under
+#                                       xvfb-run): the steering resolution and its rate.
 #   ci/benchmarks.sh checks [--device NAME] SCENE...
 #                                       `build/raycast check` per scene: how many pixels
 #                                       differ between the device and the CPU build, per
@@ -81,6 +85,28 @@ wall() {
   rm -rf "$tmp"
 }
 
+preview_rates() {
+  local opts=() tmp s file out line
+  while [[ "${1:-}" == --* ]]; do opts+=("$1"); shift; done
+  tmp="$(mktemp -d)"
+  echo "\`ci/benchmarks.sh preview ${opts[*]}${opts:+ }$*\`: \`xvfb-run -a $RAYCAST preview SCENE --assets $CORPUS${opts:+ }${opts[*]} --frames 12 --moving 11\` (a 512x384 window): the camera turns 2 degrees before each of frames 1 to 11, which render at the size the preview picks while you steer; the median of frames 2 to 11."
+  echo
+  echo "| scene | frame size while steering | median frame | frames a second |"
+  echo "|---|---|---|---|"
+  for s in "$@"; do
+    file="$s"
+    if [[ "$s" == gen:* ]]; then
+      IFS=: read -r _ family depth <<<"$s"
+      file="$tmp/$family-$depth.xml"
+      "$RAYCAST" gen "$family" --depth "$depth" -o "$file" >/dev/null 2>&1
+    fi
+    out="$(xvfb-run -a -s '-screen 0 1280x1024x24' "$RAYCAST" preview "$file" --assets "$CORPUS" "${opts[@]}" --frames 12 --moving 11 2>&1)" || { echo "$out" >&2; exit 1; }
+    line="$(grep '^moving: ' <<<"$out")"
+    sed -n 's/^moving: [0-9]* frames at \(.*\) (the picture .*): median \(.*\) a frame, \(.*\) frames a second$/| '"${s##*/}"' | \1 | \2 | \3 |/p' <<<"$line"
+  done
+  rm -rf "$tmp"
+}
+
 checks() {
   local dev=() tmp s out any b n cells worst
   if [ "${1:-}" = --device ]; then dev=(--device "$2"); shift 2; fi
@@ -118,6 +144,7 @@ case "${1:-}" in
   machine) machine; exit ;;
   wall) shift; wall "$@"; exit ;;
   checks) shift; checks "$@"; exit ;;
+  preview) shift; preview_rates "$@"; exit ;;
 esac
 
 build=1

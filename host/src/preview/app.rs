@@ -154,6 +154,9 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
 
     let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
     preview.moving_frames = args.moving;
+    preview.shadows = !args.no_shadows;
+    preview.reflections = !args.no_reflections;
+    preview.textures = !args.no_textures;
     if args.screenshot.is_none() && args.frames.is_none() {
         eprintln!("raycast: preview: F1 prints the controls, Esc quits");
     }

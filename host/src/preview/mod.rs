@@ -59,6 +59,15 @@ pub struct PreviewArgs {
     /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,
+    /// Start with shadow rays off (H turns them on and off).
+    #[arg(long)]
+    pub no_shadows: bool,
+    /// Start with mirror reflections off (M).
+    #[arg(long)]
+    pub no_reflections: bool,
+    /// Start with texture mapping off (T).
+    #[arg(long)]
+    pub no_textures: bool,
     /// Refuse scenes that expand to more primitives than this.
     #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
     pub max_primitives: usize,
