@@ -5,9 +5,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+mod common;
+use common::repo;
 
 fn out_dir() -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
@@ -165,14 +164,7 @@ fn check_passes_on_the_default_scene() {
 
 /// A fresh copy of shaders/ in the test output folder, to plant changes in.
 fn copy_of_shaders(name: &str) -> PathBuf {
-    let dir = out_dir().join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    for entry in std::fs::read_dir(repo().join("shaders")).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
-    }
-    dir
+    common::copy_of_shaders(&out_dir().join(name))
 }
 
 /// The check itself is tested: a copy of the shaders with one sum reordered

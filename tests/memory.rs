@@ -9,9 +9,10 @@
 //!   Measured: 142 MiB, 164 MiB with validation (lavapipe, instancing and
 //!   the hierarchy of commit dde480e). Flattening depth 10 would take
 //!   about 1 GB more.
-//! - device: the bytes uploaded for the frame plus the pixel buffer
-//!   (`raycast::bench::device_bytes`), at most DEVICE_MAX = 64 MiB.
-//!   Measured: 1.5 MiB. A flat upload of depth 10 would be 2,929,687
+//! - device: the bytes uploaded for the frame plus the samples' sums and
+//!   the pixel buffer (`raycast::bench::device_bytes`), at most
+//!   DEVICE_MAX = 64 MiB.
+//!   Measured: 3.0 MiB at 256x192. A flat upload of depth 10 would be 2,929,687
 //!   80-byte primitives = 234 MB.
 //!
 //! Where the scene is not kept as instances (`raycast::frame::INSTANCING`

@@ -23,9 +23,8 @@ use raycast::image_io::{self, Rgb8};
 /// One preview at a time: each starts its own Xvfb, and they are CPU-bound.
 static SERIAL: Mutex<()> = Mutex::new(());
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+mod common;
+use common::repo;
 
 fn out_dir() -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("preview");
@@ -223,13 +222,7 @@ fn bad_arguments_are_usage_errors() {
 /// its screenshot is refused, not written wrong.
 #[test]
 fn pixels_cut_short_are_reported_and_not_saved() {
-    let dir = out_dir().join("planted-loop-shaders");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    for entry in std::fs::read_dir(repo().join("shaders")).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
-    }
+    let dir = common::copy_of_shaders(&out_dir().join("planted-loop-shaders"));
     let comp = dir.join("preview.comp");
     let source = std::fs::read_to_string(&comp).unwrap();
     let anchor = "    bool cut_short = !loop_budget_ok();";

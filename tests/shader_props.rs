@@ -59,9 +59,8 @@ fn leave_offset(p: DVec3, eye: DVec3) -> f64 {
 const LEAVE_MIN_COS: f64 = 0.1;
 const DEFAULT_SEED: u64 = 0x5eed_2024_0004;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+mod common;
+use common::repo;
 
 fn harness_on_lavapipe() -> Harness {
     let opts = HarnessOptions { shaders: None, device: Some(gpu::DeviceSelector::Name("llvmpipe".into())), validation: true };
@@ -544,13 +543,7 @@ fn every_shader_test_file_passes() {
 /// in cone_quadratic): the cone's cases must fail, readably.
 #[test]
 fn a_planted_cone_bug_is_caught_readably() {
-    let planted = Path::new(env!("CARGO_TARGET_TMPDIR")).join("planted-cone-slope");
-    let _ = std::fs::remove_dir_all(&planted);
-    std::fs::create_dir_all(&planted).unwrap();
-    for e in std::fs::read_dir(repo().join("shaders")).unwrap() {
-        let p = e.unwrap().path();
-        std::fs::copy(&p, planted.join(p.file_name().unwrap())).unwrap();
-    }
+    let planted = common::copy_of_shaders(&Path::new(env!("CARGO_TARGET_TMPDIR")).join("planted-cone-slope"));
     let glsl = planted.join("raycast.glsl");
     let source = std::fs::read_to_string(&glsl).unwrap();
     let right = "0.25f * (r.direction.y * r.direction.y)";

@@ -16,7 +16,7 @@ use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
 use crate::gpu::{self, GpuError, GpuOptions};
-use crate::layout::{Frame, PixelOut};
+use crate::layout::{Frame, PixelOut, SampleSum};
 use crate::render::{GpuRenderer, Picture};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use clap::{Args, ValueEnum};
@@ -164,12 +164,14 @@ pub fn reset_peak_host() -> bool {
 
 /// Bytes a GPU frame of `data` puts on the device: the frame block, every
 /// scene buffer (`FrameData::scene_buffers`: primitives, materials, lights,
-/// textures, texels, and whatever else the frame binds) and the pixel
-/// buffer read back. The driver's rounding of each allocation is not
+/// textures, texels, and whatever else the frame binds), the samples'
+/// running sums (render.comp's, zeroed by the host) and the pixel buffer
+/// read back. The driver's rounding of each allocation is not
 /// counted, nor the kernel itself.
 pub fn device_bytes(data: &FrameData) -> u64 {
     let scene: u64 = data.scene_buffers().iter().map(|b| b.2.len() as u64).sum();
-    let pixels = u64::from(data.frame.width) * u64::from(data.frame.height) * std::mem::size_of::<PixelOut>() as u64;
+    let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
+    let pixels = u64::from(data.frame.width) * u64::from(data.frame.height) * per_pixel as u64;
     std::mem::size_of::<Frame>() as u64 + scene + pixels
 }
 
@@ -739,7 +741,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             "load: parse, count, flatten, textures; build: the bounding volume hierarchies and the packing of the groups (`FrameData::build_time`); frame: one whole render call (gpu: upload, dispatch, readback; cpu: every row on every thread); \
              primary Mrays/s: {}x{}x{} camera rays over the frame median; all Mrays/s: every ray of the frame (camera, shadow, mirror; the pixels count them) over the frame median; \
              host peak: VmHWM while loading that scene and rendering it on that backend (the Vulkan driver included); \
-             device: bytes uploaded (frame, scene buffers) plus the pixel buffer read back; \
+             device: bytes uploaded (frame, scene buffers, the samples' running sums) plus the pixel buffer read back; \
              cpu ÷ gpu: the CPU's frame median over the device's, and whether their pictures are identical (every buffer, bit for bit).",
             settings.width, settings.height, settings.spp
         );
@@ -783,7 +785,8 @@ mod tests {
         assert_eq!(loaded.counts, PrimitiveCounts { expanded: 7, unique: 2 });
         let scene: u64 = loaded.data.scene_buffers().iter().map(|b| b.2.len() as u64).sum();
         assert!(scene > 0);
-        let expect = std::mem::size_of::<Frame>() as u64 + scene + 40 * std::mem::size_of::<PixelOut>() as u64;
+        let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
+        let expect = std::mem::size_of::<Frame>() as u64 + scene + 40 * per_pixel as u64;
         assert_eq!(device_bytes(&loaded.data), expect);
     }
 

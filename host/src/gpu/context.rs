@@ -683,33 +683,12 @@ impl GpuContext {
             for pass in 0..passes {
                 if pass > 0 {
                     // The pass before's writes, visible to this one's reads and writes.
-                    let between = [vk::MemoryBarrier::default()
-                        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                        .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
-                    d.cmd_pipeline_barrier(
-                        cmd,
-                        vk::PipelineStageFlags::COMPUTE_SHADER,
-                        vk::PipelineStageFlags::COMPUTE_SHADER,
-                        vk::DependencyFlags::empty(),
-                        &between,
-                        &[],
-                        &[],
-                    );
+                    let access = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+                    shader_writes_barrier(d, cmd, vk::PipelineStageFlags::COMPUTE_SHADER, access);
                 }
                 d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
             }
-            let barrier = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)];
-            d.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &barrier,
-                &[],
-                &[],
-            );
+            shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
             d.end_command_buffer(cmd).map_err(GpuError::vk("vkEndCommandBuffer"))?;
         }
         res.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }
@@ -741,6 +720,27 @@ impl GpuContext {
         drop(res);
         Ok((bytes, RunTimings { upload, dispatch, readback }))
     }
+}
+
+/// Records a barrier that makes the compute shader's writes visible to
+/// `dst_access` at `dst_stage` (all memory; no image layout changes).
+///
+/// # Safety
+/// `cmd` is a command buffer of `d` in the recording state.
+unsafe fn shader_writes_barrier(d: &ash::Device, cmd: vk::CommandBuffer, dst_stage: vk::PipelineStageFlags, dst_access: vk::AccessFlags) {
+    let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(dst_access)];
+    // SAFETY: the caller's.
+    unsafe {
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            dst_stage,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
 }
 
 impl Inner {
