@@ -9,7 +9,10 @@
 # $CORPUS (RAYCAST_CORPUS, else ../shared/corpus/cs1230). Builds
 # build/raycast first unless --no-build.
 #
-# Two helpers print blocks of their own:
+# RAYCAST_COMMIT names the commit in the machine block where the tree's .git
+# is not its own (a copy sent to a GPU machine).
+#
+# Helpers that print blocks of their own:
 #   ci/benchmarks.sh machine            the machine: CPU, cores, memory, Vulkan device, Mesa, load
 #   ci/benchmarks.sh wall [--max-primitives N] [--device NAME] SCENE...
 #                                       `build/raycast render` wall time per scene (median of 3
@@ -35,6 +38,8 @@ machine() {
   if [ "$commit" != unknown ] && [ -n "$(git status --porcelain --untracked-files=no 2>/dev/null)" ]; then
     commit="$commit (with uncommitted changes)"
   fi
+  # A copy of the tree without its history (a GPU machine's) says which commit it is.
+  commit="${RAYCAST_COMMIT:-$commit}"
   echo "\`ci/benchmarks.sh machine\`, $(date -u '+%Y-%m-%d %H:%M UTC'), commit $commit:"
   echo
   echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//'), \`nproc\` $(nproc)"
