@@ -381,7 +381,23 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     let info = renderer.context().info();
     println!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
     print_scene(&p);
-    let (picture, t) = renderer.render(&p.data)?;
+    let (mut picture, t) = if args.frame.shaders.is_some() {
+        // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
+        renderer.render(&p.data)?
+    } else {
+        renderer.render_marked(&p.data)?
+    };
+    let cut = picture.pixels.iter().filter(|px| px.rays & crate::layout::RAYS_CUT_SHORT != 0).count();
+    if cut > 0 {
+        let finished = crate::render::finish_cut_short(&mut picture, &p.data, &CpuRenderer::new()?);
+        eprintln!(
+            "raycast: note: {} cut {finished} of {} pixels short (Mesa's lavapipe gives each shader invocation 65535 loop \
+             iterations in all); the CPU build of the same code computed those pixels, which on lavapipe gives the \
+             same bits (`raycast check` compares the two builds)",
+            info.name,
+            picture.pixels.len()
+        );
+    }
     println!(
         "time: load {}, upload {}, compile {}, dispatch {}, readback {}",
         ms(p.load),

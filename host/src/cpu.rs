@@ -76,9 +76,32 @@ impl CpuRenderer {
     pub fn render(&self, data: &FrameData) -> Picture {
         let (width, height) = (data.frame.width, data.frame.height);
         let mut pixels = vec![PixelOut::default(); width as usize * height as usize];
-        let row_len = width as usize;
-        // Jobs: disjoint slices of ROWS_PER_JOB rows, taken in order by whichever thread is free.
-        let jobs = Mutex::new(pixels.chunks_mut(row_len * ROWS_PER_JOB as usize).enumerate());
+        // Jobs: disjoint slices of ROWS_PER_JOB rows.
+        let jobs = pixels.chunks_mut(width as usize * ROWS_PER_JOB as usize).enumerate().map(|(job, slice)| {
+            let begin = job as u32 * ROWS_PER_JOB;
+            (begin, (begin + ROWS_PER_JOB).min(height), slice)
+        });
+        let done = self.run(data, jobs);
+        debug_assert_eq!(done, height);
+        Picture { width, height, pixels }
+    }
+
+    /// Rows `rows` of the frame (each below its height), in that order: a
+    /// device's picture finished where the device could not (`render`'s
+    /// `finish_cut_short`).
+    pub fn render_rows(&self, data: &FrameData, rows: &[u32]) -> Vec<Vec<PixelOut>> {
+        let width = data.frame.width as usize;
+        let mut out = vec![vec![PixelOut::default(); width]; rows.len()];
+        assert!(rows.iter().all(|&r| r < data.frame.height), "rows inside the frame");
+        let jobs = rows.iter().zip(out.iter_mut()).map(|(&row, pixels)| (row, row + 1, pixels.as_mut_slice()));
+        self.run(data, jobs);
+        out
+    }
+
+    /// Runs the jobs (first row, end row, their pixels) on every thread,
+    /// each taken by whichever thread is free; returns the rows rendered.
+    fn run<'a>(&self, data: &FrameData, jobs: impl Iterator<Item = (u32, u32, &'a mut [PixelOut])> + Send) -> u32 {
+        let jobs = Mutex::new(jobs);
         let done = AtomicU32::new(0);
         // The kernel's buffers by binding number, as raycast_cpu.h takes them.
         let mut buffers = [std::ptr::null::<c_void>(); layout::BINDING_COUNT as usize];
@@ -91,12 +114,11 @@ impl CpuRenderer {
         std::thread::scope(|scope| {
             for _ in 0..self.threads.max(1) {
                 scope.spawn(|| loop {
-                    let Some((job, slice)) = jobs.lock().unwrap().next() else { break };
-                    let begin = job as u32 * ROWS_PER_JOB;
-                    let end = (begin + ROWS_PER_JOB).min(height);
+                    let Some((begin, end, slice)) = jobs.lock().unwrap().next() else { break };
+                    assert_eq!(slice.len(), (end - begin) as usize * data.frame.width as usize, "a job's pixels are its rows");
                     // SAFETY: the buffers outlive the call and hold the
                     // structs of layout.h (checked by check_layouts);
-                    // `slice` holds exactly (end - begin) rows; the C++ code
+                    // `slice` holds exactly (end - begin) rows (asserted); the C++ code
                     // reads only primitive_count primitives and light_count
                     // lights, materials indexed by primitives, textures
                     // indexed by materials and texels inside each texture's
@@ -108,8 +130,7 @@ impl CpuRenderer {
                 });
             }
         });
-        debug_assert_eq!(done.load(Ordering::Relaxed), height);
-        Picture { width, height, pixels }
+        done.load(Ordering::Relaxed)
     }
 }
 

@@ -1,6 +1,7 @@
 //! Rendering a [`FrameData`] on a Vulkan device with the render kernel, and
 //! the picture that comes back.
 
+use crate::cpu::CpuRenderer;
 use crate::frame::FrameData;
 use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel};
 use crate::layout::{self, PixelOut};
@@ -62,6 +63,30 @@ pub struct GpuRenderer {
     pub compile_time: Duration,
 }
 
+/// Recomputes with the CPU build the pixels of `picture` (a render of
+/// `data`) that the device cut short; returns how many. The CPU build runs
+/// the same shader code: on lavapipe, the only device known to cut pixels
+/// short, its pixels are the device's bit for bit (what `raycast check`
+/// and CI compare), so the finished picture is the one the device would
+/// have made without its limit.
+pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRenderer) -> usize {
+    let width = picture.width as usize;
+    let is_cut = |p: &PixelOut| p.rays & layout::RAYS_CUT_SHORT != 0;
+    let mut rows: Vec<u32> = picture.pixels.chunks(width).enumerate().filter(|(_, row)| row.iter().any(is_cut)).map(|(i, _)| i as u32).collect();
+    rows.dedup();
+    let mut count = 0;
+    for (row, cpu_row) in rows.iter().zip(cpu.render_rows(data, &rows)) {
+        let device_row = &mut picture.pixels[*row as usize * width..][..width];
+        for (d, c) in device_row.iter_mut().zip(cpu_row) {
+            if is_cut(d) {
+                *d = c;
+                count += 1;
+            }
+        }
+    }
+    count
+}
+
 /// An error when the kernel marked pixels whose loops the device ended
 /// early (raycast.glsl loop_budget_ok): such a picture is wrong.
 pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str) -> Result<(), GpuError> {
@@ -95,7 +120,17 @@ impl GpuRenderer {
         &self.context
     }
 
+    /// The frame on the device; an error when the device cut pixels short
+    /// (`refuse_cut_short`).
     pub fn render(&self, data: &FrameData) -> Result<(Picture, GpuTimings), GpuError> {
+        let (picture, t) = self.render_marked(data)?;
+        refuse_cut_short(&picture.pixels, picture.width, &self.context.info().name)?;
+        Ok((picture, t))
+    }
+
+    /// The frame as the device computed it, pixels it cut short still
+    /// marked (RAYS_CUT_SHORT in `rays`): for `finish_cut_short`.
+    pub fn render_marked(&self, data: &FrameData) -> Result<(Picture, GpuTimings), GpuError> {
         let f = &data.frame;
         let count = f.width as usize * f.height as usize;
         let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), f.height.div_ceil(layout::WORKGROUP_SIZE), 1];
@@ -124,7 +159,6 @@ impl GpuRenderer {
                 message: format!("the kernel left {unwritten} of {count} pixels unwritten (the sentinel is still in place)"),
             });
         }
-        refuse_cut_short(&pixels, f.width, &self.context.info().name)?;
         let timings = GpuTimings { upload: t.upload, dispatch: t.dispatch, readback: t.readback };
         Ok((Picture { width: f.width, height: f.height, pixels }, timings))
     }

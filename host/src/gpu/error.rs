@@ -182,8 +182,9 @@ impl fmt::Display for GpuError {
                  nothing was written. Mesa's software Vulkan device (lavapipe, llvmpipe) gives each shader invocation \
                  65535 loop iterations in all, then ends every loop early without a word (LP_MAX_TGSI_LOOP_ITERATIONS); \
                  these pixels need more: each node visited, each primitive tested, each light and each mirror bounce \
-                 of a sample takes some (samples run one per dispatch, so --spp does not add up). Render with the \
-                 hierarchy (drop --no-bvh), with a smaller --depth, with --backend cpu, or on another Vulkan device",
+                 of a sample takes some (samples run one per dispatch, so --spp does not add up). `raycast render` \
+                 finishes such pixels with the CPU build (the same code; on lavapipe the same bits); here, drop \
+                 --no-bvh, use a smaller --depth, or another Vulkan device",
                 first.0,
                 first.1
             ),
