@@ -45,7 +45,7 @@ vec3 id_color(SceneHit hit) {
 
 void main() {
     uint j = gl_GlobalInvocationID.x;
-    uint i = gl_GlobalInvocationID.y;
+    uint i = gl_GlobalInvocationID.y + preview.row_offset;
     if (j >= frame.width || i >= frame.height) {
         return;
     }

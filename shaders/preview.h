@@ -31,7 +31,7 @@ struct PreviewFrame {
     vec4 depth_range;
     uint sample_index; // 0 starts the sum over again
     uint mode;         // PREVIEW_*
-    uint pad0;
+    uint row_offset;   // the dispatch covers rows from this one (a band of a sample)
     uint pad1;
 };
 

@@ -227,7 +227,7 @@ fn pixels_cut_short_are_reported_and_not_saved() {
     let source = std::fs::read_to_string(&comp).unwrap();
     let anchor = "    bool cut_short = !loop_budget_ok();";
     assert_eq!(source.matches(anchor).count(), 1, "preview.comp changed: update this test");
-    let planted = "    uint spin = 0u;\n    for (uint k = 0u; k < 70000u + preview.pad0; k++) {\n        spin = spin * 1664525u + k;\n    }\n    if (spin == 1u) {\n        rays = rays + 1u;\n    }\n";
+    let planted = "    uint spin = 0u;\n    for (uint k = 0u; k < 70000u + preview.pad1; k++) {\n        spin = spin * 1664525u + k;\n    }\n    if (spin == 1u) {\n        rays = rays + 1u;\n    }\n";
     std::fs::write(&comp, source.replace(anchor, &format!("{planted}{anchor}"))).unwrap();
 
     let png = out_dir().join("planted-loop.png");

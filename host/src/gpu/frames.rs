@@ -174,12 +174,13 @@ impl FrameLoop {
             d.begin_command_buffer(cmd, &begin).map_err(GpuError::vk("vkBeginCommandBuffer"))?;
 
             // The previous frame's writes (accumulation, output) before this one's reads and writes;
-            // its blit's read of the image before this dispatch writes it.
+            // its blit's read of the image before this dispatch writes it. The image keeps what
+            // earlier frames wrote (a frame may write only some rows of it).
             let memory = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ)
                 .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
             let to_general = [vk::ImageMemoryBarrier::default()
-                .old_layout(vk::ImageLayout::UNDEFINED)
+                .old_layout(image.layout.get())
                 .new_layout(vk::ImageLayout::GENERAL)
                 .src_access_mask(vk::AccessFlags::empty())
                 .dst_access_mask(vk::AccessFlags::SHADER_WRITE)
@@ -222,6 +223,7 @@ impl FrameLoop {
                 .image(image.image)
                 .subresource_range(color_range())];
             let image_barriers: &[vk::ImageMemoryBarrier] = if target.is_some() { &to_src } else { &[] };
+            image.layout.set(if target.is_some() { vk::ImageLayout::TRANSFER_SRC_OPTIMAL } else { vk::ImageLayout::GENERAL });
             d.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::COMPUTE_SHADER,

@@ -27,6 +27,9 @@ pub struct ImageBinding {
 pub struct StorageImage {
     pub(crate) image: vk::Image,
     pub(crate) view: vk::ImageView,
+    /// Its layout when the last recorded frame ends (FrameLoop::submit):
+    /// UNDEFINED until the first, then GENERAL or TRANSFER_SRC_OPTIMAL.
+    pub(crate) layout: std::cell::Cell<vk::ImageLayout>,
     memory: vk::DeviceMemory,
     width: u32,
     height: u32,
@@ -59,6 +62,7 @@ impl StorageImage {
         let mut img = StorageImage {
             image: vk::Image::null(),
             view: vk::ImageView::null(),
+            layout: std::cell::Cell::new(vk::ImageLayout::UNDEFINED),
             memory: vk::DeviceMemory::null(),
             width,
             height,

@@ -246,6 +246,8 @@ struct Preview {
     frame_sizes: (u32, u32),
     /// Submit-to-submit times of the --moving frames, and their sizes.
     moving_times: Vec<(Duration, [u32; 2])>,
+    /// The first row of the sample's next band (0: the sample starts).
+    band_next: u32,
     /// When the camera last moved (`moved`).
     last_move: Option<Instant>,
     /// Device (or frame) milliseconds per pixel, averaged over frames.
@@ -291,6 +293,19 @@ fn motion_scale(ms_per_pixel: Option<f64>, pixels: u64) -> u32 {
     (s as u32).clamp(1, MAX_MOTION_SCALE)
 }
 
+/// Rows of a `width`-pixel frame that one frame draws at `ms_per_pixel`
+/// within MOTION_FRAME_MS: a multiple of the work group's height (at least
+/// one), all `height` rows when they fit or the cost is not known yet.
+fn band_rows(ms_per_pixel: Option<f64>, width: u32, height: u32) -> u32 {
+    let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return height };
+    let rows = (MOTION_FRAME_MS / (cost * f64::from(width.max(1)))).floor();
+    if rows >= f64::from(height) {
+        return height;
+    }
+    let group = layout::WORKGROUP_SIZE;
+    ((rows as u32) / group * group).max(group)
+}
+
 /// The i-th point of the Halton (2, 3) sequence, centred on 0: sub-pixel
 /// offsets in [-0.5, 0.5)², deterministic and evenly spread.
 fn jitter(i: u32) -> [f32; 2] {
@@ -326,6 +341,7 @@ impl Preview {
             rendered: 0,
             frame_sizes: (0, 0),
             moving_times: Vec::new(),
+            band_next: 0,
             last_move: None,
             ms_per_pixel: None,
             pixels_in_flight: 0,
@@ -435,19 +451,30 @@ impl Preview {
             if scale > 1 || self.renderer.frame_size() != self.renderer.size() {
                 // Moving, or the first frame at rest after moving: no samples to add to.
                 self.sample = 0;
+                self.band_next = 0;
             }
             let frame = self.frame(scale);
-            self.pixels_in_flight = u64::from(frame.width) * u64::from(frame.height);
+            // At full size on a slow device, a sample is drawn a band of rows per frame (each
+            // within MOTION_FRAME_MS) and shown once whole, so input is never kept waiting
+            // for a long frame. Scripted runs and fast devices draw it whole.
+            let rows = if scale > 1 || frames.is_some() {
+                frame.height
+            } else {
+                band_rows(self.ms_per_pixel, frame.width, frame.height)
+            };
+            let band = [self.band_next, (self.band_next + rows).min(frame.height)];
+            let whole = band[1] == frame.height;
+            self.pixels_in_flight = u64::from(frame.width) * u64::from(band[1] - band[0]);
             let [jx, jy] = jitter(self.sample);
             let preview = PreviewFrame {
                 jitter: [jx, jy, 0.0, 0.0],
                 depth_range: self.depth_range(),
                 sample_index: self.sample,
                 mode: self.mode,
-                pad0: 0,
+                row_offset: band[0],
                 pad1: 0,
             };
-            match self.renderer.render(&frame, &preview, true)? {
+            match self.renderer.render(&frame, &preview, band[1], whole)? {
                 FrameStatus::OutOfDate => {
                     recreate = true;
                     continue;
@@ -464,8 +491,14 @@ impl Preview {
                 }
             }
             self.frame_sizes = (frame.width, frame.height);
-            self.sample += 1;
             self.rendered += 1;
+            if whole {
+                self.sample += 1;
+                self.band_next = 0;
+            } else {
+                self.band_next = band[1];
+                continue;
+            }
 
             if let Some(n) = frames {
                 if self.rendered >= n {
@@ -516,7 +549,7 @@ impl Preview {
 
     fn title(&self) -> String {
         let [w, h] = self.renderer.frame_size();
-        let rays = f64::from(w) * f64::from(h);
+        let rays = self.pixels_in_flight as f64;
         let ms = self.stats.device_ms.unwrap_or(self.stats.frame_ms);
         let rate = if ms > 0.0 { rays / (ms * 1e-3) / 1e6 } else { 0.0 };
         let on = |b: bool| if b { "on" } else { "off" };
@@ -534,6 +567,8 @@ impl Preview {
         );
         if [w, h] != self.renderer.size() {
             t.push_str(&format!(" | {w}x{h} while moving"));
+        } else if self.band_next > 0 {
+            t.push_str(&format!(" | sample {}: row {} of {h}", self.sample + 1, self.band_next));
         }
         if self.cut_short > 0 {
             t.push_str(&format!(" | WRONG: {} pixels cut short by the device's loop budget", self.cut_short));
@@ -547,6 +582,7 @@ impl Preview {
 
     fn restart(&mut self) {
         self.sample = 0;
+        self.band_next = 0;
     }
 
     /// `--moving N`: the frame rate of those frames, the first left out (it
@@ -823,7 +859,18 @@ impl Preview {
 
 #[cfg(test)]
 mod tests {
-    use super::{jitter, motion_scale, MAX_MOTION_SCALE};
+    use super::{band_rows, jitter, motion_scale, MAX_MOTION_SCALE};
+
+    #[test]
+    fn bands_keep_a_frame_within_its_budget() {
+        // Unknown cost, or the whole frame fits: all rows.
+        assert_eq!(band_rows(None, 512, 384), 384);
+        assert_eq!(band_rows(Some(1e-6), 512, 384), 384);
+        // 2.69 s for 512x384: 125 ms is 17.8 rows, so 16 (two work groups).
+        assert_eq!(band_rows(Some(2690.0 / (512.0 * 384.0)), 512, 384), 16);
+        // Slower than a work group's rows in the budget: one work group anyway.
+        assert_eq!(band_rows(Some(1.0), 512, 384), 8);
+    }
 
     #[test]
     fn motion_scale_keeps_a_moving_frame_within_its_budget() {

@@ -18,7 +18,7 @@ pub struct PreviewFrame {
     pub depth_range: [f32; 4],
     pub sample_index: u32,
     pub mode: u32,
-    pub pad0: u32,
+    pub row_offset: u32,
     pub pad1: u32,
 }
 
@@ -52,7 +52,7 @@ impl PreviewFrame {
                 field::<[f32; 4]>("depth_range", offset_of!(PreviewFrame, depth_range)),
                 field::<u32>("sample_index", offset_of!(PreviewFrame, sample_index)),
                 field::<u32>("mode", offset_of!(PreviewFrame, mode)),
-                field::<u32>("pad0", offset_of!(PreviewFrame, pad0)),
+                field::<u32>("row_offset", offset_of!(PreviewFrame, row_offset)),
                 field::<u32>("pad1", offset_of!(PreviewFrame, pad1)),
             ],
         }

@@ -162,19 +162,23 @@ impl PreviewRenderer {
         self.swapchain.recreate(window)
     }
 
-    /// Draws one sample: writes `frame` (at most the picture's size: a
-    /// smaller frame fills the top-left of the buffers and is scaled up to
-    /// the window) and `preview`, dispatches, presents. Returns at once.
-    pub fn render(&mut self, frame: &Frame, preview: &PreviewFrame, present: bool) -> Result<FrameStatus, GpuError> {
+    /// Draws one sample, or the band of its rows from `preview.row_offset`
+    /// to `row_end`: writes `frame` (at most the picture's size: a smaller
+    /// frame fills the top-left of the buffers and is scaled up to the
+    /// window) and `preview`, dispatches, and with `present` shows the
+    /// display image (so present only once a sample's last band is drawn).
+    /// Returns at once.
+    pub fn render(&mut self, frame: &Frame, preview: &PreviewFrame, row_end: u32, present: bool) -> Result<FrameStatus, GpuError> {
         let [w, h] = self.picture.size;
         assert!(frame.width >= 1 && frame.height >= 1 && frame.width <= w && frame.height <= h, "the frame fits the picture");
+        assert!(preview.row_offset < row_end && row_end <= frame.height, "the band is inside the frame");
         self.frames.wait()?;
         self.frame_size = [frame.width, frame.height];
         self.status.write(0, bytemuck::bytes_of(&PreviewStatus::default()));
         self.frame.write(0, bytemuck::bytes_of(frame));
         self.preview.write(0, bytemuck::bytes_of(preview));
         let wg = self.kernel.workgroup_size();
-        let groups = [frame.width.div_ceil(wg[0]), frame.height.div_ceil(wg[1]), 1];
+        let groups = [frame.width.div_ceil(wg[0]), (row_end - preview.row_offset).div_ceil(wg[1]), 1];
         let set = self.set.as_ref().expect("bound");
         let swapchain = present.then_some(&mut self.swapchain);
         self.frames.submit(&self.kernel, set, groups, &self.picture.display, self.frame_size, swapchain)
