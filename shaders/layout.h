@@ -37,6 +37,16 @@
 
 #define MAX_DEPTH 16 // the most mirror bounces --depth accepts
 
+// render_uniform.comp: the scene's small arrays as uniform buffers of at
+// most UNIFORM_BLOCK_BYTES (the least maxUniformBufferRange Vulkan allows),
+// so at most this many of each (UNIFORM_BLOCK_BYTES / the struct's size).
+#define UNIFORM_BLOCK_BYTES 16384
+#define UNIFORM_PRIMITIVES 204
+#define UNIFORM_MATERIALS 128
+#define UNIFORM_LIGHTS 170
+#define UNIFORM_NODES 341
+#define UNIFORM_INSTANCES 204
+
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 
 // Primitive.shape

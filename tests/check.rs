@@ -11,7 +11,9 @@
 //! filtering. And the hierarchy changes nothing: every scene rendered on
 //! the CPU with --no-bvh (every primitive tested) has the same bits as with
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
-//! build's bits. A failure
+//! build's bits. The device renders every scene that fits with its arrays in
+//! uniform buffers (render_uniform.comp); each scene is also checked with
+//! them in storage buffers (render.comp, 128x96). A failure
 //! prints the per-buffer report and writes the diff image. Ends with
 //! `N passed, M failed`.
 
@@ -20,7 +22,7 @@ use raycast::cpu::CpuRenderer;
 use raycast::frame::{self, Aov, RenderSettings, TextureFilter};
 use raycast::gpu::GpuOptions;
 use raycast::image_io;
-use raycast::render::GpuRenderer;
+use raycast::render::{GpuRenderer, SceneBuffers};
 use raycast::scene::{self, FlattenLimits, ParseOptions};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -69,6 +71,15 @@ fn main() -> ExitCode {
         Ok(c) => c,
         Err(e) => {
             println!("FAILED: {e}\n0 passed, 1 failed");
+            return ExitCode::FAILURE;
+        }
+    };
+    // The same device with the scene always in storage buffers (render.comp):
+    // `gpu` takes uniform buffers (render_uniform.comp) wherever a scene fits.
+    let gpu_storage = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
+        Ok(r) => r.with_scene_buffers(SceneBuffers::Storage),
+        Err(e) => {
+            println!("FAILED: cannot start the Vulkan device: {e}\n0 passed, 1 failed");
             return ExitCode::FAILURE;
         }
     };
@@ -127,26 +138,32 @@ fn main() -> ExitCode {
         {
             // And the device's own path without it (every primitive tested;
             // small, as it is slow on lavapipe) has the CPU build's bits.
-            let label = format!("{name} Color 64x48 --no-bvh, device against cpu");
-            let settings = RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() };
-            match frame::build(&scene, &settings).map_err(|e| e.to_string()).and_then(|d| {
-                let (g, _) = gpu.render(&d).map_err(|e| e.to_string())?;
-                check::compare(&g, "device", &cpu.render(&d), "cpu")
-            }) {
-                Ok(report) if report.identical() => {
-                    passed += 1;
-                    println!("ok     {label}: identical");
-                }
-                Ok(report) => {
-                    failed += 1;
-                    println!("FAILED {label}:");
-                    for line in report.to_string().lines() {
-                        println!("       {line}");
+            // The same with the scene in storage buffers (render.comp), at 128x96.
+            let checks = [
+                ("64x48 --no-bvh", RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() }, &gpu),
+                ("128x96 storage buffers", RenderSettings { width: 128, height: 96, ..RenderSettings::default() }, &gpu_storage),
+            ];
+            for (what, settings, renderer) in checks {
+                let label = format!("{name} Color {what}, device against cpu");
+                match frame::build(&scene, &settings).map_err(|e| e.to_string()).and_then(|d| {
+                    let (g, _) = renderer.render(&d).map_err(|e| e.to_string())?;
+                    check::compare(&g, "device", &cpu.render(&d), "cpu")
+                }) {
+                    Ok(report) if report.identical() => {
+                        passed += 1;
+                        println!("ok     {label}: identical");
                     }
-                }
-                Err(e) => {
-                    failed += 1;
-                    println!("FAILED {label}: {e}");
+                    Ok(report) => {
+                        failed += 1;
+                        println!("FAILED {label}:");
+                        for line in report.to_string().lines() {
+                            println!("       {line}");
+                        }
+                    }
+                    Err(e) => {
+                        failed += 1;
+                        println!("FAILED {label}: {e}");
+                    }
                 }
             }
         }

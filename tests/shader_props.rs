@@ -482,6 +482,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         // The host's expected layout of each kernel (buffers, storage images).
         let expected = match stem.as_str() {
             "render" => Some((layout::render_bindings(), Vec::new())),
+            "render_uniform" => Some((layout::render_uniform_bindings(), Vec::new())),
             "preview" => Some((raycast::preview::layout::preview_bindings(), raycast::preview::layout::preview_images())),
             _ => None,
         };
@@ -499,6 +500,20 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
     // The embedded render kernel too (what the binary runs).
     if let Err(e) = reflect::check_layouts("render (embedded)", raycast::render::render_spirv(), &layout::render_bindings()) {
         errors.push(e.to_string());
+    }
+    let uniform_spirv = raycast::render::kernel_spirv("render_uniform").expect("embedded");
+    if let Err(e) = reflect::check_layouts("render_uniform (embedded)", uniform_spirv, &layout::render_uniform_bindings()) {
+        errors.push(e.to_string());
+    }
+    // Each kernel against the other's layout: the storage / uniform mismatch is named.
+    match reflect::check_layouts("render_uniform", uniform_spirv, &layout::render_bindings()) {
+        Ok(()) => errors.push("render_uniform.comp passed as a storage-buffer kernel".into()),
+        Err(e) => {
+            let text = e.to_string();
+            if !text.contains("binding 1 (PrimitiveBlock) is a uniform buffer in the shader, a storage buffer on the host") {
+                errors.push(format!("the storage / uniform mismatch is not named: {text}"));
+            }
+        }
     }
     // Every generated harness kernel.
     let info = harness::ShaderInfo::load(&dir).unwrap();

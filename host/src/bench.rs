@@ -15,9 +15,9 @@ use crate::cli::{check_validation, parse_device, scene_failure, validation_wante
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
-use crate::gpu::{self, GpuError, GpuOptions};
+use crate::gpu::{GpuError, GpuOptions};
 use crate::layout::{Frame, PixelOut, SampleSum};
-use crate::render::{GpuRenderer, Picture};
+use crate::render::{GpuRenderer, Picture, SceneBuffers};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use clap::{Args, ValueEnum};
 use std::fmt::Write as _;
@@ -106,6 +106,11 @@ pub struct BenchRenderArgs {
     /// Compile the device's kernel from DIR/render.comp instead of the built-in one.
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,
+    /// Where the device kernel keeps the scene's arrays: uniform buffers
+    /// (render_uniform.comp, faster on lavapipe) when the scene fits them,
+    /// storage buffers (render.comp, any size) otherwise; or either one.
+    #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
+    pub scene_buffers: SceneBuffers,
     /// Enable the Khronos validation layer (slow: not for timing); any message fails (exit 3).
     #[arg(long)]
     pub validate: bool,
@@ -577,10 +582,11 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     };
     let gpu = if want_gpu {
         let options = GpuOptions { device: parse_device(&r.device), validation: validation_wanted(r.validate), ..GpuOptions::default() };
-        Some(match &r.shaders {
-            Some(dir) => GpuRenderer::with_spirv(&options, &gpu::compile_kernel(&dir.join("render.comp"))?)?,
+        let renderer = match &r.shaders {
+            Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
             None => GpuRenderer::new(&options)?,
-        })
+        };
+        Some(renderer.with_scene_buffers(r.scene_buffers))
     } else {
         None
     };
@@ -652,7 +658,9 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         let mut rows = Vec::new();
         let mut gpu_picture: Option<Picture> = None;
         if let (Some(g), Some(device)) = (&gpu, &gpu_device) {
-            let mut row = row("gpu", device);
+            // Which kernel: the scene's arrays in uniform or in storage buffers (--scene-buffers).
+            let backend = if g.kernel_for(&loaded.data)?.name() == "render_uniform" { "gpu uniform" } else { "gpu storage" };
+            let mut row = row(backend, device);
             reset_peak_host();
             let timed = (|| {
                 for _ in 0..args.warmup {

@@ -9,7 +9,7 @@ use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gpu::{self, DeviceSelector, GpuOptions};
 use crate::image_io::{self, Rgb8};
-use crate::render::{GpuRenderer, Picture};
+use crate::render::{GpuRenderer, Picture, SceneBuffers};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -96,6 +96,11 @@ struct FrameArgs {
     /// the one built in (the CPU build is always the built-in code).
     #[arg(long, value_name = "DIR")]
     shaders: Option<PathBuf>,
+    /// Where the device kernel keeps the scene's arrays: uniform buffers
+    /// (render_uniform.comp, faster on lavapipe) when the scene fits them,
+    /// storage buffers (render.comp, any size) otherwise; or either one.
+    #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
+    scene_buffers: SceneBuffers,
     /// Enable the Khronos validation layer; any message fails the command (exit 3).
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
@@ -321,13 +326,10 @@ fn gpu_renderer(args: &FrameArgs) -> Result<GpuRenderer, Failure> {
         ..GpuOptions::default()
     };
     let renderer = match &args.shaders {
-        Some(dir) => {
-            let spirv = gpu::compile_kernel(&dir.join("render.comp"))?;
-            GpuRenderer::with_spirv(&options, &spirv)?
-        }
+        Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
         None => GpuRenderer::new(&options)?,
     };
-    Ok(renderer)
+    Ok(renderer.with_scene_buffers(args.scene_buffers))
 }
 
 fn print_scene(p: &Prepared) {
@@ -402,7 +404,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         "time: load {}, upload {}, compile {}, dispatch {}, readback {}",
         ms(p.load),
         ms(t.upload),
-        ms(renderer.compile_time),
+        ms(renderer.compile_time()),
         ms(t.dispatch),
         ms(t.readback)
     );

@@ -162,6 +162,24 @@ pub enum BufferShape {
     Single(StructLayout),
     /// The block's only member is a runtime-sized array (e.g. `Primitive primitives[];`).
     RuntimeArray(StructLayout),
+    /// A uniform block (std140) whose only member is one struct.
+    UniformSingle(StructLayout),
+    /// A uniform block (std140) whose only member is an array of this many structs.
+    UniformArray(StructLayout, u32),
+}
+
+impl BufferShape {
+    /// Bound as a uniform buffer (else a storage buffer).
+    pub fn is_uniform(&self) -> bool {
+        matches!(self, BufferShape::UniformSingle(_) | BufferShape::UniformArray(..))
+    }
+
+    /// The struct it holds.
+    pub fn layout(&self) -> &StructLayout {
+        match self {
+            BufferShape::Single(s) | BufferShape::RuntimeArray(s) | BufferShape::UniformSingle(s) | BufferShape::UniformArray(s, _) => s,
+        }
+    }
 }
 
 /// One binding of descriptor set 0 as the host expects it.
@@ -275,6 +293,38 @@ pub fn scene_bindings() -> Vec<BindingLayout> {
         BindingLayout { binding: BINDING_LEAF_ITEMS, shape: BufferShape::RuntimeArray(LeafItem::layout()), writable: false },
         BindingLayout { binding: BINDING_INSTANCES, shape: BufferShape::RuntimeArray(Instance::layout()), writable: false },
     ]
+}
+
+/// The scene's bindings as render_uniform.comp declares them
+/// (scene_buffers.glsl with SCENE_UNIFORM): the frame and the small arrays
+/// as uniform blocks, the rest as in `scene_bindings`.
+pub fn uniform_scene_bindings() -> Vec<BindingLayout> {
+    let uniform = |binding, layout: StructLayout, count| BindingLayout {
+        binding,
+        shape: BufferShape::UniformArray(layout, count),
+        writable: false,
+    };
+    let mut b = scene_bindings();
+    for binding in &mut b {
+        *binding = match binding.binding {
+            BINDING_FRAME => BindingLayout { binding: BINDING_FRAME, shape: BufferShape::UniformSingle(Frame::layout()), writable: false },
+            BINDING_PRIMITIVES => uniform(BINDING_PRIMITIVES, Primitive::layout(), UNIFORM_PRIMITIVES),
+            BINDING_MATERIALS => uniform(BINDING_MATERIALS, Material::layout(), UNIFORM_MATERIALS),
+            BINDING_LIGHTS => uniform(BINDING_LIGHTS, Light::layout(), UNIFORM_LIGHTS),
+            BINDING_NODES => uniform(BINDING_NODES, BvhNode::layout(), UNIFORM_NODES),
+            BINDING_INSTANCES => uniform(BINDING_INSTANCES, Instance::layout(), UNIFORM_INSTANCES),
+            _ => continue,
+        };
+    }
+    b
+}
+
+/// The bindings of render_uniform.comp: `render_bindings` with the scene's
+/// small arrays as uniform blocks.
+pub fn render_uniform_bindings() -> Vec<BindingLayout> {
+    let mut b = uniform_scene_bindings();
+    b.extend(render_bindings().into_iter().filter(|r| r.binding == BINDING_PIXELS || r.binding == BINDING_SAMPLE_SUMS));
+    b
 }
 
 /// The bindings of every kernel that writes pixels: the scene and the pixels.

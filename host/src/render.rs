@@ -5,6 +5,7 @@ use crate::cpu::CpuRenderer;
 use crate::frame::FrameData;
 use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel};
 use crate::layout::{self, PixelOut};
+use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 /// The render kernel's SPIR-V, compiled from shaders/render.comp at build time.
@@ -54,13 +55,48 @@ pub struct GpuTimings {
     pub readback: Duration,
 }
 
-/// A Vulkan device with the render kernel built and checked.
+/// Where render's scene arrays live: the choice between render.comp and
+/// render_uniform.comp.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneBuffers {
+    /// Uniform buffers when the scene fits them, storage buffers otherwise.
+    #[default]
+    Auto,
+    /// Storage buffers (render.comp): any size.
+    Storage,
+    /// Uniform buffers (render_uniform.comp): an error when the scene does not fit.
+    Uniform,
+}
+
+/// Whether `data`'s arrays fit render_uniform.comp's uniform blocks; else
+/// what does not.
+pub fn fits_uniform(data: &FrameData) -> Result<(), String> {
+    let counts = [
+        ("primitives", data.primitives.len(), layout::UNIFORM_PRIMITIVES),
+        ("materials", data.materials.len(), layout::UNIFORM_MATERIALS),
+        ("lights", data.lights.len(), layout::UNIFORM_LIGHTS),
+        ("hierarchy nodes", data.nodes.len(), layout::UNIFORM_NODES),
+        ("instances", data.instances.len(), layout::UNIFORM_INSTANCES),
+    ];
+    match counts.iter().find(|(_, n, max)| *n > *max as usize) {
+        None => Ok(()),
+        Some((what, n, max)) => Err(format!("the scene has {n} {what}; uniform buffers hold at most {max}")),
+    }
+}
+
+/// A Vulkan device with the render kernels, each built and checked on
+/// first use (so a command compiles only the one its scene needs).
 pub struct GpuRenderer {
-    // Field order is drop order: the kernel goes before its device.
-    kernel: Kernel,
+    // Field order is drop order: the kernels go before their device.
+    /// render.comp's SPIR-V and kernel.
+    storage: (Vec<u8>, OnceLock<Kernel>),
+    /// render_uniform.comp's; None when there is none (a --shaders folder
+    /// without it).
+    uniform: Option<(Vec<u8>, OnceLock<Kernel>)>,
     context: GpuContext,
-    /// Time to check the SPIR-V and build the pipeline.
-    pub compile_time: Duration,
+    /// Time to check the SPIR-V and build the pipelines so far.
+    compile_time: Mutex<Duration>,
+    choice: SceneBuffers,
 }
 
 /// Recomputes with the CPU build the pixels of `picture` (a render of
@@ -102,18 +138,74 @@ pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str) -> Result
 }
 
 impl GpuRenderer {
-    /// The device of `options` with the embedded render kernel.
+    /// The device of `options` with the embedded render kernels.
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer, GpuError> {
-        GpuRenderer::with_spirv(options, render_spirv())
+        let uniform = kernel_spirv("render_uniform").expect("build.rs embeds shaders/render_uniform.comp");
+        GpuRenderer::with_spirv(options, render_spirv(), Some(uniform))
     }
 
-    /// The device of `options` with a render kernel of the caller's (for
-    /// example compiled from `--shaders DIR`); checked like the embedded one.
-    pub fn with_spirv(options: &GpuOptions, spirv: &[u8]) -> Result<GpuRenderer, GpuError> {
-        let context = GpuContext::new(options)?;
+    /// The device of `options` with render kernels of the caller's (for
+    /// example compiled from `--shaders DIR`): render.comp's and, when
+    /// there is one, render_uniform.comp's; checked like the embedded ones.
+    pub fn with_spirv(options: &GpuOptions, spirv: &[u8], uniform: Option<&[u8]>) -> Result<GpuRenderer, GpuError> {
+        Ok(GpuRenderer {
+            storage: (spirv.to_vec(), OnceLock::new()),
+            uniform: uniform.map(|u| (u.to_vec(), OnceLock::new())),
+            context: GpuContext::new(options)?,
+            compile_time: Mutex::new(Duration::ZERO),
+            choice: SceneBuffers::Auto,
+        })
+    }
+
+    /// The device of `options` with the kernels compiled from `dir`
+    /// (`--shaders DIR`): its render.comp, and its render_uniform.comp
+    /// when it has one.
+    pub fn from_shaders(options: &GpuOptions, dir: &std::path::Path) -> Result<GpuRenderer, String> {
+        let spirv = crate::gpu::compile_kernel(&dir.join("render.comp"))?;
+        let uniform_src = dir.join("render_uniform.comp");
+        let uniform = if uniform_src.is_file() { Some(crate::gpu::compile_kernel(&uniform_src)?) } else { None };
+        GpuRenderer::with_spirv(options, &spirv, uniform.as_deref()).map_err(|e| e.to_string())
+    }
+
+    /// Where the scene's arrays go from now on (Auto unless told).
+    pub fn with_scene_buffers(mut self, choice: SceneBuffers) -> GpuRenderer {
+        self.choice = choice;
+        self
+    }
+
+    /// Time spent checking SPIR-V and building pipelines so far.
+    pub fn compile_time(&self) -> Duration {
+        *self.compile_time.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The kernel for `data`, by the choice made (`with_scene_buffers`):
+    /// render_uniform.comp when the scene fits it, else render.comp.
+    pub fn kernel_for(&self, data: &FrameData) -> Result<&Kernel, GpuError> {
+        let bad = |message: String| GpuError::BadRun { kernel: "render_uniform".into(), message };
+        let fits = fits_uniform(data);
+        let want_uniform = match self.choice {
+            SceneBuffers::Storage => false,
+            SceneBuffers::Auto => fits.is_ok() && self.uniform.is_some(),
+            SceneBuffers::Uniform => {
+                fits.map_err(|e| bad(format!("{e}: use --scene-buffers storage or auto")))?;
+                true
+            }
+        };
+        let (name, (spirv, cell), bindings) = if want_uniform {
+            let Some(u) = &self.uniform else {
+                return Err(bad("there is no render_uniform.comp (in the --shaders folder)".into()));
+            };
+            ("render_uniform", u, layout::render_uniform_bindings())
+        } else {
+            ("render", &self.storage, layout::render_bindings())
+        };
+        if let Some(k) = cell.get() {
+            return Ok(k);
+        }
         let start = Instant::now();
-        let kernel = Kernel::new(&context, "render", spirv, &layout::render_bindings())?;
-        Ok(GpuRenderer { kernel, context, compile_time: start.elapsed() })
+        let k = Kernel::new(&self.context, name, spirv, &bindings)?;
+        *self.compile_time.lock().unwrap_or_else(|p| p.into_inner()) += start.elapsed();
+        Ok(cell.get_or_init(|| k))
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -134,13 +226,31 @@ impl GpuRenderer {
         let f = &data.frame;
         let count = f.width as usize * f.height as usize;
         let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), f.height.div_ceil(layout::WORKGROUP_SIZE), 1];
+        let kernel = self.kernel_for(data)?;
+        // A uniform block's buffer holds its whole declared array (zeros past the scene's own).
+        let padded: Vec<(u32, Vec<u8>)> = kernel
+            .bindings()
+            .iter()
+            .filter_map(|b| match &b.shape {
+                layout::BufferShape::UniformArray(s, n) => {
+                    let (_, _, bytes) = data.scene_buffers().into_iter().find(|(binding, _, _)| *binding == b.binding)?;
+                    let mut v = bytes.to_vec();
+                    v.resize((s.size * n) as usize, 0);
+                    Some((b.binding, v))
+                }
+                _ => None,
+            })
+            .collect();
         let mut inputs = vec![(layout::BINDING_FRAME, bytemuck::bytes_of(&data.frame))];
-        inputs.extend(data.scene_buffers().iter().map(|&(binding, _, bytes)| (binding, bytes)));
+        for (binding, _, bytes) in data.scene_buffers() {
+            let bytes = padded.iter().find(|(b, _)| *b == binding).map_or(bytes, |(_, v)| v.as_slice());
+            inputs.push((binding, bytes));
+        }
         // The samples' running sums start at zero: sample 0 is next.
         let sums = vec![0u8; count * std::mem::size_of::<layout::SampleSum>()];
         inputs.push((layout::BINDING_SAMPLE_SUMS, &sums));
         let (bytes, t) = self.context.run_passes(
-            &self.kernel,
+            kernel,
             &inputs,
             (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
             // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.

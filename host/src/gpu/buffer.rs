@@ -153,14 +153,17 @@ impl DescriptorSet {
             }
         }
 
-        let buffers = resources.iter().filter(|(_, r)| matches!(r, Resource::Buffer(_))).count() as u32;
-        let images = resources.len() as u32 - buffers;
-        let mut sizes = Vec::new();
-        if buffers > 0 {
-            sizes.push(vk::DescriptorPoolSize::default().ty(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(buffers));
-        }
-        if images > 0 {
-            sizes.push(vk::DescriptorPoolSize::default().ty(vk::DescriptorType::STORAGE_IMAGE).descriptor_count(images));
+        let descriptor_type = |binding: u32, r: &Resource<'_>| match r {
+            Resource::Buffer(_) => kernel.descriptor_type(binding),
+            Resource::Image(_) => vk::DescriptorType::STORAGE_IMAGE,
+        };
+        let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+        for (binding, r) in resources {
+            let ty = descriptor_type(*binding, r);
+            match sizes.iter_mut().find(|s| s.ty == ty) {
+                Some(s) => s.descriptor_count += 1,
+                None => sizes.push(vk::DescriptorPoolSize::default().ty(ty).descriptor_count(1)),
+            }
         }
         let d = &inner.device;
         let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
@@ -191,9 +194,10 @@ impl DescriptorSet {
             .enumerate()
             .map(|(k, (binding, r))| {
                 let w = vk::WriteDescriptorSet::default().dst_set(out.set).dst_binding(*binding);
+                let w = w.descriptor_type(descriptor_type(*binding, r));
                 match r {
-                    Resource::Buffer(_) => w.descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_infos[k]),
-                    Resource::Image(_) => w.descriptor_type(vk::DescriptorType::STORAGE_IMAGE).image_info(&image_infos[k]),
+                    Resource::Buffer(_) => w.buffer_info(&buffer_infos[k]),
+                    Resource::Image(_) => w.image_info(&image_infos[k]),
                 }
             })
             .collect();

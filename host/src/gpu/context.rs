@@ -595,6 +595,15 @@ impl GpuContext {
         let buffer_size = |len: usize| (len as u64).max(MIN_BUFFER).next_multiple_of(4);
         for (binding, len) in inputs.iter().map(|(b, d)| (*b, d.len())).chain([(out_binding, out_bytes)]) {
             inner.check_storage_size(buffer_size(len), || kernel.binding_label(binding))?;
+            let uniform_range = u64::from(inner.limits.max_uniform_buffer_range);
+            if kernel.descriptor_type(binding) == vk::DescriptorType::UNIFORM_BUFFER && buffer_size(len) > uniform_range {
+                return Err(GpuError::TooLarge {
+                    what: kernel.binding_label(binding),
+                    bytes: buffer_size(len),
+                    limit: uniform_range,
+                    limit_name: "maxUniformBufferRange",
+                });
+            }
         }
 
         let _queue_guard = inner.queue.lock().unwrap_or_else(|p| p.into_inner());
@@ -629,9 +638,15 @@ impl GpuContext {
             res.bindings.push((binding, buffer));
         }
 
-        let sizes = [vk::DescriptorPoolSize::default()
-            .ty(vk::DescriptorType::STORAGE_BUFFER)
-            .descriptor_count(res.bindings.len() as u32)];
+        let uniform = res.bindings.iter().filter(|(b, _)| kernel.descriptor_type(*b) == vk::DescriptorType::UNIFORM_BUFFER).count() as u32;
+        let sizes: Vec<vk::DescriptorPoolSize> = [
+            (vk::DescriptorType::STORAGE_BUFFER, res.bindings.len() as u32 - uniform),
+            (vk::DescriptorType::UNIFORM_BUFFER, uniform),
+        ]
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(ty, n)| vk::DescriptorPoolSize::default().ty(ty).descriptor_count(n))
+        .collect();
         let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
         res.descriptor_pool = unsafe { inner.device.create_descriptor_pool(&pool_info, None) }
             .map_err(GpuError::vk("vkCreateDescriptorPool"))?;
@@ -654,7 +669,7 @@ impl GpuContext {
                 vk::WriteDescriptorSet::default()
                     .dst_set(set)
                     .dst_binding(*binding)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(kernel.descriptor_type(*binding))
                     .buffer_info(info)
             })
             .collect();
@@ -790,7 +805,7 @@ impl Inner {
         let d = &self.device;
         let info = vk::BufferCreateInfo::default()
             .size(size)
-            .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
+            .usage(vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_BUFFER)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let buffer = unsafe { d.create_buffer(&info, None) }.map_err(GpuError::vk("vkCreateBuffer"))?;
         res.buffers.push((buffer, vk::DeviceMemory::null()));

@@ -7,7 +7,7 @@ use ash::vk;
 
 use super::context::Inner;
 use super::{reflect, GpuContext, GpuError, ImageBinding};
-use crate::layout::{BindingLayout, BufferShape};
+use crate::layout::BindingLayout;
 
 /// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
 pub struct Kernel {
@@ -61,7 +61,7 @@ impl Kernel {
             .map(|b| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b.binding)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(buffer_descriptor_type(b))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -118,11 +118,22 @@ impl Kernel {
 
     /// `kernel render: binding 4 (PixelOut[])`, for messages.
     pub(crate) fn binding_label(&self, binding: u32) -> String {
-        let shape = self.bindings.iter().find(|b| b.binding == binding).map(|b| match &b.shape {
-            BufferShape::Single(s) => s.name.to_string(),
-            BufferShape::RuntimeArray(s) => format!("{}[]", s.name),
-        });
+        let shape = self.bindings.iter().find(|b| b.binding == binding).map(|b| reflect::shape_label(&b.shape));
         format!("kernel {}: binding {binding} ({})", self.name, shape.as_deref().unwrap_or("?"))
+    }
+
+    /// The descriptor type of buffer binding `binding` (storage unless the kernel declares a uniform block there).
+    pub(crate) fn descriptor_type(&self, binding: u32) -> vk::DescriptorType {
+        self.bindings.iter().find(|b| b.binding == binding).map_or(vk::DescriptorType::STORAGE_BUFFER, buffer_descriptor_type)
+    }
+}
+
+/// A uniform block's binding is a uniform buffer; every other buffer a storage buffer.
+fn buffer_descriptor_type(b: &BindingLayout) -> vk::DescriptorType {
+    if b.shape.is_uniform() {
+        vk::DescriptorType::UNIFORM_BUFFER
+    } else {
+        vk::DescriptorType::STORAGE_BUFFER
     }
 }
 

@@ -79,10 +79,12 @@ fn error_chain(e: &dyn std::error::Error) -> String {
 }
 
 /// `Frame` or `Primitive[]`: how a binding is named in messages.
-fn shape_label(shape: &BufferShape) -> String {
+pub(crate) fn shape_label(shape: &BufferShape) -> String {
     match shape {
         BufferShape::Single(s) => s.name.to_string(),
         BufferShape::RuntimeArray(s) => format!("{}[]", s.name),
+        BufferShape::UniformSingle(s) => format!("uniform {}", s.name),
+        BufferShape::UniformArray(s, n) => format!("uniform {}[{n}]", s.name),
     }
 }
 
@@ -207,10 +209,12 @@ impl Checker<'_> {
                 AddressSpace::Storage { access } => {
                     access & self.access.get(&(rb.group, rb.binding)).copied().unwrap_or(access)
                 }
+                // Uniform buffers are read-only.
+                AddressSpace::Uniform => StorageAccess::LOAD,
                 other => {
                     out.push((rb.binding, format!(
-                        "kernel {kernel}: binding {} ({var_name}) is a {} in the shader; only storage buffers \
-                         are supported",
+                        "kernel {kernel}: binding {} ({var_name}) is a {} in the shader; only storage and \
+                         uniform buffers are supported",
                         rb.binding,
                         space_name(other)
                     )));
@@ -227,6 +231,14 @@ impl Checker<'_> {
             }
             seen.insert(rb.binding, ());
             match by_binding.get(&rb.binding) {
+                Some(exp) if exp.shape.is_uniform() != (var.space == AddressSpace::Uniform) => {
+                    out.push((rb.binding, format!(
+                        "kernel {kernel}: binding {} ({var_name}) is a {} in the shader, a {} on the host ({HOST_FILE})",
+                        rb.binding,
+                        if var.space == AddressSpace::Uniform { "uniform buffer" } else { "storage buffer" },
+                        if exp.shape.is_uniform() { "uniform buffer" } else { "storage buffer" },
+                    )));
+                }
                 Some(exp) => {
                     let mut lines = Vec::new();
                     self.check_binding(exp, var.ty, access, &mut lines);
@@ -351,7 +363,20 @@ impl Checker<'_> {
         }
         let member_ty = members[0].ty;
         match (&exp.shape, &self.module.types[member_ty].inner) {
-            (BufferShape::Single(s), TypeInner::Struct { .. }) => self.check_struct(&at, s, member_ty, out),
+            (BufferShape::Single(s) | BufferShape::UniformSingle(s), TypeInner::Struct { .. }) => {
+                self.check_struct(&at, s, member_ty, out)
+            }
+            (BufferShape::UniformArray(s, n), &TypeInner::Array { base, size: ArraySize::Constant(len), stride })
+                if matches!(self.module.types[base].inner, TypeInner::Struct { .. }) =>
+            {
+                if len.get() != *n {
+                    out.push(format!("{at}: {len} elements in the shader, {n} on the host ({HOST_FILE})"));
+                }
+                if stride != s.size {
+                    out.push(format!("{at}: array stride {stride} in the shader, {} on the host ({HOST_FILE})", s.size));
+                }
+                self.check_struct(&at, s, base, out);
+            }
             (BufferShape::RuntimeArray(s), &TypeInner::Array { base, size: ArraySize::Dynamic, stride })
                 if matches!(self.module.types[base].inner, TypeInner::Struct { .. }) =>
             {
@@ -360,8 +385,13 @@ impl Checker<'_> {
                 }
                 self.check_struct(&at, s, base, out);
             }
-            (BufferShape::Single(s), _) => out.push(format!(
+            (BufferShape::Single(s) | BufferShape::UniformSingle(s), _) => out.push(format!(
                 "{at}: the block's member is a {} in the shader, a single struct {} on the host ({HOST_FILE})",
+                self.describe(member_ty),
+                s.name
+            )),
+            (BufferShape::UniformArray(s, n), _) => out.push(format!(
+                "{at}: the block's member is a {} in the shader, an array of {n} struct {} on the host ({HOST_FILE})",
                 self.describe(member_ty),
                 s.name
             )),

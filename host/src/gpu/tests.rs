@@ -260,7 +260,7 @@ void main() {{
 
 fn struct_of(b: &mut BindingLayout) -> &mut StructLayout {
     match &mut b.shape {
-        BufferShape::Single(s) | BufferShape::RuntimeArray(s) => s,
+        BufferShape::Single(s) | BufferShape::RuntimeArray(s) | BufferShape::UniformSingle(s) | BufferShape::UniformArray(s, _) => s,
     }
 }
 
@@ -348,10 +348,27 @@ void main() { words[0] = params.count; }
     assert_eq!(
         mismatches,
         &[
-            "kernel uniform: binding 0 (ParamsBuf) is a uniform buffer in the shader; only storage buffers are supported",
+            "kernel uniform: binding 0 (Params) is declared in the shader but not on the host (host/src/layout.rs)",
             "kernel uniform: binding 1 (Out) is in descriptor set 1 in the shader; every binding must be in set 0",
         ]
     );
+    // A uniform block where the host expects a storage buffer (and the other way round) is named.
+    let params = StructLayout {
+        name: "Params",
+        size: 16,
+        fields: ["count", "pad0", "pad1", "pad2"].iter().enumerate().map(|(i, n)| FieldLayout { name: n, offset: 4 * i as u32, size: 4 }).collect(),
+    };
+    for (shape, want) in [
+        (BufferShape::Single(params.clone()), "a uniform buffer in the shader, a storage buffer on the host"),
+        (BufferShape::UniformSingle(params.clone()), ""),
+    ] {
+        let host = [BindingLayout { binding: 0, shape, writable: false }];
+        let e = reflect::check_layouts("uniform", &spv, &host).unwrap_err().to_string();
+        assert!(e.contains(&format!("binding 0 (ParamsBuf) is {want}")) || want.is_empty(), "{e}");
+        if want.is_empty() {
+            assert!(!e.contains("binding 0"), "the uniform block matches UniformSingle: {e}");
+        }
+    }
 }
 
 #[test]

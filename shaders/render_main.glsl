@@ -1,0 +1,58 @@
+// render_main.glsl: the render kernel's body, included by render.comp (the
+// scene in storage buffers) and render_uniform.comp (its small arrays in
+// uniform buffers: scene_buffers.glsl, SCENE_UNIFORM). One invocation per
+// pixel, 8x8 workgroups, one sample of every pixel per dispatch. Binds the
+// scene buffers and writes each pixel's colour (or normal AOV), t, hit id,
+// normal and rays. All the work is in raycast.glsl, shared with the CPU
+// build.
+//
+// The host dispatches the kernel frame.spp times over the same buffers:
+// the running sums (`sums`, zeroed by the host) say which sample is next.
+// Computed this way, the pixel is bit for bit render_pixel's (sample 0
+// starts the sum, later samples add to it in order, the sum over spp is
+// stored), and each invocation does one sample's work: Mesa's lavapipe
+// gives an invocation 65535 loop iterations in all (raycast.glsl
+// loop_budget_ok), which several samples of a deep scene exceed.
+#include "layout.h"
+
+layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE, local_size_z = 1) in;
+
+#include "scene_buffers.glsl"
+layout(std430, binding = BINDING_PIXELS) writeonly buffer PixelBlock { PixelOut pixels[]; };
+layout(std430, binding = BINDING_SAMPLE_SUMS) buffer SampleSumBlock { SampleSum sums[]; };
+
+#include "raycast.glsl"
+
+void main() {
+    uint j = gl_GlobalInvocationID.x;
+    uint i = gl_GlobalInvocationID.y;
+    if (j >= frame.width || i >= frame.height) {
+        return;
+    }
+    uint index = i * frame.width + j;
+    uint n = max(frame.spp, 1u);
+    uint s = sums[index].samples;
+    if (s >= n) {
+        return;
+    }
+    PixelSample x = sample_pixel(j, i, sample_offset(s, n));
+    precise vec3 sum = x.color;
+    uint rays = x.rays;
+    if (s > 0u) {
+        sum = xyz(sums[index].color) + x.color;
+        rays = sums[index].rays + x.rays;
+    }
+    if (!loop_budget_ok()) {
+        rays = rays | RAYS_CUT_SHORT;
+    }
+    if (s == 0u) {
+        // t, id and normal are the first sample's.
+        pixels[index] = pixel_out(x.hit, sample_average(sum, n), rays);
+    } else if (s + 1u == n) {
+        pixels[index].rgba = pack_rgba8(sample_average(sum, n));
+        pixels[index].rays = rays;
+    }
+    sums[index].color = vec4(sum, 0.0f);
+    sums[index].samples = s + 1u;
+    sums[index].rays = rays;
+}
