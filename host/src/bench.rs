@@ -530,19 +530,48 @@ fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCounts, why: &st
     }
 }
 
+/// One line of the growth table: a scene, its expanded primitive count,
+/// ln N / ln N0, and its frame median over the first scene's for the
+/// device and the CPU build (None where that backend did not run).
+struct Growth<'a> {
+    scene: &'a str,
+    primitives: u64,
+    log_ratio: Option<f64>,
+    gpu: Option<f64>,
+    cpu: Option<f64>,
+}
+
+/// The growth table of `rows`, against the first scene; a backend is
+/// matched by its first word ("gpu" covers "gpu uniform" and "gpu storage").
+fn growth(rows: &[Row]) -> Vec<Growth<'_>> {
+    let Some(first) = rows.first() else { return Vec::new() };
+    let is = |r: &Row, backend: &str| r.backend.split(' ').next() == Some(backend);
+    let median = |scene: &str, backend: &str| rows.iter().find(|r| r.scene == scene && is(r, backend)).map(Row::median);
+    let n0 = first.counts.expanded as f64;
+    let mut out: Vec<Growth> = Vec::new();
+    for r in rows {
+        if out.iter().any(|g| g.scene == r.scene) {
+            continue;
+        }
+        let ratio = |backend: &str| match (median(&r.scene, backend), median(&first.scene, backend)) {
+            (Some(m), Some(b)) => Some(m.as_secs_f64() / b.as_secs_f64().max(1e-12)),
+            _ => None,
+        };
+        out.push(Growth {
+            scene: &r.scene,
+            primitives: r.counts.expanded,
+            log_ratio: (n0 > 1.0).then(|| (r.counts.expanded as f64).ln() / n0.ln()),
+            gpu: ratio("gpu"),
+            cpu: ratio("cpu"),
+        });
+    }
+    out
+}
+
 /// Each scene's frame median over the first scene's, per backend, beside
 /// the ratio of the logarithms of their expanded primitive counts.
 fn print_growth(rows: &[Row], markdown: bool) {
     let Some(first) = rows.first() else { return };
-    let base = |backend: &str| rows.iter().find(|r| r.scene == first.scene && r.backend == backend).map(Row::median);
-    let (gpu0, cpu0) = (base("gpu"), base("cpu"));
-    let n0 = first.counts.expanded as f64;
-    let mut scenes: Vec<&Row> = Vec::new();
-    for r in rows {
-        if !scenes.iter().any(|s| s.scene == r.scene) {
-            scenes.push(r);
-        }
-    }
     println!();
     println!(
         "Growth against {} ({} primitives): frame median over its frame median, and ln N / ln N0, the ratio logarithmic growth allows.",
@@ -554,19 +583,13 @@ fn print_growth(rows: &[Row], markdown: bool) {
         println!("| scene | primitives N | ln N / ln N0 | gpu frame / first | cpu frame / first |");
         println!("|---|---|---|---|---|");
     }
-    for s in scenes {
-        let log_ratio = if n0 > 1.0 { format!("{:.2}", (s.counts.expanded as f64).ln() / n0.ln()) } else { "–".to_string() };
-        let ratio = |backend: &str, base: Option<Duration>| {
-            match (rows.iter().find(|r| r.scene == s.scene && r.backend == backend), base) {
-                (Some(r), Some(b)) => format!("{:.2}", r.median().as_secs_f64() / b.as_secs_f64().max(1e-12)),
-                _ => "–".to_string(),
-            }
-        };
-        let (g, c) = (ratio("gpu", gpu0), ratio("cpu", cpu0));
+    let text = |x: Option<f64>| x.map_or("–".to_string(), |x| format!("{x:.2}"));
+    for g in growth(rows) {
+        let (l, gpu, cpu) = (text(g.log_ratio), text(g.gpu), text(g.cpu));
         if markdown {
-            println!("| {} | {} | {log_ratio} | {g} | {c} |", short_name(&s.scene), thousands(s.counts.expanded));
+            println!("| {} | {} | {l} | {gpu} | {cpu} |", short_name(g.scene), thousands(g.primitives));
         } else {
-            println!("  {}: N = {}, ln N / ln N0 {log_ratio}, gpu {g}, cpu {c}", s.scene, thousands(s.counts.expanded));
+            println!("  {}: N = {}, ln N / ln N0 {l}, gpu {gpu}, cpu {cpu}", g.scene, thousands(g.primitives));
         }
     }
 }
@@ -796,6 +819,33 @@ mod tests {
         let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
         let expect = std::mem::size_of::<Frame>() as u64 + scene + 40 * per_pixel as u64;
         assert_eq!(device_bytes(&loaded.data), expect);
+    }
+
+    #[test]
+    fn growth_matches_backends_by_their_first_word() {
+        let row = |scene: &str, backend: &'static str, n: u64, ms: u64| Row {
+            scene: scene.into(),
+            backend,
+            device: String::new(),
+            counts: PrimitiveCounts { expanded: n, unique: 1 },
+            lights: 1,
+            load: Duration::ZERO,
+            build: Duration::ZERO,
+            frames: vec![Duration::from_millis(ms)],
+            dispatch: Vec::new(),
+            primary_rays: 1,
+            all_rays: 1,
+            host_peak: None,
+            device_bytes: None,
+            cpu_over_gpu: None,
+            identical: None,
+        };
+        let rows = [row("a", "gpu uniform", 100, 10), row("a", "cpu", 100, 4), row("b", "gpu storage", 10_000, 25), row("b", "cpu", 10_000, 6)];
+        let g = growth(&rows);
+        assert_eq!(g.len(), 2);
+        assert_eq!((g[0].gpu, g[0].cpu, g[0].log_ratio), (Some(1.0), Some(1.0), Some(1.0)));
+        assert_eq!((g[1].gpu, g[1].cpu), (Some(2.5), Some(1.5)));
+        assert!((g[1].log_ratio.unwrap() - 2.0).abs() < 1e-12);
     }
 
     #[test]
