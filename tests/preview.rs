@@ -217,16 +217,16 @@ fn bad_arguments_are_usage_errors() {
 }
 
 /// A preview frame the device cut short (lavapipe's 65535 loop iterations
-/// per invocation; here a planted loop of 70,000 in a copy of preview.comp,
+/// per invocation; here a planted loop of 70,000 in a copy of the preview kernel,
 /// which --shaders compiles before the first frame) is named on stderr, and
 /// its screenshot is refused, not written wrong.
 #[test]
 fn pixels_cut_short_are_reported_and_not_saved() {
     let dir = common::copy_of_shaders(&out_dir().join("planted-loop-shaders"));
-    let comp = dir.join("preview.comp");
+    let comp = dir.join("preview_main.glsl");
     let source = std::fs::read_to_string(&comp).unwrap();
     let anchor = "    bool cut_short = !loop_budget_ok();";
-    assert_eq!(source.matches(anchor).count(), 1, "preview.comp changed: update this test");
+    assert_eq!(source.matches(anchor).count(), 1, "preview_main.glsl changed: update this test");
     let planted = "    uint spin = 0u;\n    for (uint k = 0u; k < 70000u + preview.pad1; k++) {\n        spin = spin * 1664525u + k;\n    }\n    if (spin == 1u) {\n        rays = rays + 1u;\n    }\n";
     std::fs::write(&comp, source.replace(anchor, &format!("{planted}{anchor}"))).unwrap();
 

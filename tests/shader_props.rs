@@ -484,6 +484,9 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
             "render" => Some((layout::render_bindings(), Vec::new())),
             "render_uniform" => Some((layout::render_uniform_bindings(), Vec::new())),
             "preview" => Some((raycast::preview::layout::preview_bindings(), raycast::preview::layout::preview_images())),
+            "preview_uniform" => {
+                Some((raycast::preview::layout::preview_uniform_bindings(), raycast::preview::layout::preview_images()))
+            }
             _ => None,
         };
         match expected {

@@ -21,7 +21,7 @@ use crate::scene::{FlattenLimits, ParseOptions, Scene, Shape};
 use super::camera::{scene_bounds, Bounds, CameraControl};
 use super::layout::{PreviewFrame, PREVIEW_COLOR, PREVIEW_DEPTH, PREVIEW_ID, PREVIEW_NORMAL};
 use super::reload::{self, Reload, WatchConfig, Watcher, KERNEL_FILE};
-use super::renderer::{embedded_kernel, PreviewRenderer};
+use super::renderer::{PreviewKernels, PreviewRenderer};
 use super::{PresentArg, PreviewArgs};
 
 /// Samples per pixel after which an interactive preview stops drawing until something changes.
@@ -37,6 +37,8 @@ const MOTION_HOLD: Duration = Duration::from_millis(300);
 const MOTION_FRAME_MS: f64 = 125.0;
 /// The most the motion resolution divides the width and height by.
 const MAX_MOTION_SCALE: u32 = 8;
+/// Frames smaller than this do not update the cost per pixel.
+const COST_MIN_PIXELS: u64 = 16384;
 /// `--moving`: how far the camera orbits before each frame.
 const MOVING_DEG_PER_FRAME: f64 = 2.0;
 
@@ -127,7 +129,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
             Reload::Failed(e) => return Err(Failure::from(format!("--shaders {}: {e}", dir.display()))),
             Reload::Scene(_) => unreachable!("compile gives a kernel or a failure"),
         },
-        _ => embedded_kernel(&context)?,
+        _ => PreviewKernels::embedded(&context)?,
     };
     let (fw, fh) = window.get_framebuffer_size();
     let window_size = [fw.max(1) as u32, fh.max(1) as u32];
@@ -423,7 +425,9 @@ impl Preview {
             if let Some(t) = device {
                 self.stats.device_ms = Some(Stats::average(self.stats.device_ms.unwrap_or(0.0), t.as_secs_f64() * 1e3));
             }
-            if self.pixels_in_flight > 0 {
+            // Small frames (steering, bands) carry a fixed cost per frame that would
+            // inflate the cost per pixel: only frames of COST_MIN_PIXELS or more count.
+            if self.pixels_in_flight >= COST_MIN_PIXELS {
                 // The frame's own time: the device's, or else since its submission.
                 let ms = device.map(|t| t.as_secs_f64() * 1e3).or_else(|| {
                     self.stats.last_submit.map(|s| (waited.max(s) - s).as_secs_f64() * 1e3)
@@ -771,8 +775,8 @@ impl Preview {
                 self.error = None;
                 self.restart();
             }
-            Reload::Kernel(kernel) => {
-                self.renderer.set_kernel(kernel)?;
+            Reload::Kernel(kernels) => {
+                self.renderer.set_kernels(kernels)?;
                 eprintln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
                 self.error = None;
                 self.restart();

@@ -88,7 +88,20 @@ impl AccumPixel {
 /// The storage buffers of the preview kernel: the scene and the pixels, the
 /// per-frame struct, the accumulation and the status word.
 pub fn preview_bindings() -> Vec<BindingLayout> {
-    let mut b = pixel_kernel_bindings();
+    with_preview_bindings(pixel_kernel_bindings())
+}
+
+/// The bindings of preview_uniform.comp: `preview_bindings` with the
+/// scene's small arrays as uniform blocks (`layout::uniform_scene_bindings`).
+pub fn preview_uniform_bindings() -> Vec<BindingLayout> {
+    let mut b = crate::layout::uniform_scene_bindings();
+    b.extend(pixel_kernel_bindings().into_iter().filter(|p| p.binding == crate::layout::BINDING_PIXELS));
+    with_preview_bindings(b)
+}
+
+/// `scene_and_pixels` plus the preview's own buffers.
+fn with_preview_bindings(scene_and_pixels: Vec<BindingLayout>) -> Vec<BindingLayout> {
+    let mut b = scene_and_pixels;
     b.push(BindingLayout { binding: BINDING_PREVIEW, shape: BufferShape::Single(PreviewFrame::layout()), writable: false });
     b.push(BindingLayout { binding: BINDING_ACCUM, shape: BufferShape::RuntimeArray(AccumPixel::layout()), writable: true });
     b.push(BindingLayout { binding: BINDING_STATUS, shape: BufferShape::Single(PreviewStatus::layout()), writable: true });

@@ -13,21 +13,23 @@ use std::thread::JoinHandle;
 use std::time::{Duration, SystemTime};
 
 use crate::frame::{self, FrameData, RenderSettings};
-use crate::gpu::{glslang_args, GpuContext, Kernel, GLSLANG};
+use crate::gpu::{glslang_args, GpuContext, GLSLANG};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 
-use super::layout::{preview_bindings, preview_images};
+use super::renderer::PreviewKernels;
 
 const POLL: Duration = Duration::from_millis(250);
 /// The kernel that is recompiled, in the shader folder.
 pub const KERNEL_FILE: &str = "preview.comp";
+/// Its uniform-buffer variant, compiled too when the folder has it.
+pub const UNIFORM_KERNEL_FILE: &str = "preview_uniform.comp";
 
 /// What the watcher sends.
 pub enum Reload {
     /// The scene file changed and loads.
     Scene(Box<(Scene, FrameData)>),
-    /// A shader source changed; this is the new kernel, checked and built.
-    Kernel(Kernel),
+    /// A shader source changed; these are the new kernels, checked and built.
+    Kernel(PreviewKernels),
     /// A reload failed; the message says where and why.
     Failed(String),
 }
@@ -131,28 +133,42 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
     }
 }
 
-/// glslang on `dir/preview.comp` (with `dir` on the include path), then the
-/// checked kernel.
+/// glslang on `dir/preview.comp` and, when there is one,
+/// `dir/preview_uniform.comp` (with `dir` on the include path), then the
+/// checked kernels.
 pub fn compile(ctx: &GpuContext, dir: &Path) -> Reload {
-    let src = dir.join(KERNEL_FILE);
-    let spv = std::env::temp_dir().join(format!("raycast-preview-{}.spv", std::process::id()));
+    let storage = match compile_one(dir, KERNEL_FILE) {
+        Ok(b) => b,
+        Err(e) => return Reload::Failed(e),
+    };
+    let uniform = if dir.join(UNIFORM_KERNEL_FILE).is_file() {
+        match compile_one(dir, UNIFORM_KERNEL_FILE) {
+            Ok(b) => Some(b),
+            Err(e) => return Reload::Failed(e),
+        }
+    } else {
+        None
+    };
+    match PreviewKernels::new(ctx, &storage, uniform.as_deref()) {
+        Ok(k) => Reload::Kernel(k),
+        Err(e) => Reload::Failed(format!("{}: {e}", dir.join(KERNEL_FILE).display())),
+    }
+}
+
+/// glslang on `dir/file`: its SPIR-V, or glslang's message.
+fn compile_one(dir: &Path, file: &str) -> Result<Vec<u8>, String> {
+    let src = dir.join(file);
+    let spv = std::env::temp_dir().join(format!("raycast-preview-{}-{file}.spv", std::process::id()));
     let output = match std::process::Command::new(GLSLANG).args(glslang_args(&src, dir, &spv)).output() {
         Ok(o) => o,
-        Err(e) => return Reload::Failed(format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}")),
+        Err(e) => return Err(format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}")),
     };
     if !output.status.success() {
         let text = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
         let _ = std::fs::remove_file(&spv);
-        return Reload::Failed(format!("{}: {GLSLANG} failed:\n{}", src.display(), text.trim_end()));
+        return Err(format!("{}: {GLSLANG} failed:\n{}", src.display(), text.trim_end()));
     }
     let bytes = std::fs::read(&spv);
     let _ = std::fs::remove_file(&spv);
-    let bytes = match bytes {
-        Ok(b) => b,
-        Err(e) => return Reload::Failed(format!("cannot read {}: {e}", spv.display())),
-    };
-    match Kernel::with_images(ctx, "preview", &bytes, &preview_bindings(), &preview_images()) {
-        Ok(k) => Reload::Kernel(k),
-        Err(e) => Reload::Failed(format!("{}: {e}", src.display())),
-    }
+    bytes.map_err(|e| format!("cannot read {}: {e}", spv.display()))
 }

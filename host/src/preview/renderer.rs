@@ -13,27 +13,73 @@ use crate::gpu::{
 use crate::layout::{self, Frame, PixelOut};
 
 use super::layout::{
-    preview_bindings, preview_images, AccumPixel, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW,
+    preview_bindings, preview_images, preview_uniform_bindings, AccumPixel, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW,
     BINDING_STATUS,
 };
 
-/// The embedded preview kernel (shaders/preview.comp, compiled at build time).
-pub fn embedded_kernel(ctx: &GpuContext) -> Result<Kernel, GpuError> {
-    let spirv = crate::render::kernel_spirv("preview").expect("build.rs embeds shaders/preview.comp");
-    Kernel::with_images(ctx, "preview", spirv, &preview_bindings(), &preview_images())
+/// The preview kernel with the scene in storage buffers (preview.comp) and,
+/// where there is one, with its small arrays in uniform buffers
+/// (preview_uniform.comp), used for scenes that fit them.
+pub struct PreviewKernels {
+    pub storage: Kernel,
+    pub uniform: Option<Kernel>,
+}
+
+impl PreviewKernels {
+    /// Checked kernels from SPIR-V.
+    pub fn new(ctx: &GpuContext, storage: &[u8], uniform: Option<&[u8]>) -> Result<PreviewKernels, GpuError> {
+        Ok(PreviewKernels {
+            storage: Kernel::with_images(ctx, "preview", storage, &preview_bindings(), &preview_images())?,
+            uniform: match uniform {
+                Some(u) => Some(Kernel::with_images(ctx, "preview_uniform", u, &preview_uniform_bindings(), &preview_images())?),
+                None => None,
+            },
+        })
+    }
+
+    /// The embedded kernels (shaders/preview*.comp, compiled at build time).
+    pub fn embedded(ctx: &GpuContext) -> Result<PreviewKernels, GpuError> {
+        let storage = crate::render::kernel_spirv("preview").expect("build.rs embeds shaders/preview.comp");
+        PreviewKernels::new(ctx, storage, crate::render::kernel_spirv("preview_uniform"))
+    }
+
+    /// The uniform-buffer kernel when the scene fits it (`fits`) and there is one.
+    fn pick(&self, fits: bool) -> &Kernel {
+        match &self.uniform {
+            Some(u) if fits => u,
+            _ => &self.storage,
+        }
+    }
 }
 
 /// The scene's buffers (FrameData::scene_buffers) on the device, by binding.
-struct SceneBuffers(Vec<(u32, Buffer)>);
+struct SceneBuffers {
+    buffers: Vec<(u32, Buffer)>,
+    /// The scene fits preview_uniform.comp's blocks, and the arrays it
+    /// reads as uniform blocks are padded to their declared size.
+    fits_uniform: bool,
+}
 
 impl SceneBuffers {
     fn new(ctx: &GpuContext, data: &FrameData) -> Result<SceneBuffers, GpuError> {
+        let fits_uniform = crate::render::fits_uniform(data).is_ok();
+        let uniform = crate::layout::uniform_scene_bindings();
         let buffers = data
             .scene_buffers()
             .iter()
-            .map(|&(binding, what, bytes)| Ok((binding, Buffer::with_data(ctx, bytes, what)?)))
+            .map(|&(binding, what, bytes)| {
+                let declared = uniform.iter().find(|b| b.binding == binding).and_then(|b| match &b.shape {
+                    crate::layout::BufferShape::UniformArray(s, n) if fits_uniform => Some((s.size * n) as usize),
+                    _ => None,
+                });
+                let mut owned = bytes.to_vec();
+                if let Some(len) = declared {
+                    owned.resize(len.max(bytes.len()), 0);
+                }
+                Ok((binding, Buffer::with_data(ctx, &owned, what)?))
+            })
             .collect::<Result<_, GpuError>>()?;
-        Ok(SceneBuffers(buffers))
+        Ok(SceneBuffers { buffers, fits_uniform })
     }
 }
 
@@ -70,7 +116,7 @@ pub struct PreviewRenderer {
     scene: SceneBuffers,
     picture: PictureBuffers,
     swapchain: Swapchain,
-    kernel: Kernel,
+    kernels: PreviewKernels,
     context: Arc<GpuContext>,
 }
 
@@ -78,7 +124,7 @@ impl PreviewRenderer {
     /// Buffers for `data` and a `size` picture, a swapchain for a window of `window` pixels.
     pub fn new(
         context: Arc<GpuContext>,
-        kernel: Kernel,
+        kernels: PreviewKernels,
         data: &FrameData,
         size: [u32; 2],
         window: [u32; 2],
@@ -95,7 +141,7 @@ impl PreviewRenderer {
             scene: SceneBuffers::new(ctx, data)?,
             picture: PictureBuffers::new(ctx, size)?,
             swapchain: Swapchain::new(ctx, window, mode)?,
-            kernel,
+            kernels,
             context: context.clone(),
         };
         r.bind()?;
@@ -116,7 +162,7 @@ impl PreviewRenderer {
         let p = &self.picture;
         let s = &self.scene;
         let mut resources = vec![(layout::BINDING_FRAME, Resource::Buffer(&self.frame))];
-        resources.extend(s.0.iter().map(|(binding, buffer)| (*binding, Resource::Buffer(buffer))));
+        resources.extend(s.buffers.iter().map(|(binding, buffer)| (*binding, Resource::Buffer(buffer))));
         resources.extend([
             (layout::BINDING_PIXELS, Resource::Buffer(&p.pixels)),
             (BINDING_PREVIEW, Resource::Buffer(&self.preview)),
@@ -124,15 +170,20 @@ impl PreviewRenderer {
             (BINDING_DISPLAY, Resource::Image(&p.display)),
             (BINDING_STATUS, Resource::Buffer(&self.status)),
         ]);
-        self.set = Some(DescriptorSet::new(&self.kernel, &resources)?);
+        self.set = Some(DescriptorSet::new(self.kernel(), &resources)?);
         Ok(())
     }
 
-    /// Replaces the kernel (a reloaded shader).
-    pub fn set_kernel(&mut self, kernel: Kernel) -> Result<(), GpuError> {
+    /// The kernel the scene uses: preview_uniform.comp when it fits.
+    pub fn kernel(&self) -> &Kernel {
+        self.kernels.pick(self.scene.fits_uniform)
+    }
+
+    /// Replaces the kernels (a reloaded shader).
+    pub fn set_kernels(&mut self, kernels: PreviewKernels) -> Result<(), GpuError> {
         self.frames.wait()?;
         self.set = None;
-        self.kernel = kernel;
+        self.kernels = kernels;
         self.bind()
     }
 
@@ -177,11 +228,12 @@ impl PreviewRenderer {
         self.status.write(0, bytemuck::bytes_of(&PreviewStatus::default()));
         self.frame.write(0, bytemuck::bytes_of(frame));
         self.preview.write(0, bytemuck::bytes_of(preview));
-        let wg = self.kernel.workgroup_size();
+        let wg = self.kernel().workgroup_size();
         let groups = [frame.width.div_ceil(wg[0]), (row_end - preview.row_offset).div_ceil(wg[1]), 1];
         let set = self.set.as_ref().expect("bound");
         let swapchain = present.then_some(&mut self.swapchain);
-        self.frames.submit(&self.kernel, set, groups, &self.picture.display, self.frame_size, swapchain)
+        let kernel = self.kernels.pick(self.scene.fits_uniform);
+        self.frames.submit(kernel, set, groups, &self.picture.display, self.frame_size, swapchain)
     }
 
     /// Waits for the frame in flight; its dispatch time when the device has timestamps.
