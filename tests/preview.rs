@@ -237,6 +237,7 @@ fn pixels_cut_short_are_reported_and_not_saved() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(err.contains("the picture is WRONG: the device cut 384 pixels short"), "{}", text(&o));
     assert!(err.contains("cut 384 of 384 pixels short") && err.contains("nothing was written"), "{}", text(&o));
+    assert!(err.contains("Turn mirror reflections off (M, or --no-reflections)"), "{}", text(&o));
     assert!(!err.contains("panicked"), "{}", text(&o));
     assert!(!png.exists(), "the screenshot was written");
 }

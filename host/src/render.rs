@@ -123,9 +123,13 @@ pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRender
     count
 }
 
+/// What to do about pixels cut short, for the commands that render a frame.
+pub const RENDER_ADVICE: &str = "`raycast render` finishes such pixels with the CPU build (the same code; on lavapipe the same \
+     bits); here, drop --no-bvh, use a smaller --depth, or another Vulkan device";
+
 /// An error when the kernel marked pixels whose loops the device ended
 /// early (raycast.glsl loop_budget_ok): such a picture is wrong.
-pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str) -> Result<(), GpuError> {
+pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str, advice: &'static str) -> Result<(), GpuError> {
     let is_cut = |p: &PixelOut| p.rays & layout::RAYS_CUT_SHORT != 0;
     let Some(first) = pixels.iter().position(is_cut) else { return Ok(()) };
     let first = first as u32;
@@ -134,6 +138,7 @@ pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str) -> Result
         count: pixels.iter().filter(|p| is_cut(p)).count(),
         total: pixels.len(),
         first: (first % width, first / width),
+        advice,
     })
 }
 
@@ -216,7 +221,7 @@ impl GpuRenderer {
     /// (`refuse_cut_short`).
     pub fn render(&self, data: &FrameData) -> Result<(Picture, GpuTimings), GpuError> {
         let (picture, t) = self.render_marked(data)?;
-        refuse_cut_short(&picture.pixels, picture.width, &self.context.info().name)?;
+        refuse_cut_short(&picture.pixels, picture.width, &self.context.info().name, RENDER_ADVICE)?;
         Ok((picture, t))
     }
 

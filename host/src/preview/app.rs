@@ -853,7 +853,12 @@ impl Preview {
     fn save(&mut self, path: &Path) -> Result<(), Failure> {
         let [width, height] = self.renderer.frame_size();
         let pixels = self.renderer.pixels()?;
-        crate::render::refuse_cut_short(&pixels, width, &self.device)?;
+        crate::render::refuse_cut_short(
+            &pixels,
+            width,
+            &self.device,
+            "Turn mirror reflections off (M, or --no-reflections), or use another Vulkan device",
+        )?;
         let picture = Picture { width, height, pixels };
         image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8() })?;
         println!("wrote {} ({width}x{height}, {} samples per pixel)", path.display(), self.sample);
