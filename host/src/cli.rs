@@ -417,6 +417,11 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
 
 fn check(args: &CheckArgs) -> Result<(), Failure> {
     let p = prepare(&args.frame)?;
+    // Bad --pixel input fails before the renders, not after them.
+    let (width, height) = (p.data.frame.width, p.data.frame.height);
+    if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
+        return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
+    }
     let renderer = gpu_renderer(&args.frame)?;
     let cpu = CpuRenderer::new()?;
     let device = renderer.context().info().name.clone();
@@ -460,10 +465,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
 /// `check --pixel`: each pixel's render_pixel alone, through the harness.
 fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cpu_picture: &Picture) -> Result<(), Failure> {
     use crate::harness::{Case, Harness, HarnessOptions, SceneBuffers};
-    let (width, height) = (data.frame.width, data.frame.height);
-    if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
-        return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
-    }
+    let width = data.frame.width;
     let mut harness = Harness::new(&HarnessOptions {
         shaders: args.frame.shaders.clone(),
         device: parse_device(&args.frame.device),
