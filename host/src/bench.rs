@@ -682,7 +682,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         let mut gpu_picture: Option<Picture> = None;
         if let (Some(g), Some(device)) = (&gpu, &gpu_device) {
             // Which kernel: the scene's arrays in uniform or in storage buffers (--scene-buffers).
-            let backend = if g.kernel_for(&loaded.data)?.name() == "render_uniform" { "gpu uniform" } else { "gpu storage" };
+            let backend = if g.kernel_for(&loaded.data)?.name() == crate::render::UNIFORM_KERNEL { "gpu uniform" } else { "gpu storage" };
             let mut row = row(backend, device);
             reset_peak_host();
             let timed = (|| {

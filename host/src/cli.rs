@@ -389,8 +389,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     } else {
         renderer.render_marked(&p.data)?
     };
-    let cut = picture.pixels.iter().filter(|px| px.rays & crate::layout::RAYS_CUT_SHORT != 0).count();
-    if cut > 0 {
+    if picture.pixels.iter().any(crate::layout::PixelOut::is_cut_short) {
         let finished = crate::render::finish_cut_short(&mut picture, &p.data, &CpuRenderer::new()?);
         eprintln!(
             "raycast: note: {} cut {finished} of {} pixels short (Mesa's lavapipe gives each shader invocation 65535 loop \

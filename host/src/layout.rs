@@ -273,6 +273,13 @@ impl PixelOut {
     }
 }
 
+impl PixelOut {
+    /// The device cut this pixel's loops short (RAYS_CUT_SHORT): its values are wrong.
+    pub fn is_cut_short(&self) -> bool {
+        self.rays & RAYS_CUT_SHORT != 0
+    }
+}
+
 impl SampleSum {
     pub fn layout() -> StructLayout {
         struct_layout!(SampleSum, "SampleSum", [color, samples, rays, pad0, pad1])
@@ -317,6 +324,24 @@ pub fn uniform_scene_bindings() -> Vec<BindingLayout> {
         };
     }
     b
+}
+
+/// `bytes` of scene binding `binding`, padded with zeros to the whole
+/// declared array when the uniform kernels read that binding as a uniform
+/// block (`uniform_scene_bindings`); else as they are.
+pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    let declared = uniform_scene_bindings().into_iter().find(|b| b.binding == binding).and_then(|b| match b.shape {
+        BufferShape::UniformArray(s, n) => Some((s.size * n) as usize),
+        _ => None,
+    });
+    match declared {
+        Some(len) if len > bytes.len() => {
+            let mut v = bytes.to_vec();
+            v.resize(len, 0);
+            std::borrow::Cow::Owned(v)
+        }
+        _ => std::borrow::Cow::Borrowed(bytes),
+    }
 }
 
 /// The bindings of render_uniform.comp: `render_bindings` with the scene's

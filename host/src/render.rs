@@ -55,6 +55,10 @@ pub struct GpuTimings {
     pub readback: Duration,
 }
 
+/// The render kernel with the scene's small arrays in uniform buffers
+/// (shaders/render_uniform.comp), by its name.
+pub const UNIFORM_KERNEL: &str = "render_uniform";
+
 /// Where render's scene arrays live: the choice between render.comp and
 /// render_uniform.comp.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -107,14 +111,18 @@ pub struct GpuRenderer {
 /// have made without its limit.
 pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRenderer) -> usize {
     let width = picture.width as usize;
-    let is_cut = |p: &PixelOut| p.rays & layout::RAYS_CUT_SHORT != 0;
-    let mut rows: Vec<u32> = picture.pixels.chunks(width).enumerate().filter(|(_, row)| row.iter().any(is_cut)).map(|(i, _)| i as u32).collect();
-    rows.dedup();
+    let rows: Vec<u32> = picture
+        .pixels
+        .chunks(width)
+        .enumerate()
+        .filter(|(_, row)| row.iter().any(PixelOut::is_cut_short))
+        .map(|(i, _)| i as u32)
+        .collect();
     let mut count = 0;
     for (row, cpu_row) in rows.iter().zip(cpu.render_rows(data, &rows)) {
         let device_row = &mut picture.pixels[*row as usize * width..][..width];
         for (d, c) in device_row.iter_mut().zip(cpu_row) {
-            if is_cut(d) {
+            if d.is_cut_short() {
                 *d = c;
                 count += 1;
             }
@@ -130,12 +138,11 @@ pub const RENDER_ADVICE: &str = "`raycast render` finishes such pixels with the 
 /// An error when the kernel marked pixels whose loops the device ended
 /// early (raycast.glsl loop_budget_ok): such a picture is wrong.
 pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str, advice: &'static str) -> Result<(), GpuError> {
-    let is_cut = |p: &PixelOut| p.rays & layout::RAYS_CUT_SHORT != 0;
-    let Some(first) = pixels.iter().position(is_cut) else { return Ok(()) };
+    let Some(first) = pixels.iter().position(PixelOut::is_cut_short) else { return Ok(()) };
     let first = first as u32;
     Err(GpuError::CutShort {
         device: device.to_string(),
-        count: pixels.iter().filter(|p| is_cut(p)).count(),
+        count: pixels.iter().filter(|p| p.is_cut_short()).count(),
         total: pixels.len(),
         first: (first % width, first / width),
         advice,
@@ -145,7 +152,7 @@ pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str, advice: &
 impl GpuRenderer {
     /// The device of `options` with the embedded render kernels.
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer, GpuError> {
-        let uniform = kernel_spirv("render_uniform").expect("build.rs embeds shaders/render_uniform.comp");
+        let uniform = kernel_spirv(UNIFORM_KERNEL).expect("build.rs embeds shaders/render_uniform.comp");
         GpuRenderer::with_spirv(options, render_spirv(), Some(uniform))
     }
 
@@ -186,7 +193,7 @@ impl GpuRenderer {
     /// The kernel for `data`, by the choice made (`with_scene_buffers`):
     /// render_uniform.comp when the scene fits it, else render.comp.
     pub fn kernel_for(&self, data: &FrameData) -> Result<&Kernel, GpuError> {
-        let bad = |message: String| GpuError::BadRun { kernel: "render_uniform".into(), message };
+        let bad = |message: String| GpuError::BadRun { kernel: UNIFORM_KERNEL.into(), message };
         let fits = fits_uniform(data);
         let want_uniform = match self.choice {
             SceneBuffers::Storage => false,
@@ -200,7 +207,7 @@ impl GpuRenderer {
             let Some(u) = &self.uniform else {
                 return Err(bad("there is no render_uniform.comp (in the --shaders folder)".into()));
             };
-            ("render_uniform", u, layout::render_uniform_bindings())
+            (UNIFORM_KERNEL, u, layout::render_uniform_bindings())
         } else {
             ("render", &self.storage, layout::render_bindings())
         };
@@ -233,24 +240,14 @@ impl GpuRenderer {
         let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), f.height.div_ceil(layout::WORKGROUP_SIZE), 1];
         let kernel = self.kernel_for(data)?;
         // A uniform block's buffer holds its whole declared array (zeros past the scene's own).
-        let padded: Vec<(u32, Vec<u8>)> = kernel
-            .bindings()
-            .iter()
-            .filter_map(|b| match &b.shape {
-                layout::BufferShape::UniformArray(s, n) => {
-                    let (_, _, bytes) = data.scene_buffers().into_iter().find(|(binding, _, _)| *binding == b.binding)?;
-                    let mut v = bytes.to_vec();
-                    v.resize((s.size * n) as usize, 0);
-                    Some((b.binding, v))
-                }
-                _ => None,
-            })
+        let uniform = kernel.name() == UNIFORM_KERNEL;
+        let scene: Vec<(u32, std::borrow::Cow<[u8]>)> = data
+            .scene_buffers()
+            .into_iter()
+            .map(|(binding, _, bytes)| (binding, if uniform { layout::padded_for_uniform(binding, bytes) } else { bytes.into() }))
             .collect();
         let mut inputs = vec![(layout::BINDING_FRAME, bytemuck::bytes_of(&data.frame))];
-        for (binding, _, bytes) in data.scene_buffers() {
-            let bytes = padded.iter().find(|(b, _)| *b == binding).map_or(bytes, |(_, v)| v.as_slice());
-            inputs.push((binding, bytes));
-        }
+        inputs.extend(scene.iter().map(|(binding, bytes)| (*binding, bytes.as_ref())));
         // The samples' running sums start at zero: sample 0 is next.
         let sums = vec![0u8; count * std::mem::size_of::<layout::SampleSum>()];
         inputs.push((layout::BINDING_SAMPLE_SUMS, &sums));

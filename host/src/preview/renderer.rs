@@ -63,20 +63,12 @@ struct SceneBuffers {
 impl SceneBuffers {
     fn new(ctx: &GpuContext, data: &FrameData) -> Result<SceneBuffers, GpuError> {
         let fits_uniform = crate::render::fits_uniform(data).is_ok();
-        let uniform = crate::layout::uniform_scene_bindings();
         let buffers = data
             .scene_buffers()
             .iter()
             .map(|&(binding, what, bytes)| {
-                let declared = uniform.iter().find(|b| b.binding == binding).and_then(|b| match &b.shape {
-                    crate::layout::BufferShape::UniformArray(s, n) if fits_uniform => Some((s.size * n) as usize),
-                    _ => None,
-                });
-                let mut owned = bytes.to_vec();
-                if let Some(len) = declared {
-                    owned.resize(len.max(bytes.len()), 0);
-                }
-                Ok((binding, Buffer::with_data(ctx, &owned, what)?))
+                let bytes = if fits_uniform { crate::layout::padded_for_uniform(binding, bytes) } else { bytes.into() };
+                Ok((binding, Buffer::with_data(ctx, &bytes, what)?))
             })
             .collect::<Result<_, GpuError>>()?;
         Ok(SceneBuffers { buffers, fits_uniform })
