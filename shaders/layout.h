@@ -49,6 +49,30 @@
 
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 
+// Specialization constants (their constant_id): what a kernel may leave out.
+// scene_buffers.glsl declares them as HAS_* bools, true unless the host
+// says otherwise; the C++ build has them all true. Lavapipe runs every
+// branch of a shader whether or not any lane takes it, so a kernel pays for
+// the cone test, spot lights or bilinear filtering in every pass even when
+// the scene has none; the host turns off what a scene and its frame flags
+// cannot use (render::Specialization::of) and the compiler drops that code.
+// A constant turned off only removes code the scene never reaches, so the
+// pixels are the same bit for bit (`raycast check` compares the specialised
+// kernel with the CPU build).
+#define SPEC_CUBES 0
+#define SPEC_CONES 1
+#define SPEC_CYLINDERS 2
+#define SPEC_SPHERES 3
+#define SPEC_INSTANCES 4         // the scene places instances of groups
+#define SPEC_POSITIONED_LIGHTS 5 // a point or spot light (attenuation)
+#define SPEC_SPOT_LIGHTS 6
+#define SPEC_TEXTURES 7          // a textured material, and FLAG_TEXTURES
+#define SPEC_BILINEAR 8          // ... with FILTER_BILINEAR
+#define SPEC_SPECULAR 9          // a material with shininess > 0
+#define SPEC_SHADOWS 10          // FLAG_SHADOWS
+#define SPEC_REFLECTIONS 11      // FLAG_REFLECTIONS and a mirror material
+#define SPEC_COUNT 12
+
 // Primitive.shape
 #define SHAPE_CUBE 0u
 #define SHAPE_CONE 1u

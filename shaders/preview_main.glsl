@@ -44,8 +44,9 @@ vec3 id_color(SceneHit hit) {
 }
 
 void main() {
-    uint j = gl_GlobalInvocationID.x;
-    uint i = gl_GlobalInvocationID.y + preview.row_offset;
+    uvec2 pixel = tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationIndex);
+    uint j = pixel.x;
+    uint i = pixel.y + preview.row_offset;
     if (j >= frame.width || i >= frame.height) {
         return;
     }

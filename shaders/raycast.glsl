@@ -378,17 +378,22 @@ ShapeHit intersect_cone(Ray r) {
     return best;
 }
 
+// The test of shape `shape`; the HAS_* constants leave out the shapes a
+// specialised kernel's scene does not have.
 ShapeHit intersect_shape(uint shape, Ray r) {
-    if (shape == SHAPE_CUBE) {
+    if (HAS_CUBES && shape == SHAPE_CUBE) {
         return intersect_cube(r);
     }
-    if (shape == SHAPE_CONE) {
+    if (HAS_CONES && shape == SHAPE_CONE) {
         return intersect_cone(r);
     }
-    if (shape == SHAPE_CYLINDER) {
+    if (HAS_CYLINDERS && shape == SHAPE_CYLINDER) {
         return intersect_cylinder(r);
     }
-    return intersect_sphere(r);
+    if (HAS_SPHERES) {
+        return intersect_sphere(r);
+    }
+    return no_hit();
 }
 
 // ---------------------------------------------------------------------------
@@ -471,8 +476,9 @@ uint stack_word(uint entry, uint level) {
 // the same pass; an inner node tests both children's boxes and pushes only
 // those the ray meets, so a missed box costs no pass of its own. (Roots
 // are not tested: the scene's root is entered whole, an instance's root
-// lies inside its parent's leaf box.) 24 to 13 passes a camera ray on
-// recursiveSpheres4, 1.4 times faster there (BENCHMARKS.md).
+// lies inside its parent's leaf box.) On recursiveSpheres4 a camera ray
+// takes 13 passes on average where it took 24, and the frame is 1.4 times
+// faster on lavapipe.
 SceneHit walk(Ray r, float t_max, bool any_hit) {
     SceneHit best;
     best.t = t_max;
@@ -515,7 +521,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
             lr.origin = level_origin[level];
             lr.direction = level_direction[level];
-            if ((entry & ITEM_INSTANCE) != 0u) {
+            if (HAS_INSTANCES && (entry & ITEM_INSTANCE) != 0u) {
                 // Enter the instance: its group's ray one level down.
                 uint k = entry & (ITEM_INSTANCE - 1u);
                 Ray inner = ray_through(instances[k].object_from_parent, lr);
@@ -550,7 +556,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         uint first_id = level_first_id[level];
         for (uint n = 0u; n < item_count; n++) {
             uint item = direct ? first_item : leaf_items[first_item + n].item;
-            if ((item & ITEM_INSTANCE) != 0u) {
+            if (HAS_INSTANCES && (item & ITEM_INSTANCE) != 0u) {
                 stack[top] = stack_word(item, level);
                 top = top + 1;
                 continue;
@@ -566,8 +572,10 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 best.p_object = p_object;
                 // The normal rule, level by level back to the world.
                 precise vec3 n_world = transform_normal(primitives[item].object_from_world, h.normal);
-                for (uint l = level; l > 0u; l--) {
-                    n_world = transform_normal(instances[level_instance[l]].object_from_parent, n_world);
+                if (HAS_INSTANCES) {
+                    for (uint l = level; l > 0u; l--) {
+                        n_world = transform_normal(instances[level_instance[l]].object_from_parent, n_world);
+                    }
                 }
                 best.normal = n_world;
                 best.material = primitives[item].material;
@@ -610,7 +618,7 @@ precise float around_y(vec3 p) {
 
 // (u, v) of an object-space hit point p with the shape test's normal n.
 precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
-    if (shape == SHAPE_CUBE) {
+    if (HAS_CUBES && shape == SHAPE_CUBE) {
         if (n.x > 0.0f) {
             return vec2(0.5f - p.z, 0.5f - p.y);
         }
@@ -628,7 +636,7 @@ precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
         }
         return vec2(0.5f - p.x, 0.5f - p.y);
     }
-    if (shape == SHAPE_SPHERE) {
+    if (HAS_SPHERES && shape == SHAPE_SPHERE) {
         return vec2(around_y(p), 0.5f - asin_portable(2.0f * p.y) * 0.318309873f);
     }
     // Cylinder and cone: caps have the normal (0, +-1, 0), bodies n.y >= 0
@@ -658,16 +666,8 @@ uint wrap(float x, uint size) {
     return uint(f) % size;
 }
 
-// T(u, v): u, v clamped to [0, 1], scaled by the repeat counts. Nearest:
-// column floor(u r_u W) mod W, row floor(v r_v H) mod H. Bilinear: the four
-// texels around (u r_u W - 1/2, v r_v H - 1/2), wrapped, weighted in a fixed order.
-precise vec3 sample_texture(Material m, vec2 uv) {
-    Texture tex = textures[uint(m.texture)];
-    precise float x = (clamp01(uv.x) * m.texture_repeat.x) * float(tex.width);
-    precise float y = (clamp01(uv.y) * m.texture_repeat.y) * float(tex.height);
-    if (frame.texture_filter == FILTER_NEAREST) {
-        return texel_rgb(tex, wrap(max_f(x, 0.0f), tex.width), wrap(max_f(y, 0.0f), tex.height));
-    }
+// The bilinear filter of sample_texture at texel coordinates (x, y).
+precise vec3 bilinear(Texture tex, float x, float y) {
     precise float bx = max_f(x - 0.5f, -1.0f);
     precise float by = max_f(y - 0.5f, -1.0f);
     precise float fx = bx - floor(bx);
@@ -682,21 +682,28 @@ precise vec3 sample_texture(Material m, vec2 uv) {
     return c;
 }
 
+// T(u, v): u, v clamped to [0, 1], scaled by the repeat counts. Nearest:
+// column floor(u r_u W) mod W, row floor(v r_v H) mod H. Bilinear: the four
+// texels around (u r_u W - 1/2, v r_v H - 1/2), wrapped, weighted in a fixed order.
+precise vec3 sample_texture(Material m, vec2 uv) {
+    Texture tex = textures[uint(m.texture)];
+    precise float x = (clamp01(uv.x) * m.texture_repeat.x) * float(tex.width);
+    precise float y = (clamp01(uv.y) * m.texture_repeat.y) * float(tex.height);
+    if (HAS_BILINEAR && frame.texture_filter != FILTER_NEAREST) {
+        return bilinear(tex, x, y);
+    }
+    return texel_rgb(tex, wrap(max_f(x, 0.0f), tex.width), wrap(max_f(y, 0.0f), tex.height));
+}
+
 // ---------------------------------------------------------------------------
 // Local lighting (docs/SCENE_FORMAT.md, "Lighting model of the official renders")
 
-// The intensity of light `l` arriving along unit `to_light` (pointing at the
-// light) from `dist` away, before shadows: colour, distance attenuation and
-// spot falloff.
-precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
-    precise vec3 intensity = xyz(l.color);
-    if (l.kind == LIGHT_DIRECTIONAL) {
-        return intensity;
-    }
+// light_intensity of a point or spot light of colour `color`.
+precise vec3 positioned_light_intensity(Light l, vec3 color, vec3 to_light, float dist) {
     precise float falloff = (l.attenuation.x + l.attenuation.y * dist) + l.attenuation.z * (dist * dist);
     precise float att = min_f(1.0f, 1.0f / falloff);
-    intensity = intensity * att;
-    if (l.kind == LIGHT_SPOT) {
+    precise vec3 intensity = color * att;
+    if (HAS_SPOT_LIGHTS && l.kind == LIGHT_SPOT) {
         // Angle between the spot axis and (p - position) = -to_light.
         precise float cos_theta = -dot3(xyz(l.spot_axis), to_light);
         precise float theta = acos_portable(cos_theta) * DEGREES_PER_RADIAN;
@@ -709,6 +716,17 @@ precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
             precise float smooth_step = (3.0f * (x * x)) - 2.0f * ((x * x) * x);
             intensity = intensity * (1.0f - smooth_step);
         }
+    }
+    return intensity;
+}
+
+// The intensity of light `l` arriving along unit `to_light` (pointing at the
+// light) from `dist` away, before shadows: colour, distance attenuation and
+// spot falloff.
+precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
+    precise vec3 intensity = xyz(l.color);
+    if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
+        return positioned_light_intensity(l, intensity, to_light, dist);
     }
     return intensity;
 }
@@ -731,7 +749,7 @@ Shading local_color(Ray r, SceneHit hit) {
     precise vec3 v = -unit(r.direction);
     precise vec3 color = frame.k.x * xyz(m.ambient) + xyz(m.emissive);
     precise vec3 diffuse = frame.k.y * xyz(m.diffuse);
-    if (m.texture >= 0 && (frame.flags & FLAG_TEXTURES) != 0u) {
+    if (HAS_TEXTURES && m.texture >= 0 && (frame.flags & FLAG_TEXTURES) != 0u) {
         precise vec3 texel = sample_texture(m, surface_uv(hit.shape, hit.p_object, hit.n_object));
         diffuse = (1.0f - m.blend) * diffuse + m.blend * texel;
     }
@@ -740,12 +758,12 @@ Shading local_color(Ray r, SceneHit hit) {
         Light l = lights[li];
         precise vec3 to_light = xyz(l.direction_to_light);
         precise float dist = 0.0f;
-        if (l.kind != LIGHT_DIRECTIONAL) {
+        if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
             precise vec3 d = xyz(l.position) - p;
             dist = sqrt(dot3(d, d));
             to_light = d / dist;
         }
-        if ((frame.flags & FLAG_SHADOWS) != 0u) {
+        if (HAS_SHADOWS && (frame.flags & FLAG_SHADOWS) != 0u) {
             // From 0.001 (ray_offset) along L toward the light: blocked by
             // anything closer than the light (anything at all for a
             // directional light).
@@ -754,7 +772,7 @@ Shading local_color(Ray r, SceneHit hit) {
             shadow.origin = shadow_origin;
             shadow.direction = to_light;
             precise float t_max = T_FAR;
-            if (l.kind != LIGHT_DIRECTIONAL) {
+            if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
                 precise vec3 rest = xyz(l.position) - shadow_origin;
                 t_max = sqrt(dot3(rest, rest));
             }
@@ -766,7 +784,7 @@ Shading local_color(Ray r, SceneHit hit) {
         precise vec3 intensity = light_intensity(l, to_light, dist);
         precise float n_dot_l = dot3(n, to_light);
         precise vec3 term = diffuse * max_f(0.0f, n_dot_l);
-        if (m.shininess > 0.0f) {
+        if (HAS_SPECULAR && m.shininess > 0.0f) {
             precise vec3 reflected = (2.0f * n_dot_l) * n - to_light;
             precise float highlight = pow_portable(max_f(0.0f, dot3(reflected, v)), m.shininess);
             term = term + specular * highlight;
@@ -792,7 +810,7 @@ Shading radiance(Ray r, SceneHit first) {
     vec3 local_at[MAX_DEPTH + 1];
     vec3 weight_at[MAX_DEPTH + 1];
     uint depth = min(frame.max_depth, uint(MAX_DEPTH));
-    bool reflections = (frame.flags & FLAG_REFLECTIONS) != 0u;
+    bool reflections = HAS_REFLECTIONS && (frame.flags & FLAG_REFLECTIONS) != 0u;
     uint levels = 0u;
     uint rays = 0u;
     Ray ray = r;
@@ -918,6 +936,19 @@ PixelOut pixel_out(SceneHit hit, vec3 color, uint rays) {
         o.id = hit.id;
     }
     return o;
+}
+
+// The pixel of invocation k (gl_LocalInvocationIndex) of workgroup `group`
+// in the kernels' 8x8 tiles (WORKGROUP_SIZE; the bit layout assumes 8).
+// Lavapipe runs invocations 8n .. 8n+7 as one 8-wide vector, so these are
+// a 4x2 block of pixels rather than a row of 8: rays closer together take
+// more alike paths through the hierarchy, and the vector's loops end sooner
+// (9% on recursiveSpheres4). Every pixel of the tile is still one
+// invocation's; GPUs with 32-wide subgroups still get 8x4 blocks.
+uvec2 tile_pixel(uvec2 group, uint k) {
+    uint x = (k & 3u) | (((k >> 3u) & 1u) << 2u);
+    uint y = ((k >> 2u) & 1u) | ((k >> 4u) << 1u);
+    return uvec2(group.x * uint(WORKGROUP_SIZE) + x, group.y * uint(WORKGROUP_SIZE) + y);
 }
 
 // Whether the device ran every loop of this invocation to its end.

@@ -24,8 +24,9 @@ layout(std430, binding = BINDING_SAMPLE_SUMS) buffer SampleSumBlock { SampleSum 
 #include "raycast.glsl"
 
 void main() {
-    uint j = gl_GlobalInvocationID.x;
-    uint i = gl_GlobalInvocationID.y;
+    uvec2 pixel = tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationIndex);
+    uint j = pixel.x;
+    uint i = pixel.y;
     if (j >= frame.width || i >= frame.height) {
         return;
     }

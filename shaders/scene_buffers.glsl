@@ -22,6 +22,23 @@ layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light ligh
 layout(std430, binding = BINDING_NODES) readonly buffer NodeBlock { BvhNode nodes[]; };
 layout(std430, binding = BINDING_INSTANCES) readonly buffer InstanceBlock { Instance instances[]; };
 #endif
+// What the kernel may leave out (layout.h, SPEC_*): true unless the host
+// specialises the kernel for a scene. Only ever used as `HAS_X && runtime
+// condition` or `if (HAS_X)`: an expression of constants alone would be an
+// OpSpecConstantOp, which naga does not read.
+layout(constant_id = SPEC_CUBES) const bool HAS_CUBES = true;
+layout(constant_id = SPEC_CONES) const bool HAS_CONES = true;
+layout(constant_id = SPEC_CYLINDERS) const bool HAS_CYLINDERS = true;
+layout(constant_id = SPEC_SPHERES) const bool HAS_SPHERES = true;
+layout(constant_id = SPEC_INSTANCES) const bool HAS_INSTANCES = true;
+layout(constant_id = SPEC_POSITIONED_LIGHTS) const bool HAS_POSITIONED_LIGHTS = true;
+layout(constant_id = SPEC_SPOT_LIGHTS) const bool HAS_SPOT_LIGHTS = true;
+layout(constant_id = SPEC_TEXTURES) const bool HAS_TEXTURES = true;
+layout(constant_id = SPEC_BILINEAR) const bool HAS_BILINEAR = true;
+layout(constant_id = SPEC_SPECULAR) const bool HAS_SPECULAR = true;
+layout(constant_id = SPEC_SHADOWS) const bool HAS_SHADOWS = true;
+layout(constant_id = SPEC_REFLECTIONS) const bool HAS_REFLECTIONS = true;
+
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };
 layout(std430, binding = BINDING_TEXELS) readonly buffer TexelBlock { Texel texels[]; };

@@ -51,6 +51,21 @@ inline void bind_scene(const Scene& s) {
     instances = s.instances;
 }
 
+// The kernels' specialization constants (scene_buffers.glsl): the CPU
+// build is never specialised, so it runs every path the shaders have.
+const bool HAS_CUBES = true;
+const bool HAS_CONES = true;
+const bool HAS_CYLINDERS = true;
+const bool HAS_SPHERES = true;
+const bool HAS_INSTANCES = true;
+const bool HAS_POSITIONED_LIGHTS = true;
+const bool HAS_SPOT_LIGHTS = true;
+const bool HAS_TEXTURES = true;
+const bool HAS_BILINEAR = true;
+const bool HAS_SPECULAR = true;
+const bool HAS_SHADOWS = true;
+const bool HAS_REFLECTIONS = true;
+
 #include "raycast.glsl"
 
 #undef precise

@@ -5,7 +5,7 @@ use crate::cpu::CpuRenderer;
 use crate::frame::FrameData;
 use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel};
 use crate::layout::{self, PixelOut};
-use std::sync::{Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// The render kernel's SPIR-V, compiled from shaders/render.comp at build time.
@@ -88,15 +88,105 @@ pub fn fits_uniform(data: &FrameData) -> Result<(), String> {
     }
 }
 
+/// What a kernel built for a scene keeps of the shaders' code: one bool per
+/// specialization constant (shaders/layout.h SPEC_*), false for what the
+/// scene and its frame flags can never reach.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Specialization([bool; layout::SPEC_COUNT as usize]);
+
+impl Specialization {
+    /// Everything kept: the shaders' defaults, what the CPU build runs.
+    pub const ALL: Specialization = Specialization([true; layout::SPEC_COUNT as usize]);
+
+    /// What rendering `data` with `frame` can reach.
+    pub fn of(data: &FrameData, frame: &layout::Frame) -> Specialization {
+        SceneFeatures::of(data).specialization(frame)
+    }
+
+    /// The constants' values for `Kernel::specialized`.
+    pub fn constants(&self) -> [u32; layout::SPEC_COUNT as usize] {
+        self.0.map(u32::from)
+    }
+}
+
+/// What a scene has that the kernels may leave out when it is missing
+/// (`Specialization`), apart from the frame's flags. Each test is the
+/// shader's own condition over every primitive, light or material, or
+/// looser, so a constant is only turned off where the shader never takes
+/// that path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneFeatures {
+    cubes: bool,
+    cones: bool,
+    cylinders: bool,
+    /// raycast.glsl intersect_shape's last case: any other shape.
+    spheres: bool,
+    instances: bool,
+    positioned_lights: bool,
+    spot_lights: bool,
+    textured: bool,
+    specular: bool,
+    /// A material with a reflective channel other than 0.
+    reflective: bool,
+}
+
+impl SceneFeatures {
+    pub fn of(data: &FrameData) -> SceneFeatures {
+        let shape = |s: u32| data.primitives.iter().any(|p| p.shape == s);
+        let (cube, cone, cylinder) = (layout::SHAPE_CUBE, layout::SHAPE_CONE, layout::SHAPE_CYLINDER);
+        SceneFeatures {
+            cubes: shape(cube),
+            cones: shape(cone),
+            cylinders: shape(cylinder),
+            spheres: data.primitives.iter().any(|p| ![cube, cone, cylinder].contains(&p.shape)),
+            instances: !data.instances.is_empty(),
+            positioned_lights: data.lights.iter().any(|l| l.kind != layout::LIGHT_DIRECTIONAL),
+            spot_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_SPOT),
+            textured: data.materials.iter().any(|m| m.texture >= 0),
+            specular: data.materials.iter().any(|m| m.shininess > 0.0),
+            reflective: data.materials.iter().any(|m| m.reflective[..3].iter().any(|&r| r != 0.0)),
+        }
+    }
+
+    /// The kernel for this scene drawn with `frame`'s flags and coefficients.
+    pub fn specialization(&self, frame: &layout::Frame) -> Specialization {
+        let flag = |f: u32| frame.flags & f != 0;
+        let textures = self.textured && flag(layout::FLAG_TEXTURES);
+        let mut on = [false; layout::SPEC_COUNT as usize];
+        for (id, value) in [
+            (layout::SPEC_CUBES, self.cubes),
+            (layout::SPEC_CONES, self.cones),
+            (layout::SPEC_CYLINDERS, self.cylinders),
+            (layout::SPEC_SPHERES, self.spheres),
+            (layout::SPEC_INSTANCES, self.instances),
+            (layout::SPEC_POSITIONED_LIGHTS, self.positioned_lights),
+            (layout::SPEC_SPOT_LIGHTS, self.spot_lights),
+            (layout::SPEC_TEXTURES, textures),
+            (layout::SPEC_BILINEAR, textures && frame.texture_filter != layout::FILTER_NEAREST),
+            (layout::SPEC_SPECULAR, self.specular),
+            (layout::SPEC_SHADOWS, flag(layout::FLAG_SHADOWS)),
+            // radiance: a mirror weight k_s O_r with a channel other than 0
+            // (kept, too, where the product underflows to 0).
+            (layout::SPEC_REFLECTIONS, flag(layout::FLAG_REFLECTIONS) && self.reflective && frame.k[2] != 0.0),
+        ] {
+            on[id as usize] = value;
+        }
+        Specialization(on)
+    }
+}
+
 /// A Vulkan device with the render kernels, each built and checked on
-/// first use (so a command compiles only the one its scene needs).
+/// first use for the scenes that need it (so a command compiles only the
+/// one its scene needs), specialised for the scene (`Specialization`).
 pub struct GpuRenderer {
     // Field order is drop order: the kernels go before their device.
-    /// render.comp's SPIR-V and kernel.
-    storage: (Vec<u8>, OnceLock<Kernel>),
+    /// Built so far: (uniform, specialization) and the kernel.
+    kernels: Mutex<Vec<((bool, Specialization), Arc<Kernel>)>>,
+    /// render.comp's SPIR-V.
+    storage: Vec<u8>,
     /// render_uniform.comp's; None when there is none (a --shaders folder
     /// without it).
-    uniform: Option<(Vec<u8>, OnceLock<Kernel>)>,
+    uniform: Option<Vec<u8>>,
     context: GpuContext,
     /// Time to check the SPIR-V and build the pipelines so far.
     compile_time: Mutex<Duration>,
@@ -161,8 +251,9 @@ impl GpuRenderer {
     /// there is one, render_uniform.comp's; checked like the embedded ones.
     pub fn with_spirv(options: &GpuOptions, spirv: &[u8], uniform: Option<&[u8]>) -> Result<GpuRenderer, GpuError> {
         Ok(GpuRenderer {
-            storage: (spirv.to_vec(), OnceLock::new()),
-            uniform: uniform.map(|u| (u.to_vec(), OnceLock::new())),
+            kernels: Mutex::new(Vec::new()),
+            storage: spirv.to_vec(),
+            uniform: uniform.map(<[u8]>::to_vec),
             context: GpuContext::new(options)?,
             compile_time: Mutex::new(Duration::ZERO),
             choice: SceneBuffers::Auto,
@@ -191,8 +282,9 @@ impl GpuRenderer {
     }
 
     /// The kernel for `data`, by the choice made (`with_scene_buffers`):
-    /// render_uniform.comp when the scene fits it, else render.comp.
-    pub fn kernel_for(&self, data: &FrameData) -> Result<&Kernel, GpuError> {
+    /// render_uniform.comp when the scene fits it, else render.comp;
+    /// specialised for the scene and its frame flags.
+    pub fn kernel_for(&self, data: &FrameData) -> Result<Arc<Kernel>, GpuError> {
         let bad = |message: String| GpuError::BadRun { kernel: UNIFORM_KERNEL.into(), message };
         let fits = fits_uniform(data);
         let want_uniform = match self.choice {
@@ -203,7 +295,12 @@ impl GpuRenderer {
                 true
             }
         };
-        let (name, (spirv, cell), bindings) = if want_uniform {
+        let key = (want_uniform, Specialization::of(data, &data.frame));
+        let mut kernels = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((_, k)) = kernels.iter().find(|(k, _)| *k == key) {
+            return Ok(k.clone());
+        }
+        let (name, spirv, bindings) = if want_uniform {
             let Some(u) = &self.uniform else {
                 return Err(bad("there is no render_uniform.comp (in the --shaders folder)".into()));
             };
@@ -211,13 +308,11 @@ impl GpuRenderer {
         } else {
             ("render", &self.storage, layout::render_bindings())
         };
-        if let Some(k) = cell.get() {
-            return Ok(k);
-        }
         let start = Instant::now();
-        let k = Kernel::new(&self.context, name, spirv, &bindings)?;
+        let k = Arc::new(Kernel::specialized(&self.context, name, spirv, &bindings, &[], &key.1.constants())?);
         *self.compile_time.lock().unwrap_or_else(|p| p.into_inner()) += start.elapsed();
-        Ok(cell.get_or_init(|| k))
+        kernels.push((key, k.clone()));
+        Ok(k)
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -252,7 +347,7 @@ impl GpuRenderer {
         let sums = vec![0u8; count * std::mem::size_of::<layout::SampleSum>()];
         inputs.push((layout::BINDING_SAMPLE_SUMS, &sums));
         let (bytes, t) = self.context.run_passes(
-            kernel,
+            &kernel,
             &inputs,
             (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
             // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.
@@ -273,5 +368,63 @@ impl GpuRenderer {
         }
         let timings = GpuTimings { upload: t.upload, dispatch: t.dispatch, readback: t.readback };
         Ok((Picture { width: f.width, height: f.height, pixels }, timings))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::RenderSettings;
+
+    fn data(xml: &str, settings: &RenderSettings) -> FrameData {
+        let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        crate::frame::build(&scene, settings).unwrap()
+    }
+
+    /// The constants that are on, by SPEC_* name.
+    fn on(s: Specialization) -> Vec<u32> {
+        (0..layout::SPEC_COUNT).filter(|&id| s.constants()[id as usize] == 1).collect()
+    }
+
+    /// A constant is on exactly when the scene and the flags can reach its
+    /// code: shapes, instances, light kinds, textures, filters, specular,
+    /// shadows and mirrors, each turned off where absent.
+    #[test]
+    fn specialization_keeps_what_the_scene_can_reach() {
+        let plain = r#"<scenefile><globaldata><specularcoeff v="0.5"/></globaldata>
+          <lightdata><id v="0"/><type v="directional"/><direction x="0" y="-1" z="0"/></lightdata>
+          <object type="tree" name="root"><transblock><object type="primitive" name="cube">
+            <reflective r="0" g="0.5" b="0"/></object></transblock></object></scenefile>"#;
+        let d = data(plain, &RenderSettings::default());
+        assert_eq!(on(Specialization::of(&d, &d.frame)), [layout::SPEC_CUBES, layout::SPEC_SHADOWS, layout::SPEC_REFLECTIONS]);
+        let flat = RenderSettings { shadows: false, reflections: false, ..RenderSettings::default() };
+        let d = data(plain, &flat);
+        assert_eq!(on(Specialization::of(&d, &d.frame)), [layout::SPEC_CUBES]);
+
+        let rich = r#"<scenefile><globaldata><specularcoeff v="0"/></globaldata>
+          <lightdata><id v="0"/><type v="spot"/><direction x="0" y="-1" z="0"/><angle v="30"/><penumbra v="5"/></lightdata>
+          <object type="tree" name="m"><transblock><object type="primitive" name="cone">
+            <reflective r="1" g="1" b="1"/><shininess v="20"/></object></transblock></object>
+          <object type="tree" name="root">
+            <transblock><object type="primitive" name="sphere"/></transblock>
+            <transblock><object type="primitive" name="cylinder"/></transblock>
+            <transblock><translate x="2" y="0" z="0"/><object type="master" name="m"/></transblock>
+            <transblock><translate x="4" y="0" z="0"/><object type="master" name="m"/></transblock></object></scenefile>"#;
+        let d = data(rich, &RenderSettings::default());
+        let s = on(Specialization::of(&d, &d.frame));
+        // k_s = 0: no mirror weight, so no reflections; no texture.
+        let expect = [
+            layout::SPEC_CONES,
+            layout::SPEC_CYLINDERS,
+            layout::SPEC_SPHERES,
+            layout::SPEC_INSTANCES,
+            layout::SPEC_POSITIONED_LIGHTS,
+            layout::SPEC_SPOT_LIGHTS,
+            layout::SPEC_SPECULAR,
+            layout::SPEC_SHADOWS,
+        ];
+        assert_eq!(s, expect);
+        assert_ne!(Specialization::of(&d, &d.frame), Specialization::ALL);
     }
 }

@@ -18,6 +18,8 @@ pub struct Kernel {
     bindings: Vec<BindingLayout>,
     images: Vec<ImageBinding>,
     workgroup_size: [u32; 3],
+    /// The specialization constants it was built with (constant_id i = constants[i]).
+    constants: Vec<u32>,
     /// Keeps the device alive while the kernel exists.
     pub(crate) inner: Arc<Inner>,
 }
@@ -38,6 +40,27 @@ impl Kernel {
         expected: &[BindingLayout],
         images: &[ImageBinding],
     ) -> Result<Kernel, GpuError> {
+        Kernel::specialized(ctx, name, spirv, expected, images, &[])
+    }
+
+    /// The checks of [`Kernel::with_images`] alone (naga's validation, the
+    /// bindings and struct layouts against `expected` and `images`), for
+    /// SPIR-V whose pipelines are built later.
+    pub fn check(name: &str, spirv: &[u8], expected: &[BindingLayout], images: &[ImageBinding]) -> Result<(), GpuError> {
+        reflect::reflect(name, spirv, expected, images).map(|_| ())
+    }
+
+    /// [`Kernel::with_images`] with the shader's specialization constants
+    /// 0 .. constants.len() set to `constants` (32-bit each: a bool is 0 or
+    /// 1); the others keep their defaults.
+    pub fn specialized(
+        ctx: &GpuContext,
+        name: &str,
+        spirv: &[u8],
+        expected: &[BindingLayout],
+        images: &[ImageBinding],
+        constants: &[u32],
+    ) -> Result<Kernel, GpuError> {
         let reflection = reflect::reflect(name, spirv, expected, images)?;
         let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|e| GpuError::InvalidSpirv {
             kernel: name.to_string(),
@@ -53,6 +76,7 @@ impl Kernel {
             bindings: expected.to_vec(),
             images: images.to_vec(),
             workgroup_size: reflection.workgroup_size,
+            constants: constants.to_vec(),
             inner: ctx.inner.clone(),
         };
         // From here on, dropping `kernel` destroys whatever was created.
@@ -83,10 +107,15 @@ impl Kernel {
 
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let module = unsafe { d.create_shader_module(&info, None) }.map_err(GpuError::vk("vkCreateShaderModule"))?;
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+            .map(|id| vk::SpecializationMapEntry { constant_id: id, offset: id * 4, size: 4 })
+            .collect();
+        let specialization = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
-            .name(c"main");
+            .name(c"main")
+            .specialization_info(&specialization);
         let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(kernel.pipeline_layout)];
         let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
         unsafe { d.destroy_shader_module(module, None) };
@@ -99,6 +128,11 @@ impl Kernel {
 
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// The specialization constants it was built with (`specialized`).
+    pub fn constants(&self) -> &[u32] {
+        &self.constants
     }
 
     /// The `local_size` of the shader's `main`.

@@ -13,7 +13,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, SystemTime};
 
 use crate::frame::{self, FrameData, RenderSettings};
-use crate::gpu::{glslang_args, GpuContext, GLSLANG};
+use crate::gpu::{glslang_args, GLSLANG};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 
 use super::renderer::PreviewKernels;
@@ -42,7 +42,6 @@ pub struct WatchConfig {
     pub settings: RenderSettings,
     /// The folder with preview.comp and what it includes; None: no shader reload.
     pub shaders: Option<PathBuf>,
-    pub context: Arc<GpuContext>,
 }
 
 /// The watcher thread; stopped and joined on drop.
@@ -125,7 +124,7 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
             let now = Some(shader_stamps(dir));
             if now != shader_stamp {
                 shader_stamp = now;
-                if tx.send(compile(&config.context, dir)).is_err() {
+                if tx.send(compile(dir)).is_err() {
                     return;
                 }
             }
@@ -134,9 +133,9 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
 }
 
 /// glslang on `dir/preview.comp` and, when there is one,
-/// `dir/preview_uniform.comp` (with `dir` on the include path), then the
-/// checked kernels.
-pub fn compile(ctx: &GpuContext, dir: &Path) -> Reload {
+/// `dir/preview_uniform.comp` (with `dir` on the include path), checked
+/// (PreviewKernels::new; the renderer builds their pipelines).
+pub fn compile(dir: &Path) -> Reload {
     let storage = match compile_one(dir, KERNEL_FILE) {
         Ok(b) => b,
         Err(e) => return Reload::Failed(e),
@@ -149,7 +148,7 @@ pub fn compile(ctx: &GpuContext, dir: &Path) -> Reload {
     } else {
         None
     };
-    match PreviewKernels::new(ctx, &storage, uniform.as_deref()) {
+    match PreviewKernels::new(&storage, uniform.as_deref()) {
         Ok(k) => Reload::Kernel(k),
         Err(e) => Reload::Failed(format!("{}: {e}", dir.join(KERNEL_FILE).display())),
     }

@@ -11,43 +11,48 @@ use crate::gpu::{
     StorageImage, Swapchain,
 };
 use crate::layout::{self, Frame, PixelOut};
+use crate::render::{SceneFeatures, Specialization};
 
 use super::layout::{
     preview_bindings, preview_images, preview_uniform_bindings, AccumPixel, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW,
     BINDING_STATUS,
 };
 
-/// The preview kernel with the scene in storage buffers (preview.comp) and,
-/// where there is one, with its small arrays in uniform buffers
-/// (preview_uniform.comp), used for scenes that fit them.
+/// The preview kernel's SPIR-V with the scene in storage buffers
+/// (preview.comp) and, where there is one, with its small arrays in uniform
+/// buffers (preview_uniform.comp), used for scenes that fit them. Checked
+/// when made; the renderer builds the one a scene needs, specialised for it
+/// and the frame's flags (`Specialization`).
 pub struct PreviewKernels {
-    pub storage: Kernel,
-    pub uniform: Option<Kernel>,
+    storage: Vec<u8>,
+    uniform: Option<Vec<u8>>,
 }
 
 impl PreviewKernels {
-    /// Checked kernels from SPIR-V.
-    pub fn new(ctx: &GpuContext, storage: &[u8], uniform: Option<&[u8]>) -> Result<PreviewKernels, GpuError> {
-        Ok(PreviewKernels {
-            storage: Kernel::with_images(ctx, "preview", storage, &preview_bindings(), &preview_images())?,
-            uniform: match uniform {
-                Some(u) => Some(Kernel::with_images(ctx, "preview_uniform", u, &preview_uniform_bindings(), &preview_images())?),
-                None => None,
-            },
-        })
+    /// Checked SPIR-V (naga: the bindings and struct layouts against the host's).
+    pub fn new(storage: &[u8], uniform: Option<&[u8]>) -> Result<PreviewKernels, GpuError> {
+        Kernel::check("preview", storage, &preview_bindings(), &preview_images())?;
+        if let Some(u) = uniform {
+            Kernel::check("preview_uniform", u, &preview_uniform_bindings(), &preview_images())?;
+        }
+        Ok(PreviewKernels { storage: storage.to_vec(), uniform: uniform.map(<[u8]>::to_vec) })
     }
 
     /// The embedded kernels (shaders/preview*.comp, compiled at build time).
-    pub fn embedded(ctx: &GpuContext) -> Result<PreviewKernels, GpuError> {
+    pub fn embedded() -> Result<PreviewKernels, GpuError> {
         let storage = crate::render::kernel_spirv("preview").expect("build.rs embeds shaders/preview.comp");
-        PreviewKernels::new(ctx, storage, crate::render::kernel_spirv("preview_uniform"))
+        PreviewKernels::new(storage, crate::render::kernel_spirv("preview_uniform"))
     }
 
-    /// The uniform-buffer kernel when the scene fits it (`fits`) and there is one.
-    fn pick(&self, fits: bool) -> &Kernel {
+    /// The uniform-buffer kernel when the scene fits it (`fits`) and there
+    /// is one, else the storage one, built for `spec`.
+    fn build(&self, ctx: &GpuContext, fits: bool, spec: Specialization) -> Result<Kernel, GpuError> {
+        let constants = spec.constants();
         match &self.uniform {
-            Some(u) if fits => u,
-            _ => &self.storage,
+            Some(u) if fits => {
+                Kernel::specialized(ctx, "preview_uniform", u, &preview_uniform_bindings(), &preview_images(), &constants)
+            }
+            _ => Kernel::specialized(ctx, "preview", &self.storage, &preview_bindings(), &preview_images(), &constants),
         }
     }
 }
@@ -58,6 +63,8 @@ struct SceneBuffers {
     /// The scene fits preview_uniform.comp's blocks, and the arrays it
     /// reads as uniform blocks are padded to their declared size.
     fits_uniform: bool,
+    /// What the kernel for it needs (with the frame's flags).
+    features: SceneFeatures,
 }
 
 impl SceneBuffers {
@@ -71,7 +78,7 @@ impl SceneBuffers {
                 Ok((binding, Buffer::with_data(ctx, &bytes, what)?))
             })
             .collect::<Result<_, GpuError>>()?;
-        Ok(SceneBuffers { buffers, fits_uniform })
+        Ok(SceneBuffers { buffers, fits_uniform, features: SceneFeatures::of(data) })
     }
 }
 
@@ -108,6 +115,9 @@ pub struct PreviewRenderer {
     scene: SceneBuffers,
     picture: PictureBuffers,
     swapchain: Swapchain,
+    /// The kernel the scene and the last frame's flags needed, and its key
+    /// (uniform, specialization); built when they change.
+    kernel: Option<((bool, Specialization), Kernel)>,
     kernels: PreviewKernels,
     context: Arc<GpuContext>,
 }
@@ -123,7 +133,7 @@ impl PreviewRenderer {
         mode: PresentMode,
     ) -> Result<PreviewRenderer, GpuError> {
         let ctx = &*context;
-        let mut r = PreviewRenderer {
+        let r = PreviewRenderer {
             set: None,
             frames: FrameLoop::new(ctx)?,
             frame: Buffer::new(ctx, std::mem::size_of::<Frame>(), false, "the frame")?,
@@ -133,10 +143,10 @@ impl PreviewRenderer {
             scene: SceneBuffers::new(ctx, data)?,
             picture: PictureBuffers::new(ctx, size)?,
             swapchain: Swapchain::new(ctx, window, mode)?,
+            kernel: None,
             kernels,
             context: context.clone(),
         };
-        r.bind()?;
         Ok(r)
     }
 
@@ -147,6 +157,22 @@ impl PreviewRenderer {
     /// The picture's width and height.
     pub fn size(&self) -> [u32; 2] {
         self.picture.size
+    }
+
+    /// The kernel for the scene drawn with `frame`, built when the scene
+    /// or the frame's flags want another one, and the descriptor set.
+    fn prepare(&mut self, frame: &Frame) -> Result<(), GpuError> {
+        let key = (self.scene.fits_uniform, self.scene.features.specialization(frame));
+        if self.kernel.as_ref().map(|(k, _)| *k) != Some(key) {
+            self.frames.wait()?;
+            self.set = None;
+            self.kernel = None;
+            self.kernel = Some((key, self.kernels.build(&self.context, key.0, key.1)?));
+        }
+        if self.set.is_none() {
+            self.bind()?;
+        }
+        Ok(())
     }
 
     fn bind(&mut self) -> Result<(), GpuError> {
@@ -162,21 +188,18 @@ impl PreviewRenderer {
             (BINDING_DISPLAY, Resource::Image(&p.display)),
             (BINDING_STATUS, Resource::Buffer(&self.status)),
         ]);
-        self.set = Some(DescriptorSet::new(self.kernel(), &resources)?);
+        let (_, kernel) = self.kernel.as_ref().expect("prepare builds the kernel first");
+        self.set = Some(DescriptorSet::new(kernel, &resources)?);
         Ok(())
     }
 
-    /// The kernel the scene uses: preview_uniform.comp when it fits.
-    pub fn kernel(&self) -> &Kernel {
-        self.kernels.pick(self.scene.fits_uniform)
-    }
-
-    /// Replaces the kernels (a reloaded shader).
+    /// Replaces the kernels (a reloaded shader): the next frame builds its own.
     pub fn set_kernels(&mut self, kernels: PreviewKernels) -> Result<(), GpuError> {
         self.frames.wait()?;
         self.set = None;
+        self.kernel = None;
         self.kernels = kernels;
-        self.bind()
+        Ok(())
     }
 
     /// Replaces the scene's buffers (a reloaded scene).
@@ -184,7 +207,7 @@ impl PreviewRenderer {
         self.frames.wait()?;
         self.set = None;
         self.scene = SceneBuffers::new(&self.context, data)?;
-        self.bind()
+        Ok(())
     }
 
     /// A new picture size: new per-pixel buffers and display image.
@@ -196,7 +219,7 @@ impl PreviewRenderer {
         self.set = None;
         self.picture = PictureBuffers::new(&self.context, size)?;
         self.frame_size = size;
-        self.bind()
+        Ok(())
     }
 
     /// A new window size: a new swapchain.
@@ -216,15 +239,16 @@ impl PreviewRenderer {
         assert!(frame.width >= 1 && frame.height >= 1 && frame.width <= w && frame.height <= h, "the frame fits the picture");
         assert!(preview.row_offset < row_end && row_end <= frame.height, "the band is inside the frame");
         self.frames.wait()?;
+        self.prepare(frame)?;
         self.frame_size = [frame.width, frame.height];
         self.status.write(0, bytemuck::bytes_of(&PreviewStatus::default()));
         self.frame.write(0, bytemuck::bytes_of(frame));
         self.preview.write(0, bytemuck::bytes_of(preview));
-        let wg = self.kernel().workgroup_size();
+        let (_, kernel) = self.kernel.as_ref().expect("prepared");
+        let wg = kernel.workgroup_size();
         let groups = [frame.width.div_ceil(wg[0]), (row_end - preview.row_offset).div_ceil(wg[1]), 1];
         let set = self.set.as_ref().expect("bound");
         let swapchain = present.then_some(&mut self.swapchain);
-        let kernel = self.kernels.pick(self.scene.fits_uniform);
         self.frames.submit(kernel, set, groups, &self.picture.display, self.frame_size, swapchain)
     }
 
