@@ -474,11 +474,12 @@ uint stack_word(uint entry, uint level) {
 // 8-wide vector is done: a pass costs the whole body, so each pass does as
 // much as it can. Entering an instance goes straight on to its root node in
 // the same pass; an inner node tests both children's boxes and pushes only
-// those the ray meets, so a missed box costs no pass of its own. (Roots
-// are not tested: the scene's root is entered whole, an instance's root
-// lies inside its parent's leaf box.) On recursiveSpheres4 a camera ray
-// takes 13 passes on average where it took 24, and the frame is 1.4 times
-// faster on lavapipe.
+// those the ray meets, so a missed box costs no pass of its own; when the
+// child left on top is a leaf, its items are tested in the same pass too.
+// (Roots are not tested: the scene's root is entered whole, an instance's
+// root lies inside its parent's leaf box.) On recursiveSpheres4 a camera
+// ray takes 11 passes on average where it took 24 (BENCHMARKS.md, "What
+// made lavapipe faster").
 SceneHit walk(Ray r, float t_max, bool any_hit) {
     SceneHit best;
     best.t = t_max;
@@ -540,15 +541,25 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 bool left_first = lr.direction[node.axis] >= 0.0f;
                 uint c0 = left_first ? node.first + 1u : node.first;
                 uint c1 = left_first ? node.first : node.first + 1u;
+                uint pushed = NO_HIT;
                 if (!use_boxes || box_hit(lr, nodes[c0].lo, nodes[c0].hi, best.t)) {
                     stack[top] = stack_word(c0, level);
                     top = top + 1;
+                    pushed = c0;
                 }
                 if (!use_boxes || box_hit(lr, nodes[c1].lo, nodes[c1].hi, best.t)) {
                     stack[top] = stack_word(c1, level);
                     top = top + 1;
+                    pushed = c1;
                 }
-                continue;
+                if (pushed == NO_HIT) {
+                    continue;
+                }
+                node = nodes[pushed];
+                if (node.count == 0u) {
+                    continue;
+                }
+                top = top - 1;
             }
             first_item = node.first;
             item_count = node.count;
