@@ -751,6 +751,7 @@ struct Shading {
 
 // Phong at a hit seen along ray r: ambient + emissive + for each light that
 // is not shadowed, diffuse (textured: blended with the texel) and specular.
+// A shadow ray is traced only for a light that would add something.
 // Not clamped: the caller clamps after adding the reflection.
 Shading local_color(Ray r, SceneHit hit) {
     uint rays = 0u;
@@ -774,6 +775,21 @@ Shading local_color(Ray r, SceneHit hit) {
             dist = sqrt(dot3(d, d));
             to_light = d / dist;
         }
+        precise vec3 intensity = light_intensity(l, to_light, dist);
+        precise float n_dot_l = dot3(n, to_light);
+        precise vec3 term = diffuse * max_f(0.0f, n_dot_l);
+        if (HAS_SPECULAR && m.shininess > 0.0f) {
+            precise vec3 reflected = (2.0f * n_dot_l) * n - to_light;
+            precise float highlight = pow_portable(max_f(0.0f, dot3(reflected, v)), m.shininess);
+            term = term + specular * highlight;
+        }
+        precise vec3 lit = intensity * term;
+        // A light that adds nothing here (facing away, outside its spot)
+        // needs no shadow ray: shadowed or not, the colour is the same
+        // (adding +-0 changes no bit that is stored).
+        if (lit.x == 0.0f && lit.y == 0.0f && lit.z == 0.0f) {
+            continue;
+        }
         if (HAS_SHADOWS && (frame.flags & FLAG_SHADOWS) != 0u) {
             // From 0.001 (ray_offset) along L toward the light: blocked by
             // anything closer than the light (anything at all for a
@@ -792,15 +808,7 @@ Shading local_color(Ray r, SceneHit hit) {
                 continue;
             }
         }
-        precise vec3 intensity = light_intensity(l, to_light, dist);
-        precise float n_dot_l = dot3(n, to_light);
-        precise vec3 term = diffuse * max_f(0.0f, n_dot_l);
-        if (HAS_SPECULAR && m.shininess > 0.0f) {
-            precise vec3 reflected = (2.0f * n_dot_l) * n - to_light;
-            precise float highlight = pow_portable(max_f(0.0f, dot3(reflected, v)), m.shininess);
-            term = term + specular * highlight;
-        }
-        color = color + intensity * term;
+        color = color + lit;
     }
     Shading result;
     result.color = color;
