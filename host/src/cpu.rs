@@ -144,28 +144,44 @@ mod tests {
     }
 
     /// The camera between two facing mirrors (wide mirror cubes at z = -5
-    /// and z = +5), two lights: every camera ray bounces to the depth limit,
-    /// so every pixel traces 1 camera ray + (depth + 1) shaded hits x 2
-    /// shadow rays + depth mirror rays. Rule: exact count in every pixel.
-    #[test]
-    fn pixels_count_camera_shadow_and_mirror_rays() {
-        const MIRRORS: &str = r#"<scenefile>
+    /// and z = +5) with `second` as its second light: every camera ray
+    /// bounces to the depth limit.
+    fn mirrors(second: &str) -> crate::scene::Scene {
+        let xml = format!(
+            r#"<scenefile>
   <globaldata><ambientcoeff v="0.5"/><diffusecoeff v="0.5"/><specularcoeff v="0.5"/></globaldata>
   <cameradata><pos x="0" y="0" z="0"/><look x="0" y="0" z="-1"/><up x="0" y="1" z="0"/><heightangle v="30"/></cameradata>
   <lightdata><id v="0"/><type v="point"/><color r="1" g="1" b="1"/><position x="0" y="2" z="0"/></lightdata>
-  <lightdata><id v="1"/><type v="directional"/><color r="1" g="1" b="1"/><direction x="0" y="-1" z="0"/></lightdata>
+  {second}
   <object type="tree" name="root">
     <transblock><translate x="0" y="0" z="-5"/><scale x="40" y="40" z="1"/>
       <object type="primitive" name="cube"><diffuse r="1" g="1" b="1"/><reflective r="1" g="1" b="1"/></object></transblock>
     <transblock><translate x="0" y="0" z="5"/><scale x="40" y="40" z="1"/>
       <object type="primitive" name="cube"><diffuse r="1" g="1" b="1"/><reflective r="1" g="1" b="1"/></object></transblock>
   </object>
-</scenefile>"#;
-        let file = crate::scene::parse_str(MIRRORS, std::path::Path::new("mirrors.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &crate::scene::FlattenLimits { max_primitives: 10 }).unwrap();
+</scenefile>"#
+        );
+        let file = crate::scene::parse_str(&xml, std::path::Path::new("mirrors.xml"), &Default::default()).unwrap();
+        crate::scene::flatten(&file, &crate::scene::FlattenLimits { max_primitives: 10 }).unwrap()
+    }
+
+    /// Two point lights between the mirrors light both faces: every pixel
+    /// traces 1 camera ray + (depth + 1) shaded hits x 2 shadow rays +
+    /// depth mirror rays. A directional light along the mirrors (n . l = 0,
+    /// no specular) adds nothing anywhere, so it gets no shadow ray: one per
+    /// hit. Rule: exact count in every pixel.
+    #[test]
+    fn pixels_count_camera_shadow_and_mirror_rays() {
         let renderer = CpuRenderer::new().unwrap();
         let depth = 4;
-        for (shadows, reflections, want) in [(true, true, 1 + (depth + 1) * 2 + depth), (false, true, 1 + depth), (true, false, 1 + 2)] {
+        let point = r#"<lightdata><id v="1"/><type v="point"/><color r="1" g="1" b="1"/><position x="0" y="-2" z="0"/></lightdata>"#;
+        let grazing = r#"<lightdata><id v="1"/><type v="directional"/><color r="1" g="1" b="1"/><direction x="0" y="-1" z="0"/></lightdata>"#;
+        for (second, shadows, reflections, want) in [
+            (point, true, true, 1 + (depth + 1) * 2 + depth),
+            (point, false, true, 1 + depth),
+            (point, true, false, 1 + 2),
+            (grazing, true, true, 1 + (depth + 1) + depth),
+        ] {
             let settings = crate::frame::RenderSettings {
                 width: 16,
                 height: 12,
@@ -174,7 +190,7 @@ mod tests {
                 max_depth: depth,
                 ..Default::default()
             };
-            let picture = renderer.render(&crate::frame::build(&scene, &settings).unwrap());
+            let picture = renderer.render(&crate::frame::build(&mirrors(second), &settings).unwrap());
             let wrong: Vec<(usize, u32)> =
                 picture.pixels.iter().enumerate().filter(|(_, p)| p.rays != want).map(|(i, p)| (i, p.rays)).collect();
             assert!(
