@@ -45,7 +45,7 @@
 #define UNIFORM_MATERIALS 128
 #define UNIFORM_LIGHTS 170
 #define UNIFORM_NODES 341
-#define UNIFORM_INSTANCES 204
+#define UNIFORM_INSTANCES 146
 
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 
@@ -159,6 +159,10 @@ struct LeafItem {
 // A group placed in its parent group's space.
 struct Instance {
     mat4 object_from_parent; // parent group's space -> the placed group's space
+    // Its box in the parent group's space (the placed group's, padded as a
+    // node's): a leaf pushes the instance only when the ray meets it.
+    vec4 lo;
+    vec4 hi;
     uint root;      // the placed group's root node
     uint id_offset; // ids of its primitives start at the parent's first id plus this
     uint pad0;

@@ -568,8 +568,13 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         for (uint n = 0u; n < item_count; n++) {
             uint item = direct ? first_item : leaf_items[first_item + n].item;
             if (HAS_INSTANCES && (item & ITEM_INSTANCE) != 0u) {
-                stack[top] = stack_word(item, level);
-                top = top + 1;
+                // Pushed only when the ray meets the instance's box: a
+                // missed instance costs no pass.
+                uint k = item & (ITEM_INSTANCE - 1u);
+                if (!use_boxes || box_hit(lr, instances[k].lo, instances[k].hi, best.t)) {
+                    stack[top] = stack_word(item, level);
+                    top = top + 1;
+                }
                 continue;
             }
             Ray local = ray_through(primitives[item].object_from_world, lr);

@@ -480,11 +480,16 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let instances = groups
         .iter()
         .flat_map(|g| &g.instances)
-        .map(|i| layout::Instance {
-            object_from_parent: mat4(&i.group_from_parent),
-            root: group_root[i.group as usize],
-            id_offset: i.id_offset as u32,
-            ..Default::default()
+        .map(|i| {
+            let (lo, hi) = group_bounds[i.group as usize].transformed(&i.parent_from_group).padded_f32();
+            layout::Instance {
+                object_from_parent: mat4(&i.group_from_parent),
+                lo,
+                hi,
+                root: group_root[i.group as usize],
+                id_offset: i.id_offset as u32,
+                ..Default::default()
+            }
         })
         .collect();
     for (what, count) in [("nodes", nodes.len()), ("primitives", p_total as usize), ("instances", i_total as usize)] {
@@ -544,8 +549,8 @@ mod tests {
     }
 
     /// Every primitive id is reached exactly once walking the packed
-    /// hierarchy from the root through every instance, and every node's box
-    /// holds its children's.
+    /// hierarchy from the root through every instance, every node's box
+    /// holds its children's, and every instance's box its root's.
     #[test]
     fn packed_hierarchy_reaches_every_primitive_once() {
         let xml = r#"<scenefile>
@@ -592,6 +597,26 @@ mod tests {
             }
         }
         assert!(seen.iter().all(|&s| s == 1), "ids reached other than once: {seen:?}");
+        // Each instance's box (in its parent's space) holds its root node's
+        // box mapped back from the placed group's space (within rounding).
+        for (k, inst) in data.instances.iter().enumerate() {
+            let root = data.nodes[inst.root as usize];
+            let m = glam::Mat4::from_cols_array_2d(&inst.object_from_parent).as_dmat4().inverse();
+            let (lo, hi) = (DVec3::from_slice(&inst.lo.map(f64::from)[..3]), DVec3::from_slice(&inst.hi.map(f64::from)[..3]));
+            let slack = (hi - lo).max_element() * 1e-4;
+            for c in 0..8 {
+                let corner = DVec3::new(
+                    f64::from(if c & 1 == 0 { root.lo[0] } else { root.hi[0] }),
+                    f64::from(if c & 2 == 0 { root.lo[1] } else { root.hi[1] }),
+                    f64::from(if c & 4 == 0 { root.lo[2] } else { root.hi[2] }),
+                );
+                let p = m.transform_point3(corner);
+                assert!(
+                    p.cmpge(lo - slack).all() && p.cmple(hi + slack).all(),
+                    "instance {k}: its root box's corner {p} is outside its box {lo} .. {hi}"
+                );
+            }
+        }
         // Ids follow flatten order: the world matrices of primitive(id) agree.
         let flat = scene.flat_primitives();
         for (id, p) in flat.iter().enumerate() {
