@@ -28,7 +28,7 @@
 #define BINDING_SAMPLE_SUMS 13 // SampleSum[]: render.comp's own, read and written
 
 #define MAX_LEVELS 16  // deepest nesting of instances
-#define STACK_SIZE 64  // traversal stack entries (the host proves a scene fits)
+#define STACK_SIZE 128 // traversal stack entries (the host proves a scene fits)
 #define ITEM_INSTANCE 2147483648u // LeafItem.item bit: an instance, not a primitive
 // A stack word: ITEM_INSTANCE | index or a node index in bits 0-26, the level in 27-30.
 #define STACK_LEVEL_SHIFT 27u

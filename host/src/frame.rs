@@ -406,7 +406,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
             .map(|p| Aabb::UNIT.transformed(&p.world_from_object))
             .chain(group.instances.iter().map(|i| group_bounds[i.group as usize].transformed(&i.parent_from_group)))
             .collect();
-        let built = bvh::build(&bounds);
+        let built = bvh::build(&bounds, np);
         if built.nodes.is_empty() {
             continue;
         }
