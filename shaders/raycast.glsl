@@ -477,8 +477,10 @@ uint stack_word(uint entry, uint level) {
 // those the ray meets, so a missed box costs no pass of its own; when the
 // child left on top is a leaf, its items are tested in the same pass too.
 // (Roots are not tested: the scene's root is entered whole, an instance's
-// root lies inside its parent's leaf box.) On recursiveSpheres4 a camera
-// ray takes 11 passes on average where it took 24 (BENCHMARKS.md, "What
+// root lies inside its parent's leaf box.) A leaf pushes an instance only
+// when the ray meets the instance's box, and holds up to 8 items when at
+// most 4 are primitives (host/src/bvh.rs). On recursiveSpheres4 a camera
+// ray takes 3 passes on average where it took 24 (BENCHMARKS.md, "What
 // made lavapipe faster").
 SceneHit walk(Ray r, float t_max, bool any_hit) {
     SceneHit best;
