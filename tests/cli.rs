@@ -23,6 +23,23 @@ fn raycast(args: &[&str], env: &[(&str, &str)]) -> Output {
     cmd.output().expect("run raycast")
 }
 
+/// `raycast ARGS` run in `dir`, emptied first: what it writes by default lands there.
+fn raycast_in(dir: &Path, args: &[&str]) -> Output {
+    let _ = std::fs::remove_dir_all(dir);
+    std::fs::create_dir_all(dir).unwrap();
+    Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(args)
+        .current_dir(dir)
+        .env("RAYCAST_VALIDATION", "1")
+        .output()
+        .expect("run raycast")
+}
+
+/// The names of the files in `dir`.
+fn files_in(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect()
+}
+
 fn text(o: &Output) -> (String, String) {
     (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
@@ -160,6 +177,11 @@ fn check_passes_on_the_default_scene() {
     }
     assert!(out.contains("identical"), "{out}");
     assert!(diff.exists());
+    // Without -o an identical check leaves no diff image behind.
+    let cwd = out_dir().join("check-default-cwd");
+    let o = raycast_in(&cwd, &["check", "--width", "64", "--height", "48"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert_eq!(files_in(&cwd), Vec::<String>::new(), "an identical check wrote files");
 }
 
 /// A fresh copy of shaders/ in the test output folder, to plant changes in.
@@ -188,6 +210,11 @@ fn check_reports_a_planted_difference() {
     assert!(out.contains(" ULP; worst "), "{out}");
     assert!(out.contains(" (0x"), "hex values expected:\n{out}");
     assert!(err.contains("check failed"), "{err}");
+    // Without -o the diff image goes beside the command, named after the scene.
+    let cwd = out_dir().join("check-planted-cwd");
+    let o = raycast_in(&cwd, &["check", "--shaders", planted.to_str().unwrap(), "--width", "64", "--height", "48"]);
+    assert_eq!(o.status.code(), Some(4), "{:?}", text(&o));
+    assert_eq!(files_in(&cwd), ["default-check.png"], "{:?}", text(&o));
     // --allow-pixels accepts it, and says the check was not exact.
     let o = raycast(&["check", "--shaders", planted.to_str().unwrap(), "--allow-pixels", "1000000", "-o", diff.to_str().unwrap()], &[]);
     let (out, err) = text(&o);

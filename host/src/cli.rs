@@ -123,8 +123,9 @@ struct RenderArgs {
 struct CheckArgs {
     #[command(flatten)]
     frame: FrameArgs,
-    /// Where to write the diff image [default: <scene name>-check.png]: red
-    /// where any buffer differs, a dim copy of the device's render elsewhere.
+    /// Where to write the diff image [default: <scene name>-check.png, and
+    /// only when something differs]: red where any buffer differs, a dim
+    /// copy of the device's render elsewhere.
     #[arg(short, long, value_name = "DIFF.png")]
     output: Option<PathBuf>,
     /// Succeed when at most K pixels differ. For real GPUs, where bit-exactness
@@ -436,9 +437,12 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     let cpu_picture = cpu.render(&p.data);
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
     println!("{report}");
-    let diff_path = args.output.clone().unwrap_or_else(|| default_output(&args.frame, "-check"));
-    image_io::write_png(&diff_path, &report.diff_image)?;
-    println!("wrote {} (red: pixels that differ)", diff_path.display());
+    // The diff image where asked (-o), or by default when there is something to see.
+    if args.output.is_some() || !report.identical() {
+        let diff_path = args.output.clone().unwrap_or_else(|| default_output(&args.frame, "-check"));
+        image_io::write_png(&diff_path, &report.diff_image)?;
+        println!("wrote {} (red: pixels that differ)", diff_path.display());
+    }
     let messages = renderer.context().take_validation_messages();
     drop(renderer);
     check_validation(messages)?;
