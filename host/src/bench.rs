@@ -171,10 +171,16 @@ pub fn reset_peak_host() -> bool {
 /// scene buffer (`FrameData::scene_buffers`: primitives, materials, lights,
 /// textures, texels, and whatever else the frame binds), the samples'
 /// running sums (render.comp's, zeroed by the host) and the pixel buffer
-/// read back. The driver's rounding of each allocation is not
-/// counted, nor the kernel itself.
-pub fn device_bytes(data: &FrameData) -> u64 {
-    let scene: u64 = data.scene_buffers().iter().map(|b| b.2.len() as u64).sum();
+/// read back. With `uniform` (render_uniform.comp), the arrays it reads as
+/// uniform blocks count at their declared size, as they are uploaded
+/// (`layout::padded_for_uniform`). The driver's rounding of each
+/// allocation is not counted, nor the kernel itself.
+pub fn device_bytes(data: &FrameData, uniform: bool) -> u64 {
+    let scene: u64 = data
+        .scene_buffers()
+        .iter()
+        .map(|&(binding, _, bytes)| if uniform { crate::layout::padded_for_uniform(binding, bytes).len() } else { bytes.len() } as u64)
+        .sum();
     let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
     let pixels = u64::from(data.frame.width) * u64::from(data.frame.height) * per_pixel as u64;
     std::mem::size_of::<Frame>() as u64 + scene + pixels
@@ -682,7 +688,8 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         let mut gpu_picture: Option<Picture> = None;
         if let (Some(g), Some(device)) = (&gpu, &gpu_device) {
             // Which kernel: the scene's arrays in uniform or in storage buffers (--scene-buffers).
-            let backend = if g.kernel_for(&loaded.data)?.name() == crate::render::UNIFORM_KERNEL { "gpu uniform" } else { "gpu storage" };
+            let uniform = g.kernel_for(&loaded.data)?.name() == crate::render::UNIFORM_KERNEL;
+            let backend = if uniform { "gpu uniform" } else { "gpu storage" };
             let mut row = row(backend, device);
             reset_peak_host();
             let timed = (|| {
@@ -702,7 +709,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             match timed {
                 Ok(()) => {
                     row.host_peak = peak(peak_host_bytes());
-                    row.device_bytes = Some(device_bytes(&loaded.data));
+                    row.device_bytes = Some(device_bytes(&loaded.data, uniform));
                     rows.push(row);
                 }
                 Err(GpuError::CutShort { count, total, .. }) => {
@@ -818,7 +825,24 @@ mod tests {
         assert!(scene > 0);
         let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
         let expect = std::mem::size_of::<Frame>() as u64 + scene + 40 * per_pixel as u64;
-        assert_eq!(device_bytes(&loaded.data), expect);
+        assert_eq!(device_bytes(&loaded.data, false), expect);
+        // Uniform blocks are uploaded whole, at their declared lengths.
+        use crate::layout::{self as l, BvhNode, Instance, Light, Material, Primitive};
+        use std::mem::size_of;
+        let whole = [
+            (l::BINDING_PRIMITIVES, l::UNIFORM_PRIMITIVES as usize * size_of::<Primitive>()),
+            (l::BINDING_MATERIALS, l::UNIFORM_MATERIALS as usize * size_of::<Material>()),
+            (l::BINDING_LIGHTS, l::UNIFORM_LIGHTS as usize * size_of::<Light>()),
+            (l::BINDING_NODES, l::UNIFORM_NODES as usize * size_of::<BvhNode>()),
+            (l::BINDING_INSTANCES, l::UNIFORM_INSTANCES as usize * size_of::<Instance>()),
+        ];
+        let blocks: u64 = loaded
+            .data
+            .scene_buffers()
+            .iter()
+            .map(|&(binding, _, bytes)| whole.iter().find(|w| w.0 == binding).map_or(bytes.len(), |w| w.1) as u64)
+            .sum();
+        assert_eq!(device_bytes(&loaded.data, true), expect - scene + blocks);
     }
 
     #[test]
