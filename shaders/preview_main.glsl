@@ -53,18 +53,17 @@ void main() {
     uint index = i * frame.width + j;
     vec2 offset = (preview.sample_index == 0u) ? vec2(0.0f, 0.0f) : vec2(preview.jitter.x, preview.jitter.y);
 
-    SceneHit hit;
-    vec3 color;
-    uint rays = 1u;
-    if (preview.mode == PREVIEW_DEPTH || preview.mode == PREVIEW_ID) {
-        Ray r = camera_ray(j, i, offset);
-        hit = trace(r);
-        color = (preview.mode == PREVIEW_DEPTH) ? depth_color(r, hit) : id_color(hit);
-    } else {
-        PixelSample s = sample_pixel(j, i, offset);
-        hit = s.hit;
-        color = s.color;
-        rays = s.rays;
+    // Every mode goes through sample_pixel, so the kernel holds one copy of
+    // the nearest-hit walk (lavapipe compiles and runs every copy); for the
+    // depth and id modes the host asks for the first hit only (AOV_NORMAL).
+    PixelSample s = sample_pixel(j, i, offset);
+    SceneHit hit = s.hit;
+    vec3 color = s.color;
+    uint rays = s.rays;
+    if (preview.mode == PREVIEW_DEPTH) {
+        color = depth_color(camera_ray(j, i, offset), hit);
+    } else if (preview.mode == PREVIEW_ID) {
+        color = id_color(hit);
     }
 
     // Sum the samples; sample 0 divides by exactly 1, so it quantises as render.comp.

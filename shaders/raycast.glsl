@@ -827,58 +827,6 @@ precise vec3 clamp3(vec3 c) {
     return vec3(clamp01(c.x), clamp01(c.y), clamp01(c.z));
 }
 
-// color(ray, depth) of the lighting model without recursion: walk the
-// mirror path, keeping each level's local colour and mirror weight
-// k_s O_r, then fold from the deepest level up, clamping at every level:
-//   c_k = clamp(local_k + weight_k c_(k+1)).
-// `first` is the primary ray's hit (already traced).
-Shading radiance(Ray r, SceneHit first) {
-    vec3 local_at[MAX_DEPTH + 1];
-    vec3 weight_at[MAX_DEPTH + 1];
-    uint depth = min(frame.max_depth, uint(MAX_DEPTH));
-    bool reflections = HAS_REFLECTIONS && (frame.flags & FLAG_REFLECTIONS) != 0u;
-    uint levels = 0u;
-    uint rays = 0u;
-    Ray ray = r;
-    SceneHit hit = first;
-    for (uint level = 0u; level <= depth; level++) {
-        if (hit.id == NO_HIT) {
-            break;
-        }
-        Shading local = local_color(ray, hit);
-        local_at[level] = local.color;
-        rays = rays + local.rays;
-        levels = level + 1u;
-        precise vec3 w = frame.k.z * xyz(materials[hit.material].reflective);
-        weight_at[level] = w;
-        if (!reflections || level == depth || (w.x == 0.0f && w.y == 0.0f && w.z == 0.0f)) {
-            break;
-        }
-        // Mirror direction of the unit ray direction about N, from 0.001
-        // (ray_offset) along it.
-        precise vec3 d = unit(ray.direction);
-        precise vec3 mirror = d - (2.0f * dot3(hit.normal, d)) * hit.normal;
-        precise vec3 p = ray.origin + hit.t * ray.direction;
-        precise vec3 mirror_origin = p + ray_offset(p, ray.origin) * mirror;
-        ray.origin = mirror_origin;
-        ray.direction = mirror;
-        hit = trace(ray);
-        rays = rays + 1u;
-    }
-    precise vec3 c = vec3(0.0f, 0.0f, 0.0f);
-    for (uint k = levels; k > 0u; k--) {
-        if (k == levels) {
-            c = clamp3(local_at[k - 1u]);
-        } else {
-            c = clamp3(local_at[k - 1u] + weight_at[k - 1u] * c);
-        }
-    }
-    Shading result;
-    result.color = c;
-    result.rays = rays;
-    return result;
-}
-
 // ---------------------------------------------------------------------------
 // Output
 
@@ -899,21 +847,67 @@ struct PixelSample {
     uint rays;
 };
 
+// The camera ray through (j, i) at `offset` and color(ray, depth) of the
+// lighting model without recursion: trace the ray and its mirror path,
+// keeping each level's local colour and mirror weight k_s O_r, then fold
+// from the deepest level up, clamping at every level:
+//   c_k = clamp(local_k + weight_k c_(k+1)).
+// The camera ray is level 0 of the loop that traces the mirror rays, so a
+// kernel holds one copy of the nearest-hit walk for both (lavapipe
+// compiles every copy, and runs every one on every pixel). With the normal
+// AOV, the first hit only: its normal as a colour.
 PixelSample sample_pixel(uint j, uint i, vec2 offset) {
-    Ray r = camera_ray(j, i, offset);
+    Ray ray = camera_ray(j, i, offset);
     PixelSample s;
-    s.hit = trace(r);
     s.color = vec3(0.0f, 0.0f, 0.0f);
-    s.rays = 1u;
-    if (s.hit.id != NO_HIT) {
-        if (frame.aov == AOV_NORMAL) {
-            precise vec3 c = (s.hit.normal + 1.0f) * 0.5f;
-            s.color = clamp3(c);
-        } else {
-            Shading shaded = radiance(r, s.hit);
-            s.color = shaded.color;
-            s.rays = s.rays + shaded.rays;
+    s.rays = 0u;
+    vec3 local_at[MAX_DEPTH + 1];
+    vec3 weight_at[MAX_DEPTH + 1];
+    uint depth = min(frame.max_depth, uint(MAX_DEPTH));
+    bool reflections = HAS_REFLECTIONS && (frame.flags & FLAG_REFLECTIONS) != 0u;
+    uint levels = 0u;
+    for (uint level = 0u; level <= depth; level++) {
+        SceneHit hit = trace(ray);
+        s.rays = s.rays + 1u;
+        if (level == 0u) {
+            s.hit = hit;
         }
+        if (hit.id == NO_HIT) {
+            break;
+        }
+        if (frame.aov == AOV_NORMAL) {
+            precise vec3 c = (hit.normal + 1.0f) * 0.5f;
+            s.color = clamp3(c);
+            break;
+        }
+        Shading local = local_color(ray, hit);
+        local_at[level] = local.color;
+        s.rays = s.rays + local.rays;
+        levels = level + 1u;
+        precise vec3 w = frame.k.z * xyz(materials[hit.material].reflective);
+        weight_at[level] = w;
+        if (!reflections || level == depth || (w.x == 0.0f && w.y == 0.0f && w.z == 0.0f)) {
+            break;
+        }
+        // Mirror direction of the unit ray direction about N, from 0.001
+        // (ray_offset) along it.
+        precise vec3 d = unit(ray.direction);
+        precise vec3 mirror = d - (2.0f * dot3(hit.normal, d)) * hit.normal;
+        precise vec3 p = ray.origin + hit.t * ray.direction;
+        precise vec3 mirror_origin = p + ray_offset(p, ray.origin) * mirror;
+        ray.origin = mirror_origin;
+        ray.direction = mirror;
+    }
+    if (levels > 0u) {
+        precise vec3 c = vec3(0.0f, 0.0f, 0.0f);
+        for (uint k = levels; k > 0u; k--) {
+            if (k == levels) {
+                c = clamp3(local_at[k - 1u]);
+            } else {
+                c = clamp3(local_at[k - 1u] + weight_at[k - 1u] * c);
+            }
+        }
+        s.color = c;
     }
     return s;
 }

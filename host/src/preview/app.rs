@@ -534,7 +534,8 @@ impl Preview {
         f.eye = [eye.x as f32, eye.y as f32, eye.z as f32, 1.0];
         f.width = w;
         f.height = h;
-        f.aov = if self.mode == PREVIEW_NORMAL { layout::AOV_NORMAL } else { layout::AOV_COLOR };
+        // The depth and id modes need the first hit only, as the normal AOV (preview_main.glsl).
+        f.aov = if self.mode == PREVIEW_COLOR { layout::AOV_COLOR } else { layout::AOV_NORMAL };
         f.flags = (if self.shadows { layout::FLAG_SHADOWS } else { 0 })
             | (if self.reflections { layout::FLAG_REFLECTIONS } else { 0 })
             | (if self.textures { layout::FLAG_TEXTURES } else { 0 });
