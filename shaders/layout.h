@@ -140,7 +140,8 @@ struct Primitive {
 };
 
 // A node of a group's bounding volume hierarchy, in the group's space.
-// count > 0: a leaf holding leaf_items[first .. first + count);
+// count > 0: a leaf holding leaf_items[first .. first + count), its
+// primitives first and then its instances;
 // count = 0: children first and first + 1, split along axis.
 struct BvhNode {
     vec4 lo;
@@ -148,7 +149,7 @@ struct BvhNode {
     uint first;
     uint count;
     uint axis;
-    uint pad0;
+    uint primitives; // a leaf: how many of its items are primitives; 0 for an inner node
 };
 
 // ITEM_INSTANCE | instance index, or a primitive index.

@@ -511,12 +511,14 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     while (top > 0 || next < frame.primitive_count) {
         uint first_item = 0u;
         uint item_count = 0u;
+        uint prim_count = 0u; // the leaf's primitives come first
         uint level = 0u;
         Ray lr = r;
         bool direct = top == 0; // a primitive index, not a leaf's item range
         if (direct) {
             first_item = next;
             item_count = 1u;
+            prim_count = 1u;
             next = next + 1u;
         } else {
             top = top - 1;
@@ -565,20 +567,11 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             }
             first_item = node.first;
             item_count = node.count;
+            prim_count = HAS_INSTANCES ? node.primitives : node.count;
         }
         uint first_id = level_first_id[level];
-        for (uint n = 0u; n < item_count; n++) {
+        for (uint n = 0u; n < prim_count; n++) {
             uint item = direct ? first_item : leaf_items[first_item + n].item;
-            if (HAS_INSTANCES && (item & ITEM_INSTANCE) != 0u) {
-                // Pushed only when the ray meets the instance's box: a
-                // missed instance costs no pass.
-                uint k = item & (ITEM_INSTANCE - 1u);
-                if (!use_boxes || box_hit(lr, instances[k].lo, instances[k].hi, best.t)) {
-                    stack[top] = stack_word(item, level);
-                    top = top + 1;
-                }
-                continue;
-            }
             Ray local = ray_through(primitives[item].object_from_world, lr);
             ShapeHit h = intersect_shape(primitives[item].shape, local);
             uint id = first_id + primitives[item].id_offset;
@@ -600,6 +593,23 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 best.shape = primitives[item].shape;
                 if (any_hit) {
                     return best;
+                }
+            }
+        }
+        // Then the leaf's instances (after its primitives, whose hits cull
+        // their boxes). Each kind has a loop of its own: lavapipe runs the
+        // whole body of a loop on every pass, so one loop over both would
+        // run the primitive test for every instance and the box test for
+        // every primitive.
+        if (HAS_INSTANCES) {
+            for (uint n = prim_count; n < item_count; n++) {
+                // Pushed only when the ray meets the instance's box: a
+                // missed instance costs no pass.
+                uint item = leaf_items[first_item + n].item;
+                uint k = item & (ITEM_INSTANCE - 1u);
+                if (!use_boxes || box_hit(lr, instances[k].lo, instances[k].hi, best.t)) {
+                    stack[top] = stack_word(item, level);
+                    top = top + 1;
                 }
             }
         }

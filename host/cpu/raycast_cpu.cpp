@@ -44,7 +44,7 @@ const Field fields[] = {
     AT(Frame, flags), AT(Frame, max_depth), AT(Frame, spp), AT(Frame, texture_filter),
     AT(Frame, root_node), AT(Frame, node_count), AT(Frame, loop_canary),
     SIZE(BvhNode), AT(BvhNode, lo), AT(BvhNode, hi), AT(BvhNode, first), AT(BvhNode, count),
-    AT(BvhNode, axis), AT(BvhNode, pad0),
+    AT(BvhNode, axis), AT(BvhNode, primitives),
     SIZE(LeafItem), AT(LeafItem, item),
     SIZE(Instance), AT(Instance, object_from_parent), AT(Instance, lo), AT(Instance, hi), AT(Instance, root), AT(Instance, id_offset),
     AT(Instance, pad0), AT(Instance, pad1),

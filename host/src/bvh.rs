@@ -95,6 +95,9 @@ pub struct Node {
     pub first: u32,
     pub count: u32,
     pub axis: u32,
+    /// A leaf: how many of its items are primitives (they come first in
+    /// `order`, the instances after them).
+    pub primitives: u32,
 }
 
 /// A built hierarchy: nodes (root at 0) and the items in leaf order.
@@ -116,27 +119,35 @@ pub fn build(bounds: &[Aabb], instances_from: usize) -> Bvh {
         return bvh;
     }
     let centroids: Vec<DVec3> = bounds.iter().map(Aabb::centroid).collect();
-    bvh.nodes.push(Node { bounds: Aabb::EMPTY, first: 0, count: 0, axis: 0 });
+    bvh.nodes.push(Node { bounds: Aabb::EMPTY, first: 0, count: 0, axis: 0, primitives: 0 });
     // Explicit stack of (node index, item range, depth).
     let mut todo = vec![(0usize, 0usize, bounds.len(), 0u32)];
     while let Some((node, begin, end, depth)) = todo.pop() {
         let items = &mut bvh.order[begin..end];
         let box_ = items.iter().fold(Aabb::EMPTY, |b, &i| b.union(bounds[i as usize]));
         bvh.depth = bvh.depth.max(depth);
-        let leaf = Node { bounds: box_, first: begin as u32, count: (end - begin) as u32, axis: 0 };
         let primitives = items.iter().filter(|&&i| (i as usize) < instances_from).count();
+        let leaf = Node { bounds: box_, first: begin as u32, count: (end - begin) as u32, axis: 0, primitives: 0 };
+        // A leaf's primitives first (the shader tests them in one loop and
+        // the instances' boxes in another), each part in index order. SAH's
+        // stable partitions keep index order, so this only reorders after a
+        // median split (below MAX_DEPTH).
+        let make_leaf = |items: &mut [u32]| {
+            items.sort_by_key(|&i| ((i as usize) >= instances_from, i));
+            Node { primitives: primitives as u32, ..leaf }
+        };
         if primitives <= MAX_LEAF && items.len() <= MAX_LEAF_ITEMS {
-            bvh.nodes[node] = leaf;
+            bvh.nodes[node] = make_leaf(items);
             continue;
         }
         let Some((axis, mid)) = split(items, bounds, &centroids, depth) else {
-            bvh.nodes[node] = leaf;
+            bvh.nodes[node] = make_leaf(&mut bvh.order[begin..end]);
             continue;
         };
         let left = bvh.nodes.len();
         bvh.nodes.push(leaf);
         bvh.nodes.push(leaf);
-        bvh.nodes[node] = Node { bounds: box_, first: left as u32, count: 0, axis };
+        bvh.nodes[node] = Node { bounds: box_, first: left as u32, count: 0, axis, primitives: 0 };
         todo.push((left + 1, begin + mid, end, depth + 1));
         todo.push((left, begin, begin + mid, depth + 1));
     }
@@ -240,8 +251,9 @@ mod tests {
     }
 
     /// Leaves hold at most MAX_LEAF primitives and MAX_LEAF_ITEMS items in
-    /// all: a primitive and six instances share one leaf, seven primitives
-    /// are split, nine instances too.
+    /// all, their `primitives` primitives first: a primitive and six
+    /// instances share one leaf, seven primitives are split, nine instances
+    /// too.
     #[test]
     fn leaves_hold_more_instances_than_primitives() {
         let row = |n: usize| -> Vec<Aabb> { (0..n).map(|i| unit_at(i as f64 * 3.0, 0.0, 0.0, 0.4)).collect() };
@@ -249,9 +261,37 @@ mod tests {
         let mixed = build(&seven, 1);
         check(&seven, &mixed);
         assert_eq!(mixed.nodes.len(), 1, "one primitive and six instances: one leaf");
+        assert_eq!(mixed.nodes[0].primitives, 1);
         let primitives = build(&seven, seven.len());
         check(&seven, &primitives);
         assert!(primitives.nodes.len() > 1 && primitives.nodes.iter().all(|n| n.count as usize <= MAX_LEAF));
+        // Two primitives beyond nine instances on a line: the leaf at the
+        // far end holds both kinds and lists its primitives first.
+        let line: Vec<Aabb> =
+            (0..11).map(|i| if i < 2 { unit_at(10.0 + i as f64, 0.0, 0.0, 0.4) } else { unit_at((i - 2) as f64, 0.0, 0.0, 0.4) }).collect();
+        let far = build(&line, 2);
+        check(&line, &far);
+        let mixed_leaf = far.nodes.iter().find(|n| n.count > 0 && n.primitives > 0 && n.primitives < n.count).expect("a leaf of both kinds");
+        let items = &far.order[mixed_leaf.first as usize..(mixed_leaf.first + mixed_leaf.count) as usize];
+        assert_eq!(&items[..2], [0, 1], "leaf items {items:?}");
+        // A grid whose first half are primitives: every leaf lists its own first.
+        let mut grid = Vec::new();
+        for i in 0..12 {
+            for j in 0..12 {
+                grid.push(unit_at(((i * 7 + j * 5) % 12) as f64, j as f64 * 2.0, 0.0, 0.4));
+            }
+        }
+        let half = build(&grid, grid.len() / 2);
+        check(&grid, &half);
+        let mut leaves = 0;
+        for node in half.nodes.iter().filter(|n| n.count > 0) {
+            let items = &half.order[node.first as usize..(node.first + node.count) as usize];
+            let (prims, insts) = items.split_at(node.primitives as usize);
+            assert!(prims.iter().all(|&i| (i as usize) < grid.len() / 2), "leaf items {items:?}: primitives {}", node.primitives);
+            assert!(insts.iter().all(|&i| (i as usize) >= grid.len() / 2), "leaf items {items:?}: primitives {}", node.primitives);
+            leaves += 1;
+        }
+        assert!(leaves > 10);
         let nine = row(9);
         let instances = build(&nine, 0);
         check(&nine, &instances);

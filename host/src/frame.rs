@@ -446,7 +446,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                 first: if interior { node_base + node.first } else { leaf_base + node.first },
                 count: node.count,
                 axis: node.axis,
-                pad0: 0,
+                primitives: node.primitives,
             });
         }
         // An interior node's two children are pushed at once: one more entry.

@@ -54,7 +54,7 @@ pub struct BvhNode {
     pub first: u32,
     pub count: u32,
     pub axis: u32,
-    pub pad0: u32,
+    pub primitives: u32,
 }
 
 #[repr(C)]
@@ -227,7 +227,7 @@ impl Primitive {
 
 impl BvhNode {
     pub fn layout() -> StructLayout {
-        struct_layout!(BvhNode, "BvhNode", [lo, hi, first, count, axis, pad0])
+        struct_layout!(BvhNode, "BvhNode", [lo, hi, first, count, axis, primitives])
     }
 }
 
