@@ -345,6 +345,14 @@ fn print_scene(p: &Prepared) {
     );
 }
 
+/// Which kernel drew `data`, and what its specialization kept of the shaders.
+fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure> {
+    let kernel = renderer.kernel_for(data)?;
+    let spec = crate::render::Specialization::of(data, &data.frame);
+    println!("kernel: {}, specialised for the scene: {}", kernel.name(), spec.describe());
+    Ok(())
+}
+
 /// Camera rays (width x height x spp) and every ray the pixels counted, per second of `time`.
 fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> String {
     let f = &data.frame;
@@ -409,6 +417,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         ms(t.readback)
     );
     println!("{}", rate_line(&p.data, &picture, t.dispatch));
+    print_kernel(&renderer, &p.data)?;
     write_picture(&output, &picture)?;
     let messages = renderer.context().take_validation_messages();
     drop(renderer);
@@ -434,6 +443,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         p.data.frame.height
     );
     let (gpu_picture, _) = renderer.render(&p.data)?;
+    print_kernel(&renderer, &p.data)?;
     let cpu_picture = cpu.render(&p.data);
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
     println!("{report}");

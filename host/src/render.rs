@@ -107,7 +107,34 @@ impl Specialization {
     pub fn constants(&self) -> [u32; layout::SPEC_COUNT as usize] {
         self.0.map(u32::from)
     }
+
+    /// What the kernel keeps and what it leaves out, for people:
+    /// "keeps spheres, instances, …; leaves out cubes, …".
+    pub fn describe(&self) -> String {
+        let names = |on: bool| -> Vec<&str> {
+            SPEC_NAMES.iter().filter(|(id, _)| self.0[*id as usize] == on).map(|(_, name)| *name).collect()
+        };
+        let (kept, out) = (names(true), names(false));
+        let list = |v: &[&str]| if v.is_empty() { "nothing".to_string() } else { v.join(", ") };
+        format!("keeps {}; leaves out {}", list(&kept), list(&out))
+    }
 }
+
+/// The specialization constants by name, for `Specialization::describe`.
+const SPEC_NAMES: [(u32, &str); layout::SPEC_COUNT as usize] = [
+    (layout::SPEC_CUBES, "cubes"),
+    (layout::SPEC_CONES, "cones"),
+    (layout::SPEC_CYLINDERS, "cylinders"),
+    (layout::SPEC_SPHERES, "spheres"),
+    (layout::SPEC_INSTANCES, "instances"),
+    (layout::SPEC_POSITIONED_LIGHTS, "point and spot lights"),
+    (layout::SPEC_SPOT_LIGHTS, "spot falloff"),
+    (layout::SPEC_TEXTURES, "textures"),
+    (layout::SPEC_BILINEAR, "bilinear filtering"),
+    (layout::SPEC_SPECULAR, "specular"),
+    (layout::SPEC_SHADOWS, "shadows"),
+    (layout::SPEC_REFLECTIONS, "mirrors"),
+];
 
 /// What a scene has that the kernels may leave out when it is missing
 /// (`Specialization`), apart from the frame's flags. Each test is the
@@ -426,5 +453,15 @@ mod tests {
         ];
         assert_eq!(s, expect);
         assert_ne!(Specialization::of(&d, &d.frame), Specialization::ALL);
+        assert_eq!(
+            Specialization::of(&d, &d.frame).describe(),
+            "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows; \
+             leaves out cubes, textures, bilinear filtering, mirrors"
+        );
+        assert!(Specialization::ALL.describe().ends_with("leaves out nothing"));
+        // Every constant has its name, once.
+        let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
+        ids.sort();
+        assert_eq!(ids, (0..layout::SPEC_COUNT).collect::<Vec<_>>());
     }
 }
