@@ -476,10 +476,10 @@ uint stack_word(uint entry, uint level) {
 // the same pass; an inner node tests both children's boxes and pushes only
 // those the ray meets, so a missed box costs no pass of its own; when the
 // child left on top is a leaf, its items are tested in the same pass too.
-// (Roots are not tested: the scene's root is entered whole, an instance's
-// root lies inside its parent's leaf box.) A leaf pushes an instance only
-// when the ray meets the instance's box, and holds up to 8 items when at
-// most 4 are primitives (host/src/bvh.rs). On recursiveSpheres4 a camera
+// A leaf pushes an instance only when the ray meets the instance's box
+// (so roots need no test of their own: the scene's root is entered whole,
+// an instance's root lies inside the instance's box), and holds up to 8
+// items when at most 4 are primitives (host/src/bvh.rs). On recursiveSpheres4 a camera
 // ray takes 3 passes on average where it took 24 (BENCHMARKS.md, "What
 // made lavapipe faster").
 SceneHit walk(Ray r, float t_max, bool any_hit) {
