@@ -46,6 +46,7 @@
 #define UNIFORM_LIGHTS 170
 #define UNIFORM_NODES 341
 #define UNIFORM_INSTANCES 146
+#define UNIFORM_LEAF_QUADS 1024 // LeafItemQuad: 4096 leaf items
 
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 
@@ -155,6 +156,13 @@ struct BvhNode {
 // ITEM_INSTANCE | instance index, or a primitive index.
 struct LeafItem {
     uint item;
+};
+
+// Four leaf items, as render_uniform.comp reads them: std140 gives an array
+// of one uint 16 bytes an element, so its uniform block packs items 4i ..
+// 4i + 3 into element i (the same bytes as LeafItem[]).
+struct LeafItemQuad {
+    uvec4 items;
 };
 
 // A group placed in its parent group's space.

@@ -571,7 +571,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         }
         uint first_id = level_first_id[level];
         for (uint n = 0u; n < prim_count; n++) {
-            uint item = direct ? first_item : leaf_items[first_item + n].item;
+            uint item = direct ? first_item : leaf_item(first_item + n);
             Ray local = ray_through(primitives[item].object_from_world, lr);
             ShapeHit h = intersect_shape(primitives[item].shape, local);
             uint id = first_id + primitives[item].id_offset;
@@ -605,7 +605,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's box: a
                 // missed instance costs no pass.
-                uint item = leaf_items[first_item + n].item;
+                uint item = leaf_item(first_item + n);
                 uint k = item & (ITEM_INSTANCE - 1u);
                 if (!use_boxes || box_hit(lr, instances[k].lo, instances[k].hi, best.t)) {
                     stack[top] = stack_word(item, level);

@@ -14,6 +14,11 @@ layout(std140, binding = BINDING_MATERIALS) uniform MaterialBlock { Material mat
 layout(std140, binding = BINDING_LIGHTS) uniform LightBlock { Light lights[UNIFORM_LIGHTS]; };
 layout(std140, binding = BINDING_NODES) uniform NodeBlock { BvhNode nodes[UNIFORM_NODES]; };
 layout(std140, binding = BINDING_INSTANCES) uniform InstanceBlock { Instance instances[UNIFORM_INSTANCES]; };
+layout(std140, binding = BINDING_LEAF_ITEMS) uniform LeafItemBlock { LeafItemQuad leaf_item_quads[UNIFORM_LEAF_QUADS]; };
+// Leaf item i (LeafItem.item).
+uint leaf_item(uint i) {
+    return leaf_item_quads[i >> 2u].items[i & 3u];
+}
 #else
 layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
 layout(std430, binding = BINDING_PRIMITIVES) readonly buffer PrimitiveBlock { Primitive primitives[]; };
@@ -21,6 +26,11 @@ layout(std430, binding = BINDING_MATERIALS) readonly buffer MaterialBlock { Mate
 layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light lights[]; };
 layout(std430, binding = BINDING_NODES) readonly buffer NodeBlock { BvhNode nodes[]; };
 layout(std430, binding = BINDING_INSTANCES) readonly buffer InstanceBlock { Instance instances[]; };
+layout(std430, binding = BINDING_LEAF_ITEMS) readonly buffer LeafItemBlock { LeafItem leaf_items[]; };
+// Leaf item i (LeafItem.item).
+uint leaf_item(uint i) {
+    return leaf_items[i].item;
+}
 #endif
 // What the kernel may leave out (layout.h, SPEC_*): true unless the host
 // specialises the kernel for a scene. Only ever used as `HAS_X && runtime
@@ -42,6 +52,5 @@ layout(constant_id = SPEC_REFLECTIONS) const bool HAS_REFLECTIONS = true;
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };
 layout(std430, binding = BINDING_TEXELS) readonly buffer TexelBlock { Texel texels[]; };
-layout(std430, binding = BINDING_LEAF_ITEMS) readonly buffer LeafItemBlock { LeafItem leaf_items[]; };
 
 #endif

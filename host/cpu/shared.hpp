@@ -39,6 +39,11 @@ inline thread_local const BvhNode* nodes;
 inline thread_local const LeafItem* leaf_items;
 inline thread_local const Instance* instances;
 
+// Leaf item i, as scene_buffers.glsl reads it.
+inline uint leaf_item(uint i) {
+    return leaf_items[i].item;
+}
+
 inline void bind_scene(const Scene& s) {
     frame = s.frame;
     primitives = s.primitives;

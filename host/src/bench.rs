@@ -827,7 +827,7 @@ mod tests {
         let expect = std::mem::size_of::<Frame>() as u64 + scene + 40 * per_pixel as u64;
         assert_eq!(device_bytes(&loaded.data, false), expect);
         // Uniform blocks are uploaded whole, at their declared lengths.
-        use crate::layout::{self as l, BvhNode, Instance, Light, Material, Primitive};
+        use crate::layout::{self as l, BvhNode, Instance, LeafItemQuad, Light, Material, Primitive};
         use std::mem::size_of;
         let whole = [
             (l::BINDING_PRIMITIVES, l::UNIFORM_PRIMITIVES as usize * size_of::<Primitive>()),
@@ -835,6 +835,7 @@ mod tests {
             (l::BINDING_LIGHTS, l::UNIFORM_LIGHTS as usize * size_of::<Light>()),
             (l::BINDING_NODES, l::UNIFORM_NODES as usize * size_of::<BvhNode>()),
             (l::BINDING_INSTANCES, l::UNIFORM_INSTANCES as usize * size_of::<Instance>()),
+            (l::BINDING_LEAF_ITEMS, l::UNIFORM_LEAF_QUADS as usize * size_of::<LeafItemQuad>()),
         ];
         let blocks: u64 = loaded
             .data

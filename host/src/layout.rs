@@ -63,6 +63,13 @@ pub struct LeafItem {
     pub item: u32,
 }
 
+/// Four leaf items: render_uniform.comp's element of the leaf items' uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct LeafItemQuad {
+    pub items: [u32; 4],
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Instance {
@@ -237,6 +244,12 @@ impl LeafItem {
     }
 }
 
+impl LeafItemQuad {
+    pub fn layout() -> StructLayout {
+        struct_layout!(LeafItemQuad, "LeafItemQuad", [items])
+    }
+}
+
 impl Instance {
     pub fn layout() -> StructLayout {
         struct_layout!(Instance, "Instance", [object_from_parent, lo, hi, root, id_offset, pad0, pad1])
@@ -322,6 +335,7 @@ pub fn uniform_scene_bindings() -> Vec<BindingLayout> {
             BINDING_LIGHTS => uniform(BINDING_LIGHTS, Light::layout(), UNIFORM_LIGHTS),
             BINDING_NODES => uniform(BINDING_NODES, BvhNode::layout(), UNIFORM_NODES),
             BINDING_INSTANCES => uniform(BINDING_INSTANCES, Instance::layout(), UNIFORM_INSTANCES),
+            BINDING_LEAF_ITEMS => uniform(BINDING_LEAF_ITEMS, LeafItemQuad::layout(), UNIFORM_LEAF_QUADS),
             _ => continue,
         };
     }

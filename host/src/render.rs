@@ -81,6 +81,7 @@ pub fn fits_uniform(data: &FrameData) -> Result<(), String> {
         ("lights", data.lights.len(), layout::UNIFORM_LIGHTS),
         ("hierarchy nodes", data.nodes.len(), layout::UNIFORM_NODES),
         ("instances", data.instances.len(), layout::UNIFORM_INSTANCES),
+        ("leaf items", data.leaf_items.len(), 4 * layout::UNIFORM_LEAF_QUADS),
     ];
     match counts.iter().find(|(_, n, max)| *n > *max as usize) {
         None => Ok(()),
