@@ -775,21 +775,29 @@ impl Preview {
                 self.error = None;
                 self.restart();
             }
-            Reload::Kernel(kernels) => {
-                self.renderer.set_kernels(kernels)?;
-                eprintln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
-                self.error = None;
-                self.restart();
-            }
-            Reload::Failed(message) => {
-                eprintln!("{message}");
-                eprintln!("raycast: preview: keeping the last good picture");
-                let first = message.lines().find(|l| l.contains("ERROR") || l.contains("error")).or(message.lines().next());
-                let first = first.unwrap_or_default().trim();
-                self.error = Some(first.strip_prefix("ERROR: ").unwrap_or(first).to_string());
-            }
+            Reload::Kernel(kernels) => match self.renderer.set_kernels(kernels)? {
+                Ok(()) => {
+                    eprintln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
+                    self.error = None;
+                    self.restart();
+                }
+                Err(why) => self.reload_failed(&format!(
+                    "raycast: preview: error: the reloaded kernel ({KERNEL_FILE}) does not build on the device: {why}"
+                )),
+            },
+            Reload::Failed(message) => self.reload_failed(&message),
         }
         Ok(())
+    }
+
+    /// A reload that did not take: says why, keeps the last good picture
+    /// and shows the first error line in the title.
+    fn reload_failed(&mut self, message: &str) {
+        eprintln!("{message}");
+        eprintln!("raycast: preview: keeping the last good picture");
+        let first = message.lines().find(|l| l.contains("ERROR") || l.contains("error")).or(message.lines().next());
+        let first = first.unwrap_or_default().trim();
+        self.error = Some(first.strip_prefix("ERROR: ").unwrap_or(first).to_string());
     }
 
     /// Prints what the pixel under the cursor sees (the ray through its centre).

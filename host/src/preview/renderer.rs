@@ -193,13 +193,23 @@ impl PreviewRenderer {
         Ok(())
     }
 
-    /// Replaces the kernels (a reloaded shader): the next frame builds its own.
-    pub fn set_kernels(&mut self, kernels: PreviewKernels) -> Result<(), GpuError> {
+    /// Replaces the kernels (a reloaded shader). The kernel the last frame
+    /// used is built from them at once: when the driver refuses it (a shader
+    /// that glslang and naga accept can still fail vkCreateComputePipelines),
+    /// the old kernels stay and the inner error says why.
+    pub fn set_kernels(&mut self, kernels: PreviewKernels) -> Result<Result<(), String>, GpuError> {
         self.frames.wait()?;
+        let built = match &self.kernel {
+            Some((key, _)) => match kernels.build(&self.context, key.0, key.1) {
+                Ok(kernel) => Some((*key, kernel)),
+                Err(e) => return Ok(Err(e.to_string())),
+            },
+            None => None,
+        };
         self.set = None;
-        self.kernel = None;
+        self.kernel = built;
         self.kernels = kernels;
-        Ok(())
+        Ok(Ok(()))
     }
 
     /// Replaces the scene's buffers (a reloaded scene).
