@@ -15,10 +15,6 @@ layout(std140, binding = BINDING_LIGHTS) uniform LightBlock { Light lights[UNIFO
 layout(std140, binding = BINDING_NODES) uniform NodeBlock { BvhNode nodes[UNIFORM_NODES]; };
 layout(std140, binding = BINDING_INSTANCES) uniform InstanceBlock { Instance instances[UNIFORM_INSTANCES]; };
 layout(std140, binding = BINDING_LEAF_ITEMS) uniform LeafItemBlock { LeafItemQuad leaf_item_quads[UNIFORM_LEAF_QUADS]; };
-// Leaf item i (LeafItem.item).
-uint leaf_item(uint i) {
-    return leaf_item_quads[i >> 2u].items[i & 3u];
-}
 #else
 layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
 layout(std430, binding = BINDING_PRIMITIVES) readonly buffer PrimitiveBlock { Primitive primitives[]; };
@@ -27,11 +23,16 @@ layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light ligh
 layout(std430, binding = BINDING_NODES) readonly buffer NodeBlock { BvhNode nodes[]; };
 layout(std430, binding = BINDING_INSTANCES) readonly buffer InstanceBlock { Instance instances[]; };
 layout(std430, binding = BINDING_LEAF_ITEMS) readonly buffer LeafItemBlock { LeafItem leaf_items[]; };
-// Leaf item i (LeafItem.item).
-uint leaf_item(uint i) {
-    return leaf_items[i].item;
-}
 #endif
+
+// Leaf item i (LeafItem.item), from either form of the block.
+uint leaf_item(uint i) {
+#ifdef SCENE_UNIFORM
+    return leaf_item_quads[i >> 2u].items[i & 3u];
+#else
+    return leaf_items[i].item;
+#endif
+}
 // What the kernel may leave out (layout.h, SPEC_*): true unless the host
 // specialises the kernel for a scene. Only ever used as `HAS_X && runtime
 // condition` or `if (HAS_X)`: an expression of constants alone would be an
