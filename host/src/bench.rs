@@ -543,8 +543,19 @@ struct Growth<'a> {
     scene: &'a str,
     primitives: u64,
     log_ratio: Option<f64>,
+    /// Every ray of the frame (camera, shadow, mirror) over the first
+    /// scene's: a property of the scene, the same on every backend.
+    rays: Option<f64>,
     gpu: Option<f64>,
     cpu: Option<f64>,
+}
+
+impl Growth<'_> {
+    /// A backend's frame ratio over the rays' ratio: how the time of one
+    /// ray grows.
+    fn per_ray(&self, frame: Option<f64>) -> Option<f64> {
+        Some(frame? / self.rays?)
+    }
 }
 
 /// The growth table of `rows`, against the first scene; a backend is
@@ -567,6 +578,7 @@ fn growth(rows: &[Row]) -> Vec<Growth<'_>> {
             scene: &r.scene,
             primitives: r.counts.expanded,
             log_ratio: (n0 > 1.0).then(|| (r.counts.expanded as f64).ln() / n0.ln()),
+            rays: (r.all_rays > 0 && first.all_rays > 0).then(|| r.all_rays as f64 / first.all_rays as f64),
             gpu: ratio("gpu"),
             cpu: ratio("cpu"),
         });
@@ -580,22 +592,33 @@ fn print_growth(rows: &[Row], markdown: bool) {
     let Some(first) = rows.first() else { return };
     println!();
     println!(
-        "Growth against {} ({} primitives): frame median over its frame median, and ln N / ln N0, the ratio logarithmic growth allows.",
+        "Growth against {} ({} primitives): frame median over its frame median, and ln N / ln N0, the ratio logarithmic growth allows; \
+         rays: every ray of the frame over its, and a ray: the frame ratio over the rays' (deeper scenes cover more of the picture, \
+         so they trace more shadow and mirror rays).",
         first.scene,
         thousands(first.counts.expanded)
     );
     if markdown {
         println!();
-        println!("| scene | primitives N | ln N / ln N0 | gpu frame / first | cpu frame / first |");
-        println!("|---|---|---|---|---|");
+        println!("| scene | primitives N | ln N / ln N0 | rays / first | gpu frame / first | gpu a ray / first | cpu frame / first | cpu a ray / first |");
+        println!("|---|---|---|---|---|---|---|---|");
     }
     let text = |x: Option<f64>| x.map_or("–".to_string(), |x| format!("{x:.2}"));
     for g in growth(rows) {
-        let (l, gpu, cpu) = (text(g.log_ratio), text(g.gpu), text(g.cpu));
+        let (l, rays, gpu, cpu) = (text(g.log_ratio), text(g.rays), text(g.gpu), text(g.cpu));
+        let (gpu_ray, cpu_ray) = (text(g.per_ray(g.gpu)), text(g.per_ray(g.cpu)));
         if markdown {
-            println!("| {} | {} | {l} | {gpu} | {cpu} |", short_name(g.scene), thousands(g.primitives));
+            println!(
+                "| {} | {} | {l} | {rays} | {gpu} | {gpu_ray} | {cpu} | {cpu_ray} |",
+                short_name(g.scene),
+                thousands(g.primitives)
+            );
         } else {
-            println!("  {}: N = {}, ln N / ln N0 {l}, gpu {gpu}, cpu {cpu}", g.scene, thousands(g.primitives));
+            println!(
+                "  {}: N = {}, ln N / ln N0 {l}, rays {rays}, gpu {gpu} ({gpu_ray} a ray), cpu {cpu} ({cpu_ray} a ray)",
+                g.scene,
+                thousands(g.primitives)
+            );
         }
     }
 }
@@ -859,7 +882,8 @@ mod tests {
             frames: vec![Duration::from_millis(ms)],
             dispatch: Vec::new(),
             primary_rays: 1,
-            all_rays: 1,
+            // Twice the rays in the deeper scene.
+            all_rays: if n > 100 { 40 } else { 20 },
             host_peak: None,
             device_bytes: None,
             cpu_over_gpu: None,
@@ -870,6 +894,8 @@ mod tests {
         assert_eq!(g.len(), 2);
         assert_eq!((g[0].gpu, g[0].cpu, g[0].log_ratio), (Some(1.0), Some(1.0), Some(1.0)));
         assert_eq!((g[1].gpu, g[1].cpu), (Some(2.5), Some(1.5)));
+        assert_eq!(g[1].rays, Some(2.0));
+        assert_eq!((g[1].per_ray(g[1].gpu), g[1].per_ray(g[1].cpu)), (Some(1.25), Some(0.75)));
         assert!((g[1].log_ratio.unwrap() - 2.0).abs() < 1e-12);
     }
 
