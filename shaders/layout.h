@@ -48,6 +48,15 @@
 #define UNIFORM_INSTANCES 146
 #define UNIFORM_LEAF_QUADS 1024 // LeafItemQuad: 4096 leaf items
 
+// render_uniform.comp (SCENE_IMAGES) reads the walk's three hottest arrays
+// from rgba32ui storage images of one row, UNIFORM_<ARRAY> elements wide:
+// element i of a struct N texels long (its size / 16) is texels N i ..
+// N i + N - 1, its bytes in order. Lavapipe loads a 128-bit texel per lane
+// where a uniform block costs a 32-bit load per lane and component.
+#define PRIMITIVE_TEXELS 5 // sizeof(Primitive) / 16
+#define NODE_TEXELS 3      // sizeof(BvhNode) / 16
+#define INSTANCE_TEXELS 7  // sizeof(Instance) / 16
+
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 
 // Specialization constants (their constant_id): what a kernel may leave out.

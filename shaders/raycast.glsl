@@ -529,29 +529,29 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             if (HAS_INSTANCES && (entry & ITEM_INSTANCE) != 0u) {
                 // Enter the instance: its group's ray one level down.
                 uint k = entry & (ITEM_INSTANCE - 1u);
-                Ray inner = ray_through(instances[k].object_from_parent, lr);
+                Ray inner = ray_through(instance_at(k).object_from_parent, lr);
                 uint child = level + 1u;
                 level_origin[child] = inner.origin;
                 level_direction[child] = inner.direction;
-                level_first_id[child] = level_first_id[level] + instances[k].id_offset;
+                level_first_id[child] = level_first_id[level] + instance_at(k).id_offset;
                 level_instance[child] = k;
                 level = child;
                 lr = inner;
-                entry = instances[k].root;
+                entry = instance_at(k).root;
             }
-            BvhNode node = nodes[entry];
+            BvhNode node = node_at(entry);
             if (node.count == 0u) {
                 // Children whose boxes the ray meets; the nearer (by the ray's sign on the split axis) on top.
                 bool left_first = lr.direction[node.axis] >= 0.0f;
                 uint c0 = left_first ? node.first + 1u : node.first;
                 uint c1 = left_first ? node.first : node.first + 1u;
                 uint pushed = NO_HIT;
-                if (!use_boxes || box_hit(lr, nodes[c0].lo, nodes[c0].hi, best.t)) {
+                if (!use_boxes || box_hit(lr, node_at(c0).lo, node_at(c0).hi, best.t)) {
                     stack[top] = stack_word(c0, level);
                     top = top + 1;
                     pushed = c0;
                 }
-                if (!use_boxes || box_hit(lr, nodes[c1].lo, nodes[c1].hi, best.t)) {
+                if (!use_boxes || box_hit(lr, node_at(c1).lo, node_at(c1).hi, best.t)) {
                     stack[top] = stack_word(c1, level);
                     top = top + 1;
                     pushed = c1;
@@ -559,7 +559,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 if (pushed == NO_HIT) {
                     continue;
                 }
-                node = nodes[pushed];
+                node = node_at(pushed);
                 if (node.count == 0u) {
                     continue;
                 }
@@ -572,9 +572,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         uint first_id = level_first_id[level];
         for (uint n = 0u; n < prim_count; n++) {
             uint item = direct ? first_item : leaf_item(first_item + n);
-            Ray local = ray_through(primitives[item].object_from_world, lr);
-            ShapeHit h = intersect_shape(primitives[item].shape, local);
-            uint id = first_id + primitives[item].id_offset;
+            Ray local = ray_through(primitive_at(item).object_from_world, lr);
+            ShapeHit h = intersect_shape(primitive_at(item).shape, local);
+            uint id = first_id + primitive_at(item).id_offset;
             if (h.t < best.t || (h.t == best.t && best.id != NO_HIT && id < best.id)) {
                 precise vec3 p_object = local.origin + h.t * local.direction;
                 best.t = h.t;
@@ -582,15 +582,16 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 best.n_object = h.normal;
                 best.p_object = p_object;
                 // The normal rule, level by level back to the world.
-                precise vec3 n_world = transform_normal(primitives[item].object_from_world, h.normal);
+                precise vec3 n_world = transform_normal(primitive_at(item).object_from_world, h.normal);
                 if (HAS_INSTANCES) {
                     for (uint l = level; l > 0u; l--) {
-                        n_world = transform_normal(instances[level_instance[l]].object_from_parent, n_world);
+                        uint placed = level_instance[l];
+                        n_world = transform_normal(instance_at(placed).object_from_parent, n_world);
                     }
                 }
                 best.normal = n_world;
-                best.material = primitives[item].material;
-                best.shape = primitives[item].shape;
+                best.material = primitive_at(item).material;
+                best.shape = primitive_at(item).shape;
                 if (any_hit) {
                     return best;
                 }
@@ -607,7 +608,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 // missed instance costs no pass.
                 uint item = leaf_item(first_item + n);
                 uint k = item & (ITEM_INSTANCE - 1u);
-                if (!use_boxes || box_hit(lr, instances[k].lo, instances[k].hi, best.t)) {
+                if (!use_boxes || box_hit(lr, instance_at(k).lo, instance_at(k).hi, best.t)) {
                     stack[top] = stack_word(item, level);
                     top = top + 1;
                 }

@@ -1,11 +1,15 @@
 // render_uniform.comp: the render kernel with the scene's small arrays
-// (frame, primitives, materials, lights, nodes, instances) in uniform
-// buffers of at most UNIFORM_BLOCK_BYTES each, for scenes that fit (every
-// instanced scene does). Same body (render_main.glsl), same pixels; about
-// 1.4 times faster on lavapipe, whose storage-buffer loads go lane by lane
-// with a bounds check each (BENCHMARKS.md, "Why lavapipe is slow here").
+// (frame, materials, lights, leaf items) in uniform buffers of at most
+// UNIFORM_BLOCK_BYTES each and the walk's hottest (primitives, nodes,
+// instances) in rgba32ui storage images of as many bytes (SCENE_IMAGES),
+// for scenes that fit (every instanced scene does). Same body
+// (render_main.glsl), same pixels; several times faster on lavapipe, whose
+// storage-buffer loads go lane by lane with a bounds check each, uniform
+// loads a 32-bit word per lane and image loads a 128-bit texel per lane
+// (BENCHMARKS.md, "Why lavapipe is slow here", "What made lavapipe faster").
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define SCENE_UNIFORM 1
+#define SCENE_IMAGES 1
 
 #include "render_main.glsl"

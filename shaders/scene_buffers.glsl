@@ -4,16 +4,44 @@
 #ifndef RAYCAST_SCENE_BUFFERS_GLSL
 #define RAYCAST_SCENE_BUFFERS_GLSL
 
+// Kernels read primitives, nodes and instances through primitive_at(i),
+// node_at(i) and instance_at(i) (macros: glslang 11 runs out of memory on
+// this shader when they are functions returning the structs).
 #ifdef SCENE_UNIFORM
-// The small arrays as uniform buffers (render_uniform.comp). std140 lays
-// these structs out as std430 does: vec4 / mat4 / 4-byte members, every
-// struct a multiple of 16 bytes.
+// The small arrays as uniform buffers (render_uniform.comp and
+// preview_uniform.comp). std140 lays these structs out as std430 does:
+// vec4 / mat4 / 4-byte members, every struct a multiple of 16 bytes.
 layout(std140, binding = BINDING_FRAME) uniform FrameBlock { Frame frame; };
+#ifdef SCENE_IMAGES
+// render_uniform.comp: the walk's three hottest arrays as storage images
+// instead (layout.h, PRIMITIVE_TEXELS …), the same bytes.
+layout(binding = BINDING_PRIMITIVES, rgba32ui) readonly uniform uimage2D primitive_texels;
+layout(binding = BINDING_NODES, rgba32ui) readonly uniform uimage2D node_texels;
+layout(binding = BINDING_INSTANCES, rgba32ui) readonly uniform uimage2D instance_texels;
+#define SCENE_TEXEL(image, n, i, k) imageLoad(image, ivec2(int((i) * (n) + (k)), 0))
+#define SCENE_VEC4(image, n, i, k) uintBitsToFloat(SCENE_TEXEL(image, n, i, k))
+#define SCENE_MAT4(image, n, i) \
+    mat4(SCENE_VEC4(image, n, i, 0u), SCENE_VEC4(image, n, i, 1u), SCENE_VEC4(image, n, i, 2u), SCENE_VEC4(image, n, i, 3u))
+#define primitive_at(i) \
+    Primitive(SCENE_MAT4(primitive_texels, PRIMITIVE_TEXELS, i), \
+              SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).x, SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).y, \
+              SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).z, SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).w)
+#define node_at(i) \
+    BvhNode(SCENE_VEC4(node_texels, NODE_TEXELS, i, 0u), SCENE_VEC4(node_texels, NODE_TEXELS, i, 1u), \
+            SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).x, SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).y, \
+            SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).z, SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).w)
+#define instance_at(i) \
+    Instance(SCENE_MAT4(instance_texels, INSTANCE_TEXELS, i), \
+             SCENE_VEC4(instance_texels, INSTANCE_TEXELS, i, 4u), SCENE_VEC4(instance_texels, INSTANCE_TEXELS, i, 5u), \
+             SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).x, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).y, \
+             SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).z, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).w)
+#else
 layout(std140, binding = BINDING_PRIMITIVES) uniform PrimitiveBlock { Primitive primitives[UNIFORM_PRIMITIVES]; };
-layout(std140, binding = BINDING_MATERIALS) uniform MaterialBlock { Material materials[UNIFORM_MATERIALS]; };
-layout(std140, binding = BINDING_LIGHTS) uniform LightBlock { Light lights[UNIFORM_LIGHTS]; };
 layout(std140, binding = BINDING_NODES) uniform NodeBlock { BvhNode nodes[UNIFORM_NODES]; };
 layout(std140, binding = BINDING_INSTANCES) uniform InstanceBlock { Instance instances[UNIFORM_INSTANCES]; };
+#endif
+layout(std140, binding = BINDING_MATERIALS) uniform MaterialBlock { Material materials[UNIFORM_MATERIALS]; };
+layout(std140, binding = BINDING_LIGHTS) uniform LightBlock { Light lights[UNIFORM_LIGHTS]; };
 layout(std140, binding = BINDING_LEAF_ITEMS) uniform LeafItemBlock { LeafItemQuad leaf_item_quads[UNIFORM_LEAF_QUADS]; };
 #else
 layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
@@ -23,6 +51,11 @@ layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light ligh
 layout(std430, binding = BINDING_NODES) readonly buffer NodeBlock { BvhNode nodes[]; };
 layout(std430, binding = BINDING_INSTANCES) readonly buffer InstanceBlock { Instance instances[]; };
 layout(std430, binding = BINDING_LEAF_ITEMS) readonly buffer LeafItemBlock { LeafItem leaf_items[]; };
+#endif
+#ifndef SCENE_IMAGES
+#define primitive_at(i) primitives[i]
+#define node_at(i) nodes[i]
+#define instance_at(i) instances[i]
 #endif
 
 // Leaf item i (LeafItem.item), from either form of the block.

@@ -482,7 +482,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         // The host's expected layout of each kernel (buffers, storage images).
         let expected = match stem.as_str() {
             "render" => Some((layout::render_bindings(), Vec::new())),
-            "render_uniform" => Some((layout::render_uniform_bindings(), Vec::new())),
+            "render_uniform" => Some((layout::render_uniform_bindings(), layout::render_uniform_images())),
             "preview" => Some((raycast::preview::layout::preview_bindings(), raycast::preview::layout::preview_images())),
             "preview_uniform" => {
                 Some((raycast::preview::layout::preview_uniform_bindings(), raycast::preview::layout::preview_images()))
@@ -505,7 +505,8 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         errors.push(e.to_string());
     }
     let uniform_spirv = raycast::render::kernel_spirv("render_uniform").expect("embedded");
-    if let Err(e) = reflect::check_layouts("render_uniform (embedded)", uniform_spirv, &layout::render_uniform_bindings()) {
+    let (uniform_buffers, uniform_images) = (layout::render_uniform_bindings(), layout::render_uniform_images());
+    if let Err(e) = reflect::check_layouts_with_images("render_uniform (embedded)", uniform_spirv, &uniform_buffers, &uniform_images) {
         errors.push(e.to_string());
     }
     // Each kernel against the other's layout: the storage / uniform mismatch is named.
@@ -513,7 +514,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         Ok(()) => errors.push("render_uniform.comp passed as a storage-buffer kernel".into()),
         Err(e) => {
             let text = e.to_string();
-            if !text.contains("binding 1 (PrimitiveBlock) is a uniform buffer in the shader, a storage buffer on the host") {
+            if !text.contains("binding 2 (MaterialBlock) is a uniform buffer in the shader, a storage buffer on the host") {
                 errors.push(format!("the storage / uniform mismatch is not named: {text}"));
             }
         }

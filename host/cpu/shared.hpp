@@ -39,6 +39,11 @@ inline thread_local const BvhNode* nodes;
 inline thread_local const LeafItem* leaf_items;
 inline thread_local const Instance* instances;
 
+// Element i of primitives, nodes and instances, as scene_buffers.glsl reads them.
+#define primitive_at(i) primitives[i]
+#define node_at(i) nodes[i]
+#define instance_at(i) instances[i]
+
 // Leaf item i, as scene_buffers.glsl reads it.
 inline uint leaf_item(uint i) {
     return leaf_items[i].item;

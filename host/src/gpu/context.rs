@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 use ash::vk;
 
 use super::present::Surface;
-use super::{GpuError, Kernel};
+use super::image::color_range;
+use super::{GpuError, ImageFormat, Kernel};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 /// Instance API version requested; nothing newer is used.
@@ -570,17 +571,21 @@ impl GpuContext {
         if !Arc::ptr_eq(&kernel.inner, &self.inner) {
             return Err(bad("the kernel was created on another GpuContext".into()));
         }
-        if !kernel.images().is_empty() {
-            return Err(bad("run() binds storage buffers only; a kernel with storage images needs a DescriptorSet \
-                            and a FrameLoop"
-                .into()));
+        if let Some(i) = kernel.images().iter().find(|i| i.writable || i.format != ImageFormat::Rgba32Uint) {
+            return Err(bad(format!(
+                "run() binds storage buffers and read-only rgba32ui data images; binding {} is a picture: \
+                 it needs a DescriptorSet and a FrameLoop",
+                i.binding
+            )));
         }
+        let is_image = |binding: u32| kernel.images().iter().any(|i| i.binding == binding);
 
         // Check the call against the kernel and the device limits before allocating.
         let (out_binding, out_bytes) = output;
         let mut given: Vec<u32> = inputs.iter().map(|(b, _)| *b).chain([out_binding]).collect();
         given.sort_unstable();
-        let mut wanted: Vec<u32> = kernel.bindings().iter().map(|b| b.binding).collect();
+        let mut wanted: Vec<u32> =
+            kernel.bindings().iter().map(|b| b.binding).chain(kernel.images().iter().map(|i| i.binding)).collect();
         wanted.sort_unstable();
         if given != wanted {
             return Err(bad(format!(
@@ -593,7 +598,14 @@ impl GpuContext {
             return Err(GpuError::TooManyGroups { groups, limit });
         }
         let buffer_size = |len: usize| (len as u64).max(MIN_BUFFER).next_multiple_of(4);
+        if is_image(out_binding) {
+            return Err(bad(format!("binding {out_binding} is a read-only image; it cannot be the output")));
+        }
         for (binding, len) in inputs.iter().map(|(b, d)| (*b, d.len())).chain([(out_binding, out_bytes)]) {
+            if is_image(binding) {
+                inner.check_data_image(kernel.name(), len, binding)?;
+                continue;
+            }
             inner.check_storage_size(buffer_size(len), || kernel.binding_label(binding))?;
             let uniform_range = u64::from(inner.limits.max_uniform_buffer_range);
             if kernel.descriptor_type(binding) == vk::DescriptorType::UNIFORM_BUFFER && buffer_size(len) > uniform_range {
@@ -638,10 +650,20 @@ impl GpuContext {
             res.bindings.push((binding, buffer));
         }
 
+        // Data images: a device image per image binding, copied from its
+        // buffer (filled above) when the command buffer starts.
+        for (binding, buffer) in res.bindings.clone() {
+            if is_image(binding) {
+                let len = inputs.iter().find(|(b, _)| *b == binding).map_or(0, |(_, d)| d.len());
+                inner.create_data_image(&mut res, binding, buffer, (len / 16) as u32)?;
+            }
+        }
+        let images = res.images.len() as u32;
         let uniform = res.bindings.iter().filter(|(b, _)| kernel.descriptor_type(*b) == vk::DescriptorType::UNIFORM_BUFFER).count() as u32;
         let sizes: Vec<vk::DescriptorPoolSize> = [
-            (vk::DescriptorType::STORAGE_BUFFER, res.bindings.len() as u32 - uniform),
+            (vk::DescriptorType::STORAGE_BUFFER, res.bindings.len() as u32 - uniform - images),
             (vk::DescriptorType::UNIFORM_BUFFER, uniform),
+            (vk::DescriptorType::STORAGE_IMAGE, images),
         ]
         .into_iter()
         .filter(|(_, n)| *n > 0)
@@ -661,10 +683,16 @@ impl GpuContext {
             .iter()
             .map(|(_, b)| [vk::DescriptorBufferInfo::default().buffer(*b).offset(0).range(vk::WHOLE_SIZE)])
             .collect();
+        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = res
+            .images
+            .iter()
+            .map(|i| [vk::DescriptorImageInfo::default().image_view(i.view).image_layout(vk::ImageLayout::GENERAL)])
+            .collect();
         let writes: Vec<vk::WriteDescriptorSet> = res
             .bindings
             .iter()
             .zip(&buffer_infos)
+            .filter(|((binding, _), _)| !is_image(*binding))
             .map(|((binding, _), info)| {
                 vk::WriteDescriptorSet::default()
                     .dst_set(set)
@@ -672,6 +700,13 @@ impl GpuContext {
                     .descriptor_type(kernel.descriptor_type(*binding))
                     .buffer_info(info)
             })
+            .chain(res.images.iter().zip(&image_infos).map(|(i, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i.binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                    .image_info(info)
+            }))
             .collect();
         unsafe { inner.device.update_descriptor_sets(&writes, &[]) };
         let upload = start.elapsed();
@@ -693,6 +728,9 @@ impl GpuContext {
         unsafe {
             let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             d.begin_command_buffer(cmd, &begin).map_err(GpuError::vk("vkBeginCommandBuffer"))?;
+            for image in &res.images {
+                record_image_upload(d, cmd, image);
+            }
             d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
             d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
             for pass in 0..passes {
@@ -760,6 +798,83 @@ unsafe fn shader_writes_barrier(d: &ash::Device, cmd: vk::CommandBuffer, dst_sta
 
 impl Inner {
     /// Fails when a storage buffer of `bytes` exceeds maxStorageBufferRange or maxMemoryAllocationSize.
+    /// A data image of `len` bytes (a run's rgba32ui input): whole texels,
+    /// one row within maxImageDimension2D, a format the device can store.
+    fn check_data_image(&self, kernel: &str, len: usize, binding: u32) -> Result<(), GpuError> {
+        let what = || format!("binding {binding} (a data image, 16 bytes a texel)");
+        let bad = |message: String| GpuError::BadRun { kernel: kernel.to_string(), message: format!("{}: {message}", what()) };
+        let max = u64::from(self.limits.max_image_dimension2_d);
+        let texels = (len / 16) as u64;
+        if len == 0 || len % 16 != 0 {
+            return Err(bad(format!("{len} bytes are not whole 16-byte texels")));
+        }
+        if texels > max {
+            return Err(GpuError::TooLarge { what: what(), bytes: texels, limit: max, limit_name: "maxImageDimension2D (texels)" });
+        }
+        let features = unsafe { self.parts.instance.get_physical_device_format_properties(self.physical, DATA_FORMAT) }
+            .optimal_tiling_features;
+        let needed = vk::FormatFeatureFlags::STORAGE_IMAGE | vk::FormatFeatureFlags::TRANSFER_DST;
+        if !features.contains(needed) {
+            return Err(bad(format!("the device cannot use {DATA_FORMAT:?} as a storage image and copy target ({features:?})")));
+        }
+        Ok(())
+    }
+
+    /// A device-local `texels` x 1 rgba32ui image for `binding`, filled
+    /// from `source` when the run's command buffer starts
+    /// (`record_image_upload`).
+    fn create_data_image(&self, res: &mut RunResources, binding: u32, source: vk::Buffer, texels: u32) -> Result<(), GpuError> {
+        let d = &self.device;
+        res.images.push(DataImage { binding, source, texels, image: vk::Image::null(), view: vk::ImageView::null(), memory: vk::DeviceMemory::null() });
+        let slot = res.images.len() - 1;
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(DATA_FORMAT)
+            .extent(vk::Extent3D { width: texels, height: 1, depth: 1 })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let image = unsafe { d.create_image(&info, None) }.map_err(GpuError::vk("vkCreateImage"))?;
+        res.images[slot].image = image;
+        let req = unsafe { d.get_image_memory_requirements(image) };
+        let types = &self.memory.memory_types[..self.memory.memory_type_count as usize];
+        let mut candidates: Vec<u32> = (0..types.len() as u32).filter(|i| req.memory_type_bits & (1 << i) != 0).collect();
+        // Device-local first.
+        candidates.sort_by_key(|&i| !types[i as usize].property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL));
+        let mut last = vk::Result::ERROR_OUT_OF_DEVICE_MEMORY;
+        for type_index in candidates {
+            let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
+            match unsafe { d.allocate_memory(&alloc, None) } {
+                Ok(memory) => {
+                    res.images[slot].memory = memory;
+                    break;
+                }
+                Err(e @ (vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY)) => last = e,
+                Err(e) => return Err(GpuError::vk("vkAllocateMemory")(e)),
+            }
+        }
+        let memory = res.images[slot].memory;
+        if memory == vk::DeviceMemory::null() {
+            return Err(GpuError::OutOfMemory {
+                what: format!("binding {binding} (a data image of {texels} texels)"),
+                bytes: req.size,
+                detail: format!("vkAllocateMemory failed with {last:?} for every memory type"),
+            });
+        }
+        unsafe { d.bind_image_memory(image, memory, 0) }.map_err(GpuError::vk("vkBindImageMemory"))?;
+        let view = vk::ImageViewCreateInfo::default()
+            .image(image)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(DATA_FORMAT)
+            .subresource_range(color_range());
+        res.images[slot].view = unsafe { d.create_image_view(&view, None) }.map_err(GpuError::vk("vkCreateImageView"))?;
+        Ok(())
+    }
+
     pub(crate) fn check_storage_size(&self, bytes: u64, what: impl Fn() -> String) -> Result<(), GpuError> {
         let range = self.limits.max_storage_buffer_range as u64;
         if bytes > range {
@@ -805,7 +920,7 @@ impl Inner {
         let d = &self.device;
         let info = vk::BufferCreateInfo::default()
             .size(size)
-            .usage(vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_BUFFER)
+            .usage(vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let buffer = unsafe { d.create_buffer(&info, None) }.map_err(GpuError::vk("vkCreateBuffer"))?;
         res.buffers.push((buffer, vk::DeviceMemory::null()));
@@ -876,11 +991,68 @@ impl Drop for Inner {
     }
 }
 
+/// The format of a run's data images (`ImageFormat::Rgba32Uint`).
+const DATA_FORMAT: vk::Format = vk::Format::R32G32B32A32_UINT;
+
+/// A run's read-only data image, filled from its input buffer `source`.
+struct DataImage {
+    binding: u32,
+    source: vk::Buffer,
+    texels: u32,
+    image: vk::Image,
+    view: vk::ImageView,
+    memory: vk::DeviceMemory,
+}
+
+/// Records the copy of `image`'s input buffer into it, between the layout
+/// changes it needs: UNDEFINED -> TRANSFER_DST_OPTIMAL -> GENERAL, read by
+/// the compute shader.
+///
+/// # Safety
+/// `cmd` is a command buffer of `d` in the recording state.
+unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer, image: &DataImage) {
+    let barrier = |old, new, src, dst| {
+        [vk::ImageMemoryBarrier::default()
+            .old_layout(old)
+            .new_layout(new)
+            .src_access_mask(src)
+            .dst_access_mask(dst)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image.image)
+            .subresource_range(color_range())]
+    };
+    let region = [vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
+        .image_extent(vk::Extent3D { width: image.texels, height: 1, depth: 1 })];
+    let to_copy = barrier(
+        vk::ImageLayout::UNDEFINED,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::AccessFlags::empty(),
+        vk::AccessFlags::TRANSFER_WRITE,
+    );
+    let to_read = barrier(
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::ImageLayout::GENERAL,
+        vk::AccessFlags::TRANSFER_WRITE,
+        vk::AccessFlags::SHADER_READ,
+    );
+    let (top, transfer, compute) =
+        (vk::PipelineStageFlags::TOP_OF_PIPE, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER);
+    // SAFETY: the caller's; the buffer (filled and unmapped before recording) and the image live as long as the run.
+    unsafe {
+        d.cmd_pipeline_barrier(cmd, top, transfer, vk::DependencyFlags::empty(), &[], &[], &to_copy);
+        d.cmd_copy_buffer_to_image(cmd, image.source, image.image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &region);
+        d.cmd_pipeline_barrier(cmd, transfer, compute, vk::DependencyFlags::empty(), &[], &[], &to_read);
+    }
+}
+
 /// The Vulkan objects of one run, destroyed on drop (also on every error path).
 struct RunResources {
     device: ash::Device,
     buffers: Vec<(vk::Buffer, vk::DeviceMemory)>,
     bindings: Vec<(u32, vk::Buffer)>,
+    images: Vec<DataImage>,
     descriptor_pool: vk::DescriptorPool,
     command_pool: vk::CommandPool,
     fence: vk::Fence,
@@ -892,6 +1064,7 @@ impl RunResources {
             device,
             buffers: Vec::new(),
             bindings: Vec::new(),
+            images: Vec::new(),
             descriptor_pool: vk::DescriptorPool::null(),
             command_pool: vk::CommandPool::null(),
             fence: vk::Fence::null(),
@@ -907,6 +1080,11 @@ impl Drop for RunResources {
             d.destroy_fence(self.fence, None);
             d.destroy_command_pool(self.command_pool, None);
             d.destroy_descriptor_pool(self.descriptor_pool, None);
+            for image in self.images.drain(..) {
+                d.destroy_image_view(image.view, None);
+                d.destroy_image(image.image, None);
+                d.free_memory(image.memory, None);
+            }
             for (buffer, memory) in self.buffers.drain(..) {
                 d.destroy_buffer(buffer, None);
                 d.free_memory(memory, None);

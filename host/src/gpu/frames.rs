@@ -345,7 +345,7 @@ impl Drop for FrameLoop {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::{compile_kernel, Buffer, DeviceSelector, GpuOptions, ImageBinding, Resource};
+    use crate::gpu::{compile_kernel, Buffer, DeviceSelector, GpuOptions, ImageBinding, ImageFormat, Resource};
     use crate::layout::{BindingLayout, BufferShape, FieldLayout, StructLayout};
 
     /// out[i] = 3 i + sample for i < 64, and the pixel (i, 0) of the image.
@@ -387,7 +387,7 @@ void main() {
             BindingLayout { binding: 0, shape: BufferShape::Single(four_uints("Params", "sample_index")), writable: false },
             BindingLayout { binding: 1, shape: BufferShape::RuntimeArray(four_uints("Item", "value")), writable: true },
         ];
-        let images = [ImageBinding { binding: 2, writable: true }];
+        let images = [ImageBinding { binding: 2, writable: true, format: ImageFormat::Rgba8 }];
         let kernel = Kernel::with_images(&ctx, "frames", &spv, &bindings, &images).unwrap_or_else(|e| panic!("{e}"));
         let params = Buffer::new(&ctx, 16, false, "params").unwrap();
         let out = Buffer::new(&ctx, 64 * 16, true, "out").unwrap();
@@ -400,9 +400,9 @@ void main() {
             .err()
             .unwrap();
         assert!(e.to_string().contains("is a storage buffer, not an image"), "{e}");
-        // One-shot runs refuse kernels with images.
-        let e = ctx.run(&kernel, &[(0, &[0u8; 16][..])], (1, 64 * 16), 0, [1, 1, 1]).err().unwrap();
-        assert!(e.to_string().contains("storage images"), "{e}");
+        // One-shot runs refuse kernels with pictures (they take data images only).
+        let e = ctx.run(&kernel, &[(0, &[0u8; 16][..]), (2, &[0u8; 16][..])], (1, 64 * 16), 0, [1, 1, 1]).err().unwrap();
+        assert!(e.to_string().contains("binding 2 is a picture"), "{e}");
 
         let set = DescriptorSet::new(
             &kernel,

@@ -13,13 +13,42 @@ use super::{GpuContext, GpuError};
 pub(crate) const FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 
 /// A storage image binding of a kernel (descriptor set 0): a 2D
-/// `layout(rgba8) uniform image2D`, checked by naga's reflection like the
-/// storage buffers (`Kernel::with_images`).
+/// `layout(rgba8) uniform image2D` or `layout(rgba32ui) uniform uimage2D`,
+/// checked by naga's reflection like the storage buffers
+/// (`Kernel::with_images`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ImageBinding {
     pub binding: u32,
     /// True when the kernel writes it (not `readonly`).
     pub writable: bool,
+    pub format: ImageFormat,
+}
+
+/// What a storage image holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// A picture (`StorageImage`): `layout(rgba8) uniform image2D`.
+    Rgba8,
+    /// Data, 16 bytes a texel, one row (`GpuContext::run_passes` makes it
+    /// from an input's bytes): `layout(rgba32ui) readonly uniform uimage2D`.
+    Rgba32Uint,
+}
+
+impl ImageFormat {
+    pub(crate) fn naga(self) -> naga::StorageFormat {
+        match self {
+            ImageFormat::Rgba8 => naga::StorageFormat::Rgba8Unorm,
+            ImageFormat::Rgba32Uint => naga::StorageFormat::Rgba32Uint,
+        }
+    }
+
+    /// How the shader declares it.
+    pub(crate) fn glsl(self) -> &'static str {
+        match self {
+            ImageFormat::Rgba8 => "layout(rgba8) uniform image2D",
+            ImageFormat::Rgba32Uint => "layout(rgba32ui) uniform uimage2D",
+        }
+    }
 }
 
 /// A device-local RGBA8 image with a view. A `FrameLoop` moves it to GENERAL

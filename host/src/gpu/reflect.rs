@@ -172,7 +172,7 @@ struct Checker<'a> {
     module: &'a Module,
     /// Storage access by `(set, binding)` from [`spirv_storage_access`].
     access: &'a BTreeMap<(u32, u32), StorageAccess>,
-    /// Bindings the host expects to be 2D rgba8 storage images.
+    /// Bindings the host expects to be 2D storage images.
     images: &'a [ImageBinding],
 }
 
@@ -260,8 +260,9 @@ impl Checker<'_> {
             } else if !seen.contains_key(&image.binding) {
                 out.push((image.binding, format!(
                     "kernel {kernel}: binding {} (storage image) is expected by the host but not declared in \
-                     the shader (as `layout(rgba8) uniform image2D`)",
-                    image.binding
+                     the shader (as `{}`)",
+                    image.binding,
+                    image.format.glsl()
                 )));
             }
         }
@@ -280,15 +281,16 @@ impl Checker<'_> {
     }
 
     /// The mismatch, if any, of a storage image binding: a 2D, non-arrayed
-    /// rgba8 storage image, writable exactly when the host says so.
+    /// storage image of the host's format, writable exactly when the host
+    /// says so.
     fn check_image(&self, exp: &ImageBinding, ty: Handle<Type>) -> Option<String> {
         let at = format!("kernel {}: binding {} (storage image)", self.kernel, exp.binding);
         match &self.module.types[ty].inner {
             TypeInner::Image {
                 dim: naga::ImageDimension::D2,
                 arrayed: false,
-                class: naga::ImageClass::Storage { format: naga::StorageFormat::Rgba8Unorm, access },
-            } => {
+                class: naga::ImageClass::Storage { format, access },
+            } if *format == exp.format.naga() => {
                 let writable = access.contains(StorageAccess::STORE);
                 (writable != exp.writable).then(|| {
                     format!(
@@ -298,7 +300,7 @@ impl Checker<'_> {
                     )
                 })
             }
-            other => Some(format!("{at}: the shader declares {other:?}; expected `layout(rgba8) uniform image2D`")),
+            other => Some(format!("{at}: the shader declares {other:?}; expected `{}`", exp.format.glsl())),
         }
     }
 

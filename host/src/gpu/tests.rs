@@ -158,6 +158,60 @@ fn doubles_u32_and_f32_on_lavapipe_with_no_validation_messages() {
     }
 }
 
+/// out[i] = the texel i of a one-row rgba32ui data image, its words reversed.
+const DATA_IMAGE_SRC: &str = r#"
+#version 450
+layout(local_size_x = 64) in;
+struct Params { uint count; uint pad0; uint pad1; uint pad2; };
+struct Quad { uvec4 v; };
+layout(std430, set = 0, binding = 0) readonly buffer ParamsBuf { Params params; };
+layout(set = 0, binding = 1, rgba32ui) readonly uniform uimage2D data;
+layout(std430, set = 0, binding = 2) writeonly buffer Outputs { Quad quads[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= params.count) return;
+    quads[i].v = imageLoad(data, ivec2(int(i), 0)).wzyx;
+}
+"#;
+
+#[test]
+fn run_uploads_data_images_texel_for_texel() {
+    let spv = compile("data_image", DATA_IMAGE_SRC);
+    let ctx = validated_context();
+    let sink = ctx.message_sink();
+    let quad = StructLayout { name: "Quad", size: 16, fields: vec![field("v", 0, 16)] };
+    let buffers = [
+        BindingLayout { binding: 0, shape: BufferShape::Single(params_layout()), writable: false },
+        BindingLayout { binding: 2, shape: BufferShape::RuntimeArray(quad), writable: true },
+    ];
+    let image = ImageBinding { binding: 1, writable: false, format: ImageFormat::Rgba32Uint };
+    let kernel = Kernel::with_images(&ctx, "data_image", &spv, &buffers, &[image.clone()]).unwrap_or_else(|e| panic!("{e}"));
+    // 300 texels of distinct words, NaN and infinity patterns among them: bits, not values.
+    let n = 300usize;
+    let words: Vec<u32> = (0..4 * n as u32).map(|w| w.wrapping_mul(0x9E37_79B9) ^ 0x7FC0_0001).collect();
+    let (out, _) = ctx
+        .run(&kernel, &[(0, &params(n as u32)), (1, bytemuck::cast_slice(&words))], (2, n * 16), 0, [(n as u32).div_ceil(64), 1, 1])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let got: Vec<u32> = bytemuck::pod_collect_to_vec(&out);
+    let want: Vec<u32> = words.chunks(4).flat_map(|t| [t[3], t[2], t[1], t[0]]).collect();
+    let differ = got.iter().zip(&want).filter(|(g, w)| g != w).count();
+    let first = got.iter().zip(&want).position(|(g, w)| g != w);
+    assert_eq!(differ, 0, "rule: bit-exact; {differ} of {} words differ, first at {first:?}", want.len());
+    // Bytes that are not whole texels, and an image wider than the device allows.
+    let e = ctx.run(&kernel, &[(0, &params(1)), (1, &[0u8; 20][..])], (2, 16), 0, [1, 1, 1]).err().unwrap();
+    assert!(e.to_string().contains("20 bytes are not whole 16-byte texels"), "{e}");
+    let wide = vec![0u8; 16 * (ctx.inner.limits.max_image_dimension2_d as usize + 1)];
+    let e = ctx.run(&kernel, &[(0, &params(1)), (1, &wide)], (2, 16), 0, [1, 1, 1]).err().unwrap();
+    assert!(e.to_string().contains("maxImageDimension2D"), "{e}");
+    // naga names a format mismatch.
+    let rgba8 = ImageBinding { format: ImageFormat::Rgba8, ..image };
+    let e = Kernel::with_images(&ctx, "data_image", &spv, &buffers, &[rgba8]).err().unwrap();
+    assert!(e.to_string().contains("expected `layout(rgba8) uniform image2D`"), "{e}");
+    drop(kernel);
+    drop(ctx);
+    assert_no_messages(&sink, "in the data image test");
+}
+
 #[test]
 fn sentinel_fill_survives_where_the_kernel_does_not_write() {
     const FILL: u32 = 0xDEAD_BEEF;
