@@ -1,8 +1,9 @@
 // preview_uniform.comp: the preview kernel with the scene's small arrays in
-// uniform buffers, for scenes that fit (as render_uniform.comp). The body is
-// preview_main.glsl.
+// uniform buffers and storage images, for scenes that fit (as
+// render_uniform.comp). The body is preview_main.glsl.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define SCENE_UNIFORM 1
+#define SCENE_IMAGES 1
 
 #include "preview_main.glsl"

@@ -482,10 +482,10 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         // The host's expected layout of each kernel (buffers, storage images).
         let expected = match stem.as_str() {
             "render" => Some((layout::render_bindings(), Vec::new())),
-            "render_uniform" => Some((layout::render_uniform_bindings(), layout::render_uniform_images())),
+            "render_uniform" => Some((layout::render_uniform_bindings(), layout::uniform_kernel_images())),
             "preview" => Some((raycast::preview::layout::preview_bindings(), raycast::preview::layout::preview_images())),
             "preview_uniform" => {
-                Some((raycast::preview::layout::preview_uniform_bindings(), raycast::preview::layout::preview_images()))
+                Some((raycast::preview::layout::preview_uniform_bindings(), raycast::preview::layout::preview_uniform_images()))
             }
             _ => None,
         };
@@ -505,7 +505,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         errors.push(e.to_string());
     }
     let uniform_spirv = raycast::render::kernel_spirv("render_uniform").expect("embedded");
-    let (uniform_buffers, uniform_images) = (layout::render_uniform_bindings(), layout::render_uniform_images());
+    let (uniform_buffers, uniform_images) = (layout::render_uniform_bindings(), layout::uniform_kernel_images());
     if let Err(e) = reflect::check_layouts_with_images("render_uniform (embedded)", uniform_spirv, &uniform_buffers, &uniform_images) {
         errors.push(e.to_string());
     }

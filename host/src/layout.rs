@@ -360,25 +360,31 @@ pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u
     }
 }
 
-/// The scene arrays render_uniform.comp reads from rgba32ui storage images
-/// (scene_buffers.glsl, SCENE_IMAGES): primitives, nodes and instances, each
-/// as wide as its uniform block would be long (`padded_for_uniform` gives
-/// the bytes), `*_TEXELS` texels an element.
-pub const RENDER_UNIFORM_IMAGES: [u32; 3] = [BINDING_PRIMITIVES, BINDING_NODES, BINDING_INSTANCES];
+/// The scene arrays render_uniform.comp and preview_uniform.comp read from
+/// rgba32ui storage images (scene_buffers.glsl, SCENE_IMAGES): primitives,
+/// nodes and instances, each as wide as its uniform block would be long
+/// (`padded_for_uniform` gives the bytes), `*_TEXELS` texels an element.
+pub const UNIFORM_KERNEL_IMAGES: [u32; 3] = [BINDING_PRIMITIVES, BINDING_NODES, BINDING_INSTANCES];
 
-/// `RENDER_UNIFORM_IMAGES` as the kernel's image bindings.
-pub fn render_uniform_images() -> Vec<crate::gpu::ImageBinding> {
-    RENDER_UNIFORM_IMAGES
+/// `UNIFORM_KERNEL_IMAGES` as a kernel's image bindings.
+pub fn uniform_kernel_images() -> Vec<crate::gpu::ImageBinding> {
+    UNIFORM_KERNEL_IMAGES
         .iter()
         .map(|&binding| crate::gpu::ImageBinding { binding, writable: false, format: crate::gpu::ImageFormat::Rgba32Uint })
         .collect()
 }
 
+/// The scene's buffer bindings in render_uniform.comp and
+/// preview_uniform.comp: the small arrays as uniform blocks, but for
+/// `UNIFORM_KERNEL_IMAGES`.
+pub fn uniform_kernel_scene_bindings() -> Vec<BindingLayout> {
+    uniform_scene_bindings().into_iter().filter(|b| !UNIFORM_KERNEL_IMAGES.contains(&b.binding)).collect()
+}
+
 /// The buffer bindings of render_uniform.comp: `render_bindings` with the
-/// scene's small arrays as uniform blocks, but for `RENDER_UNIFORM_IMAGES`.
+/// scene as `uniform_kernel_scene_bindings`.
 pub fn render_uniform_bindings() -> Vec<BindingLayout> {
-    let mut b: Vec<BindingLayout> =
-        uniform_scene_bindings().into_iter().filter(|b| !RENDER_UNIFORM_IMAGES.contains(&b.binding)).collect();
+    let mut b = uniform_kernel_scene_bindings();
     b.extend(render_bindings().into_iter().filter(|r| r.binding == BINDING_PIXELS || r.binding == BINDING_SAMPLE_SUMS));
     b
 }

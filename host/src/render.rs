@@ -336,7 +336,7 @@ impl GpuRenderer {
         } else {
             ("render", &self.storage, layout::render_bindings())
         };
-        let images = if want_uniform { layout::render_uniform_images() } else { Vec::new() };
+        let images = if want_uniform { layout::uniform_kernel_images() } else { Vec::new() };
         let start = Instant::now();
         let k = Arc::new(Kernel::specialized(&self.context, name, spirv, &bindings, &images, &key.1.constants())?);
         *self.compile_time.lock().unwrap_or_else(|p| p.into_inner()) += start.elapsed();

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::context::Inner;
-use super::{GpuContext, GpuError, Kernel, StorageImage};
+use super::{DataImage, GpuContext, GpuError, ImageFormat, Kernel, StorageImage};
 
 /// Storage buffers cannot be empty; shorter ones get this many bytes.
 const MIN_BUFFER: u64 = 16;
@@ -98,7 +98,10 @@ impl Drop for Buffer {
 #[derive(Clone, Copy)]
 pub enum Resource<'a> {
     Buffer(&'a Buffer),
+    /// A picture (an `ImageFormat::Rgba8` binding).
     Image(&'a StorageImage),
+    /// Data (an `ImageFormat::Rgba32Uint` binding).
+    Data(&'a DataImage),
 }
 
 /// A kernel's descriptor set 0 with every binding bound. Rebuild it when a
@@ -134,20 +137,27 @@ impl DescriptorSet {
             )));
         }
         for (binding, resource) in resources {
-            let is_image = kernel.images().iter().any(|i| i.binding == *binding);
+            let image = kernel.images().iter().find(|i| i.binding == *binding).map(|i| i.format);
             let same_device = match resource {
                 Resource::Buffer(b) => Arc::ptr_eq(&b.inner, inner),
                 Resource::Image(i) => Arc::ptr_eq(i.inner(), inner),
+                Resource::Data(i) => Arc::ptr_eq(i.inner(), inner),
             };
             if !same_device {
                 return Err(bad(format!("binding {binding}: the resource was created on another GpuContext")));
             }
-            match (resource, is_image) {
-                (Resource::Image(_), false) => {
+            match (resource, image) {
+                (Resource::Image(_) | Resource::Data(_), None) => {
                     return Err(bad(format!("{} is a storage buffer, not an image", kernel.binding_label(*binding))))
                 }
-                (Resource::Buffer(_), true) => {
+                (Resource::Buffer(_), Some(_)) => {
                     return Err(bad(format!("binding {binding} is a storage image, not a buffer")))
+                }
+                (Resource::Image(_), Some(ImageFormat::Rgba32Uint)) => {
+                    return Err(bad(format!("binding {binding} is a data image (rgba32ui), not a picture")))
+                }
+                (Resource::Data(_), Some(ImageFormat::Rgba8)) => {
+                    return Err(bad(format!("binding {binding} is a picture (rgba8), not a data image")))
                 }
                 _ => {}
             }
@@ -155,7 +165,7 @@ impl DescriptorSet {
 
         let descriptor_type = |binding: u32, r: &Resource<'_>| match r {
             Resource::Buffer(_) => kernel.descriptor_type(binding),
-            Resource::Image(_) => vk::DescriptorType::STORAGE_IMAGE,
+            Resource::Image(_) | Resource::Data(_) => vk::DescriptorType::STORAGE_IMAGE,
         };
         let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
         for (binding, r) in resources {
@@ -177,13 +187,16 @@ impl DescriptorSet {
             .iter()
             .map(|(_, r)| match r {
                 Resource::Buffer(b) => [vk::DescriptorBufferInfo::default().buffer(b.buffer).offset(0).range(vk::WHOLE_SIZE)],
-                Resource::Image(_) => [vk::DescriptorBufferInfo::default()],
+                Resource::Image(_) | Resource::Data(_) => [vk::DescriptorBufferInfo::default()],
             })
             .collect();
         let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
             .iter()
             .map(|(_, r)| match r {
                 Resource::Image(i) => {
+                    [vk::DescriptorImageInfo::default().image_view(i.view).image_layout(vk::ImageLayout::GENERAL)]
+                }
+                Resource::Data(i) => {
                     [vk::DescriptorImageInfo::default().image_view(i.view).image_layout(vk::ImageLayout::GENERAL)]
                 }
                 Resource::Buffer(_) => [vk::DescriptorImageInfo::default()],
@@ -197,7 +210,7 @@ impl DescriptorSet {
                 let w = w.descriptor_type(descriptor_type(*binding, r));
                 match r {
                     Resource::Buffer(_) => w.buffer_info(&buffer_infos[k]),
-                    Resource::Image(_) => w.image_info(&image_infos[k]),
+                    Resource::Image(_) | Resource::Data(_) => w.image_info(&image_infos[k]),
                 }
             })
             .collect();

@@ -603,7 +603,7 @@ impl GpuContext {
         }
         for (binding, len) in inputs.iter().map(|(b, d)| (*b, d.len())).chain([(out_binding, out_bytes)]) {
             if is_image(binding) {
-                inner.check_data_image(kernel.name(), len, binding)?;
+                inner.check_data_image(kernel.name(), &kernel.binding_label(binding), len)?;
                 continue;
             }
             inner.check_storage_size(buffer_size(len), || kernel.binding_label(binding))?;
@@ -655,7 +655,7 @@ impl GpuContext {
         for (binding, buffer) in res.bindings.clone() {
             if is_image(binding) {
                 let len = inputs.iter().find(|(b, _)| *b == binding).map_or(0, |(_, d)| d.len());
-                inner.create_data_image(&mut res, binding, buffer, (len / 16) as u32)?;
+                inner.create_data_image(&mut res, binding, buffer, (len / 16) as u32, &kernel.binding_label(binding))?;
             }
         }
         let images = res.images.len() as u32;
@@ -729,7 +729,7 @@ impl GpuContext {
             let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             d.begin_command_buffer(cmd, &begin).map_err(GpuError::vk("vkBeginCommandBuffer"))?;
             for image in &res.images {
-                record_image_upload(d, cmd, image);
+                record_image_upload(d, cmd, image.source, image.image, image.texels);
             }
             d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
             d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
@@ -798,18 +798,23 @@ unsafe fn shader_writes_barrier(d: &ash::Device, cmd: vk::CommandBuffer, dst_sta
 
 impl Inner {
     /// Fails when a storage buffer of `bytes` exceeds maxStorageBufferRange or maxMemoryAllocationSize.
-    /// A data image of `len` bytes (a run's rgba32ui input): whole texels,
-    /// one row within maxImageDimension2D, a format the device can store.
-    fn check_data_image(&self, kernel: &str, len: usize, binding: u32) -> Result<(), GpuError> {
-        let what = || format!("binding {binding} (a data image, 16 bytes a texel)");
-        let bad = |message: String| GpuError::BadRun { kernel: kernel.to_string(), message: format!("{}: {message}", what()) };
+    /// A data image of `len` bytes (a run's rgba32ui input, a
+    /// `DataImage`): whole texels, one row within maxImageDimension2D, a
+    /// format the device can store. `kernel` and `what` name it in errors.
+    pub(crate) fn check_data_image(&self, kernel: &str, what: &str, len: usize) -> Result<(), GpuError> {
+        let bad = |message: String| GpuError::BadRun { kernel: kernel.to_string(), message: format!("{what}: {message}") };
         let max = u64::from(self.limits.max_image_dimension2_d);
         let texels = (len / 16) as u64;
         if len == 0 || len % 16 != 0 {
             return Err(bad(format!("{len} bytes are not whole 16-byte texels")));
         }
         if texels > max {
-            return Err(GpuError::TooLarge { what: what(), bytes: texels, limit: max, limit_name: "maxImageDimension2D (texels)" });
+            return Err(GpuError::TooLarge {
+                what: what.to_string(),
+                bytes: texels,
+                limit: max,
+                limit_name: "maxImageDimension2D (texels)",
+            });
         }
         let features = unsafe { self.parts.instance.get_physical_device_format_properties(self.physical, DATA_FORMAT) }
             .optimal_tiling_features;
@@ -822,8 +827,15 @@ impl Inner {
 
     /// A device-local `texels` x 1 rgba32ui image for `binding`, filled
     /// from `source` when the run's command buffer starts
-    /// (`record_image_upload`).
-    fn create_data_image(&self, res: &mut RunResources, binding: u32, source: vk::Buffer, texels: u32) -> Result<(), GpuError> {
+    /// (`record_image_upload`); `what` names it in errors.
+    fn create_data_image(
+        &self,
+        res: &mut RunResources,
+        binding: u32,
+        source: vk::Buffer,
+        texels: u32,
+        what: &str,
+    ) -> Result<(), GpuError> {
         let d = &self.device;
         res.images.push(DataImage { binding, source, texels, image: vk::Image::null(), view: vk::ImageView::null(), memory: vk::DeviceMemory::null() });
         let slot = res.images.len() - 1;
@@ -860,7 +872,7 @@ impl Inner {
         let memory = res.images[slot].memory;
         if memory == vk::DeviceMemory::null() {
             return Err(GpuError::OutOfMemory {
-                what: format!("binding {binding} (a data image of {texels} texels)"),
+                what: format!("{what} (a data image of {texels} texels)"),
                 bytes: req.size,
                 detail: format!("vkAllocateMemory failed with {last:?} for every memory type"),
             });
@@ -905,6 +917,53 @@ impl Inner {
         // Hand it over: `res` must not destroy it.
         res.buffers.clear();
         Ok(made)
+    }
+
+    /// A `texels` x 1 data image the caller owns (`DataImage`), empty.
+    pub(crate) fn create_owned_data_image(
+        &self,
+        texels: u32,
+        what: &str,
+    ) -> Result<(vk::Image, vk::DeviceMemory, vk::ImageView), GpuError> {
+        let mut res = RunResources::new(self.device.clone());
+        self.create_data_image(&mut res, 0, vk::Buffer::null(), texels, what)?;
+        let i = res.images.pop().expect("pushed by create_data_image");
+        Ok((i.image, i.memory, i.view))
+    }
+
+    /// Records commands with `record` into a command buffer of its own,
+    /// submits it and waits for it (the context's timeout).
+    pub(crate) fn submit_once(&self, record: impl FnOnce(&ash::Device, vk::CommandBuffer)) -> Result<(), GpuError> {
+        let d = &self.device;
+        let mut res = RunResources::new(d.clone());
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT)
+            .queue_family_index(self.queue_family);
+        res.command_pool = unsafe { d.create_command_pool(&pool_info, None) }.map_err(GpuError::vk("vkCreateCommandPool"))?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(res.command_pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let cmd = unsafe { d.allocate_command_buffers(&alloc) }.map_err(GpuError::vk("vkAllocateCommandBuffers"))?[0];
+        let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        unsafe { d.begin_command_buffer(cmd, &begin) }.map_err(GpuError::vk("vkBeginCommandBuffer"))?;
+        record(d, cmd);
+        unsafe { d.end_command_buffer(cmd) }.map_err(GpuError::vk("vkEndCommandBuffer"))?;
+        res.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(GpuError::vk("vkCreateFence"))?;
+        let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
+        let cmds = [cmd];
+        let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+        unsafe { d.queue_submit(*queue, &submit, res.fence) }.map_err(GpuError::vk("vkQueueSubmit"))?;
+        let timeout_ns = u64::try_from(self.timeout.as_nanos()).unwrap_or(u64::MAX);
+        match unsafe { d.wait_for_fences(&[res.fence], true, timeout_ns) } {
+            Ok(()) => Ok(()),
+            Err(vk::Result::TIMEOUT) => {
+                // The device may still use the command buffer: keep it until the context is dropped.
+                self.abandoned.lock().unwrap_or_else(|p| p.into_inner()).push(res);
+                Err(GpuError::Timeout { after: self.timeout })
+            }
+            Err(e) => Err(GpuError::vk("vkWaitForFences")(e)),
+        }
     }
 
     /// A storage buffer in host-visible, host-coherent memory. Memory types are
@@ -1010,7 +1069,7 @@ struct DataImage {
 ///
 /// # Safety
 /// `cmd` is a command buffer of `d` in the recording state.
-unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer, image: &DataImage) {
+pub(crate) unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer, source: vk::Buffer, image: vk::Image, texels: u32) {
     let barrier = |old, new, src, dst| {
         [vk::ImageMemoryBarrier::default()
             .old_layout(old)
@@ -1019,12 +1078,12 @@ unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer, image: &D
             .dst_access_mask(dst)
             .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
             .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(image.image)
+            .image(image)
             .subresource_range(color_range())]
     };
     let region = [vk::BufferImageCopy::default()
         .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
-        .image_extent(vk::Extent3D { width: image.texels, height: 1, depth: 1 })];
+        .image_extent(vk::Extent3D { width: texels, height: 1, depth: 1 })];
     let to_copy = barrier(
         vk::ImageLayout::UNDEFINED,
         vk::ImageLayout::TRANSFER_DST_OPTIMAL,
@@ -1042,7 +1101,7 @@ unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer, image: &D
     // SAFETY: the caller's; the buffer (filled and unmapped before recording) and the image live as long as the run.
     unsafe {
         d.cmd_pipeline_barrier(cmd, top, transfer, vk::DependencyFlags::empty(), &[], &[], &to_copy);
-        d.cmd_copy_buffer_to_image(cmd, image.source, image.image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &region);
+        d.cmd_copy_buffer_to_image(cmd, source, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &region);
         d.cmd_pipeline_barrier(cmd, transfer, compute, vk::DependencyFlags::empty(), &[], &[], &to_read);
     }
 }

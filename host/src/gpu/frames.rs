@@ -345,7 +345,7 @@ impl Drop for FrameLoop {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::{compile_kernel, Buffer, DeviceSelector, GpuOptions, ImageBinding, ImageFormat, Resource};
+    use crate::gpu::{compile_kernel, Buffer, DataImage, DeviceSelector, GpuOptions, ImageBinding, ImageFormat, Resource};
     use crate::layout::{BindingLayout, BufferShape, FieldLayout, StructLayout};
 
     /// out[i] = 3 i + sample for i < 64, and the pixel (i, 0) of the image.
@@ -400,6 +400,14 @@ void main() {
             .err()
             .unwrap();
         assert!(e.to_string().contains("is a storage buffer, not an image"), "{e}");
+        // A data image where the kernel wants a picture.
+        let data = DataImage::new(&ctx, &[7u8; 64], "a test data image").unwrap_or_else(|e| panic!("{e}"));
+        let e = DescriptorSet::new(&kernel, &[(0, Resource::Buffer(&params)), (1, Resource::Buffer(&out)), (2, Resource::Data(&data))])
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("binding 2 is a picture (rgba8), not a data image"), "{e}");
+        let e = DataImage::new(&ctx, &[7u8; 40], "a ragged data image").err().unwrap();
+        assert!(e.to_string().contains("a ragged data image: 40 bytes are not whole 16-byte texels"), "{e}");
         // One-shot runs refuse kernels with pictures (they take data images only).
         let e = ctx.run(&kernel, &[(0, &[0u8; 16][..]), (2, &[0u8; 16][..])], (1, 64 * 16), 0, [1, 1, 1]).err().unwrap();
         assert!(e.to_string().contains("binding 2 is a picture"), "{e}");

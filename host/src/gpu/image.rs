@@ -1,6 +1,7 @@
 //! `StorageImage`: a 2D RGBA8 image a kernel writes with `imageStore` and a
-//! `FrameLoop` copies to the swapchain; `ImageBinding`: how a kernel
-//! declares one.
+//! `FrameLoop` copies to the swapchain; `DataImage`: a one-row rgba32ui
+//! image of data a kernel reads with `imageLoad`; `ImageBinding`: how a
+//! kernel declares either.
 
 use std::sync::Arc;
 
@@ -174,6 +175,50 @@ impl Drop for StorageImage {
     fn drop(&mut self) {
         let d = &self.inner.device;
         // Null handles (a failed `new`) are no-ops.
+        unsafe {
+            d.destroy_image_view(self.view, None);
+            d.destroy_image(self.image, None);
+            d.free_memory(self.memory, None);
+        }
+    }
+}
+
+/// A device-local rgba32ui image of one row holding data for a kernel that
+/// runs many times (the preview's scene arrays; one-shot runs make their
+/// own from their inputs, `GpuContext::run_passes`). Filled at creation
+/// and left in GENERAL, read-only.
+pub struct DataImage {
+    pub(crate) view: vk::ImageView,
+    image: vk::Image,
+    memory: vk::DeviceMemory,
+    inner: Arc<Inner>,
+}
+
+impl DataImage {
+    /// An image of `bytes` (whole 16-byte texels, one texel a pixel of its
+    /// one row); `what` names it in errors.
+    pub fn new(ctx: &GpuContext, bytes: &[u8], what: &str) -> Result<DataImage, GpuError> {
+        let inner = &ctx.inner;
+        inner.check_data_image("(data image)", what, bytes.len())?;
+        let texels = (bytes.len() / 16) as u32;
+        let (image, memory, view) = inner.create_owned_data_image(texels, what)?;
+        let made = DataImage { view, image, memory, inner: inner.clone() };
+        let staging = super::Buffer::with_data(ctx, bytes, what)?;
+        // SAFETY: the staging buffer and the image outlive the wait in submit_once.
+        inner.submit_once(|d, cmd| unsafe {
+            super::context::record_image_upload(d, cmd, staging.buffer, made.image, texels)
+        })?;
+        Ok(made)
+    }
+
+    pub(crate) fn inner(&self) -> &Arc<Inner> {
+        &self.inner
+    }
+}
+
+impl Drop for DataImage {
+    fn drop(&mut self) {
+        let d = &self.inner.device;
         unsafe {
             d.destroy_image_view(self.view, None);
             d.destroy_image(self.image, None);

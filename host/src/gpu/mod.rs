@@ -27,6 +27,6 @@ pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptio
 pub use error::GpuError;
 pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use frames::{FrameLoop, FrameStatus};
-pub use image::{ImageBinding, ImageFormat, StorageImage};
+pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};
 pub use kernel::Kernel;
 pub use present::{PresentMode, Swapchain};

@@ -91,10 +91,10 @@ pub fn preview_bindings() -> Vec<BindingLayout> {
     with_preview_bindings(pixel_kernel_bindings())
 }
 
-/// The bindings of preview_uniform.comp: `preview_bindings` with the
-/// scene's small arrays as uniform blocks (`layout::uniform_scene_bindings`).
+/// The buffer bindings of preview_uniform.comp: `preview_bindings` with the
+/// scene as render_uniform.comp's (`layout::uniform_kernel_scene_bindings`).
 pub fn preview_uniform_bindings() -> Vec<BindingLayout> {
-    let mut b = crate::layout::uniform_scene_bindings();
+    let mut b = crate::layout::uniform_kernel_scene_bindings();
     b.extend(pixel_kernel_bindings().into_iter().filter(|p| p.binding == crate::layout::BINDING_PIXELS));
     with_preview_bindings(b)
 }
@@ -111,6 +111,14 @@ fn with_preview_bindings(scene_and_pixels: Vec<BindingLayout>) -> Vec<BindingLay
 /// The preview kernel's storage image: what the window shows.
 pub fn preview_images() -> Vec<ImageBinding> {
     vec![ImageBinding { binding: BINDING_DISPLAY, writable: true, format: ImageFormat::Rgba8 }]
+}
+
+/// preview_uniform.comp's storage images: the display and the scene's data
+/// images (`layout::uniform_kernel_images`).
+pub fn preview_uniform_images() -> Vec<ImageBinding> {
+    let mut i = preview_images();
+    i.extend(crate::layout::uniform_kernel_images());
+    i
 }
 
 #[cfg(test)]

@@ -7,14 +7,14 @@ use std::time::Duration;
 
 use crate::frame::FrameData;
 use crate::gpu::{
-    Buffer, DescriptorSet, FrameLoop, FrameStatus, GpuContext, GpuError, Kernel, PresentMode, Resource,
+    Buffer, DataImage, DescriptorSet, FrameLoop, FrameStatus, GpuContext, GpuError, Kernel, PresentMode, Resource,
     StorageImage, Swapchain,
 };
 use crate::layout::{self, Frame, PixelOut};
 use crate::render::{SceneFeatures, Specialization};
 
 use super::layout::{
-    preview_bindings, preview_images, preview_uniform_bindings, AccumPixel, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW,
+    preview_bindings, preview_images, preview_uniform_bindings, preview_uniform_images, AccumPixel, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW,
     BINDING_STATUS,
 };
 
@@ -33,7 +33,7 @@ impl PreviewKernels {
     pub fn new(storage: &[u8], uniform: Option<&[u8]>) -> Result<PreviewKernels, GpuError> {
         Kernel::check("preview", storage, &preview_bindings(), &preview_images())?;
         if let Some(u) = uniform {
-            Kernel::check("preview_uniform", u, &preview_uniform_bindings(), &preview_images())?;
+            Kernel::check("preview_uniform", u, &preview_uniform_bindings(), &preview_uniform_images())?;
         }
         Ok(PreviewKernels { storage: storage.to_vec(), uniform: uniform.map(<[u8]>::to_vec) })
     }
@@ -50,7 +50,7 @@ impl PreviewKernels {
         let constants = spec.constants();
         match &self.uniform {
             Some(u) if fits => {
-                Kernel::specialized(ctx, "preview_uniform", u, &preview_uniform_bindings(), &preview_images(), &constants)
+                Kernel::specialized(ctx, "preview_uniform", u, &preview_uniform_bindings(), &preview_uniform_images(), &constants)
             }
             _ => Kernel::specialized(ctx, "preview", &self.storage, &preview_bindings(), &preview_images(), &constants),
         }
@@ -60,6 +60,9 @@ impl PreviewKernels {
 /// The scene's buffers (FrameData::scene_buffers) on the device, by binding.
 struct SceneBuffers {
     buffers: Vec<(u32, Buffer)>,
+    /// When the scene fits preview_uniform.comp: the arrays it reads from
+    /// storage images (`layout::UNIFORM_KERNEL_IMAGES`), by binding.
+    images: Vec<(u32, DataImage)>,
     /// The scene fits preview_uniform.comp's blocks, and the arrays it
     /// reads as uniform blocks are padded to their declared size.
     fits_uniform: bool,
@@ -70,15 +73,17 @@ struct SceneBuffers {
 impl SceneBuffers {
     fn new(ctx: &GpuContext, data: &FrameData) -> Result<SceneBuffers, GpuError> {
         let fits_uniform = crate::render::fits_uniform(data).is_ok();
-        let buffers = data
-            .scene_buffers()
-            .iter()
-            .map(|&(binding, what, bytes)| {
-                let bytes = if fits_uniform { crate::layout::padded_for_uniform(binding, bytes) } else { bytes.into() };
-                Ok((binding, Buffer::with_data(ctx, &bytes, what)?))
-            })
-            .collect::<Result<_, GpuError>>()?;
-        Ok(SceneBuffers { buffers, fits_uniform, features: SceneFeatures::of(data) })
+        let mut images = Vec::new();
+        let mut buffers = Vec::new();
+        for &(binding, what, bytes) in &data.scene_buffers() {
+            let bytes = if fits_uniform { crate::layout::padded_for_uniform(binding, bytes) } else { bytes.into() };
+            if fits_uniform && layout::UNIFORM_KERNEL_IMAGES.contains(&binding) {
+                images.push((binding, DataImage::new(ctx, &bytes, what)?));
+            }
+            // Also for the images' bindings: without preview_uniform.comp (a --shaders folder), preview.comp draws it.
+            buffers.push((binding, Buffer::with_data(ctx, &bytes, what)?));
+        }
+        Ok(SceneBuffers { buffers, images, fits_uniform, features: SceneFeatures::of(data) })
     }
 }
 
@@ -179,8 +184,15 @@ impl PreviewRenderer {
         self.set = None;
         let p = &self.picture;
         let s = &self.scene;
+        let (_, kernel) = self.kernel.as_ref().expect("prepare builds the kernel first");
         let mut resources = vec![(layout::BINDING_FRAME, Resource::Buffer(&self.frame))];
-        resources.extend(s.buffers.iter().map(|(binding, buffer)| (*binding, Resource::Buffer(buffer))));
+        // A binding the kernel reads as an image gets the data image, the others their buffer.
+        resources.extend(s.buffers.iter().map(|(binding, buffer)| {
+            match s.images.iter().find(|(b, _)| b == binding && kernel.images().iter().any(|i| i.binding == *b)) {
+                Some((_, image)) => (*binding, Resource::Data(image)),
+                None => (*binding, Resource::Buffer(buffer)),
+            }
+        }));
         resources.extend([
             (layout::BINDING_PIXELS, Resource::Buffer(&p.pixels)),
             (BINDING_PREVIEW, Resource::Buffer(&self.preview)),
@@ -188,7 +200,6 @@ impl PreviewRenderer {
             (BINDING_DISPLAY, Resource::Image(&p.display)),
             (BINDING_STATUS, Resource::Buffer(&self.status)),
         ]);
-        let (_, kernel) = self.kernel.as_ref().expect("prepare builds the kernel first");
         self.set = Some(DescriptorSet::new(kernel, &resources)?);
         Ok(())
     }
