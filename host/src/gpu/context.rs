@@ -618,9 +618,6 @@ impl GpuContext {
             }
         }
 
-        let _queue_guard = inner.queue.lock().unwrap_or_else(|p| p.into_inner());
-        let queue = *_queue_guard;
-
         // Upload: one host-visible buffer per binding, filled in place.
         let start = Instant::now();
         let mut res = RunResources::new(inner.device.clone());
@@ -711,23 +708,9 @@ impl GpuContext {
         unsafe { inner.device.update_descriptor_sets(&writes, &[]) };
         let upload = start.elapsed();
 
-        // Dispatch: bind, dispatch, make the writes visible to the host, submit, wait.
+        // Dispatch: fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
         let start = Instant::now();
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .flags(vk::CommandPoolCreateFlags::TRANSIENT)
-            .queue_family_index(inner.queue_family);
-        res.command_pool = unsafe { inner.device.create_command_pool(&pool_info, None) }
-            .map_err(GpuError::vk("vkCreateCommandPool"))?;
-        let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(res.command_pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        let cmd = unsafe { inner.device.allocate_command_buffers(&alloc) }
-            .map_err(GpuError::vk("vkAllocateCommandBuffers"))?[0];
-        let d = &inner.device;
-        unsafe {
-            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-            d.begin_command_buffer(cmd, &begin).map_err(GpuError::vk("vkBeginCommandBuffer"))?;
+        let res = inner.submit_once(res, |d, cmd, res| unsafe {
             for image in &res.images {
                 record_image_upload(d, cmd, image.source, image.image, image.texels);
             }
@@ -742,23 +725,8 @@ impl GpuContext {
                 d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
             }
             shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
-            d.end_command_buffer(cmd).map_err(GpuError::vk("vkEndCommandBuffer"))?;
-        }
-        res.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }
-            .map_err(GpuError::vk("vkCreateFence"))?;
-        let cmds = [cmd];
-        let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        unsafe { d.queue_submit(queue, &submit, res.fence) }.map_err(GpuError::vk("vkQueueSubmit"))?;
-        let timeout_ns = u64::try_from(inner.timeout.as_nanos()).unwrap_or(u64::MAX);
-        match unsafe { d.wait_for_fences(&[res.fence], true, timeout_ns) } {
-            Ok(()) => {}
-            Err(vk::Result::TIMEOUT) => {
-                // The device may still use the buffers: keep them until the context is dropped.
-                inner.abandoned.lock().unwrap_or_else(|p| p.into_inner()).push(res);
-                return Err(GpuError::Timeout { after: inner.timeout });
-            }
-            Err(e) => return Err(GpuError::vk("vkWaitForFences")(e)),
-        }
+        })?;
+        let d = &inner.device;
         let dispatch = start.elapsed();
 
         // Readback.
@@ -836,54 +804,14 @@ impl Inner {
         texels: u32,
         what: &str,
     ) -> Result<(), GpuError> {
-        let d = &self.device;
-        res.images.push(DataImage { binding, source, texels, image: vk::Image::null(), view: vk::ImageView::null(), memory: vk::DeviceMemory::null() });
-        let slot = res.images.len() - 1;
-        let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(DATA_FORMAT)
-            .extent(vk::Extent3D { width: texels, height: 1, depth: 1 })
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .initial_layout(vk::ImageLayout::UNDEFINED);
-        let image = unsafe { d.create_image(&info, None) }.map_err(GpuError::vk("vkCreateImage"))?;
-        res.images[slot].image = image;
-        let req = unsafe { d.get_image_memory_requirements(image) };
-        let types = &self.memory.memory_types[..self.memory.memory_type_count as usize];
-        let mut candidates: Vec<u32> = (0..types.len() as u32).filter(|i| req.memory_type_bits & (1 << i) != 0).collect();
-        // Device-local first.
-        candidates.sort_by_key(|&i| !types[i as usize].property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL));
-        let mut last = vk::Result::ERROR_OUT_OF_DEVICE_MEMORY;
-        for type_index in candidates {
-            let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
-            match unsafe { d.allocate_memory(&alloc, None) } {
-                Ok(memory) => {
-                    res.images[slot].memory = memory;
-                    break;
-                }
-                Err(e @ (vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY)) => last = e,
-                Err(e) => return Err(GpuError::vk("vkAllocateMemory")(e)),
-            }
-        }
-        let memory = res.images[slot].memory;
-        if memory == vk::DeviceMemory::null() {
-            return Err(GpuError::OutOfMemory {
-                what: format!("{what} (a data image of {texels} texels)"),
-                bytes: req.size,
-                detail: format!("vkAllocateMemory failed with {last:?} for every memory type"),
-            });
-        }
-        unsafe { d.bind_image_memory(image, memory, 0) }.map_err(GpuError::vk("vkBindImageMemory"))?;
-        let view = vk::ImageViewCreateInfo::default()
-            .image(image)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(DATA_FORMAT)
-            .subresource_range(color_range());
-        res.images[slot].view = unsafe { d.create_image_view(&view, None) }.map_err(GpuError::vk("vkCreateImageView"))?;
+        let (image, memory, view) = super::image::create_image(
+            self,
+            DATA_FORMAT,
+            [texels, 1],
+            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
+            format!("{what} (a data image of {texels} texels)"),
+        )?;
+        res.images.push(DataImage { binding, source, texels, image, view, memory });
         Ok(())
     }
 
@@ -919,23 +847,16 @@ impl Inner {
         Ok(made)
     }
 
-    /// A `texels` x 1 data image the caller owns (`DataImage`), empty.
-    pub(crate) fn create_owned_data_image(
+    /// Records commands with `record` into a command buffer of its own
+    /// (in `res`, with what they use), submits it and waits for it (the
+    /// context's timeout). On a timeout the device may still use `res`: it
+    /// is kept until the context is dropped. Else it comes back.
+    pub(crate) fn submit_once(
         &self,
-        texels: u32,
-        what: &str,
-    ) -> Result<(vk::Image, vk::DeviceMemory, vk::ImageView), GpuError> {
-        let mut res = RunResources::new(self.device.clone());
-        self.create_data_image(&mut res, 0, vk::Buffer::null(), texels, what)?;
-        let i = res.images.pop().expect("pushed by create_data_image");
-        Ok((i.image, i.memory, i.view))
-    }
-
-    /// Records commands with `record` into a command buffer of its own,
-    /// submits it and waits for it (the context's timeout).
-    pub(crate) fn submit_once(&self, record: impl FnOnce(&ash::Device, vk::CommandBuffer)) -> Result<(), GpuError> {
+        mut res: RunResources,
+        record: impl FnOnce(&ash::Device, vk::CommandBuffer, &RunResources),
+    ) -> Result<RunResources, GpuError> {
         let d = &self.device;
-        let mut res = RunResources::new(d.clone());
         let pool_info = vk::CommandPoolCreateInfo::default()
             .flags(vk::CommandPoolCreateFlags::TRANSIENT)
             .queue_family_index(self.queue_family);
@@ -947,7 +868,7 @@ impl Inner {
         let cmd = unsafe { d.allocate_command_buffers(&alloc) }.map_err(GpuError::vk("vkAllocateCommandBuffers"))?[0];
         let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         unsafe { d.begin_command_buffer(cmd, &begin) }.map_err(GpuError::vk("vkBeginCommandBuffer"))?;
-        record(d, cmd);
+        record(d, cmd, &res);
         unsafe { d.end_command_buffer(cmd) }.map_err(GpuError::vk("vkEndCommandBuffer"))?;
         res.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(GpuError::vk("vkCreateFence"))?;
         let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
@@ -956,9 +877,8 @@ impl Inner {
         unsafe { d.queue_submit(*queue, &submit, res.fence) }.map_err(GpuError::vk("vkQueueSubmit"))?;
         let timeout_ns = u64::try_from(self.timeout.as_nanos()).unwrap_or(u64::MAX);
         match unsafe { d.wait_for_fences(&[res.fence], true, timeout_ns) } {
-            Ok(()) => Ok(()),
+            Ok(()) => Ok(res),
             Err(vk::Result::TIMEOUT) => {
-                // The device may still use the command buffer: keep it until the context is dropped.
                 self.abandoned.lock().unwrap_or_else(|p| p.into_inner()).push(res);
                 Err(GpuError::Timeout { after: self.timeout })
             }
@@ -1051,7 +971,7 @@ impl Drop for Inner {
 }
 
 /// The format of a run's data images (`ImageFormat::Rgba32Uint`).
-const DATA_FORMAT: vk::Format = vk::Format::R32G32B32A32_UINT;
+pub(crate) const DATA_FORMAT: vk::Format = vk::Format::R32G32B32A32_UINT;
 
 /// A run's read-only data image, filled from its input buffer `source`.
 struct DataImage {
@@ -1107,7 +1027,7 @@ pub(crate) unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer
 }
 
 /// The Vulkan objects of one run, destroyed on drop (also on every error path).
-struct RunResources {
+pub(crate) struct RunResources {
     device: ash::Device,
     buffers: Vec<(vk::Buffer, vk::DeviceMemory)>,
     bindings: Vec<(u32, vk::Buffer)>,
@@ -1118,7 +1038,7 @@ struct RunResources {
 }
 
 impl RunResources {
-    fn new(device: ash::Device) -> Self {
+    pub(crate) fn new(device: ash::Device) -> Self {
         RunResources {
             device,
             buffers: Vec::new(),
@@ -1140,9 +1060,7 @@ impl Drop for RunResources {
             d.destroy_command_pool(self.command_pool, None);
             d.destroy_descriptor_pool(self.descriptor_pool, None);
             for image in self.images.drain(..) {
-                d.destroy_image_view(image.view, None);
-                d.destroy_image(image.image, None);
-                d.free_memory(image.memory, None);
+                super::image::destroy_image(d, (image.image, image.memory, image.view));
             }
             for (buffer, memory) in self.buffers.drain(..) {
                 d.destroy_buffer(buffer, None);

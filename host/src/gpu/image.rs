@@ -69,7 +69,6 @@ pub struct StorageImage {
 impl StorageImage {
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<StorageImage, GpuError> {
         let inner = &ctx.inner;
-        let d = &inner.device;
         let features = unsafe {
             inner.parts.instance.get_physical_device_format_properties(inner.physical, FORMAT)
         }
@@ -89,63 +88,22 @@ impl StorageImage {
                 limit_name: "maxImageDimension2D (pixels)",
             });
         }
-        let mut img = StorageImage {
-            image: vk::Image::null(),
-            view: vk::ImageView::null(),
+        let (image, memory, view) = create_image(
+            inner,
+            FORMAT,
+            [width, height],
+            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+            format!("a {width}x{height} storage image"),
+        )?;
+        Ok(StorageImage {
+            image,
+            view,
             layout: std::cell::Cell::new(vk::ImageLayout::UNDEFINED),
-            memory: vk::DeviceMemory::null(),
+            memory,
             width,
             height,
             inner: inner.clone(),
-        };
-        // From here on, dropping `img` destroys whatever was created.
-        let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(FORMAT)
-            .extent(vk::Extent3D { width, height, depth: 1 })
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .initial_layout(vk::ImageLayout::UNDEFINED);
-        img.image = unsafe { d.create_image(&info, None) }.map_err(GpuError::vk("vkCreateImage"))?;
-        let req = unsafe { d.get_image_memory_requirements(img.image) };
-        // Device-local first, then any type the image accepts.
-        let types = &inner.memory.memory_types[..inner.memory.memory_type_count as usize];
-        let mut candidates: Vec<u32> =
-            (0..types.len() as u32).filter(|i| req.memory_type_bits & (1 << i) != 0).collect();
-        candidates.sort_by_key(|&i| {
-            !types[i as usize].property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL)
-        });
-        let mut last = vk::Result::ERROR_OUT_OF_DEVICE_MEMORY;
-        for type_index in candidates {
-            let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
-            match unsafe { d.allocate_memory(&alloc, None) } {
-                Ok(m) => {
-                    img.memory = m;
-                    break;
-                }
-                Err(e @ (vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY)) => last = e,
-                Err(e) => return Err(GpuError::vk("vkAllocateMemory")(e)),
-            }
-        }
-        if img.memory == vk::DeviceMemory::null() {
-            return Err(GpuError::OutOfMemory {
-                what: format!("a {width}x{height} storage image"),
-                bytes: req.size,
-                detail: format!("vkAllocateMemory failed with {last:?} for every memory type"),
-            });
-        }
-        unsafe { d.bind_image_memory(img.image, img.memory, 0) }.map_err(GpuError::vk("vkBindImageMemory"))?;
-        let view = vk::ImageViewCreateInfo::default()
-            .image(img.image)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(FORMAT)
-            .subresource_range(color_range());
-        img.view = unsafe { d.create_image_view(&view, None) }.map_err(GpuError::vk("vkCreateImageView"))?;
-        Ok(img)
+        })
     }
 
     pub fn width(&self) -> u32 {
@@ -171,15 +129,90 @@ pub(crate) fn color_range() -> vk::ImageSubresourceRange {
         .layer_count(1)
 }
 
+/// A 2D `format` image of `size`, optimal tiling, in memory of its own
+/// (device-local first), and a view of it; on an error, whatever was made
+/// is destroyed. `what` names it in errors.
+pub(crate) fn create_image(
+    inner: &Inner,
+    format: vk::Format,
+    size: [u32; 2],
+    usage: vk::ImageUsageFlags,
+    what: String,
+) -> Result<(vk::Image, vk::DeviceMemory, vk::ImageView), GpuError> {
+    let d = &inner.device;
+    let mut made = (vk::Image::null(), vk::DeviceMemory::null(), vk::ImageView::null());
+    let result = (|| {
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D { width: size[0], height: size[1], depth: 1 })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        made.0 = unsafe { d.create_image(&info, None) }.map_err(GpuError::vk("vkCreateImage"))?;
+        let req = unsafe { d.get_image_memory_requirements(made.0) };
+        let types = &inner.memory.memory_types[..inner.memory.memory_type_count as usize];
+        let mut candidates: Vec<u32> = (0..types.len() as u32).filter(|i| req.memory_type_bits & (1 << i) != 0).collect();
+        candidates.sort_by_key(|&i| !types[i as usize].property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL));
+        let mut last = vk::Result::ERROR_OUT_OF_DEVICE_MEMORY;
+        for type_index in candidates {
+            let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
+            match unsafe { d.allocate_memory(&alloc, None) } {
+                Ok(m) => {
+                    made.1 = m;
+                    break;
+                }
+                Err(e @ (vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY)) => last = e,
+                Err(e) => return Err(GpuError::vk("vkAllocateMemory")(e)),
+            }
+        }
+        if made.1 == vk::DeviceMemory::null() {
+            return Err(GpuError::OutOfMemory {
+                what: what.clone(),
+                bytes: req.size,
+                detail: format!("vkAllocateMemory failed with {last:?} for every memory type"),
+            });
+        }
+        unsafe { d.bind_image_memory(made.0, made.1, 0) }.map_err(GpuError::vk("vkBindImageMemory"))?;
+        let view = vk::ImageViewCreateInfo::default()
+            .image(made.0)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(color_range());
+        made.2 = unsafe { d.create_image_view(&view, None) }.map_err(GpuError::vk("vkCreateImageView"))?;
+        Ok(())
+    })();
+    match result {
+        Ok(()) => Ok(made),
+        Err(e) => {
+            // SAFETY: nothing uses them yet.
+            unsafe { destroy_image(d, made) };
+            Err(e)
+        }
+    }
+}
+
+/// Destroys what `create_image` made (null handles are no-ops).
+///
+/// # Safety
+/// The device no longer uses them.
+pub(crate) unsafe fn destroy_image(d: &ash::Device, (image, memory, view): (vk::Image, vk::DeviceMemory, vk::ImageView)) {
+    // SAFETY: the caller's.
+    unsafe {
+        d.destroy_image_view(view, None);
+        d.destroy_image(image, None);
+        d.free_memory(memory, None);
+    }
+}
+
 impl Drop for StorageImage {
     fn drop(&mut self) {
-        let d = &self.inner.device;
-        // Null handles (a failed `new`) are no-ops.
-        unsafe {
-            d.destroy_image_view(self.view, None);
-            d.destroy_image(self.image, None);
-            d.free_memory(self.memory, None);
-        }
+        // SAFETY: dropped when no frame in flight uses it (FrameLoop waits).
+        unsafe { destroy_image(&self.inner.device, (self.image, self.memory, self.view)) };
     }
 }
 
@@ -201,13 +234,27 @@ impl DataImage {
         let inner = &ctx.inner;
         inner.check_data_image("(data image)", what, bytes.len())?;
         let texels = (bytes.len() / 16) as u32;
-        let (image, memory, view) = inner.create_owned_data_image(texels, what)?;
+        let (image, memory, view) = create_image(
+            inner,
+            super::context::DATA_FORMAT,
+            [texels, 1],
+            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
+            format!("{what} (a data image of {texels} texels)"),
+        )?;
         let made = DataImage { view, image, memory, inner: inner.clone() };
         let staging = super::Buffer::with_data(ctx, bytes, what)?;
         // SAFETY: the staging buffer and the image outlive the wait in submit_once.
-        inner.submit_once(|d, cmd| unsafe {
+        let res = super::context::RunResources::new(inner.device.clone());
+        let done = inner.submit_once(res, |d, cmd, _| unsafe {
             super::context::record_image_upload(d, cmd, staging.buffer, made.image, texels)
-        })?;
+        });
+        if let Err(e @ GpuError::Timeout { .. }) = done {
+            // The device may still copy: neither may go before the context does.
+            std::mem::forget(staging);
+            std::mem::forget(made);
+            return Err(e);
+        }
+        done?;
         Ok(made)
     }
 
@@ -218,11 +265,7 @@ impl DataImage {
 
 impl Drop for DataImage {
     fn drop(&mut self) {
-        let d = &self.inner.device;
-        unsafe {
-            d.destroy_image_view(self.view, None);
-            d.destroy_image(self.image, None);
-            d.free_memory(self.memory, None);
-        }
+        // SAFETY: dropped when no frame in flight uses it (FrameLoop waits).
+        unsafe { destroy_image(&self.inner.device, (self.image, self.memory, self.view)) };
     }
 }
