@@ -37,25 +37,32 @@
 
 #define MAX_DEPTH 16 // the most mirror bounces --depth accepts
 
-// render_uniform.comp: the scene's small arrays as uniform buffers of at
-// most UNIFORM_BLOCK_BYTES (the least maxUniformBufferRange Vulkan allows),
-// so at most this many of each (UNIFORM_BLOCK_BYTES / the struct's size).
+// The uniform kernels (render_uniform.comp, preview_uniform.comp; the
+// scene fits them or takes the storage-buffer kernels) hold at most this
+// many of each array.
+//
+// Lights and leaf items are uniform buffers of at most UNIFORM_BLOCK_BYTES
+// (the least maxUniformBufferRange Vulkan allows): UNIFORM_BLOCK_BYTES /
+// the struct's size.
 #define UNIFORM_BLOCK_BYTES 16384
-#define UNIFORM_PRIMITIVES 204
-#define UNIFORM_MATERIALS 128
 #define UNIFORM_LIGHTS 170
-#define UNIFORM_NODES 341
-#define UNIFORM_INSTANCES 146
 #define UNIFORM_LEAF_QUADS 1024 // LeafItemQuad: 4096 leaf items
-
-// render_uniform.comp (SCENE_IMAGES) reads the walk's three hottest arrays
-// from rgba32ui storage images of one row, UNIFORM_<ARRAY> elements wide:
-// element i of a struct N texels long (its size / 16) is texels N i ..
-// N i + N - 1, its bytes in order. Lavapipe loads a 128-bit texel per lane
-// where a uniform block costs a 32-bit load per lane and component.
+//
+// Primitives, materials, nodes and instances are rgba32ui storage images of
+// one row of at most IMAGE_TEXELS texels (the least maxImageDimension2D
+// Vulkan allows): element i of a struct N texels long (its size / 16) is
+// texels N i .. N i + N - 1, its bytes in order; so IMAGE_TEXELS / N of
+// each. Lavapipe loads a 128-bit texel per lane, where a uniform block costs
+// a 32-bit load per lane and component.
+#define IMAGE_TEXELS 4096
 #define PRIMITIVE_TEXELS 5 // sizeof(Primitive) / 16
+#define MATERIAL_TEXELS 8  // sizeof(Material) / 16
 #define NODE_TEXELS 3      // sizeof(BvhNode) / 16
 #define INSTANCE_TEXELS 7  // sizeof(Instance) / 16
+#define UNIFORM_PRIMITIVES 819
+#define UNIFORM_MATERIALS 512
+#define UNIFORM_NODES 1365
+#define UNIFORM_INSTANCES 585
 
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 

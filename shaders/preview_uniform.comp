@@ -4,6 +4,5 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define SCENE_UNIFORM 1
-#define SCENE_IMAGES 1
 
 #include "preview_main.glsl"

@@ -773,7 +773,7 @@ struct Shading {
 // Not clamped: the caller clamps after adding the reflection.
 Shading local_color(Ray r, SceneHit hit) {
     uint rays = 0u;
-    Material m = materials[hit.material];
+    Material m = material_at(hit.material);
     precise vec3 p = r.origin + hit.t * r.direction;
     precise vec3 n = hit.normal;
     precise vec3 v = -unit(r.direction);
@@ -895,7 +895,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
         local_at[level] = local.color;
         s.rays = s.rays + local.rays;
         levels = level + 1u;
-        precise vec3 w = frame.k.z * xyz(materials[hit.material].reflective);
+        precise vec3 w = frame.k.z * xyz(material_at(hit.material).reflective);
         weight_at[level] = w;
         if (!reflections || level == depth || (w.x == 0.0f && w.y == 0.0f && w.z == 0.0f)) {
             break;

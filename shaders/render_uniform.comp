@@ -1,8 +1,8 @@
-// render_uniform.comp: the render kernel with the scene's small arrays
-// (frame, materials, lights, leaf items) in uniform buffers of at most
-// UNIFORM_BLOCK_BYTES each and the walk's hottest (primitives, nodes,
-// instances) in rgba32ui storage images of as many bytes (SCENE_IMAGES),
-// for scenes that fit (every instanced scene does). Same body
+// render_uniform.comp: the render kernel with the scene's frame, lights
+// and leaf items in uniform buffers of at most UNIFORM_BLOCK_BYTES each and
+// its primitives, materials, nodes and instances in rgba32ui storage images
+// of at most IMAGE_TEXELS texels (scene_buffers.glsl, SCENE_UNIFORM), for
+// scenes that fit (every instanced scene does). Same body
 // (render_main.glsl), same pixels; several times faster on lavapipe, whose
 // storage-buffer loads go lane by lane with a bounds check each, uniform
 // loads a 32-bit word per lane and image loads a 128-bit texel per lane
@@ -10,6 +10,5 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define SCENE_UNIFORM 1
-#define SCENE_IMAGES 1
 
 #include "render_main.glsl"

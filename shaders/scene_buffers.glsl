@@ -4,18 +4,19 @@
 #ifndef RAYCAST_SCENE_BUFFERS_GLSL
 #define RAYCAST_SCENE_BUFFERS_GLSL
 
-// Kernels read primitives, nodes and instances through primitive_at(i),
-// node_at(i) and instance_at(i) (macros: glslang 11 runs out of memory on
-// this shader when they are functions returning the structs).
+// Kernels read primitives, materials, nodes and instances through
+// primitive_at(i), material_at(i), node_at(i) and instance_at(i) (macros:
+// glslang 11 runs out of memory on this shader when they are functions
+// returning the structs).
 #ifdef SCENE_UNIFORM
-// The small arrays as uniform buffers (render_uniform.comp and
-// preview_uniform.comp). std140 lays these structs out as std430 does:
-// vec4 / mat4 / 4-byte members, every struct a multiple of 16 bytes.
+// The uniform kernels (render_uniform.comp and preview_uniform.comp): the
+// frame, the lights and the leaf items as uniform blocks (std140 lays these
+// structs out as std430 does: vec4 / mat4 / 4-byte members, every struct a
+// multiple of 16 bytes), the other arrays as rgba32ui storage images of the
+// same bytes (layout.h, IMAGE_TEXELS).
 layout(std140, binding = BINDING_FRAME) uniform FrameBlock { Frame frame; };
-#ifdef SCENE_IMAGES
-// render_uniform.comp: the walk's three hottest arrays as storage images
-// instead (layout.h, PRIMITIVE_TEXELS …), the same bytes.
 layout(binding = BINDING_PRIMITIVES, rgba32ui) readonly uniform uimage2D primitive_texels;
+layout(binding = BINDING_MATERIALS, rgba32ui) readonly uniform uimage2D material_texels;
 layout(binding = BINDING_NODES, rgba32ui) readonly uniform uimage2D node_texels;
 layout(binding = BINDING_INSTANCES, rgba32ui) readonly uniform uimage2D instance_texels;
 #define SCENE_TEXEL(image, n, i, k) imageLoad(image, ivec2(int((i) * (n) + (k)), 0))
@@ -26,6 +27,13 @@ layout(binding = BINDING_INSTANCES, rgba32ui) readonly uniform uimage2D instance
     Primitive(SCENE_MAT4(primitive_texels, PRIMITIVE_TEXELS, i), \
               SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).x, SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).y, \
               SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).z, SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).w)
+#define material_at(i) \
+    Material(SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 0u), SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 1u), \
+             SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 2u), SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 3u), \
+             SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 4u), SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 5u), \
+             SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 6u).x, SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 6u).y, \
+             SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 6u).z, int(SCENE_TEXEL(material_texels, MATERIAL_TEXELS, i, 6u).w), \
+             SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 7u))
 #define node_at(i) \
     BvhNode(SCENE_VEC4(node_texels, NODE_TEXELS, i, 0u), SCENE_VEC4(node_texels, NODE_TEXELS, i, 1u), \
             SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).x, SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).y, \
@@ -35,12 +43,6 @@ layout(binding = BINDING_INSTANCES, rgba32ui) readonly uniform uimage2D instance
              SCENE_VEC4(instance_texels, INSTANCE_TEXELS, i, 4u), SCENE_VEC4(instance_texels, INSTANCE_TEXELS, i, 5u), \
              SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).x, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).y, \
              SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).z, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).w)
-#else
-layout(std140, binding = BINDING_PRIMITIVES) uniform PrimitiveBlock { Primitive primitives[UNIFORM_PRIMITIVES]; };
-layout(std140, binding = BINDING_NODES) uniform NodeBlock { BvhNode nodes[UNIFORM_NODES]; };
-layout(std140, binding = BINDING_INSTANCES) uniform InstanceBlock { Instance instances[UNIFORM_INSTANCES]; };
-#endif
-layout(std140, binding = BINDING_MATERIALS) uniform MaterialBlock { Material materials[UNIFORM_MATERIALS]; };
 layout(std140, binding = BINDING_LIGHTS) uniform LightBlock { Light lights[UNIFORM_LIGHTS]; };
 layout(std140, binding = BINDING_LEAF_ITEMS) uniform LeafItemBlock { LeafItemQuad leaf_item_quads[UNIFORM_LEAF_QUADS]; };
 #else
@@ -51,9 +53,8 @@ layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light ligh
 layout(std430, binding = BINDING_NODES) readonly buffer NodeBlock { BvhNode nodes[]; };
 layout(std430, binding = BINDING_INSTANCES) readonly buffer InstanceBlock { Instance instances[]; };
 layout(std430, binding = BINDING_LEAF_ITEMS) readonly buffer LeafItemBlock { LeafItem leaf_items[]; };
-#endif
-#ifndef SCENE_IMAGES
 #define primitive_at(i) primitives[i]
+#define material_at(i) materials[i]
 #define node_at(i) nodes[i]
 #define instance_at(i) instances[i]
 #endif

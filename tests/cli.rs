@@ -352,7 +352,7 @@ fn many_samples_of_a_deep_scene_match_the_cpu_build() {
 
 /// `--scene-buffers`: uniform buffers (render_uniform.comp) and storage
 /// buffers (render.comp) give the same picture bit for bit; a scene with
-/// more primitives than a uniform block holds (204) takes storage buffers
+/// more primitives than the uniform kernel holds (819) takes storage buffers
 /// under `auto` and is refused, with the reason, under `uniform`.
 #[test]
 fn scene_buffers_uniform_and_storage_give_the_same_picture() {
@@ -365,20 +365,20 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
     let (a, b) = (raycast::image_io::read_png(&png("uniform")).unwrap(), raycast::image_io::read_png(&png("storage")).unwrap());
     assert_eq!(raycast::image_io::compare(&a, &b, 0).unwrap().differing, 0);
 
-    // 210 spheres in a row, written flat (no instancing).
+    // 820 spheres in rows, written flat (no instancing).
     let mut xml = String::from("<scenefile><globaldata><ambientcoeff v=\"0.5\"/><diffusecoeff v=\"0.5\"/><specularcoeff v=\"0.5\"/></globaldata>\n<cameradata><pos x=\"0\" y=\"0\" z=\"30\"/><focus x=\"0\" y=\"0\" z=\"0\"/><up x=\"0\" y=\"1\" z=\"0\"/><heightangle v=\"45\"/></cameradata>\n<lightdata><id v=\"0\"/><color r=\"1\" g=\"1\" b=\"1\"/><position x=\"0\" y=\"10\" z=\"10\"/></lightdata>\n<object type=\"tree\" name=\"root\">\n");
-    for k in 0..210 {
+    for k in 0..820 {
         xml.push_str(&format!(
             "<transblock><translate x=\"{}\" y=\"{}\" z=\"0\"/><object type=\"primitive\" name=\"sphere\"><diffuse r=\"1\" g=\"0.5\" b=\"0.2\"/></object></transblock>\n",
-            (k % 15) as f32 - 7.0,
-            (k / 15) as f32 - 7.0
+            (k % 29) as f32 - 14.0,
+            (k / 29) as f32 - 14.0
         ));
     }
     xml.push_str("</object>\n</scenefile>\n");
-    let scene = out_dir().join("flat-210.xml");
+    let scene = out_dir().join("flat-820.xml");
     std::fs::write(&scene, xml).unwrap();
     let o = raycast(&["render", scene.to_str().unwrap(), "--width", "32", "--height", "24", "-o", png("flat").to_str().unwrap()], &[]);
     assert!(o.status.success(), "{:?}", text(&o));
     let o = raycast(&["render", scene.to_str().unwrap(), "--width", "32", "--height", "24", "--scene-buffers", "uniform", "-o", png("flat").to_str().unwrap()], &[]);
-    assert_fails(&o, 1, "the scene has 210 primitives; uniform buffers hold at most 204: use --scene-buffers storage or auto");
+    assert_fails(&o, 1, "the scene has 820 primitives; the uniform kernels hold at most 819: use --scene-buffers storage or auto");
 }

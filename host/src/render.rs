@@ -85,7 +85,7 @@ pub fn fits_uniform(data: &FrameData) -> Result<(), String> {
     ];
     match counts.iter().find(|(_, n, max)| *n > *max as usize) {
         None => Ok(()),
-        Some((what, n, max)) => Err(format!("the scene has {n} {what}; uniform buffers hold at most {max}")),
+        Some((what, n, max)) => Err(format!("the scene has {n} {what}; the uniform kernels hold at most {max}")),
     }
 }
 
