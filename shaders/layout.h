@@ -41,14 +41,12 @@
 // scene fits them or takes the storage-buffer kernels) hold at most this
 // many of each array.
 //
-// Lights and leaf items are uniform buffers of at most UNIFORM_BLOCK_BYTES
-// (the least maxUniformBufferRange Vulkan allows): UNIFORM_BLOCK_BYTES /
-// the struct's size.
+// The leaf items are a uniform buffer of at most UNIFORM_BLOCK_BYTES (the
+// least maxUniformBufferRange Vulkan allows).
 #define UNIFORM_BLOCK_BYTES 16384
-#define UNIFORM_LIGHTS 170
 #define UNIFORM_LEAF_QUADS 1024 // LeafItemQuad: 4096 leaf items
 //
-// Primitives, materials, nodes and instances are rgba32ui storage images of
+// Primitives, materials, lights, nodes and instances are rgba32ui storage images of
 // one row of at most IMAGE_TEXELS texels (the least maxImageDimension2D
 // Vulkan allows): element i of a struct N texels long (its size / 16) is
 // texels N i .. N i + N - 1, its bytes in order; so IMAGE_TEXELS / N of
@@ -57,10 +55,12 @@
 #define IMAGE_TEXELS 4096
 #define PRIMITIVE_TEXELS 5 // sizeof(Primitive) / 16
 #define MATERIAL_TEXELS 8  // sizeof(Material) / 16
+#define LIGHT_TEXELS 6     // sizeof(Light) / 16
 #define NODE_TEXELS 3      // sizeof(BvhNode) / 16
 #define INSTANCE_TEXELS 7  // sizeof(Instance) / 16
 #define UNIFORM_PRIMITIVES 819
 #define UNIFORM_MATERIALS 512
+#define UNIFORM_LIGHTS 682
 #define UNIFORM_NODES 1365
 #define UNIFORM_INSTANCES 585
 

@@ -785,7 +785,7 @@ Shading local_color(Ray r, SceneHit hit) {
     }
     precise vec3 specular = frame.k.z * xyz(m.specular);
     for (uint li = 0u; li < frame.light_count; li++) {
-        Light l = lights[li];
+        Light l = light_at(li);
         precise vec3 to_light = xyz(l.direction_to_light);
         precise float dist = 0.0f;
         if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {

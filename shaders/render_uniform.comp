@@ -1,6 +1,6 @@
-// render_uniform.comp: the render kernel with the scene's frame, lights
-// and leaf items in uniform buffers of at most UNIFORM_BLOCK_BYTES each and
-// its primitives, materials, nodes and instances in rgba32ui storage images
+// render_uniform.comp: the render kernel with the scene's frame and leaf
+// items in uniform buffers of at most UNIFORM_BLOCK_BYTES each and its
+// primitives, materials, lights, nodes and instances in rgba32ui storage images
 // of at most IMAGE_TEXELS texels (scene_buffers.glsl, SCENE_UNIFORM), for
 // scenes that fit (every instanced scene does). Same body
 // (render_main.glsl), same pixels; several times faster on lavapipe, whose

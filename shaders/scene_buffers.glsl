@@ -4,13 +4,14 @@
 #ifndef RAYCAST_SCENE_BUFFERS_GLSL
 #define RAYCAST_SCENE_BUFFERS_GLSL
 
-// Kernels read primitives, materials, nodes and instances through
-// primitive_at(i), material_at(i), node_at(i) and instance_at(i) (macros:
+// Kernels read primitives, materials, lights, nodes and instances through
+// primitive_at(i), material_at(i), light_at(i), node_at(i) and
+// instance_at(i) (macros:
 // glslang 11 runs out of memory on this shader when they are functions
 // returning the structs).
 #ifdef SCENE_UNIFORM
 // The uniform kernels (render_uniform.comp and preview_uniform.comp): the
-// frame, the lights and the leaf items as uniform blocks (std140 lays these
+// frame and the leaf items as uniform blocks (std140 lays these
 // structs out as std430 does: vec4 / mat4 / 4-byte members, every struct a
 // multiple of 16 bytes), the other arrays as rgba32ui storage images of the
 // same bytes (layout.h, IMAGE_TEXELS).
@@ -34,6 +35,12 @@ layout(binding = BINDING_INSTANCES, rgba32ui) readonly uniform uimage2D instance
              SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 6u).x, SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 6u).y, \
              SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 6u).z, int(SCENE_TEXEL(material_texels, MATERIAL_TEXELS, i, 6u).w), \
              SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 7u))
+#define light_at(i) \
+    Light(SCENE_VEC4(light_texels, LIGHT_TEXELS, i, 0u), SCENE_VEC4(light_texels, LIGHT_TEXELS, i, 1u), \
+          SCENE_VEC4(light_texels, LIGHT_TEXELS, i, 2u), SCENE_VEC4(light_texels, LIGHT_TEXELS, i, 3u), \
+          SCENE_VEC4(light_texels, LIGHT_TEXELS, i, 4u), SCENE_TEXEL(light_texels, LIGHT_TEXELS, i, 5u).x, \
+          SCENE_VEC4(light_texels, LIGHT_TEXELS, i, 5u).y, SCENE_VEC4(light_texels, LIGHT_TEXELS, i, 5u).z, \
+          SCENE_TEXEL(light_texels, LIGHT_TEXELS, i, 5u).w)
 #define node_at(i) \
     BvhNode(SCENE_VEC4(node_texels, NODE_TEXELS, i, 0u), SCENE_VEC4(node_texels, NODE_TEXELS, i, 1u), \
             SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).x, SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).y, \
@@ -43,7 +50,7 @@ layout(binding = BINDING_INSTANCES, rgba32ui) readonly uniform uimage2D instance
              SCENE_VEC4(instance_texels, INSTANCE_TEXELS, i, 4u), SCENE_VEC4(instance_texels, INSTANCE_TEXELS, i, 5u), \
              SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).x, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).y, \
              SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).z, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).w)
-layout(std140, binding = BINDING_LIGHTS) uniform LightBlock { Light lights[UNIFORM_LIGHTS]; };
+layout(binding = BINDING_LIGHTS, rgba32ui) readonly uniform uimage2D light_texels;
 layout(std140, binding = BINDING_LEAF_ITEMS) uniform LeafItemBlock { LeafItemQuad leaf_item_quads[UNIFORM_LEAF_QUADS]; };
 #else
 layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
@@ -55,6 +62,7 @@ layout(std430, binding = BINDING_INSTANCES) readonly buffer InstanceBlock { Inst
 layout(std430, binding = BINDING_LEAF_ITEMS) readonly buffer LeafItemBlock { LeafItem leaf_items[]; };
 #define primitive_at(i) primitives[i]
 #define material_at(i) materials[i]
+#define light_at(i) lights[i]
 #define node_at(i) nodes[i]
 #define instance_at(i) instances[i]
 #endif

@@ -42,6 +42,7 @@ inline thread_local const Instance* instances;
 // Element i of primitives, nodes and instances, as scene_buffers.glsl reads them.
 #define primitive_at(i) primitives[i]
 #define material_at(i) materials[i]
+#define light_at(i) lights[i]
 #define node_at(i) nodes[i]
 #define instance_at(i) instances[i]
 

@@ -362,10 +362,10 @@ pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u
 
 /// The scene arrays render_uniform.comp and preview_uniform.comp read from
 /// rgba32ui storage images (scene_buffers.glsl, SCENE_UNIFORM): primitives,
-/// materials, nodes and instances, each padded to its cap (`UNIFORM_*`, at
+/// materials, lights, nodes and instances, each padded to its cap (`UNIFORM_*`, at
 /// most IMAGE_TEXELS texels; `padded_for_uniform` gives the bytes),
 /// `*_TEXELS` texels an element.
-pub const UNIFORM_KERNEL_IMAGES: [u32; 4] = [BINDING_PRIMITIVES, BINDING_MATERIALS, BINDING_NODES, BINDING_INSTANCES];
+pub const UNIFORM_KERNEL_IMAGES: [u32; 5] = [BINDING_PRIMITIVES, BINDING_MATERIALS, BINDING_LIGHTS, BINDING_NODES, BINDING_INSTANCES];
 
 /// `UNIFORM_KERNEL_IMAGES` as a kernel's image bindings.
 pub fn uniform_kernel_images() -> Vec<crate::gpu::ImageBinding> {
