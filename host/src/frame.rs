@@ -259,6 +259,11 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
             })
         })
         .collect::<Result<Vec<_>, String>>()?;
+    let (materials, material_index) = unique_materials(materials);
+    let mut packed = packed;
+    for p in &mut packed.primitives {
+        p.material = material_index[p.material as usize];
+    }
 
     let lights = scene
         .lights
@@ -373,6 +378,25 @@ fn shape_code(shape: &Shape) -> u32 {
 /// them, so instance boxes are known) and packs primitives, nodes, leaf
 /// items and instances, with global indices. Proves that traversal fits the
 /// shader's fixed stack and level arrays.
+/// `materials` with repeats folded: each distinct material (bit for bit:
+/// the same bytes shade the same) once, in order of first use, and where
+/// each of the given ones went. A file that writes the same material on
+/// many primitives then fits the uniform kernels' 512 (layout.h).
+fn unique_materials(materials: Vec<layout::Material>) -> (Vec<layout::Material>, Vec<u32>) {
+    let mut unique: Vec<layout::Material> = Vec::new();
+    let mut index_of: std::collections::HashMap<Vec<u8>, u32> = std::collections::HashMap::new();
+    let index = materials
+        .iter()
+        .map(|m| {
+            *index_of.entry(bytemuck::bytes_of(m).to_vec()).or_insert_with(|| {
+                unique.push(*m);
+                (unique.len() - 1) as u32
+            })
+        })
+        .collect();
+    (unique, index)
+}
+
 fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let groups = &scene.groups;
     let n = groups.len();
@@ -634,5 +658,31 @@ mod tests {
         assert!(s.validate().unwrap_err().0.contains("--height"));
         s.height = 10;
         assert!(s.validate().is_ok());
+    }
+
+    /// Materials written the same on several primitives are one material;
+    /// each primitive still gets the values it wrote.
+    #[test]
+    fn repeated_materials_are_folded() {
+        let xml = r#"<scenefile><object type="tree" name="root">
+            <transblock><object type="primitive" name="sphere"><diffuse r="1" g="0" b="0"/></object></transblock>
+            <transblock><translate x="2" y="0" z="0"/><object type="primitive" name="cube"><diffuse r="0" g="1" b="0"/></object></transblock>
+            <transblock><translate x="4" y="0" z="0"/><object type="primitive" name="cone"><diffuse r="1" g="0" b="0"/></object></transblock>
+            <transblock><translate x="6" y="0" z="0"/><object type="primitive" name="sphere"><diffuse r="1" g="0" b="0"/><shininess v="3"/></object></transblock>
+          </object></scenefile>"#;
+        let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        assert_eq!(scene.materials.len(), 4, "the file writes four");
+        let data = build(&scene, &RenderSettings::default()).unwrap();
+        assert_eq!(data.materials.len(), 3, "red, green, red with a highlight");
+        // Every primitive's packed material holds the values its element wrote.
+        for (k, p) in scene.groups.iter().flat_map(|g| &g.primitives).enumerate() {
+            let wrote = &scene.materials[p.material as usize];
+            let got = &data.materials[data.primitives[k].material as usize];
+            assert_eq!(got.diffuse[..3], wrote.diffuse, "primitive {k}");
+            assert_eq!(got.shininess, wrote.shininess, "primitive {k}");
+        }
+        let first_red = data.primitives.iter().map(|p| p.material).collect::<Vec<_>>();
+        assert_eq!(first_red[0], first_red[2], "the two plain red ones share one");
     }
 }
