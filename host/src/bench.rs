@@ -106,9 +106,10 @@ pub struct BenchRenderArgs {
     /// Compile the device's kernel from DIR/render.comp instead of the built-in one.
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,
-    /// Where the device kernel keeps the scene's arrays: uniform buffers
-    /// (render_uniform.comp, faster on lavapipe) when the scene fits them,
-    /// storage buffers (render.comp, any size) otherwise; or either one.
+    /// Where the device kernel keeps the scene's arrays: storage images and
+    /// uniform blocks (render_uniform.comp, several times faster on
+    /// lavapipe) when the scene fits them, storage buffers (render.comp, any
+    /// size) otherwise; or either one.
     #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
     pub scene_buffers: SceneBuffers,
     /// Enable the Khronos validation layer (slow: not for timing); any message fails (exit 3).

@@ -96,9 +96,10 @@ struct FrameArgs {
     /// the one built in (the CPU build is always the built-in code).
     #[arg(long, value_name = "DIR")]
     shaders: Option<PathBuf>,
-    /// Where the device kernel keeps the scene's arrays: uniform buffers
-    /// (render_uniform.comp, faster on lavapipe) when the scene fits them,
-    /// storage buffers (render.comp, any size) otherwise; or either one.
+    /// Where the device kernel keeps the scene's arrays: storage images and
+    /// uniform blocks (render_uniform.comp, several times faster on
+    /// lavapipe) when the scene fits them, storage buffers (render.comp, any
+    /// size) otherwise; or either one.
     #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
     scene_buffers: SceneBuffers,
     /// Enable the Khronos validation layer; any message fails the command (exit 3).

@@ -63,16 +63,17 @@ pub const UNIFORM_KERNEL: &str = "render_uniform";
 /// render_uniform.comp.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum SceneBuffers {
-    /// Uniform buffers when the scene fits them, storage buffers otherwise.
+    /// Images and uniform blocks when the scene fits them, storage buffers otherwise.
     #[default]
     Auto,
     /// Storage buffers (render.comp): any size.
     Storage,
-    /// Uniform buffers (render_uniform.comp): an error when the scene does not fit.
+    /// Images and uniform blocks (render_uniform.comp): an error naming what
+    /// does not fit when the scene does not (README, "Shaped for lavapipe").
     Uniform,
 }
 
-/// Whether `data`'s arrays fit render_uniform.comp's uniform blocks; else
+/// Whether `data`'s arrays fit the uniform kernels' images and blocks; else
 /// what does not.
 pub fn fits_uniform(data: &FrameData) -> Result<(), String> {
     let counts = [
