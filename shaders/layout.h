@@ -37,32 +37,26 @@
 
 #define MAX_DEPTH 16 // the most mirror bounces --depth accepts
 
-// The uniform kernels (render_uniform.comp, preview_uniform.comp; the
-// scene fits them or takes the storage-buffer kernels) hold at most this
-// many of each array.
-//
-// The leaf items are a uniform buffer of at most UNIFORM_BLOCK_BYTES (the
-// least maxUniformBufferRange Vulkan allows).
-#define UNIFORM_BLOCK_BYTES 16384
-#define UNIFORM_LEAF_QUADS 1024 // LeafItemQuad: 4096 leaf items
-//
-// Primitives, materials, lights, nodes and instances are rgba32ui storage images of
-// one row of at most IMAGE_TEXELS texels (the least maxImageDimension2D
-// Vulkan allows): element i of a struct N texels long (its size / 16) is
-// texels N i .. N i + N - 1, its bytes in order; so IMAGE_TEXELS / N of
-// each. Lavapipe loads a 128-bit texel per lane, where a uniform block costs
-// a 32-bit load per lane and component.
-#define IMAGE_TEXELS 4096
+// The uniform kernels (render_uniform.comp, preview_uniform.comp) keep the
+// frame in a uniform block and the scene's arrays (primitives, materials,
+// lights, nodes, instances, leaf items) in rgba32ui storage images of
+// IMAGE_WIDTH texels a row and at most IMAGE_ROWS rows (the least
+// maxImageDimension2D Vulkan allows): element i of a struct N texels long
+// (its size / 16) is texels N i .. N i + N - 1, its bytes in order, texel t
+// at (t % IMAGE_WIDTH, t / IMAGE_WIDTH); leaf items go four to a texel.
+// Lavapipe loads a 128-bit texel per lane, where a uniform block costs a
+// 32-bit load per lane and component and a storage buffer a branch per
+// lane. A scene with more than IMAGE_WIDTH x IMAGE_ROWS texels of an array
+// takes the storage-buffer kernels.
+#define IMAGE_WIDTH 4096
+#define IMAGE_WIDTH_SHIFT 12u // log2(IMAGE_WIDTH)
+#define IMAGE_ROWS 4096
 #define PRIMITIVE_TEXELS 5 // sizeof(Primitive) / 16
 #define MATERIAL_TEXELS 8  // sizeof(Material) / 16
 #define LIGHT_TEXELS 6     // sizeof(Light) / 16
 #define NODE_TEXELS 3      // sizeof(BvhNode) / 16
 #define INSTANCE_TEXELS 7  // sizeof(Instance) / 16
-#define UNIFORM_PRIMITIVES 819
-#define UNIFORM_MATERIALS 512
-#define UNIFORM_LIGHTS 682
-#define UNIFORM_NODES 1365
-#define UNIFORM_INSTANCES 585
+#define LEAF_ITEMS_PER_TEXEL 4
 
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 
@@ -174,12 +168,6 @@ struct LeafItem {
     uint item;
 };
 
-// Four leaf items, as render_uniform.comp reads them: std140 gives an array
-// of one uint 16 bytes an element, so its uniform block packs items 4i ..
-// 4i + 3 into element i (the same bytes as LeafItem[]).
-struct LeafItemQuad {
-    uvec4 items;
-};
 
 // A group placed in its parent group's space.
 struct Instance {

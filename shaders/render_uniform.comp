@@ -1,8 +1,7 @@
-// render_uniform.comp: the render kernel with the scene's frame and leaf
-// items in uniform buffers of at most UNIFORM_BLOCK_BYTES each and its
-// primitives, materials, lights, nodes and instances in rgba32ui storage images
-// of at most IMAGE_TEXELS texels (scene_buffers.glsl, SCENE_UNIFORM), for
-// scenes that fit (every instanced scene does). Same body
+// render_uniform.comp: the render kernel with the scene's frame in a
+// uniform buffer and its arrays in rgba32ui storage images of at most
+// IMAGE_ROWS rows of IMAGE_WIDTH texels (scene_buffers.glsl, SCENE_UNIFORM),
+// for scenes that fit (all but flat ones of millions of primitives). Same body
 // (render_main.glsl), same pixels; several times faster on lavapipe, whose
 // storage-buffer loads go lane by lane with a bounds check each, uniform
 // loads a 32-bit word per lane and image loads a 128-bit texel per lane

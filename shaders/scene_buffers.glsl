@@ -11,16 +11,17 @@
 // returning the structs).
 #ifdef SCENE_UNIFORM
 // The uniform kernels (render_uniform.comp and preview_uniform.comp): the
-// frame and the leaf items as uniform blocks (std140 lays these
-// structs out as std430 does: vec4 / mat4 / 4-byte members, every struct a
-// multiple of 16 bytes), the other arrays as rgba32ui storage images of the
-// same bytes (layout.h, IMAGE_TEXELS).
+// frame as a uniform block (std140 lays it out as std430 does), the arrays
+// as rgba32ui storage images of the same bytes (layout.h, IMAGE_WIDTH).
 layout(std140, binding = BINDING_FRAME) uniform FrameBlock { Frame frame; };
 layout(binding = BINDING_PRIMITIVES, rgba32ui) readonly uniform uimage2D primitive_texels;
 layout(binding = BINDING_MATERIALS, rgba32ui) readonly uniform uimage2D material_texels;
 layout(binding = BINDING_NODES, rgba32ui) readonly uniform uimage2D node_texels;
 layout(binding = BINDING_INSTANCES, rgba32ui) readonly uniform uimage2D instance_texels;
-#define SCENE_TEXEL(image, n, i, k) imageLoad(image, ivec2(int((i) * (n) + (k)), 0))
+layout(binding = BINDING_LEAF_ITEMS, rgba32ui) readonly uniform uimage2D leaf_item_texels;
+// Texel t of an image, row by row.
+#define SCENE_TEXEL_AT(image, t) imageLoad(image, ivec2(int((t) & uint(IMAGE_WIDTH - 1)), int((t) >> IMAGE_WIDTH_SHIFT)))
+#define SCENE_TEXEL(image, n, i, k) SCENE_TEXEL_AT(image, (i) * (n) + (k))
 #define SCENE_VEC4(image, n, i, k) uintBitsToFloat(SCENE_TEXEL(image, n, i, k))
 #define SCENE_MAT4(image, n, i) \
     mat4(SCENE_VEC4(image, n, i, 0u), SCENE_VEC4(image, n, i, 1u), SCENE_VEC4(image, n, i, 2u), SCENE_VEC4(image, n, i, 3u))
@@ -51,7 +52,6 @@ layout(binding = BINDING_INSTANCES, rgba32ui) readonly uniform uimage2D instance
              SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).x, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).y, \
              SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).z, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).w)
 layout(binding = BINDING_LIGHTS, rgba32ui) readonly uniform uimage2D light_texels;
-layout(std140, binding = BINDING_LEAF_ITEMS) uniform LeafItemBlock { LeafItemQuad leaf_item_quads[UNIFORM_LEAF_QUADS]; };
 #else
 layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
 layout(std430, binding = BINDING_PRIMITIVES) readonly buffer PrimitiveBlock { Primitive primitives[]; };
@@ -70,7 +70,7 @@ layout(std430, binding = BINDING_LEAF_ITEMS) readonly buffer LeafItemBlock { Lea
 // Leaf item i (LeafItem.item), from either form of the block.
 uint leaf_item(uint i) {
 #ifdef SCENE_UNIFORM
-    return leaf_item_quads[i >> 2u].items[i & 3u];
+    return SCENE_TEXEL_AT(leaf_item_texels, i >> 2u)[i & 3u];
 #else
     return leaf_items[i].item;
 #endif

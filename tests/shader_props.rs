@@ -514,7 +514,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         Ok(()) => errors.push("render_uniform.comp passed as a storage-buffer kernel".into()),
         Err(e) => {
             let text = e.to_string();
-            if !text.contains("binding 11 (LeafItemBlock) is a uniform buffer in the shader, a storage buffer on the host") {
+            if !text.contains("binding 0 (FrameBlock) is a uniform buffer in the shader, a storage buffer on the host") {
                 errors.push(format!("the storage / uniform mismatch is not named: {text}"));
             }
         }

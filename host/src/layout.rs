@@ -63,13 +63,6 @@ pub struct LeafItem {
     pub item: u32,
 }
 
-/// Four leaf items: render_uniform.comp's element of the leaf items' uniform block.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct LeafItemQuad {
-    pub items: [u32; 4],
-}
-
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Instance {
@@ -244,12 +237,6 @@ impl LeafItem {
     }
 }
 
-impl LeafItemQuad {
-    pub fn layout() -> StructLayout {
-        struct_layout!(LeafItemQuad, "LeafItemQuad", [items])
-    }
-}
-
 impl Instance {
     pub fn layout() -> StructLayout {
         struct_layout!(Instance, "Instance", [object_from_parent, lo, hi, root, id_offset, pad0, pad1])
@@ -317,55 +304,16 @@ pub fn scene_bindings() -> Vec<BindingLayout> {
     ]
 }
 
-/// The scene's bindings as render_uniform.comp declares them
-/// (scene_buffers.glsl with SCENE_UNIFORM): the frame and the small arrays
-/// as uniform blocks, the rest as in `scene_bindings`.
-pub fn uniform_scene_bindings() -> Vec<BindingLayout> {
-    let uniform = |binding, layout: StructLayout, count| BindingLayout {
-        binding,
-        shape: BufferShape::UniformArray(layout, count),
-        writable: false,
-    };
-    let mut b = scene_bindings();
-    for binding in &mut b {
-        *binding = match binding.binding {
-            BINDING_FRAME => BindingLayout { binding: BINDING_FRAME, shape: BufferShape::UniformSingle(Frame::layout()), writable: false },
-            BINDING_PRIMITIVES => uniform(BINDING_PRIMITIVES, Primitive::layout(), UNIFORM_PRIMITIVES),
-            BINDING_MATERIALS => uniform(BINDING_MATERIALS, Material::layout(), UNIFORM_MATERIALS),
-            BINDING_LIGHTS => uniform(BINDING_LIGHTS, Light::layout(), UNIFORM_LIGHTS),
-            BINDING_NODES => uniform(BINDING_NODES, BvhNode::layout(), UNIFORM_NODES),
-            BINDING_INSTANCES => uniform(BINDING_INSTANCES, Instance::layout(), UNIFORM_INSTANCES),
-            BINDING_LEAF_ITEMS => uniform(BINDING_LEAF_ITEMS, LeafItemQuad::layout(), UNIFORM_LEAF_QUADS),
-            _ => continue,
-        };
-    }
-    b
-}
-
-/// `bytes` of scene binding `binding`, padded with zeros to the whole
-/// declared array when the uniform kernels read that binding as a uniform
-/// block (`uniform_scene_bindings`); else as they are.
-pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
-    let declared = uniform_scene_bindings().into_iter().find(|b| b.binding == binding).and_then(|b| match b.shape {
-        BufferShape::UniformArray(s, n) => Some((s.size * n) as usize),
-        _ => None,
-    });
-    match declared {
-        Some(len) if len > bytes.len() => {
-            let mut v = bytes.to_vec();
-            v.resize(len, 0);
-            std::borrow::Cow::Owned(v)
-        }
-        _ => std::borrow::Cow::Borrowed(bytes),
-    }
-}
-
 /// The scene arrays render_uniform.comp and preview_uniform.comp read from
-/// rgba32ui storage images (scene_buffers.glsl, SCENE_UNIFORM): primitives,
-/// materials, lights, nodes and instances, each padded to its cap (`UNIFORM_*`, at
-/// most IMAGE_TEXELS texels; `padded_for_uniform` gives the bytes),
-/// `*_TEXELS` texels an element.
-pub const UNIFORM_KERNEL_IMAGES: [u32; 5] = [BINDING_PRIMITIVES, BINDING_MATERIALS, BINDING_LIGHTS, BINDING_NODES, BINDING_INSTANCES];
+/// rgba32ui storage images (scene_buffers.glsl, SCENE_UNIFORM; layout.h,
+/// IMAGE_WIDTH): every array the walk and the shading read, the same bytes
+/// (`padded_for_uniform`).
+pub const UNIFORM_KERNEL_IMAGES: [u32; 6] =
+    [BINDING_PRIMITIVES, BINDING_MATERIALS, BINDING_LIGHTS, BINDING_NODES, BINDING_INSTANCES, BINDING_LEAF_ITEMS];
+
+/// The most bytes an array may have in the uniform kernels' images:
+/// IMAGE_ROWS rows of IMAGE_WIDTH 16-byte texels.
+pub const UNIFORM_KERNEL_IMAGE_BYTES: usize = IMAGE_WIDTH as usize * IMAGE_ROWS as usize * 16;
 
 /// `UNIFORM_KERNEL_IMAGES` as a kernel's image bindings.
 pub fn uniform_kernel_images() -> Vec<crate::gpu::ImageBinding> {
@@ -376,10 +324,34 @@ pub fn uniform_kernel_images() -> Vec<crate::gpu::ImageBinding> {
 }
 
 /// The scene's buffer bindings in render_uniform.comp and
-/// preview_uniform.comp: the small arrays as uniform blocks, but for
-/// `UNIFORM_KERNEL_IMAGES`.
+/// preview_uniform.comp: the frame as a uniform block, the textures and
+/// texels as in `scene_bindings` (the arrays are images).
 pub fn uniform_kernel_scene_bindings() -> Vec<BindingLayout> {
-    uniform_scene_bindings().into_iter().filter(|b| !UNIFORM_KERNEL_IMAGES.contains(&b.binding)).collect()
+    let mut b: Vec<BindingLayout> = scene_bindings().into_iter().filter(|b| !UNIFORM_KERNEL_IMAGES.contains(&b.binding)).collect();
+    for binding in &mut b {
+        if binding.binding == BINDING_FRAME {
+            binding.shape = BufferShape::UniformSingle(Frame::layout());
+        }
+    }
+    b
+}
+
+/// `bytes` of scene binding `binding` as the uniform kernels take them: an
+/// array they read as an image padded with zeros to at least one texel
+/// and, past one row, to whole rows of IMAGE_WIDTH texels (a data image,
+/// `GpuContext::run_passes`); anything else as it is.
+pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    if !UNIFORM_KERNEL_IMAGES.contains(&binding) {
+        return std::borrow::Cow::Borrowed(bytes);
+    }
+    let row = IMAGE_WIDTH as usize * 16;
+    let len = if bytes.len() <= row { bytes.len().max(16).next_multiple_of(16) } else { bytes.len().next_multiple_of(row) };
+    if len == bytes.len() {
+        return std::borrow::Cow::Borrowed(bytes);
+    }
+    let mut v = bytes.to_vec();
+    v.resize(len, 0);
+    std::borrow::Cow::Owned(v)
 }
 
 /// The buffer bindings of render_uniform.comp: `render_bindings` with the

@@ -73,20 +73,23 @@ pub enum SceneBuffers {
     Uniform,
 }
 
-/// Whether `data`'s arrays fit the uniform kernels' images and blocks; else
-/// what does not.
+/// Whether `data`'s arrays fit the uniform kernels' images; else what
+/// does not.
 pub fn fits_uniform(data: &FrameData) -> Result<(), String> {
-    let counts = [
-        ("primitives", data.primitives.len(), layout::UNIFORM_PRIMITIVES),
-        ("materials", data.materials.len(), layout::UNIFORM_MATERIALS),
-        ("lights", data.lights.len(), layout::UNIFORM_LIGHTS),
-        ("hierarchy nodes", data.nodes.len(), layout::UNIFORM_NODES),
-        ("instances", data.instances.len(), layout::UNIFORM_INSTANCES),
-        ("leaf items", data.leaf_items.len(), 4 * layout::UNIFORM_LEAF_QUADS),
-    ];
-    match counts.iter().find(|(_, n, max)| *n > *max as usize) {
+    let sizes: Vec<(u32, &str, usize)> = data.scene_buffers().iter().map(|&(b, what, bytes)| (b, what, bytes.len())).collect();
+    fits_images(&sizes)
+}
+
+/// `fits_uniform` on (binding, what, bytes) of each scene buffer.
+fn fits_images(sizes: &[(u32, &str, usize)]) -> Result<(), String> {
+    let max = layout::UNIFORM_KERNEL_IMAGE_BYTES;
+    match sizes.iter().find(|(binding, _, len)| layout::UNIFORM_KERNEL_IMAGES.contains(binding) && *len > max) {
         None => Ok(()),
-        Some((what, n, max)) => Err(format!("the scene has {n} {what}; the uniform kernels hold at most {max}")),
+        Some((_, what, len)) => Err(format!(
+            "{what} take {len} bytes; the uniform kernels' images hold at most {max} bytes ({} rows of {} texels) an array",
+            layout::IMAGE_ROWS,
+            layout::IMAGE_WIDTH
+        )),
     }
 }
 
@@ -405,6 +408,20 @@ impl GpuRenderer {
 mod tests {
     use super::*;
     use crate::frame::RenderSettings;
+
+    /// An array past the images' rows is refused by name; a texture (a
+    /// storage buffer in every kernel) is not counted.
+    #[test]
+    fn arrays_past_the_images_do_not_fit() {
+        let max = layout::UNIFORM_KERNEL_IMAGE_BYTES;
+        assert!(fits_images(&[(layout::BINDING_PRIMITIVES, "the primitives", max)]).is_ok());
+        let e = fits_images(&[(layout::BINDING_NODES, "the hierarchy nodes", max + 16)]).unwrap_err();
+        assert_eq!(
+            e,
+            format!("the hierarchy nodes take {} bytes; the uniform kernels' images hold at most {max} bytes (4096 rows of 4096 texels) an array", max + 16)
+        );
+        assert!(fits_images(&[(layout::BINDING_TEXELS, "the texels", 2 * max)]).is_ok());
+    }
 
     fn data(xml: &str, settings: &RenderSettings) -> FrameData {
         let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();

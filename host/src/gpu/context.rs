@@ -10,6 +10,7 @@ use ash::vk;
 use super::present::Surface;
 use super::image::color_range;
 use super::{GpuError, ImageFormat, Kernel};
+use crate::layout::IMAGE_WIDTH;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 /// Instance API version requested; nothing newer is used.
@@ -765,21 +766,27 @@ unsafe fn shader_writes_barrier(d: &ash::Device, cmd: vk::CommandBuffer, dst_sta
 }
 
 impl Inner {
-    /// Fails when a storage buffer of `bytes` exceeds maxStorageBufferRange or maxMemoryAllocationSize.
     /// A data image of `len` bytes (a run's rgba32ui input, a
-    /// `DataImage`): whole texels, one row within maxImageDimension2D, a
+    /// `DataImage`): whole texels, one row of up to IMAGE_WIDTH or whole
+    /// rows of IMAGE_WIDTH (layout.h; the shaders address texel t at
+    /// (t % IMAGE_WIDTH, t / IMAGE_WIDTH)), within maxImageDimension2D, a
     /// format the device can store. `kernel` and `what` name it in errors.
     pub(crate) fn check_data_image(&self, kernel: &str, what: &str, len: usize) -> Result<(), GpuError> {
         let bad = |message: String| GpuError::BadRun { kernel: kernel.to_string(), message: format!("{what}: {message}") };
         let max = u64::from(self.limits.max_image_dimension2_d);
-        let texels = (len / 16) as u64;
         if len == 0 || len % 16 != 0 {
             return Err(bad(format!("{len} bytes are not whole 16-byte texels")));
         }
-        if texels > max {
+        let texels = (len / 16) as u64;
+        let width = u64::from(IMAGE_WIDTH);
+        if texels > width && texels % width != 0 {
+            return Err(bad(format!("{texels} texels are more than one row and not whole rows of {width}")));
+        }
+        let [w, rows] = data_image_size(texels);
+        if w > max || rows > max {
             return Err(GpuError::TooLarge {
-                what: what.to_string(),
-                bytes: texels,
+                what: format!("{what} ({rows} rows of {w} texels)"),
+                bytes: w.max(rows),
                 limit: max,
                 limit_name: "maxImageDimension2D (texels)",
             });
@@ -793,8 +800,8 @@ impl Inner {
         Ok(())
     }
 
-    /// A device-local `texels` x 1 rgba32ui image for `binding`, filled
-    /// from `source` when the run's command buffer starts
+    /// A device-local rgba32ui image of `texels` (`data_image_size`) for
+    /// `binding`, filled from `source` when the run's command buffer starts
     /// (`record_image_upload`); `what` names it in errors.
     fn create_data_image(
         &self,
@@ -807,7 +814,7 @@ impl Inner {
         let (image, memory, view) = super::image::create_image(
             self,
             DATA_FORMAT,
-            [texels, 1],
+            data_image_size(u64::from(texels)).map(|n| n as u32),
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
             format!("{what} (a data image of {texels} texels)"),
         )?;
@@ -815,6 +822,7 @@ impl Inner {
         Ok(())
     }
 
+    /// Fails when a storage buffer of `bytes` exceeds maxStorageBufferRange or maxMemoryAllocationSize.
     pub(crate) fn check_storage_size(&self, bytes: u64, what: impl Fn() -> String) -> Result<(), GpuError> {
         let range = self.limits.max_storage_buffer_range as u64;
         if bytes > range {
@@ -973,6 +981,16 @@ impl Drop for Inner {
 /// The format of a run's data images (`ImageFormat::Rgba32Uint`).
 pub(crate) const DATA_FORMAT: vk::Format = vk::Format::R32G32B32A32_UINT;
 
+/// The width and rows of a data image of `texels` (`Inner::check_data_image`).
+pub(crate) fn data_image_size(texels: u64) -> [u64; 2] {
+    let width = u64::from(IMAGE_WIDTH);
+    if texels <= width {
+        [texels, 1]
+    } else {
+        [width, texels.div_ceil(width)]
+    }
+}
+
 /// A run's read-only data image, filled from its input buffer `source`.
 struct DataImage {
     binding: u32,
@@ -990,6 +1008,7 @@ struct DataImage {
 /// # Safety
 /// `cmd` is a command buffer of `d` in the recording state.
 pub(crate) unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer, source: vk::Buffer, image: vk::Image, texels: u32) {
+    let [width, height] = data_image_size(u64::from(texels)).map(|n| n as u32);
     let barrier = |old, new, src, dst| {
         [vk::ImageMemoryBarrier::default()
             .old_layout(old)
@@ -1003,7 +1022,7 @@ pub(crate) unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer
     };
     let region = [vk::BufferImageCopy::default()
         .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
-        .image_extent(vk::Extent3D { width: texels, height: 1, depth: 1 })];
+        .image_extent(vk::Extent3D { width, height, depth: 1 })];
     let to_copy = barrier(
         vk::ImageLayout::UNDEFINED,
         vk::ImageLayout::TRANSFER_DST_OPTIMAL,

@@ -228,8 +228,8 @@ pub struct DataImage {
 }
 
 impl DataImage {
-    /// An image of `bytes` (whole 16-byte texels, one texel a pixel of its
-    /// one row); `what` names it in errors.
+    /// An image of `bytes`: whole 16-byte texels, one row of up to
+    /// IMAGE_WIDTH (layout.h) or whole rows of it; `what` names it in errors.
     pub fn new(ctx: &GpuContext, bytes: &[u8], what: &str) -> Result<DataImage, GpuError> {
         let inner = &ctx.inner;
         inner.check_data_image("(data image)", what, bytes.len())?;
@@ -237,7 +237,7 @@ impl DataImage {
         let (image, memory, view) = create_image(
             inner,
             super::context::DATA_FORMAT,
-            [texels, 1],
+            super::context::data_image_size(u64::from(texels)).map(|n| n as u32),
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
             format!("{what} (a data image of {texels} texels)"),
         )?;

@@ -158,7 +158,8 @@ fn doubles_u32_and_f32_on_lavapipe_with_no_validation_messages() {
     }
 }
 
-/// out[i] = the texel i of a one-row rgba32ui data image, its words reversed.
+/// out[i] = texel i of an rgba32ui data image (row by row, 4096 texels a
+/// row: layout.h IMAGE_WIDTH), its words reversed.
 const DATA_IMAGE_SRC: &str = r#"
 #version 450
 layout(local_size_x = 64) in;
@@ -170,7 +171,7 @@ layout(std430, set = 0, binding = 2) writeonly buffer Outputs { Quad quads[]; };
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= params.count) return;
-    quads[i].v = imageLoad(data, ivec2(int(i), 0)).wzyx;
+    quads[i].v = imageLoad(data, ivec2(int(i & 4095u), int(i >> 12u))).wzyx;
 }
 "#;
 
@@ -186,23 +187,25 @@ fn run_uploads_data_images_texel_for_texel() {
     ];
     let image = ImageBinding { binding: 1, writable: false, format: ImageFormat::Rgba32Uint };
     let kernel = Kernel::with_images(&ctx, "data_image", &spv, &buffers, &[image.clone()]).unwrap_or_else(|e| panic!("{e}"));
-    // 300 texels of distinct words, NaN and infinity patterns among them: bits, not values.
-    let n = 300usize;
-    let words: Vec<u32> = (0..4 * n as u32).map(|w| w.wrapping_mul(0x9E37_79B9) ^ 0x7FC0_0001).collect();
-    let (out, _) = ctx
-        .run(&kernel, &[(0, &params(n as u32)), (1, bytemuck::cast_slice(&words))], (2, n * 16), 0, [(n as u32).div_ceil(64), 1, 1])
-        .unwrap_or_else(|e| panic!("{e}"));
-    let got: Vec<u32> = bytemuck::pod_collect_to_vec(&out);
-    let want: Vec<u32> = words.chunks(4).flat_map(|t| [t[3], t[2], t[1], t[0]]).collect();
-    let differ = got.iter().zip(&want).filter(|(g, w)| g != w).count();
-    let first = got.iter().zip(&want).position(|(g, w)| g != w);
-    assert_eq!(differ, 0, "rule: bit-exact; {differ} of {} words differ, first at {first:?}", want.len());
-    // Bytes that are not whole texels, and an image wider than the device allows.
+    // One partial row (300 texels) and three whole rows (12,288), distinct
+    // words with NaN and infinity patterns among them: bits, not values.
+    for n in [300usize, 3 * 4096] {
+        let words: Vec<u32> = (0..4 * n as u32).map(|w| w.wrapping_mul(0x9E37_79B9) ^ 0x7FC0_0001).collect();
+        let (out, _) = ctx
+            .run(&kernel, &[(0, &params(n as u32)), (1, bytemuck::cast_slice(&words))], (2, n * 16), 0, [(n as u32).div_ceil(64), 1, 1])
+            .unwrap_or_else(|e| panic!("{e}"));
+        let got: Vec<u32> = bytemuck::pod_collect_to_vec(&out);
+        let want: Vec<u32> = words.chunks(4).flat_map(|t| [t[3], t[2], t[1], t[0]]).collect();
+        let differ = got.iter().zip(&want).filter(|(g, w)| g != w).count();
+        let first = got.iter().zip(&want).position(|(g, w)| g != w);
+        assert_eq!(differ, 0, "rule: bit-exact; {n} texels: {differ} of {} words differ, first at {first:?}", want.len());
+    }
+    // Bytes that are not whole texels, and more than a row that is not whole rows.
     let e = ctx.run(&kernel, &[(0, &params(1)), (1, &[0u8; 20][..])], (2, 16), 0, [1, 1, 1]).err().unwrap();
     assert!(e.to_string().contains("20 bytes are not whole 16-byte texels"), "{e}");
-    let wide = vec![0u8; 16 * (ctx.inner.limits.max_image_dimension2_d as usize + 1)];
-    let e = ctx.run(&kernel, &[(0, &params(1)), (1, &wide)], (2, 16), 0, [1, 1, 1]).err().unwrap();
-    assert!(e.to_string().contains("maxImageDimension2D"), "{e}");
+    let ragged = vec![0u8; 16 * 4097];
+    let e = ctx.run(&kernel, &[(0, &params(1)), (1, &ragged)], (2, 16), 0, [1, 1, 1]).err().unwrap();
+    assert!(e.to_string().contains("4097 texels are more than one row and not whole rows of 4096"), "{e}");
     // naga names a format mismatch.
     let rgba8 = ImageBinding { format: ImageFormat::Rgba8, ..image };
     let e = Kernel::with_images(&ctx, "data_image", &spv, &buffers, &[rgba8]).err().unwrap();
