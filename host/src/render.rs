@@ -73,9 +73,17 @@ pub enum SceneBuffers {
     Uniform,
 }
 
-/// Whether `data`'s arrays fit the uniform kernels' images; else what
-/// does not.
-pub fn fits_uniform(data: &FrameData) -> Result<(), String> {
+/// Whether `data`'s arrays fit the uniform kernels' images, and the device
+/// binds as many storage images as a uniform kernel declares (`images`: its
+/// data images and any picture); else what does not.
+pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result<(), String> {
+    let limit = ctx.storage_image_limit();
+    if (limit as usize) < images {
+        return Err(format!(
+            "{} binds at most {limit} storage images a kernel (maxPerStageDescriptorStorageImages), the uniform kernel {images}",
+            ctx.info().name
+        ));
+    }
     let sizes: Vec<(u32, &str, usize)> = data.scene_buffers().iter().map(|&(b, what, bytes)| (b, what, bytes.len())).collect();
     fits_images(&sizes)
 }
@@ -318,7 +326,7 @@ impl GpuRenderer {
     /// specialised for the scene and its frame flags.
     pub fn kernel_for(&self, data: &FrameData) -> Result<Arc<Kernel>, GpuError> {
         let bad = |message: String| GpuError::BadRun { kernel: UNIFORM_KERNEL.into(), message };
-        let fits = fits_uniform(data);
+        let fits = fits_uniform(&self.context, data, layout::UNIFORM_KERNEL_IMAGES.len());
         let want_uniform = match self.choice {
             SceneBuffers::Storage => false,
             SceneBuffers::Auto => fits.is_ok() && self.uniform.is_some(),

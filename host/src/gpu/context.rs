@@ -514,6 +514,13 @@ impl GpuContext {
         })
     }
 
+    /// How many storage images one kernel may bind
+    /// (maxPerStageDescriptorStorageImages, and the set's own limit).
+    pub fn storage_image_limit(&self) -> u32 {
+        let l = &self.inner.limits;
+        l.max_per_stage_descriptor_storage_images.min(l.max_descriptor_set_storage_images)
+    }
+
     pub fn info(&self) -> &DeviceInfo {
         &self.inner.info
     }

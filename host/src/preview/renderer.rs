@@ -72,7 +72,7 @@ struct SceneBuffers {
 
 impl SceneBuffers {
     fn new(ctx: &GpuContext, data: &FrameData) -> Result<SceneBuffers, GpuError> {
-        let fits_uniform = crate::render::fits_uniform(data).is_ok();
+        let fits_uniform = crate::render::fits_uniform(ctx, data, preview_uniform_images().len()).is_ok();
         let mut images = Vec::new();
         let mut buffers = Vec::new();
         for &(binding, what, bytes) in &data.scene_buffers() {
