@@ -1,6 +1,6 @@
 // preview_main.glsl: the preview kernel's body, included by preview.comp
-// (the scene in storage buffers) and preview_uniform.comp (its small arrays
-// in uniform buffers, as render_uniform.comp). One sample per pixel per
+// (the scene in storage buffers) and preview_uniform.comp (its arrays
+// in storage images, as render_uniform.comp). One sample per pixel per
 // frame for the preview window.
 // Sample 0 is the ray through the pixel centre, so the first frame is
 // byte-identical to render.comp; later samples are jittered (the host picks

@@ -1,5 +1,5 @@
-// preview_uniform.comp: the preview kernel with the scene's small arrays in
-// uniform buffers and storage images, for scenes that fit (as
+// preview_uniform.comp: the preview kernel with the scene's frame in a
+// uniform buffer and its arrays in storage images, for scenes that fit (as
 // render_uniform.comp). The body is preview_main.glsl.
 #version 460
 #extension GL_GOOGLE_include_directive : require

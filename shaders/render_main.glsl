@@ -1,6 +1,6 @@
 // render_main.glsl: the render kernel's body, included by render.comp (the
-// scene in storage buffers) and render_uniform.comp (its small arrays in
-// uniform buffers: scene_buffers.glsl, SCENE_UNIFORM). One invocation per
+// scene in storage buffers) and render_uniform.comp (its arrays in
+// storage images: scene_buffers.glsl, SCENE_UNIFORM). One invocation per
 // pixel, 8x8 workgroups, one sample of every pixel per dispatch. Binds the
 // scene buffers and writes each pixel's colour (or normal AOV), t, hit id,
 // normal and rays. All the work is in raycast.glsl, shared with the CPU

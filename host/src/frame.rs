@@ -380,8 +380,8 @@ fn shape_code(shape: &Shape) -> u32 {
 /// shader's fixed stack and level arrays.
 /// `materials` with repeats folded: each distinct material (bit for bit:
 /// the same bytes shade the same) once, in order of first use, and where
-/// each of the given ones went. A file that writes the same material on
-/// many primitives then fits the uniform kernels' 512 (layout.h).
+/// each of the given ones went: a file that writes the same material on
+/// many primitives uploads it once.
 fn unique_materials(materials: Vec<layout::Material>) -> (Vec<layout::Material>, Vec<u32>) {
     let mut unique: Vec<layout::Material> = Vec::new();
     let mut index_of: std::collections::HashMap<Vec<u8>, u32> = std::collections::HashMap::new();

@@ -166,20 +166,18 @@ pub enum BufferShape {
     RuntimeArray(StructLayout),
     /// A uniform block (std140) whose only member is one struct.
     UniformSingle(StructLayout),
-    /// A uniform block (std140) whose only member is an array of this many structs.
-    UniformArray(StructLayout, u32),
 }
 
 impl BufferShape {
     /// Bound as a uniform buffer (else a storage buffer).
     pub fn is_uniform(&self) -> bool {
-        matches!(self, BufferShape::UniformSingle(_) | BufferShape::UniformArray(..))
+        matches!(self, BufferShape::UniformSingle(_))
     }
 
     /// The struct it holds.
     pub fn layout(&self) -> &StructLayout {
         match self {
-            BufferShape::Single(s) | BufferShape::RuntimeArray(s) | BufferShape::UniformSingle(s) | BufferShape::UniformArray(s, _) => s,
+            BufferShape::Single(s) | BufferShape::RuntimeArray(s) | BufferShape::UniformSingle(s) => s,
         }
     }
 }

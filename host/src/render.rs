@@ -55,7 +55,7 @@ pub struct GpuTimings {
     pub readback: Duration,
 }
 
-/// The render kernel with the scene's small arrays in uniform buffers
+/// The render kernel with the scene's arrays in data images
 /// (shaders/render_uniform.comp), by its name.
 pub const UNIFORM_KERNEL: &str = "render_uniform";
 

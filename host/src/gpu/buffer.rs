@@ -104,6 +104,17 @@ pub enum Resource<'a> {
     Data(&'a DataImage),
 }
 
+impl Resource<'_> {
+    /// An image's view (null for a buffer).
+    fn image_view(&self) -> vk::ImageView {
+        match self {
+            Resource::Buffer(_) => vk::ImageView::null(),
+            Resource::Image(i) => i.view,
+            Resource::Data(i) => i.view,
+        }
+    }
+}
+
 /// A kernel's descriptor set 0 with every binding bound. Rebuild it when a
 /// resource is replaced (and only while no frame that uses it is in flight).
 pub struct DescriptorSet {
@@ -193,13 +204,10 @@ impl DescriptorSet {
         let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
             .iter()
             .map(|(_, r)| match r {
-                Resource::Image(i) => {
-                    [vk::DescriptorImageInfo::default().image_view(i.view).image_layout(vk::ImageLayout::GENERAL)]
-                }
-                Resource::Data(i) => {
-                    [vk::DescriptorImageInfo::default().image_view(i.view).image_layout(vk::ImageLayout::GENERAL)]
-                }
                 Resource::Buffer(_) => [vk::DescriptorImageInfo::default()],
+                Resource::Image(_) | Resource::Data(_) => {
+                    [vk::DescriptorImageInfo::default().image_view(r.image_view()).image_layout(vk::ImageLayout::GENERAL)]
+                }
             })
             .collect();
         let writes: Vec<vk::WriteDescriptorSet> = resources

@@ -825,7 +825,7 @@ impl Inner {
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
             format!("{what} (a data image of {texels} texels)"),
         )?;
-        res.images.push(DataImage { binding, source, texels, image, view, memory });
+        res.images.push(RunImage { binding, source, texels, image, view, memory });
         Ok(())
     }
 
@@ -999,7 +999,7 @@ pub(crate) fn data_image_size(texels: u64) -> [u64; 2] {
 }
 
 /// A run's read-only data image, filled from its input buffer `source`.
-struct DataImage {
+struct RunImage {
     binding: u32,
     source: vk::Buffer,
     texels: u32,
@@ -1057,7 +1057,7 @@ pub(crate) struct RunResources {
     device: ash::Device,
     buffers: Vec<(vk::Buffer, vk::DeviceMemory)>,
     bindings: Vec<(u32, vk::Buffer)>,
-    images: Vec<DataImage>,
+    images: Vec<RunImage>,
     descriptor_pool: vk::DescriptorPool,
     command_pool: vk::CommandPool,
     fence: vk::Fence,

@@ -1,7 +1,7 @@
 //! `StorageImage`: a 2D RGBA8 image a kernel writes with `imageStore` and a
-//! `FrameLoop` copies to the swapchain; `DataImage`: a one-row rgba32ui
-//! image of data a kernel reads with `imageLoad`; `ImageBinding`: how a
-//! kernel declares either.
+//! `FrameLoop` copies to the swapchain; `DataImage`: an rgba32ui image of
+//! data (rows of IMAGE_WIDTH texels) a kernel reads with `imageLoad`;
+//! `ImageBinding`: how a kernel declares either.
 
 use std::sync::Arc;
 
@@ -30,8 +30,9 @@ pub struct ImageBinding {
 pub enum ImageFormat {
     /// A picture (`StorageImage`): `layout(rgba8) uniform image2D`.
     Rgba8,
-    /// Data, 16 bytes a texel, one row (`GpuContext::run_passes` makes it
-    /// from an input's bytes): `layout(rgba32ui) readonly uniform uimage2D`.
+    /// Data, 16 bytes a texel, in rows of IMAGE_WIDTH (`DataImage`, or
+    /// `GpuContext::run_passes` from an input's bytes):
+    /// `layout(rgba32ui) readonly uniform uimage2D`.
     Rgba32Uint,
 }
 
@@ -216,7 +217,7 @@ impl Drop for StorageImage {
     }
 }
 
-/// A device-local rgba32ui image of one row holding data for a kernel that
+/// A device-local rgba32ui image (rows of IMAGE_WIDTH texels) holding data for a kernel that
 /// runs many times (the preview's scene arrays; one-shot runs make their
 /// own from their inputs, `GpuContext::run_passes`). Filled at creation
 /// and left in GENERAL, read-only.

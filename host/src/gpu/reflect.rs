@@ -84,7 +84,6 @@ pub(crate) fn shape_label(shape: &BufferShape) -> String {
         BufferShape::Single(s) => s.name.to_string(),
         BufferShape::RuntimeArray(s) => format!("{}[]", s.name),
         BufferShape::UniformSingle(s) => format!("uniform {}", s.name),
-        BufferShape::UniformArray(s, n) => format!("uniform {}[{n}]", s.name),
     }
 }
 
@@ -368,17 +367,6 @@ impl Checker<'_> {
             (BufferShape::Single(s) | BufferShape::UniformSingle(s), TypeInner::Struct { .. }) => {
                 self.check_struct(&at, s, member_ty, out)
             }
-            (BufferShape::UniformArray(s, n), &TypeInner::Array { base, size: ArraySize::Constant(len), stride })
-                if matches!(self.module.types[base].inner, TypeInner::Struct { .. }) =>
-            {
-                if len.get() != *n {
-                    out.push(format!("{at}: {len} elements in the shader, {n} on the host ({HOST_FILE})"));
-                }
-                if stride != s.size {
-                    out.push(format!("{at}: array stride {stride} in the shader, {} on the host ({HOST_FILE})", s.size));
-                }
-                self.check_struct(&at, s, base, out);
-            }
             (BufferShape::RuntimeArray(s), &TypeInner::Array { base, size: ArraySize::Dynamic, stride })
                 if matches!(self.module.types[base].inner, TypeInner::Struct { .. }) =>
             {
@@ -389,11 +377,6 @@ impl Checker<'_> {
             }
             (BufferShape::Single(s) | BufferShape::UniformSingle(s), _) => out.push(format!(
                 "{at}: the block's member is a {} in the shader, a single struct {} on the host ({HOST_FILE})",
-                self.describe(member_ty),
-                s.name
-            )),
-            (BufferShape::UniformArray(s, n), _) => out.push(format!(
-                "{at}: the block's member is a {} in the shader, an array of {n} struct {} on the host ({HOST_FILE})",
                 self.describe(member_ty),
                 s.name
             )),

@@ -317,7 +317,7 @@ void main() {{
 
 fn struct_of(b: &mut BindingLayout) -> &mut StructLayout {
     match &mut b.shape {
-        BufferShape::Single(s) | BufferShape::RuntimeArray(s) | BufferShape::UniformSingle(s) | BufferShape::UniformArray(s, _) => s,
+        BufferShape::Single(s) | BufferShape::RuntimeArray(s) | BufferShape::UniformSingle(s) => s,
     }
 }
 

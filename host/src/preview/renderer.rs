@@ -19,8 +19,8 @@ use super::layout::{
 };
 
 /// The preview kernel's SPIR-V with the scene in storage buffers
-/// (preview.comp) and, where there is one, with its small arrays in uniform
-/// buffers (preview_uniform.comp), used for scenes that fit them. Checked
+/// (preview.comp) and, where there is one, with its arrays in data images
+/// (preview_uniform.comp), used for scenes that fit them. Checked
 /// when made; the renderer builds the one a scene needs, specialised for it
 /// and the frame's flags (`Specialization`).
 pub struct PreviewKernels {
@@ -44,7 +44,7 @@ impl PreviewKernels {
         PreviewKernels::new(storage, crate::render::kernel_spirv("preview_uniform"))
     }
 
-    /// The uniform-buffer kernel when the scene fits it (`fits`) and there
+    /// The uniform kernel (data images) when the scene fits it (`fits`) and there
     /// is one, else the storage one, built for `spec`.
     fn build(&self, ctx: &GpuContext, fits: bool, spec: Specialization) -> Result<Kernel, GpuError> {
         let constants = spec.constants();
