@@ -9,7 +9,7 @@ PKGS=(
   # Vulkan: loader + headers, Mesa lavapipe, validation layers, tools
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
   # GLSL -> SPIR-V
-  glslang-tools
+  glslang-tools spirv-tools
   # CPU build of the shared GLSL
   libglm-dev libgtest-dev
   # GLFW 3.4 is built from the glfw crate's bundled sources; it needs these X11 headers

@@ -42,6 +42,8 @@ fn main() {
                 std::fs::copy(&from, &spv).unwrap_or_else(|e| {
                     panic!("RAYCAST_SPIRV_DIR: cannot copy {}: {e}", from.display())
                 });
+                // CMake ran glslang alone.
+                optimize_spirv(&spv).unwrap_or_else(|e| panic!("{e}"));
             }
             None => compile(&path, &shaders, &spv),
         }
@@ -97,18 +99,7 @@ fn run(cmd: &mut Command) {
 }
 
 fn compile(src: &Path, include: &Path, spv: &Path) {
-    let output = Command::new(GLSLANG)
-        .args(glslang_args(src, include, spv))
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"));
-    if !output.status.success() {
-        panic!(
-            "{GLSLANG} failed on {}:\n{}{}",
-            src.display(),
-            String::from_utf8_lossy(&output.stdout),
-            String::from_utf8_lossy(&output.stderr)
-        );
-    }
+    glsl_to_spirv(src, include, spv).unwrap_or_else(|e| panic!("{e}"));
 }
 
 /// `#define NAME 12` / `#define NAME 3u` / `#define NAME 0xffffffffu` -> `pub const NAME: u32 = …;`

@@ -1,7 +1,7 @@
 //! Compiling a GLSL kernel to SPIR-V at runtime with glslang, for kernels
 //! loaded from a source folder (`--shaders DIR`, live reload).
 
-use super::{glslang_args, GLSLANG};
+use super::glsl_to_spirv;
 use std::path::Path;
 
 /// Compiles `src` (a `.comp` kernel) with its folder on the include path.
@@ -19,20 +19,8 @@ pub fn compile_kernel(src: &Path) -> Result<Vec<u8>, String> {
         CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         src.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
     ));
-    let output = std::process::Command::new(GLSLANG)
-        .args(glslang_args(src, include, &out))
-        .output()
-        .map_err(|e| format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"))?;
-    let result = if output.status.success() {
-        std::fs::read(&out).map_err(|e| format!("cannot read {}: {e}", out.display()))
-    } else {
-        Err(format!(
-            "{GLSLANG} failed on {}:\n{}{}",
-            src.display(),
-            String::from_utf8_lossy(&output.stdout).trim_end(),
-            String::from_utf8_lossy(&output.stderr).trim_end()
-        ))
-    };
+    let result = glsl_to_spirv(src, include, &out)
+        .and_then(|()| std::fs::read(&out).map_err(|e| format!("cannot read {}: {e}", out.display())));
     let _ = std::fs::remove_file(&out);
     result
 }

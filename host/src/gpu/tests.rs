@@ -33,16 +33,7 @@ fn compile(name: &str, src: &str) -> Vec<u8> {
     let (comp, spv) = (dir.join(format!("{name}.comp")), dir.join(format!("{name}.spv")));
     std::fs::write(&comp, src).unwrap();
     let include = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shaders");
-    let out = Command::new(GLSLANG)
-        .args(glslang_args(&comp, &include, &spv))
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"));
-    assert!(
-        out.status.success(),
-        "{GLSLANG} failed on {name}:\n{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    glsl_to_spirv(&comp, &include, &spv).unwrap_or_else(|e| panic!("{name}: {e}"));
     let bytes = std::fs::read(&spv).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     bytes
