@@ -358,13 +358,19 @@ fn many_samples_of_a_deep_scene_match_the_cpu_build() {
 #[test]
 fn scene_buffers_uniform_and_storage_give_the_same_picture() {
     let png = |n: &str| out_dir().join(format!("scene-buffers-{n}.png"));
-    for choice in ["uniform", "storage"] {
+    // `images` is the same choice as `uniform`, by its other name.
+    for choice in ["uniform", "images", "storage"] {
         let o = raycast(&["render", "--width", "96", "--height", "64", "--scene-buffers", choice, "-o", png(choice).to_str().unwrap()], &[]);
         assert!(o.status.success(), "{:?}", text(&o));
+        let kernel = if choice == "storage" { "kernel: render," } else { "kernel: render_uniform," };
+        assert!(text(&o).0.contains(kernel), "--scene-buffers {choice}: {:?}", text(&o));
     }
     // Rule: bit-exact.
-    let (a, b) = (raycast::image_io::read_png(&png("uniform")).unwrap(), raycast::image_io::read_png(&png("storage")).unwrap());
-    assert_eq!(raycast::image_io::compare(&a, &b, 0).unwrap().differing, 0);
+    let uniform = raycast::image_io::read_png(&png("uniform")).unwrap();
+    for other in ["images", "storage"] {
+        let b = raycast::image_io::read_png(&png(other)).unwrap();
+        assert_eq!(raycast::image_io::compare(&uniform, &b, 0).unwrap().differing, 0, "uniform against {other}");
+    }
 
     // 820 spheres in rows, written flat (no instancing).
     let mut xml = String::from("<scenefile><globaldata><ambientcoeff v=\"0.5\"/><diffusecoeff v=\"0.5\"/><specularcoeff v=\"0.5\"/></globaldata>\n<cameradata><pos x=\"0\" y=\"0\" z=\"30\"/><focus x=\"0\" y=\"0\" z=\"0\"/><up x=\"0\" y=\"1\" z=\"0\"/><heightangle v=\"45\"/></cameradata>\n<lightdata><id v=\"0\"/><color r=\"1\" g=\"1\" b=\"1\"/><position x=\"0\" y=\"10\" z=\"10\"/></lightdata>\n<object type=\"tree\" name=\"root\">\n");

@@ -70,6 +70,9 @@ pub enum SceneBuffers {
     Storage,
     /// Images and uniform blocks (render_uniform.comp): an error naming what
     /// does not fit when the scene does not (README, "Shaped for lavapipe").
+    /// Also spelled `images`: the scene's arrays are storage images, only
+    /// the frame is a uniform block.
+    #[value(alias = "images")]
     Uniform,
 }
 
