@@ -55,7 +55,7 @@
 #define MATERIAL_TEXELS 8  // sizeof(Material) / 16
 #define LIGHT_TEXELS 6     // sizeof(Light) / 16
 #define NODE_TEXELS 3      // sizeof(BvhNode) / 16
-#define INSTANCE_TEXELS 7  // sizeof(Instance) / 16
+#define INSTANCE_TEXELS 5  // sizeof(Instance) / 16
 #define LEAF_ITEMS_PER_TEXEL 4
 
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
@@ -151,8 +151,15 @@ struct Primitive {
 };
 
 // A node of a group's bounding volume hierarchy, in the group's space.
-// count > 0: a leaf holding leaf_items[first .. first + count), its
-// primitives first and then its instances;
+// count > 0: a leaf of count items: its `primitives` primitives at
+// leaf_items[first ..), then, from the next multiple of 4, one record of
+// four words (a texel of the leaf-item image) per instance:
+// (lo.x | lo.y << 16, lo.z | hi.x << 16, hi.y | hi.z << 16,
+// ITEM_INSTANCE | instance index), the instance's box in the leaf's box
+// quantised to BOX_STEPS steps: lo = node.lo + q * step and hi = node.hi -
+// q * step, step = (node.hi - node.lo) / BOX_STEPS, computed in f32 as
+// written (frame.rs chooses q so the box holds the instance's; a box test
+// then reads one texel, where the instance's own box took three).
 // count = 0: children first and first + 1, split along axis.
 struct BvhNode {
     vec4 lo;
@@ -163,19 +170,20 @@ struct BvhNode {
     uint primitives; // a leaf: how many of its items are primitives; 0 for an inner node
 };
 
-// ITEM_INSTANCE | instance index, or a primitive index.
+// Steps of a leaf's box in an instance record's box (above).
+#define BOX_STEPS 65535u
+
+// A primitive index, or a word of an instance record (BvhNode).
 struct LeafItem {
     uint item;
 };
 
 
 // A group placed in its parent group's space.
+// Its box, in the parent group's space, is in the record of the leaf that
+// holds it (BvhNode): a leaf pushes the instance only when the ray meets it.
 struct Instance {
     mat4 object_from_parent; // parent group's space -> the placed group's space
-    // Its box in the parent group's space (the placed group's, padded as a
-    // node's): a leaf pushes the instance only when the ray meets it.
-    vec4 lo;
-    vec4 hi;
     uint root;      // the placed group's root node
     uint id_offset; // ids of its primitives start at the parent's first id plus this
     uint pad0;

@@ -512,6 +512,8 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         uint first_item = 0u;
         uint item_count = 0u;
         uint prim_count = 0u; // the leaf's primitives come first
+        vec4 leaf_lo = vec4(0.0f); // the leaf's box: its instances' boxes are in steps of it
+        vec4 leaf_hi = vec4(0.0f);
         uint level = 0u;
         Ray lr = r;
         bool direct = top == 0; // a primitive index, not a leaf's item range
@@ -546,12 +548,16 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 uint c0 = left_first ? node.first + 1u : node.first;
                 uint c1 = left_first ? node.first : node.first + 1u;
                 uint pushed = NO_HIT;
-                if (!use_boxes || box_hit(lr, node_at(c0).lo, node_at(c0).hi, best.t)) {
+                vec4 lo0 = node_at(c0).lo;
+                vec4 hi0 = node_at(c0).hi;
+                vec4 lo1 = node_at(c1).lo;
+                vec4 hi1 = node_at(c1).hi;
+                if (!use_boxes || box_hit(lr, lo0, hi0, best.t)) {
                     stack[top] = stack_word(c0, level);
                     top = top + 1;
                     pushed = c0;
                 }
-                if (!use_boxes || box_hit(lr, node_at(c1).lo, node_at(c1).hi, best.t)) {
+                if (!use_boxes || box_hit(lr, lo1, hi1, best.t)) {
                     stack[top] = stack_word(c1, level);
                     top = top + 1;
                     pushed = c1;
@@ -559,7 +565,10 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 if (pushed == NO_HIT) {
                     continue;
                 }
+                // Its box is one of the two just read (its instances' boxes are relative to it).
                 node = node_at(pushed);
+                node.lo = (pushed == c1) ? lo1 : lo0;
+                node.hi = (pushed == c1) ? hi1 : hi0;
                 if (node.count == 0u) {
                     continue;
                 }
@@ -568,6 +577,8 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             first_item = node.first;
             item_count = node.count;
             prim_count = HAS_INSTANCES ? node.primitives : node.count;
+            leaf_lo = node.lo;
+            leaf_hi = node.hi;
         }
         uint first_id = level_first_id[level];
         for (uint n = 0u; n < prim_count; n++) {
@@ -603,13 +614,20 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         // run the primitive test for every instance and the box test for
         // every primitive.
         if (HAS_INSTANCES) {
+            // Their records follow the primitives from the next multiple
+            // of 4, each box in steps of the leaf's (layout.h, BvhNode).
+            precise vec3 step = (xyz(leaf_hi) - xyz(leaf_lo)) / float(BOX_STEPS);
+            uint records = (first_item + prim_count + 3u) >> 2u;
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's box: a
                 // missed instance costs no pass.
-                uint item = leaf_item(first_item + n);
-                uint k = item & (ITEM_INSTANCE - 1u);
-                if (!use_boxes || box_hit(lr, instance_at(k).lo, instance_at(k).hi, best.t)) {
-                    stack[top] = stack_word(item, level);
+                uvec4 record = leaf_record(records + (n - prim_count));
+                precise vec3 q_lo = vec3(float(record.x & 0xffffu), float(record.x >> 16u), float(record.y & 0xffffu));
+                precise vec3 q_hi = vec3(float(record.y >> 16u), float(record.z & 0xffffu), float(record.z >> 16u));
+                precise vec3 lo = xyz(leaf_lo) + q_lo * step;
+                precise vec3 hi = xyz(leaf_hi) - q_hi * step;
+                if (!use_boxes || box_hit(lr, vec4(lo, 0.0f), vec4(hi, 0.0f), best.t)) {
+                    stack[top] = stack_word(record.w, level);
                     top = top + 1;
                 }
             }

@@ -48,9 +48,8 @@ layout(binding = BINDING_LEAF_ITEMS, rgba32ui) readonly uniform uimage2D leaf_it
             SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).z, SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).w)
 #define instance_at(i) \
     Instance(SCENE_MAT4(instance_texels, INSTANCE_TEXELS, i), \
-             SCENE_VEC4(instance_texels, INSTANCE_TEXELS, i, 4u), SCENE_VEC4(instance_texels, INSTANCE_TEXELS, i, 5u), \
-             SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).x, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).y, \
-             SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).z, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 6u).w)
+             SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).x, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).y, \
+             SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).z, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).w)
 layout(binding = BINDING_LIGHTS, rgba32ui) readonly uniform uimage2D light_texels;
 #else
 layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
@@ -73,6 +72,17 @@ uint leaf_item(uint i) {
     return SCENE_TEXEL_AT(leaf_item_texels, i >> 2u)[i & 3u];
 #else
     return leaf_items[i].item;
+#endif
+}
+
+// The instance record at leaf items 4 t .. 4 t + 3 (layout.h, BvhNode):
+// one texel of the image.
+uvec4 leaf_record(uint t) {
+#ifdef SCENE_UNIFORM
+    return SCENE_TEXEL_AT(leaf_item_texels, t);
+#else
+    uint i = t * 4u;
+    return uvec4(leaf_items[i].item, leaf_items[i + 1u].item, leaf_items[i + 2u].item, leaf_items[i + 3u].item);
 #endif
 }
 // What the kernel may leave out (layout.h, SPEC_*): true unless the host

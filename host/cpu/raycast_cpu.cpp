@@ -46,7 +46,7 @@ const Field fields[] = {
     SIZE(BvhNode), AT(BvhNode, lo), AT(BvhNode, hi), AT(BvhNode, first), AT(BvhNode, count),
     AT(BvhNode, axis), AT(BvhNode, primitives),
     SIZE(LeafItem), AT(LeafItem, item),
-    SIZE(Instance), AT(Instance, object_from_parent), AT(Instance, lo), AT(Instance, hi), AT(Instance, root), AT(Instance, id_offset),
+    SIZE(Instance), AT(Instance, object_from_parent), AT(Instance, root), AT(Instance, id_offset),
     AT(Instance, pad0), AT(Instance, pad1),
     SIZE(Texture), AT(Texture, offset), AT(Texture, width), AT(Texture, height), AT(Texture, pad0),
     SIZE(Texel), AT(Texel, rgba),

@@ -397,6 +397,54 @@ fn unique_materials(materials: Vec<layout::Material>) -> (Vec<layout::Material>,
     (unique, index)
 }
 
+/// One axis of a box as an instance record holds it (layout.h, BvhNode):
+/// `q_lo` and `q_hi` steps in from the low and high sides `lo`, `hi` of the
+/// leaf's box, computed in f32 exactly as the shader computes them.
+fn stepped(lo: f32, hi: f32, q_lo: u32, q_hi: u32) -> (f32, f32) {
+    let step = (hi - lo) / layout::BOX_STEPS as f32;
+    (lo + q_lo as f32 * step, hi - q_hi as f32 * step)
+}
+
+/// The most steps in from each side of the leaf's box `leaf` whose box
+/// (`stepped`) still holds `inner`; None where no number of steps
+/// does (`inner` outside `leaf`, or a box too large for f32 steps).
+pub(crate) fn box_steps(leaf: ([f32; 4], [f32; 4]), inner: ([f32; 4], [f32; 4])) -> Option<([u32; 3], [u32; 3])> {
+    let (lo, hi) = leaf;
+    let max = layout::BOX_STEPS;
+    let mut q_lo = [0u32; 3];
+    let mut q_hi = [0u32; 3];
+    for a in 0..3 {
+        let step = (hi[a] - lo[a]) / max as f32;
+        if !step.is_finite() || lo[a] > inner.0[a] || hi[a] < inner.1[a] {
+            return None;
+        }
+        if step == 0.0 {
+            continue; // no steps: the leaf's own sides
+        }
+        let holds_lo = |q: u32| stepped(lo[a], hi[a], q, 0).0 <= inner.0[a];
+        let holds_hi = |q: u32| stepped(lo[a], hi[a], 0, q).1 >= inner.1[a];
+        // An estimate, then a step at a time to the last that holds (0 always does).
+        let estimate = |d: f32| ((d / step).floor() as u32).min(max);
+        let mut q = estimate(inner.0[a] - lo[a]);
+        while q > 0 && !holds_lo(q) {
+            q -= 1;
+        }
+        while q < max && holds_lo(q + 1) {
+            q += 1;
+        }
+        q_lo[a] = q;
+        let mut q = estimate(hi[a] - inner.1[a]);
+        while q > 0 && !holds_hi(q) {
+            q -= 1;
+        }
+        while q < max && holds_hi(q + 1) {
+            q += 1;
+        }
+        q_hi[a] = q;
+    }
+    Some((q_lo, q_hi))
+}
+
 fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let groups = &scene.groups;
     let n = groups.len();
@@ -434,25 +482,45 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
         if built.nodes.is_empty() {
             continue;
         }
-        let (node_base, leaf_base) = (nodes.len() as u32, leaf_items.len() as u32);
+        let node_base = nodes.len() as u32;
         group_root[g] = node_base;
         group_bounds[g] = built.nodes[0].bounds;
-        leaf_items.extend(built.order.iter().map(|&k| layout::LeafItem {
-            item: if (k as usize) < np {
-                prim_base[g] + k
-            } else {
-                layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32)
-            },
-        }));
         // Depth of each node, for the stack bound.
         let mut depth = vec![0u32; built.nodes.len()];
         for (i, node) in built.nodes.iter().enumerate() {
             let (lo, hi) = node.bounds.padded_f32();
             let interior = node.count == 0;
+            let mut first = node_base + node.first;
             if interior {
                 depth[node.first as usize] = depth[i] + 1;
                 depth[node.first as usize + 1] = depth[i] + 1;
             } else {
+                // Its primitives, then its instances' records from the next
+                // multiple of 4 (layout.h, BvhNode).
+                first = leaf_items.len() as u32;
+                let items = &built.order[node.first as usize..(node.first + node.count) as usize];
+                for &k in items.iter().filter(|&&k| (k as usize) < np) {
+                    leaf_items.push(layout::LeafItem { item: prim_base[g] + k });
+                }
+                while leaf_items.len() % 4 != 0 {
+                    leaf_items.push(layout::LeafItem::default());
+                }
+                for &k in items.iter().filter(|&&k| (k as usize) >= np) {
+                    let inst = &group.instances[k as usize - np];
+                    let (ilo, ihi) = group_bounds[inst.group as usize].transformed(&inst.parent_from_group).padded_f32();
+                    let (q_lo, q_hi) = box_steps((lo, hi), (ilo, ihi)).ok_or_else(|| {
+                        format!("{}: this master's box cannot be written in steps of its leaf's (coordinates beyond about 1e38?)", inst.loc)
+                    })?;
+                    leaf_items.extend(
+                        [
+                            q_lo[0] | q_lo[1] << 16,
+                            q_lo[2] | q_hi[0] << 16,
+                            q_hi[1] | q_hi[2] << 16,
+                            layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32),
+                        ]
+                        .map(|item| layout::LeafItem { item }),
+                    );
+                }
                 let placed: Vec<usize> = built.order[node.first as usize..(node.first + node.count) as usize]
                     .iter()
                     .filter(|&&k| k as usize >= np)
@@ -467,7 +535,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
             nodes.push(layout::BvhNode {
                 lo,
                 hi,
-                first: if interior { node_base + node.first } else { leaf_base + node.first },
+                first,
                 count: node.count,
                 axis: node.axis,
                 primitives: node.primitives,
@@ -504,16 +572,11 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let instances = groups
         .iter()
         .flat_map(|g| &g.instances)
-        .map(|i| {
-            let (lo, hi) = group_bounds[i.group as usize].transformed(&i.parent_from_group).padded_f32();
-            layout::Instance {
-                object_from_parent: mat4(&i.group_from_parent),
-                lo,
-                hi,
-                root: group_root[i.group as usize],
-                id_offset: i.id_offset as u32,
-                ..Default::default()
-            }
+        .map(|i| layout::Instance {
+            object_from_parent: mat4(&i.group_from_parent),
+            root: group_root[i.group as usize],
+            id_offset: i.id_offset as u32,
+            ..Default::default()
         })
         .collect();
     for (what, count) in [("nodes", nodes.len()), ("primitives", p_total as usize), ("instances", i_total as usize)] {
@@ -574,7 +637,8 @@ mod tests {
 
     /// Every primitive id is reached exactly once walking the packed
     /// hierarchy from the root through every instance, every node's box
-    /// holds its children's, and every instance's box its root's.
+    /// holds its children's, and every instance record's box (as the
+    /// shader computes it) its root's.
     #[test]
     fn packed_hierarchy_reaches_every_primitive_once() {
         let xml = r#"<scenefile>
@@ -610,42 +674,74 @@ mod tests {
                 }
                 continue;
             }
-            for k in node.first..node.first + node.count {
+            for k in node.first..node.first + node.primitives {
                 let item = data.leaf_items[k as usize].item;
-                if item & layout::ITEM_INSTANCE != 0 {
-                    let inst = data.instances[(item & !layout::ITEM_INSTANCE) as usize];
-                    stack.push((inst.root, first_id + inst.id_offset));
-                } else {
-                    seen[(first_id + data.primitives[item as usize].id_offset) as usize] += 1;
+                assert_eq!(item & layout::ITEM_INSTANCE, 0, "node {n}: item {k} is not a primitive");
+                seen[(first_id + data.primitives[item as usize].id_offset) as usize] += 1;
+            }
+            // The instances' records, from the next multiple of 4: each box,
+            // as the shader computes it, holds the instance's root box mapped
+            // back from the placed group's space (within rounding).
+            let records = (node.first + node.primitives).next_multiple_of(4);
+            for r in 0..node.count - node.primitives {
+                let w: [u32; 4] = std::array::from_fn(|i| data.leaf_items[(records + 4 * r) as usize + i].item);
+                assert_ne!(w[3] & layout::ITEM_INSTANCE, 0, "node {n}: record {r} is not an instance");
+                let inst = data.instances[(w[3] & !layout::ITEM_INSTANCE) as usize];
+                stack.push((inst.root, first_id + inst.id_offset));
+                let q_lo = [w[0] & 0xffff, w[0] >> 16, w[1] & 0xffff];
+                let q_hi = [w[1] >> 16, w[2] & 0xffff, w[2] >> 16];
+                let sides: [(f32, f32); 3] = std::array::from_fn(|a| stepped(node.lo[a], node.hi[a], q_lo[a], q_hi[a]));
+                let (lo, hi) = (DVec3::from(sides.map(|s| f64::from(s.0))), DVec3::from(sides.map(|s| f64::from(s.1))));
+                let root = data.nodes[inst.root as usize];
+                let m = glam::Mat4::from_cols_array_2d(&inst.object_from_parent).as_dmat4().inverse();
+                let slack = (hi - lo).max_element() * 1e-4;
+                for c in 0..8 {
+                    let corner = DVec3::new(
+                        f64::from(if c & 1 == 0 { root.lo[0] } else { root.hi[0] }),
+                        f64::from(if c & 2 == 0 { root.lo[1] } else { root.hi[1] }),
+                        f64::from(if c & 4 == 0 { root.lo[2] } else { root.hi[2] }),
+                    );
+                    let p = m.transform_point3(corner);
+                    assert!(
+                        p.cmpge(lo - slack).all() && p.cmple(hi + slack).all(),
+                        "node {n}, record {r}: the root box's corner {p} is outside the record's box {lo} .. {hi}"
+                    );
                 }
             }
         }
         assert!(seen.iter().all(|&s| s == 1), "ids reached other than once: {seen:?}");
-        // Each instance's box (in its parent's space) holds its root node's
-        // box mapped back from the placed group's space (within rounding).
-        for (k, inst) in data.instances.iter().enumerate() {
-            let root = data.nodes[inst.root as usize];
-            let m = glam::Mat4::from_cols_array_2d(&inst.object_from_parent).as_dmat4().inverse();
-            let (lo, hi) = (DVec3::from_slice(&inst.lo.map(f64::from)[..3]), DVec3::from_slice(&inst.hi.map(f64::from)[..3]));
-            let slack = (hi - lo).max_element() * 1e-4;
-            for c in 0..8 {
-                let corner = DVec3::new(
-                    f64::from(if c & 1 == 0 { root.lo[0] } else { root.hi[0] }),
-                    f64::from(if c & 2 == 0 { root.lo[1] } else { root.hi[1] }),
-                    f64::from(if c & 4 == 0 { root.lo[2] } else { root.hi[2] }),
-                );
-                let p = m.transform_point3(corner);
-                assert!(
-                    p.cmpge(lo - slack).all() && p.cmple(hi + slack).all(),
-                    "instance {k}: its root box's corner {p} is outside its box {lo} .. {hi}"
-                );
-            }
-        }
         // Ids follow flatten order: the world matrices of primitive(id) agree.
         let flat = scene.flat_primitives();
         for (id, p) in flat.iter().enumerate() {
             assert_eq!(scene.primitive(id as u64).unwrap().world_from_object, p.world_from_object, "id {id}");
         }
+    }
+
+    /// Steps hold the box exactly as the shader computes them, as tight as
+    /// a step allows; boxes outside the leaf, or too large for f32 steps,
+    /// have none.
+    #[test]
+    fn box_steps_hold_the_box_and_are_tight() {
+        let leaf = ([-3.0f32, 1000.0, -1e-3, 0.0], [5.0f32, 1001.0, 1e-3, 0.0]);
+        let inner = ([-1.0f32, 1000.25, -1e-3, 0.0], [4.999f32, 1000.5, 0.0, 0.0]);
+        let (q_lo, q_hi) = box_steps(leaf, inner).unwrap();
+        for a in 0..3 {
+            let (lo, hi) = stepped(leaf.0[a], leaf.1[a], q_lo[a], q_hi[a]);
+            assert!(lo <= inner.0[a] && hi >= inner.1[a], "axis {a}: {lo}..{hi}");
+            // One step more is too many (or the count is at its largest).
+            let (lo1, _) = stepped(leaf.0[a], leaf.1[a], q_lo[a] + 1, q_hi[a]);
+            let (_, hi1) = stepped(leaf.0[a], leaf.1[a], q_lo[a], q_hi[a] + 1);
+            assert!(lo1 > inner.0[a] || q_lo[a] == layout::BOX_STEPS, "axis {a}: low side not tight");
+            assert!(hi1 < inner.1[a] || q_hi[a] == layout::BOX_STEPS, "axis {a}: high side not tight");
+        }
+        // The leaf itself: its own sides (some steps round to nothing at 1000).
+        let (q_lo, q_hi) = box_steps(leaf, leaf).unwrap();
+        for a in 0..3 {
+            assert_eq!(stepped(leaf.0[a], leaf.1[a], q_lo[a], q_hi[a]), (leaf.0[a], leaf.1[a]), "axis {a}");
+        }
+        assert_eq!(box_steps(leaf, ([-4.0, 1000.0, 0.0, 0.0], [0.0, 1000.5, 0.0, 0.0])), None, "outside the leaf");
+        let huge = ([-3e38f32, 0.0, 0.0, 0.0], [3e38f32, 1.0, 1.0, 0.0]);
+        assert_eq!(box_steps(huge, huge), None, "a span beyond f32");
     }
 
     #[test]

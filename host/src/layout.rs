@@ -67,8 +67,6 @@ pub struct LeafItem {
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Instance {
     pub object_from_parent: Mat4,
-    pub lo: Vec4,
-    pub hi: Vec4,
     pub root: u32,
     pub id_offset: u32,
     pub pad0: u32,
@@ -237,7 +235,7 @@ impl LeafItem {
 
 impl Instance {
     pub fn layout() -> StructLayout {
-        struct_layout!(Instance, "Instance", [object_from_parent, lo, hi, root, id_offset, pad0, pad1])
+        struct_layout!(Instance, "Instance", [object_from_parent, root, id_offset, pad0, pad1])
     }
 }
 
