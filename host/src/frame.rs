@@ -502,7 +502,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                 for &k in items.iter().filter(|&&k| (k as usize) < np) {
                     leaf_items.push(layout::LeafItem { item: prim_base[g] + k });
                 }
-                while leaf_items.len() % 4 != 0 {
+                while node.primitives < node.count && leaf_items.len() % 4 != 0 {
                     leaf_items.push(layout::LeafItem::default());
                 }
                 for &k in items.iter().filter(|&&k| (k as usize) >= np) {
@@ -742,6 +742,22 @@ mod tests {
         assert_eq!(box_steps(leaf, ([-4.0, 1000.0, 0.0, 0.0], [0.0, 1000.5, 0.0, 0.0])), None, "outside the leaf");
         let huge = ([-3e38f32, 0.0, 0.0, 0.0], [3e38f32, 1.0, 1.0, 0.0]);
         assert_eq!(box_steps(huge, huge), None, "a span beyond f32");
+    }
+
+    /// Leaves without instances hold their primitives and nothing else: the
+    /// padding before instance records is only where records follow.
+    #[test]
+    fn flat_leaves_are_not_padded() {
+        let mut xml = String::from("<scenefile><object type=\"tree\" name=\"root\">");
+        for k in 0..20 {
+            xml.push_str(&format!("<transblock><translate x=\"{}\" y=\"0\" z=\"0\"/><object type=\"primitive\" name=\"cube\"/></transblock>", 3 * k));
+        }
+        xml.push_str("</object></scenefile>");
+        let file = crate::scene::parse_str(&xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let data = build(&scene, &RenderSettings::default()).unwrap();
+        assert!(data.frame.node_count > 1, "20 primitives get a hierarchy");
+        assert_eq!(data.leaf_items.len(), 20);
     }
 
     #[test]
