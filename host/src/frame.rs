@@ -521,7 +521,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                         .map(|item| layout::LeafItem { item }),
                     );
                 }
-                let placed: Vec<usize> = built.order[node.first as usize..(node.first + node.count) as usize]
+                let placed: Vec<usize> = items
                     .iter()
                     .filter(|&&k| k as usize >= np)
                     .map(|&k| group.instances[k as usize - np].group as usize)

@@ -872,15 +872,8 @@ impl Inner {
         record: impl FnOnce(&ash::Device, vk::CommandBuffer, &RunResources),
     ) -> Result<RunResources, GpuError> {
         let d = &self.device;
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .flags(vk::CommandPoolCreateFlags::TRANSIENT)
-            .queue_family_index(self.queue_family);
-        res.command_pool = unsafe { d.create_command_pool(&pool_info, None) }.map_err(GpuError::vk("vkCreateCommandPool"))?;
-        let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(res.command_pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        let cmd = unsafe { d.allocate_command_buffers(&alloc) }.map_err(GpuError::vk("vkAllocateCommandBuffers"))?[0];
+        let cmd;
+        (res.command_pool, cmd) = self.command_buffer(vk::CommandPoolCreateFlags::TRANSIENT)?;
         let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         unsafe { d.begin_command_buffer(cmd, &begin) }.map_err(GpuError::vk("vkBeginCommandBuffer"))?;
         record(d, cmd, &res);
@@ -898,6 +891,26 @@ impl Inner {
                 Err(GpuError::Timeout { after: self.timeout })
             }
             Err(e) => Err(GpuError::vk("vkWaitForFences")(e)),
+        }
+    }
+
+    /// A command pool of the queue's family (`flags`) and one primary
+    /// command buffer from it; the caller destroys the pool. On an error
+    /// nothing is left behind.
+    pub(crate) fn command_buffer(&self, flags: vk::CommandPoolCreateFlags) -> Result<(vk::CommandPool, vk::CommandBuffer), GpuError> {
+        let d = &self.device;
+        let info = vk::CommandPoolCreateInfo::default().flags(flags).queue_family_index(self.queue_family);
+        let pool = unsafe { d.create_command_pool(&info, None) }.map_err(GpuError::vk("vkCreateCommandPool"))?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        match unsafe { d.allocate_command_buffers(&alloc) } {
+            Ok(cmds) => Ok((pool, cmds[0])),
+            Err(e) => {
+                unsafe { d.destroy_command_pool(pool, None) };
+                Err(GpuError::vk("vkAllocateCommandBuffers")(e))
+            }
         }
     }
 

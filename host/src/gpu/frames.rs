@@ -64,15 +64,7 @@ impl FrameLoop {
             timed: false,
             inner: inner.clone(),
         };
-        let info = vk::CommandPoolCreateInfo::default()
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER)
-            .queue_family_index(inner.queue_family);
-        f.pool = unsafe { d.create_command_pool(&info, None) }.map_err(GpuError::vk("vkCreateCommandPool"))?;
-        let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(f.pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        f.cmd = unsafe { d.allocate_command_buffers(&alloc) }.map_err(GpuError::vk("vkAllocateCommandBuffers"))?[0];
+        (f.pool, f.cmd) = inner.command_buffer(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER)?;
         f.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(GpuError::vk("vkCreateFence"))?;
         f.acquired = unsafe { d.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
             .map_err(GpuError::vk("vkCreateSemaphore"))?;

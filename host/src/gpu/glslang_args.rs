@@ -68,12 +68,17 @@ pub fn optimize_spirv(spv: &std::path::Path) -> Result<(), String> {
         .arg(spv)
         .output()
         .map_err(|e| format!("cannot run {SPIRV_OPT} (Debian package spirv-tools): {e}"))?;
+    tool_result(SPIRV_OPT, spv, &output)
+}
+
+/// Ok when `tool` succeeded on `path`, else its messages.
+fn tool_result(tool: &str, path: &std::path::Path, output: &std::process::Output) -> Result<(), String> {
     if output.status.success() {
         return Ok(());
     }
     Err(format!(
-        "{SPIRV_OPT} failed on {}:\n{}{}",
-        spv.display(),
+        "{tool} failed on {}:\n{}{}",
+        path.display(),
         String::from_utf8_lossy(&output.stdout).trim_end(),
         String::from_utf8_lossy(&output.stderr).trim_end()
     ))
@@ -87,13 +92,6 @@ pub fn glsl_to_spirv(src: &std::path::Path, include: &std::path::Path, spv: &std
         .args(glslang_args(src, include, spv))
         .output()
         .map_err(|e| format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"))?;
-    if !output.status.success() {
-        return Err(format!(
-            "{GLSLANG} failed on {}:\n{}{}",
-            src.display(),
-            String::from_utf8_lossy(&output.stdout).trim_end(),
-            String::from_utf8_lossy(&output.stderr).trim_end()
-        ));
-    }
+    tool_result(GLSLANG, src, &output)?;
     optimize_spirv(spv)
 }
