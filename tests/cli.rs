@@ -114,7 +114,20 @@ fn unknown_flag_is_a_usage_error() {
 #[test]
 fn unwritable_output() {
     let o = raycast(&["render", "-o", "/nonexistent-dir/x.png"], &[]);
-    assert_fails(&o, 1, "cannot write /nonexistent-dir/x.png");
+    assert_fails(&o, 1, "cannot write /nonexistent-dir/x.png: no folder /nonexistent-dir");
+    // Said before the work, not after it: no device was opened, nothing rendered.
+    assert!(!text(&o).0.contains("device:"), "{:?}", text(&o));
+    let folder = out_dir();
+    let o = raycast(&["render", "-o", folder.to_str().unwrap()], &[]);
+    assert_fails(&o, 1, "it is a folder");
+    for args in [
+        vec!["check", "-o", "/nonexistent-dir/d.png"],
+        vec!["compare", "a.png", "b.png", "-o", "/nonexistent-dir/d.png"],
+        vec!["preview", "--screenshot", "/nonexistent-dir/s.png"],
+    ] {
+        let o = raycast(&args, &[]);
+        assert_fails(&o, 1, "cannot write /nonexistent-dir/");
+    }
 }
 
 #[test]

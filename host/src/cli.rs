@@ -376,8 +376,9 @@ fn write_picture(path: &Path, picture: &Picture) -> Result<(), Failure> {
 }
 
 fn render(args: &RenderArgs) -> Result<(), Failure> {
-    let p = prepare(&args.frame)?;
     let output = args.output.clone().unwrap_or_else(|| default_output(&args.frame, ""));
+    image_io::check_output_path(&output)?;
+    let p = prepare(&args.frame)?;
     if args.backend == Backend::Cpu {
         let cpu = CpuRenderer::new()?;
         println!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
@@ -426,6 +427,9 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
 }
 
 fn check(args: &CheckArgs) -> Result<(), Failure> {
+    if let Some(path) = &args.output {
+        image_io::check_output_path(path)?;
+    }
     let p = prepare(&args.frame)?;
     // Bad --pixel input fails before the renders, not after them.
     let (width, height) = (p.data.frame.width, p.data.frame.height);
@@ -526,6 +530,9 @@ fn pixel_text(p: &crate::layout::PixelOut) -> String {
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
     if !(0.0..=100.0).contains(&args.max_percent) {
         return Err(Failure(format!("raycast: error: --max-percent {} is out of range: 0 to 100", args.max_percent), 1));
+    }
+    if let Some(path) = &args.output {
+        image_io::check_output_path(path)?;
     }
     let actual = image_io::read_png(&args.actual)?;
     let expected = image_io::read_png(&args.expected)?;

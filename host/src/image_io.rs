@@ -24,6 +24,24 @@ pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
         .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
+/// Whether a picture could be written to `path`, asked before the work that
+/// makes it: its folder exists and it is not itself a folder. (The write can
+/// still fail later, on permissions or a full disk; `write_png` says so.)
+pub fn check_output_path(path: &Path) -> Result<(), String> {
+    let cannot = |why: &str| Err(format!("cannot write {}: {why}", path.display()));
+    if path.is_dir() {
+        return cannot("it is a folder");
+    }
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !folder.is_dir() {
+        return cannot(&format!("no folder {}", folder.display()));
+    }
+    Ok(())
+}
+
 pub fn read_png(path: &Path) -> Result<Rgb8, String> {
     let img = image::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let rgb = img.to_rgb8();

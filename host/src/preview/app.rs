@@ -57,6 +57,9 @@ preview controls:
 pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let settings = RenderSettings { width: args.width, height: args.height, ..RenderSettings::default() };
     settings.validate()?;
+    if let Some(path) = &args.screenshot {
+        crate::image_io::check_output_path(path)?;
+    }
     let parse = ParseOptions { assets: args.assets.clone() };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
     let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(scene_failure)?;
