@@ -82,7 +82,8 @@
 #define SPEC_SPECULAR 9          // a material with shininess > 0
 #define SPEC_SHADOWS 10          // FLAG_SHADOWS
 #define SPEC_REFLECTIONS 11      // FLAG_REFLECTIONS and a mirror material
-#define SPEC_COUNT 12
+#define SPEC_INNER_NODES 12      // a hierarchy node with children (not only leaves)
+#define SPEC_COUNT 13
 
 // Primitive.shape
 #define SHAPE_CUBE 0u

@@ -83,6 +83,7 @@ const bool HAS_BILINEAR = true;
 const bool HAS_SPECULAR = true;
 const bool HAS_SHADOWS = true;
 const bool HAS_REFLECTIONS = true;
+const bool HAS_INNER_NODES = true;
 
 #include "raycast.glsl"
 

@@ -150,6 +150,7 @@ const SPEC_NAMES: [(u32, &str); layout::SPEC_COUNT as usize] = [
     (layout::SPEC_SPECULAR, "specular"),
     (layout::SPEC_SHADOWS, "shadows"),
     (layout::SPEC_REFLECTIONS, "mirrors"),
+    (layout::SPEC_INNER_NODES, "inner hierarchy nodes"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -171,6 +172,8 @@ pub struct SceneFeatures {
     specular: bool,
     /// A material with a reflective channel other than 0.
     reflective: bool,
+    /// A hierarchy node with children: the walk's inner-node step.
+    inner_nodes: bool,
 }
 
 impl SceneFeatures {
@@ -188,6 +191,7 @@ impl SceneFeatures {
             textured: data.materials.iter().any(|m| m.texture >= 0),
             specular: data.materials.iter().any(|m| m.shininess > 0.0),
             reflective: data.materials.iter().any(|m| m.reflective[..3].iter().any(|&r| r != 0.0)),
+            inner_nodes: data.nodes.iter().any(|n| n.count == 0),
         }
     }
 
@@ -211,6 +215,7 @@ impl SceneFeatures {
             // radiance: a mirror weight k_s O_r with a channel other than 0
             // (kept, too, where the product underflows to 0).
             (layout::SPEC_REFLECTIONS, flag(layout::FLAG_REFLECTIONS) && self.reflective && frame.k[2] != 0.0),
+            (layout::SPEC_INNER_NODES, self.inner_nodes),
         ] {
             on[id as usize] = value;
         }
@@ -447,7 +452,7 @@ mod tests {
 
     /// A constant is on exactly when the scene and the flags can reach its
     /// code: shapes, instances, light kinds, textures, filters, specular,
-    /// shadows and mirrors, each turned off where absent.
+    /// shadows, mirrors and inner hierarchy nodes, each turned off where absent.
     #[test]
     fn specialization_keeps_what_the_scene_can_reach() {
         let plain = r#"<scenefile><globaldata><specularcoeff v="0.5"/></globaldata>
@@ -487,8 +492,16 @@ mod tests {
         assert_eq!(
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows; \
-             leaves out cubes, textures, bilinear filtering, mirrors"
+             leaves out cubes, textures, bilinear filtering, mirrors, inner hierarchy nodes"
         );
+        // Each group of `rich` fits one leaf; twenty cubes in a row do not.
+        let cubes: String = (0..20)
+            .map(|i| format!(r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#))
+            .collect();
+        let row = format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#);
+        let d = data(&row, &RenderSettings::default());
+        assert!(d.nodes.iter().any(|n| n.count == 0), "twenty primitives make inner nodes");
+        assert!(on(Specialization::of(&d, &d.frame)).contains(&layout::SPEC_INNER_NODES));
         assert!(Specialization::ALL.describe().ends_with("leaves out nothing"));
         // Every constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
