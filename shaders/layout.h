@@ -83,7 +83,8 @@
 #define SPEC_SHADOWS 10          // FLAG_SHADOWS
 #define SPEC_REFLECTIONS 11      // FLAG_REFLECTIONS and a mirror material
 #define SPEC_INNER_NODES 12      // a hierarchy node with children (not only leaves)
-#define SPEC_COUNT 13
+#define SPEC_SEVERAL_PRIMITIVE_LEAVES 13 // a leaf holds more than one primitive
+#define SPEC_COUNT 14
 
 // Primitive.shape
 #define SHAPE_CUBE 0u

@@ -102,6 +102,7 @@ layout(constant_id = SPEC_SPECULAR) const bool HAS_SPECULAR = true;
 layout(constant_id = SPEC_SHADOWS) const bool HAS_SHADOWS = true;
 layout(constant_id = SPEC_REFLECTIONS) const bool HAS_REFLECTIONS = true;
 layout(constant_id = SPEC_INNER_NODES) const bool HAS_INNER_NODES = true;
+layout(constant_id = SPEC_SEVERAL_PRIMITIVE_LEAVES) const bool HAS_SEVERAL_PRIMITIVE_LEAVES = true;
 
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };

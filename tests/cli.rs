@@ -304,18 +304,18 @@ fn generated(family: &str, depth: u32) -> PathBuf {
 
 /// Mesa's lavapipe ends every loop of a shader invocation after 65535
 /// iterations in all, without a word. Pixels that need more (here every
-/// primitive of 937 spheres, --no-bvh, for each of up to 4 mirror bounces
-/// and their shadow rays) are never drawn wrong:
+/// instance of 4,687 spheres, --no-bvh, for the camera ray, one mirror
+/// bounce and their shadow rays) are never drawn wrong:
 /// `render` finishes them with the CPU build and says so (the picture then
 /// equals the CPU build's, bit for bit), `check` refuses with the reason
 /// (it compares the device's own pixels), and through the hierarchy the
 /// same frame fits and matches the CPU build.
 #[test]
 fn pixels_beyond_lavapipes_loop_budget_are_finished_on_the_cpu_or_refused() {
-    let scene = generated("recursive-spheres", 5);
+    let scene = generated("recursive-spheres", 6);
     let (device_png, cpu_png) = (out_dir().join("loop-budget-device.png"), out_dir().join("loop-budget-cpu.png"));
     let _ = std::fs::remove_file(&device_png);
-    let args = ["--no-textures", "--width", "64", "--height", "48", "--depth", "4"];
+    let args = ["--no-textures", "--width", "32", "--height", "24", "--depth", "1"];
     let o = raycast(&[&["render", scene.to_str().unwrap(), "--no-bvh", "-o", device_png.to_str().unwrap()][..], &args].concat(), &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");

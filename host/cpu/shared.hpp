@@ -84,6 +84,7 @@ const bool HAS_SPECULAR = true;
 const bool HAS_SHADOWS = true;
 const bool HAS_REFLECTIONS = true;
 const bool HAS_INNER_NODES = true;
+const bool HAS_SEVERAL_PRIMITIVE_LEAVES = true;
 
 #include "raycast.glsl"
 

@@ -151,6 +151,7 @@ const SPEC_NAMES: [(u32, &str); layout::SPEC_COUNT as usize] = [
     (layout::SPEC_SHADOWS, "shadows"),
     (layout::SPEC_REFLECTIONS, "mirrors"),
     (layout::SPEC_INNER_NODES, "inner hierarchy nodes"),
+    (layout::SPEC_SEVERAL_PRIMITIVE_LEAVES, "leaves of several primitives"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -174,6 +175,9 @@ pub struct SceneFeatures {
     reflective: bool,
     /// A hierarchy node with children: the walk's inner-node step.
     inner_nodes: bool,
+    /// A leaf (or, without a hierarchy, the walk's one-primitive step:
+    /// never) with more than one primitive: the walk's loop over them.
+    several_primitive_leaves: bool,
 }
 
 impl SceneFeatures {
@@ -192,6 +196,11 @@ impl SceneFeatures {
             specular: data.materials.iter().any(|m| m.shininess > 0.0),
             reflective: data.materials.iter().any(|m| m.reflective[..3].iter().any(|&r| r != 0.0)),
             inner_nodes: data.nodes.iter().any(|n| n.count == 0),
+            // raycast.glsl walk's prim_count for a leaf.
+            several_primitive_leaves: data
+                .nodes
+                .iter()
+                .any(|n| n.count > 0 && if data.instances.is_empty() { n.count } else { n.primitives } > 1),
         }
     }
 
@@ -216,6 +225,7 @@ impl SceneFeatures {
             // (kept, too, where the product underflows to 0).
             (layout::SPEC_REFLECTIONS, flag(layout::FLAG_REFLECTIONS) && self.reflective && frame.k[2] != 0.0),
             (layout::SPEC_INNER_NODES, self.inner_nodes),
+            (layout::SPEC_SEVERAL_PRIMITIVE_LEAVES, self.several_primitive_leaves),
         ] {
             on[id as usize] = value;
         }
@@ -452,7 +462,8 @@ mod tests {
 
     /// A constant is on exactly when the scene and the flags can reach its
     /// code: shapes, instances, light kinds, textures, filters, specular,
-    /// shadows, mirrors and inner hierarchy nodes, each turned off where absent.
+    /// shadows, mirrors, inner hierarchy nodes and leaves of several
+    /// primitives, each turned off where absent.
     #[test]
     fn specialization_keeps_what_the_scene_can_reach() {
         let plain = r#"<scenefile><globaldata><specularcoeff v="0.5"/></globaldata>
@@ -486,13 +497,14 @@ mod tests {
             layout::SPEC_SPOT_LIGHTS,
             layout::SPEC_SPECULAR,
             layout::SPEC_SHADOWS,
+            layout::SPEC_SEVERAL_PRIMITIVE_LEAVES,
         ];
         assert_eq!(s, expect);
         assert_ne!(Specialization::of(&d, &d.frame), Specialization::ALL);
         assert_eq!(
             Specialization::of(&d, &d.frame).describe(),
-            "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows; \
-             leaves out cubes, textures, bilinear filtering, mirrors, inner hierarchy nodes"
+            "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
+             leaves of several primitives; leaves out cubes, textures, bilinear filtering, mirrors, inner hierarchy nodes"
         );
         // Each group of `rich` fits one leaf; twenty cubes in a row do not.
         let cubes: String = (0..20)
@@ -502,6 +514,12 @@ mod tests {
         let d = data(&row, &RenderSettings::default());
         assert!(d.nodes.iter().any(|n| n.count == 0), "twenty primitives make inner nodes");
         assert!(on(Specialization::of(&d, &d.frame)).contains(&layout::SPEC_INNER_NODES));
+        // One sphere and its child instances in each group's one leaf: neither.
+        let options = crate::gen::GenOptions { texture: None };
+        let spheres = crate::gen::generate(crate::gen::Family::RecursiveSpheres, 3, &options).unwrap();
+        let d = data(&spheres, &RenderSettings::default());
+        let s = on(Specialization::of(&d, &d.frame));
+        assert!(!s.contains(&layout::SPEC_INNER_NODES) && !s.contains(&layout::SPEC_SEVERAL_PRIMITIVE_LEAVES), "{s:?}");
         assert!(Specialization::ALL.describe().ends_with("leaves out nothing"));
         // Every constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
