@@ -304,7 +304,7 @@ impl Row {
 /// Milliseconds with three significant digits (at least one decimal).
 fn ms(d: Duration) -> String {
     let v = d.as_secs_f64() * 1e3;
-    let decimals = if v >= 100.0 { 1 } else if v >= 10.0 { 1 } else if v >= 1.0 { 2 } else { 3 };
+    let decimals = if v >= 10.0 { 1 } else if v >= 1.0 { 2 } else { 3 };
     format!("{v:.decimals$} ms")
 }
 

@@ -334,7 +334,6 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         root_node: packed.root_node,
         node_count: packed.nodes.len() as u32,
         loop_canary: layout::LOOP_CANARY,
-        ..Default::default()
     };
     Ok(FrameData {
         frame,

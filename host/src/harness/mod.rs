@@ -339,7 +339,7 @@ impl Harness {
         // Build what is missing: a kernel per function, one C++ library for all.
         let mut wanted_cpu: Vec<&Function> = Vec::new();
         for g in &groups {
-            let p = prepared[g[0]].as_ref().ok().expect("grouped cases are prepared");
+            let p = prepared[g[0]].as_ref().expect("grouped cases are prepared");
             if !self.kernels.contains_key(&p.function.name) {
                 let k = self.build_kernel(&p.function);
                 self.kernels.insert(p.function.name.clone(), k);
@@ -366,12 +366,12 @@ impl Harness {
         let mut device: Vec<Result<Vec<u32>, String>> = vec![Err(String::new()); cases.len()];
         let mut cpu: Vec<Option<Result<Vec<u32>, String>>> = vec![None; cases.len()];
         for g in &groups {
-            let p0 = prepared[g[0]].as_ref().ok().expect("grouped cases are prepared");
+            let p0 = prepared[g[0]].as_ref().expect("grouped cases are prepared");
             let f = &p0.function;
             let stride = codegen::out_stride(f);
             let mut input = vec![g.len() as u32];
             for &i in g {
-                input.extend_from_slice(&prepared[i].as_ref().ok().expect("prepared").input);
+                input.extend_from_slice(&prepared[i].as_ref().expect("prepared").input);
             }
             let out_words = g.len() * stride;
             let split = |words: Vec<u32>| -> Vec<Vec<u32>> { words.chunks(stride).map(<[u32]>::to_vec).collect() };
