@@ -84,7 +84,9 @@
 #define SPEC_REFLECTIONS 11      // FLAG_REFLECTIONS and a mirror material
 #define SPEC_INNER_NODES 12      // a hierarchy node with children (not only leaves)
 #define SPEC_SEVERAL_PRIMITIVE_LEAVES 13 // a leaf holds more than one primitive
-#define SPEC_COUNT 14
+#define SPEC_HIERARCHY 14        // frame.node_count > 0: the walk's hierarchy steps
+#define SPEC_FLAT_LIST 15        // frame.node_count == 0: the walk's primitives in order
+#define SPEC_COUNT 16
 
 // Primitive.shape
 #define SHAPE_CUBE 0u

@@ -539,7 +539,10 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         vec4 leaf_hi = vec4(0.0f);
         uint level = 0u;
         Ray lr = r;
-        bool direct = top == 0; // a primitive index, not a leaf's item range
+        // A primitive index, not a leaf's item range. A scene has one kind
+        // of walk or the other (frame.node_count), and its kernel keeps
+        // only that one's code.
+        bool direct = HAS_FLAT_LIST && (HAS_HIERARCHY ? top == 0 : true);
         if (direct) {
             first_item = next;
             item_count = 1u;

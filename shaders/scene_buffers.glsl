@@ -103,6 +103,8 @@ layout(constant_id = SPEC_SHADOWS) const bool HAS_SHADOWS = true;
 layout(constant_id = SPEC_REFLECTIONS) const bool HAS_REFLECTIONS = true;
 layout(constant_id = SPEC_INNER_NODES) const bool HAS_INNER_NODES = true;
 layout(constant_id = SPEC_SEVERAL_PRIMITIVE_LEAVES) const bool HAS_SEVERAL_PRIMITIVE_LEAVES = true;
+layout(constant_id = SPEC_HIERARCHY) const bool HAS_HIERARCHY = true;
+layout(constant_id = SPEC_FLAT_LIST) const bool HAS_FLAT_LIST = true;
 
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };

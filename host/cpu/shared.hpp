@@ -85,6 +85,8 @@ const bool HAS_SHADOWS = true;
 const bool HAS_REFLECTIONS = true;
 const bool HAS_INNER_NODES = true;
 const bool HAS_SEVERAL_PRIMITIVE_LEAVES = true;
+const bool HAS_HIERARCHY = true;
+const bool HAS_FLAT_LIST = true;
 
 #include "raycast.glsl"
 

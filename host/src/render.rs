@@ -152,6 +152,8 @@ const SPEC_NAMES: [(u32, &str); layout::SPEC_COUNT as usize] = [
     (layout::SPEC_REFLECTIONS, "mirrors"),
     (layout::SPEC_INNER_NODES, "inner hierarchy nodes"),
     (layout::SPEC_SEVERAL_PRIMITIVE_LEAVES, "leaves of several primitives"),
+    (layout::SPEC_HIERARCHY, "the hierarchy walk"),
+    (layout::SPEC_FLAT_LIST, "the flat primitive list"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -178,6 +180,9 @@ pub struct SceneFeatures {
     /// A leaf (or, without a hierarchy, the walk's one-primitive step:
     /// never) with more than one primitive: the walk's loop over them.
     several_primitive_leaves: bool,
+    /// A hierarchy to walk (frame.node_count > 0); without one the walk
+    /// tests the primitives in order.
+    hierarchy: bool,
 }
 
 impl SceneFeatures {
@@ -201,6 +206,7 @@ impl SceneFeatures {
                 .nodes
                 .iter()
                 .any(|n| n.count > 0 && if data.instances.is_empty() { n.count } else { n.primitives } > 1),
+            hierarchy: !data.nodes.is_empty(),
         }
     }
 
@@ -226,6 +232,8 @@ impl SceneFeatures {
             (layout::SPEC_REFLECTIONS, flag(layout::FLAG_REFLECTIONS) && self.reflective && frame.k[2] != 0.0),
             (layout::SPEC_INNER_NODES, self.inner_nodes),
             (layout::SPEC_SEVERAL_PRIMITIVE_LEAVES, self.several_primitive_leaves),
+            (layout::SPEC_HIERARCHY, self.hierarchy),
+            (layout::SPEC_FLAT_LIST, !self.hierarchy),
         ] {
             on[id as usize] = value;
         }
@@ -471,10 +479,13 @@ mod tests {
           <object type="tree" name="root"><transblock><object type="primitive" name="cube">
             <reflective r="0" g="0.5" b="0"/></object></transblock></object></scenefile>"#;
         let d = data(plain, &RenderSettings::default());
-        assert_eq!(on(Specialization::of(&d, &d.frame)), [layout::SPEC_CUBES, layout::SPEC_SHADOWS, layout::SPEC_REFLECTIONS]);
+        assert_eq!(
+            on(Specialization::of(&d, &d.frame)),
+            [layout::SPEC_CUBES, layout::SPEC_SHADOWS, layout::SPEC_REFLECTIONS, layout::SPEC_FLAT_LIST]
+        );
         let flat = RenderSettings { shadows: false, reflections: false, ..RenderSettings::default() };
         let d = data(plain, &flat);
-        assert_eq!(on(Specialization::of(&d, &d.frame)), [layout::SPEC_CUBES]);
+        assert_eq!(on(Specialization::of(&d, &d.frame)), [layout::SPEC_CUBES, layout::SPEC_FLAT_LIST]);
 
         let rich = r#"<scenefile><globaldata><specularcoeff v="0"/></globaldata>
           <lightdata><id v="0"/><type v="spot"/><direction x="0" y="-1" z="0"/><angle v="30"/><penumbra v="5"/></lightdata>
@@ -498,13 +509,15 @@ mod tests {
             layout::SPEC_SPECULAR,
             layout::SPEC_SHADOWS,
             layout::SPEC_SEVERAL_PRIMITIVE_LEAVES,
+            layout::SPEC_HIERARCHY,
         ];
         assert_eq!(s, expect);
         assert_ne!(Specialization::of(&d, &d.frame), Specialization::ALL);
         assert_eq!(
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
-             leaves of several primitives; leaves out cubes, textures, bilinear filtering, mirrors, inner hierarchy nodes"
+             leaves of several primitives, the hierarchy walk; leaves out cubes, textures, bilinear filtering, mirrors, \
+             inner hierarchy nodes, the flat primitive list"
         );
         // Each group of `rich` fits one leaf; twenty cubes in a row do not.
         let cubes: String = (0..20)
