@@ -201,6 +201,7 @@ pub(crate) fn scene_failure(e: String) -> Failure {
 }
 
 pub fn main() -> ExitCode {
+    crate::gpu::spread_lavapipe_work();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {
