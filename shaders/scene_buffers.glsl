@@ -82,7 +82,7 @@ uvec4 leaf_record(uint t) {
     return SCENE_TEXEL_AT(leaf_item_texels, t);
 #else
     uint i = t * 4u;
-    return uvec4(leaf_items[i].item, leaf_items[i + 1u].item, leaf_items[i + 2u].item, leaf_items[i + 3u].item);
+    return uvec4(leaf_item(i), leaf_item(i + 1u), leaf_item(i + 2u), leaf_item(i + 3u));
 #endif
 }
 // What the kernel may leave out (layout.h, SPEC_*): true unless the host

@@ -54,7 +54,7 @@ inline uint leaf_item(uint i) {
 // The instance record at leaf items 4 t .. 4 t + 3, as scene_buffers.glsl reads it.
 inline uvec4 leaf_record(uint t) {
     uint i = t * 4u;
-    return uvec4(leaf_items[i].item, leaf_items[i + 1u].item, leaf_items[i + 2u].item, leaf_items[i + 3u].item);
+    return uvec4(leaf_item(i), leaf_item(i + 1u), leaf_item(i + 2u), leaf_item(i + 3u));
 }
 
 inline void bind_scene(const Scene& s) {

@@ -424,24 +424,36 @@ pub(crate) fn box_steps(leaf: ([f32; 4], [f32; 4]), inner: ([f32; 4], [f32; 4]))
         let holds_hi = |q: u32| stepped(lo[a], hi[a], 0, q).1 >= inner.1[a];
         // An estimate, then a step at a time to the last that holds (0 always does).
         let estimate = |d: f32| ((d / step).floor() as u32).min(max);
-        let mut q = estimate(inner.0[a] - lo[a]);
-        while q > 0 && !holds_lo(q) {
-            q -= 1;
-        }
-        while q < max && holds_lo(q + 1) {
-            q += 1;
-        }
-        q_lo[a] = q;
-        let mut q = estimate(hi[a] - inner.1[a]);
-        while q > 0 && !holds_hi(q) {
-            q -= 1;
-        }
-        while q < max && holds_hi(q + 1) {
-            q += 1;
-        }
-        q_hi[a] = q;
+        q_lo[a] = most_steps(estimate(inner.0[a] - lo[a]), holds_lo);
+        q_hi[a] = most_steps(estimate(hi[a] - inner.1[a]), holds_hi);
     }
     Some((q_lo, q_hi))
+}
+
+/// The largest q in 0..=BOX_STEPS with `holds(q)`, searched from
+/// `estimate` (holds(0) is true; holds is true up to a point, then false).
+fn most_steps(estimate: u32, holds: impl Fn(u32) -> bool) -> u32 {
+    let mut q = estimate;
+    while q > 0 && !holds(q) {
+        q -= 1;
+    }
+    while q < layout::BOX_STEPS && holds(q + 1) {
+        q += 1;
+    }
+    q
+}
+
+/// An instance record's four leaf-item words (layout.h, BvhNode): the
+/// steps in from the leaf box's low and high sides, then `item`
+/// (ITEM_INSTANCE | instance index).
+fn instance_record(q_lo: [u32; 3], q_hi: [u32; 3], item: u32) -> [u32; 4] {
+    [q_lo[0] | q_lo[1] << 16, q_lo[2] | q_hi[0] << 16, q_hi[1] | q_hi[2] << 16, item]
+}
+
+/// The steps of an instance record's words, as the shader reads them.
+#[cfg(test)]
+fn record_steps(w: [u32; 4]) -> ([u32; 3], [u32; 3]) {
+    ([w[0] & 0xffff, w[0] >> 16, w[1] & 0xffff], [w[1] >> 16, w[2] & 0xffff, w[2] >> 16])
 }
 
 fn pack_groups(scene: &Scene) -> Result<Packed, String> {
@@ -510,15 +522,8 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                     let (q_lo, q_hi) = box_steps((lo, hi), (ilo, ihi)).ok_or_else(|| {
                         format!("{}: this master's box cannot be written in steps of its leaf's (coordinates beyond about 1e38?)", inst.loc)
                     })?;
-                    leaf_items.extend(
-                        [
-                            q_lo[0] | q_lo[1] << 16,
-                            q_lo[2] | q_hi[0] << 16,
-                            q_hi[1] | q_hi[2] << 16,
-                            layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32),
-                        ]
-                        .map(|item| layout::LeafItem { item }),
-                    );
+                    let item = layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32);
+                    leaf_items.extend(instance_record(q_lo, q_hi, item).map(|item| layout::LeafItem { item }));
                 }
                 let placed: Vec<usize> = items
                     .iter()
@@ -687,8 +692,7 @@ mod tests {
                 assert_ne!(w[3] & layout::ITEM_INSTANCE, 0, "node {n}: record {r} is not an instance");
                 let inst = data.instances[(w[3] & !layout::ITEM_INSTANCE) as usize];
                 stack.push((inst.root, first_id + inst.id_offset));
-                let q_lo = [w[0] & 0xffff, w[0] >> 16, w[1] & 0xffff];
-                let q_hi = [w[1] >> 16, w[2] & 0xffff, w[2] >> 16];
+                let (q_lo, q_hi) = record_steps(w);
                 let sides: [(f32, f32); 3] = std::array::from_fn(|a| stepped(node.lo[a], node.hi[a], q_lo[a], q_hi[a]));
                 let (lo, hi) = (DVec3::from(sides.map(|s| f64::from(s.0))), DVec3::from(sides.map(|s| f64::from(s.1))));
                 let root = data.nodes[inst.root as usize];

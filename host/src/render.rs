@@ -177,8 +177,8 @@ pub struct SceneFeatures {
     reflective: bool,
     /// A hierarchy node with children: the walk's inner-node step.
     inner_nodes: bool,
-    /// A leaf (or, without a hierarchy, the walk's one-primitive step:
-    /// never) with more than one primitive: the walk's loop over them.
+    /// A leaf with more than one primitive: the walk's loop over them
+    /// (without a hierarchy the walk tests one primitive a pass).
     several_primitive_leaves: bool,
     /// A hierarchy to walk (frame.node_count > 0); without one the walk
     /// tests the primitives in order.
@@ -201,11 +201,9 @@ impl SceneFeatures {
             specular: data.materials.iter().any(|m| m.shininess > 0.0),
             reflective: data.materials.iter().any(|m| m.reflective[..3].iter().any(|&r| r != 0.0)),
             inner_nodes: data.nodes.iter().any(|n| n.count == 0),
-            // raycast.glsl walk's prim_count for a leaf.
-            several_primitive_leaves: data
-                .nodes
-                .iter()
-                .any(|n| n.count > 0 && if data.instances.is_empty() { n.count } else { n.primitives } > 1),
+            // Every leaf counts its primitives (the walk reads `count`
+            // instead where no instance makes them differ).
+            several_primitive_leaves: data.nodes.iter().any(|n| n.count > 0 && n.primitives > 1),
             hierarchy: !data.nodes.is_empty(),
         }
     }
@@ -470,8 +468,9 @@ mod tests {
 
     /// A constant is on exactly when the scene and the flags can reach its
     /// code: shapes, instances, light kinds, textures, filters, specular,
-    /// shadows, mirrors, inner hierarchy nodes and leaves of several
-    /// primitives, each turned off where absent.
+    /// shadows, mirrors, inner hierarchy nodes, leaves of several
+    /// primitives, and the hierarchy or the flat list, each turned off where
+    /// absent.
     #[test]
     fn specialization_keeps_what_the_scene_can_reach() {
         let plain = r#"<scenefile><globaldata><specularcoeff v="0.5"/></globaldata>
