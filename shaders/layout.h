@@ -86,7 +86,9 @@
 #define SPEC_SEVERAL_PRIMITIVE_LEAVES 13 // a leaf holds more than one primitive
 #define SPEC_HIERARCHY 14        // frame.node_count > 0: the walk's hierarchy steps
 #define SPEC_FLAT_LIST 15        // frame.node_count == 0: the walk's primitives in order
-#define SPEC_COUNT 16
+#define SPEC_BOX_RECORDS 16      // an instance record holds a box
+#define SPEC_SPHERE_RECORDS 17   // an instance record holds a sphere (RECORD_SPHERE)
+#define SPEC_COUNT 18
 
 // Primitive.shape
 #define SHAPE_CUBE 0u
@@ -163,7 +165,11 @@ struct Primitive {
 // quantised to BOX_STEPS steps: lo = node.lo + q * step and hi = node.hi -
 // q * step, step = (node.hi - node.lo) / BOX_STEPS, computed in f32 as
 // written (frame.rs chooses q so the box holds the instance's; a box test
-// then reads one texel, where the instance's own box took three).
+// then reads one texel, where the instance's own box took three). Or, with
+// RECORD_SPHERE in the last word, a sphere that holds the instance's
+// primitives (frame.rs uses one where its surface is smaller than the
+// box's): (c.x | c.y << 16, c.z, the radius's f32 bits, RECORD_SPHERE |
+// ITEM_INSTANCE | instance index), the centre in steps as lo above.
 // count = 0: children first and first + 1, split along axis.
 struct BvhNode {
     vec4 lo;
@@ -176,6 +182,8 @@ struct BvhNode {
 
 // Steps of a leaf's box in an instance record's box (above).
 #define BOX_STEPS 65535u
+// An instance record's last word: a bounding sphere, not a box (above).
+#define RECORD_SPHERE 1073741824u // bit 30, above the 27 index bits
 
 // A primitive index, or a word of an instance record (BvhNode).
 struct LeafItem {

@@ -300,12 +300,20 @@ precise vec2 quadratic_roots(float a, float b, float c) {
     return (q1 < q0) ? vec2(q1, q0) : vec2(q0, q1);
 }
 
-// Sphere: |o + t d|^2 = 0.25; normal = the hit point.
+// Sphere: |o + t d|^2 = 0.25; normal = the hit point. Solved from the
+// ray's closest approach to the centre, not the quadratic's b^2 - 4ac,
+// which loses the 0.25 against |o|^2 once the ray starts far off in object
+// units: a sphere 3,000 radii away (the tips of recursive-spheres depth 8
+// seen from the camera) has |o|^2 ~ 1e7, whose f32 step is 1, so it drew
+// noise up to twice its size. This errs by a few f32 steps of |o|, so a
+// bounding sphere with a small slack holds every hit (sphere_hit).
 ShapeHit intersect_sphere(Ray r) {
     precise float a = dot3(r.direction, r.direction);
-    precise float b = 2.0f * dot3(r.origin, r.direction);
-    precise float c = dot3(r.origin, r.origin) - 0.25f;
-    precise vec2 ts = quadratic_roots(a, b, c);
+    precise float tc = -dot3(r.origin, r.direction) / a;
+    precise vec3 closest = r.origin + tc * r.direction;
+    precise float disc = 0.25f - dot3(closest, closest);
+    precise float half_chord = sqrt(max_f(disc, 0.0f) / a);
+    precise vec2 ts = (disc < 0.0f) ? vec2(T_FAR, T_FAR) : vec2(tc - half_chord, tc + half_chord);
     ShapeHit best = no_hit();
     for (int k = 0; k < 2; k++) {
         precise float t = ts[k];
@@ -447,6 +455,24 @@ bool box_hit(Ray r, vec4 lo, vec4 hi, float t_max) {
     span = slab(r.origin.y, r.direction.y, lo.y, hi.y, span);
     span = slab(r.origin.z, r.direction.z, lo.z, hi.z, span);
     return !(span.x > span.y);
+}
+
+// Whether ray r may meet the sphere (c, radius) at some t in [0, t_max]:
+// the line passes within the radius of c, and the sphere reaches past
+// t = 0 and back before t_max. An instance record's bound (layout.h,
+// BvhNode) where frame.rs found it tighter than a box, as for the recursive
+// spheres: no division but one, and it culls what the corners of a box
+// would let through. Conservative: the radius grows by 2^-16 of c's offset
+// from the origin, far more than the rounding of the closest approach.
+bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
+    precise vec3 oc = c - r.origin;
+    precise float dd = dot3(r.direction, r.direction);
+    precise float tc = dot3(oc, r.direction) / dd;
+    precise vec3 perp = oc - tc * r.direction;
+    precise float reach = radius + max_abs3(oc) * 1.52587891e-5f;
+    precise float rr = reach * reach;
+    precise float past = tc - t_max;
+    return dot3(perp, perp) <= rr && (tc >= 0.0f || tc * tc * dd <= rr) && (past <= 0.0f || past * past * dd <= rr);
 }
 
 // best, or the hit of ray lr (in the space of the primitive's group) with
@@ -654,13 +680,22 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's box: a
                 // missed instance costs no pass.
+                // A box or a sphere (RECORD_SPHERE; a scene's kernel keeps
+                // the tests its records need): lo is a sphere's centre.
                 uvec4 record = leaf_record(records + (n - prim_count));
                 precise vec3 q_lo = vec3(float(record.x & 0xffffu), float(record.x >> 16u), float(record.y & 0xffffu));
-                precise vec3 q_hi = vec3(float(record.y >> 16u), float(record.z & 0xffffu), float(record.z >> 16u));
                 precise vec3 lo = xyz(leaf_lo) + q_lo * step;
-                precise vec3 hi = xyz(leaf_hi) - q_hi * step;
-                if (!use_boxes || box_hit(lr, vec4(lo, 0.0f), vec4(hi, 0.0f), best.t)) {
-                    stack[top] = stack_word(record.w, level);
+                bool sphere = HAS_SPHERE_RECORDS && (HAS_BOX_RECORDS ? (record.w & RECORD_SPHERE) != 0u : true);
+                bool meets = !use_boxes;
+                if (sphere) {
+                    meets = meets || sphere_hit(lr, lo, uintBitsToFloat(record.z), best.t);
+                } else if (HAS_BOX_RECORDS) {
+                    precise vec3 q_hi = vec3(float(record.y >> 16u), float(record.z & 0xffffu), float(record.z >> 16u));
+                    precise vec3 hi = xyz(leaf_hi) - q_hi * step;
+                    meets = meets || box_hit(lr, vec4(lo, 0.0f), vec4(hi, 0.0f), best.t);
+                }
+                if (meets) {
+                    stack[top] = stack_word(record.w & ~RECORD_SPHERE, level);
                     top = top + 1;
                 }
             }

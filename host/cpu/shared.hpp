@@ -87,6 +87,8 @@ const bool HAS_INNER_NODES = true;
 const bool HAS_SEVERAL_PRIMITIVE_LEAVES = true;
 const bool HAS_HIERARCHY = true;
 const bool HAS_FLAT_LIST = true;
+const bool HAS_BOX_RECORDS = true;
+const bool HAS_SPHERE_RECORDS = true;
 
 #include "raycast.glsl"
 

@@ -450,6 +450,100 @@ fn instance_record(q_lo: [u32; 3], q_hi: [u32; 3], item: u32) -> [u32; 4] {
     [q_lo[0] | q_lo[1] << 16, q_lo[2] | q_hi[0] << 16, q_hi[1] | q_hi[2] << 16, item]
 }
 
+/// A sphere that holds everything `m` places of a group whose primitives
+/// and instances lie within `radius` of `centre` (group space): its centre
+/// and radius in the space `m` maps to. The radius grows by the largest
+/// stretch of m's linear part, bounded above by the square root of the
+/// largest row sum of |MᵀM| (exact for rotations and uniform scales).
+fn placed_sphere(m: &DMat4, (centre, radius): (DVec3, f64)) -> (DVec3, f64) {
+    let l = glam::DMat3::from_mat4(*m);
+    let g = l.transpose() * l;
+    let rows = (0..3).map(|r| g.row(r).abs().element_sum()).fold(0.0, f64::max);
+    (m.transform_point3(centre), radius * rows.sqrt())
+}
+
+/// The radius of a canonical shape's bounding sphere about its centre.
+fn shape_radius(shape: &Shape) -> f64 {
+    match shape {
+        Shape::Sphere => 0.5,
+        Shape::Cone | Shape::Cylinder => 0.5f64.sqrt(),
+        _ => 0.75f64.sqrt(),
+    }
+}
+
+/// The farthest any point of a primitive (a canonical shape placed by
+/// `m`, within the unit cube) lies from `c`: the nearer of the unit cube's
+/// farthest corner and the shape's own bounding sphere placed by m.
+fn primitive_reach(shape: &Shape, m: &DMat4, c: DVec3) -> f64 {
+    let corners = (0..8)
+        .map(|i| {
+            let corner = DVec3::new(
+                if i & 1 == 0 { -0.5 } else { 0.5 },
+                if i & 2 == 0 { -0.5 } else { 0.5 },
+                if i & 4 == 0 { -0.5 } else { 0.5 },
+            );
+            (m.transform_point3(corner) - c).length()
+        })
+        .fold(0.0, f64::max);
+    let (centre, radius) = placed_sphere(m, (DVec3::ZERO, shape_radius(shape)));
+    corners.min((centre - c).length() + radius)
+}
+
+/// A sphere that holds a group's primitives and instances (`spheres`: each
+/// group's, in its own space), in the group's space: about a centre moved
+/// from the box's towards the farthest item (Bădoiu and Clarkson's
+/// iteration, over each item's own bounding sphere), out to the farthest
+/// point of any item.
+fn bounding_sphere(group: &crate::scene::Group, bounds: &Aabb, spheres: &[(DVec3, f64)]) -> (DVec3, f64) {
+    let balls: Vec<(DVec3, f64)> = group
+        .primitives
+        .iter()
+        .map(|p| placed_sphere(&p.world_from_object, (DVec3::ZERO, shape_radius(&p.shape))))
+        .chain(group.instances.iter().map(|i| placed_sphere(&i.parent_from_group, spheres[i.group as usize])))
+        .collect();
+    let reach = |c: DVec3| {
+        let prims = group.primitives.iter().map(|p| primitive_reach(&p.shape, &p.world_from_object, c));
+        let insts = balls[group.primitives.len()..].iter().map(|(b, r)| (*b - c).length() + r);
+        prims.chain(insts).fold(0.0, f64::max)
+    };
+    let start = (bounds.lo + bounds.hi) * 0.5;
+    let mut c = start;
+    // Each pass looks at every item: a few million looks in all.
+    let passes = (2_000_000 / balls.len().max(1)).clamp(1, 200);
+    for k in 1..=passes {
+        let far = |&(b, r): &(DVec3, f64)| (b - c).length() + r;
+        let Some(&(b, r)) = balls.iter().max_by(|x, y| far(x).total_cmp(&far(y))) else { break };
+        let towards = (b - c).try_normalize().unwrap_or(DVec3::X);
+        c += (b + towards * r - c) / (k as f64 + 1.0);
+    }
+    let (from_start, from_c) = (reach(start), reach(c));
+    if from_c < from_start { (c, from_c) } else { (start, from_start) }
+}
+
+/// An instance record for a bounding sphere (layout.h, BvhNode): the
+/// centre `c` to the nearest step of the leaf's box, the radius grown by
+/// the step's error and 2^-16 of itself for rounding, then rounded up to
+/// f32. None where the radius is beyond f32 or the leaf's steps are.
+fn sphere_record(leaf: ([f32; 4], [f32; 4]), (c, radius): (DVec3, f64), item: u32) -> Option<[u32; 4]> {
+    let (lo, hi) = leaf;
+    let mut q = [0u32; 3];
+    let mut at = DVec3::ZERO;
+    for a in 0..3 {
+        let step = (hi[a] - lo[a]) / layout::BOX_STEPS as f32;
+        if !step.is_finite() {
+            return None;
+        }
+        if step > 0.0 {
+            q[a] = ((c[a] - f64::from(lo[a])) / f64::from(step)).round().clamp(0.0, f64::from(layout::BOX_STEPS)) as u32;
+        }
+        at[a] = f64::from(stepped(lo[a], hi[a], q[a], 0).0);
+    }
+    let reach = (radius + (at - c).length()) * (1.0 + 1.0 / 65536.0) + f64::from(f32::MIN_POSITIVE);
+    let r = reach as f32;
+    let r = if f64::from(r) < reach { r.next_up() } else { r };
+    r.is_finite().then_some([q[0] | q[1] << 16, q[2], r.to_bits(), layout::RECORD_SPHERE | item])
+}
+
 /// The steps of an instance record's words, as the shader reads them.
 #[cfg(test)]
 fn record_steps(w: [u32; 4]) -> ([u32; 3], [u32; 3]) {
@@ -477,6 +571,13 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let mut leaf_items: Vec<layout::LeafItem> = Vec::new();
     let mut group_root = vec![u32::MAX; n];
     let mut group_bounds = vec![Aabb::EMPTY; n];
+    // Each group's bounding sphere (centre, radius), in its own space, and
+    // whether it reaches a cone or a cylinder: their quadratics lose
+    // precision for rays from far off (b^2 - 4ac), and a hit's error
+    // grows past a bounding sphere's slack (raycast.glsl sphere_hit), so
+    // such groups keep box records.
+    let mut group_sphere = vec![(DVec3::ZERO, 0.0f64); n];
+    let mut quadrics = vec![false; n];
     // Stack entries and instance levels a traversal starting in the group needs.
     let mut need = vec![0u32; n];
     let mut levels = vec![0u32; n];
@@ -496,6 +597,11 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
         let node_base = nodes.len() as u32;
         group_root[g] = node_base;
         group_bounds[g] = built.nodes[0].bounds;
+        if g != 0 {
+            group_sphere[g] = bounding_sphere(group, &built.nodes[0].bounds, &group_sphere);
+        }
+        quadrics[g] = group.primitives.iter().any(|p| matches!(p.shape, Shape::Cone | Shape::Cylinder))
+            || group.instances.iter().any(|i| quadrics[i.group as usize]);
         // Depth of each node, for the stack bound.
         let mut depth = vec![0u32; built.nodes.len()];
         for (i, node) in built.nodes.iter().enumerate() {
@@ -519,11 +625,23 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                 for &k in items.iter().filter(|&&k| (k as usize) >= np) {
                     let inst = &group.instances[k as usize - np];
                     let (ilo, ihi) = group_bounds[inst.group as usize].transformed(&inst.parent_from_group).padded_f32();
-                    let (q_lo, q_hi) = box_steps((lo, hi), (ilo, ihi)).ok_or_else(|| {
-                        format!("{}: this master's box cannot be written in steps of its leaf's (coordinates beyond about 1e38?)", inst.loc)
-                    })?;
                     let item = layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32);
-                    leaf_items.extend(instance_record(q_lo, q_hi, item).map(|item| layout::LeafItem { item }));
+                    // A sphere where its surface is smaller than the box's (a
+                    // ray meets a convex bound about in proportion to it) and
+                    // no cone or cylinder lies below it.
+                    let sphere = placed_sphere(&inst.parent_from_group, group_sphere[inst.group as usize]);
+                    let size: [f64; 3] = std::array::from_fn(|a| f64::from(ihi[a]) - f64::from(ilo[a]));
+                    let box_area = 2.0 * (size[0] * size[1] + size[1] * size[2] + size[2] * size[0]);
+                    let record = match sphere_record((lo, hi), sphere, item) {
+                        Some(record) if !quadrics[inst.group as usize] && 4.0 * std::f64::consts::PI * sphere.1 * sphere.1 < box_area => record,
+                        _ => {
+                            let (q_lo, q_hi) = box_steps((lo, hi), (ilo, ihi)).ok_or_else(|| {
+                                format!("{}: this master's box cannot be written in steps of its leaf's (coordinates beyond about 1e38?)", inst.loc)
+                            })?;
+                            instance_record(q_lo, q_hi, item)
+                        }
+                    };
+                    leaf_items.extend(record.map(|item| layout::LeafItem { item }));
                 }
                 let placed: Vec<usize> = items
                     .iter()
@@ -641,8 +759,9 @@ mod tests {
 
     /// Every primitive id is reached exactly once walking the packed
     /// hierarchy from the root through every instance, every node's box
-    /// holds its children's, and every instance record's box (as the
-    /// shader computes it) its root's.
+    /// holds its children's, every instance record's box (as the shader
+    /// computes it) its root's, and every record's sphere the points of
+    /// every primitive it leads to.
     #[test]
     fn packed_hierarchy_reaches_every_primitive_once() {
         let xml = r#"<scenefile>
@@ -661,12 +780,52 @@ mod tests {
         let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
         let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
         assert_eq!(scene.primitive_count(), 2 * 5 + 1 + 2);
-        let data = build(&scene, &RenderSettings::default()).unwrap();
+        let mut kinds = check_packed_hierarchy(&scene);
+        // The generated families: spheres, upright cones, axis-aligned cubes.
+        for family in [crate::gen::Family::RecursiveSpheres, crate::gen::Family::RecursiveCones, crate::gen::Family::RecursiveCubes] {
+            let xml = crate::gen::generate(family, 3, &crate::gen::GenOptions { texture: None }).unwrap();
+            let file = crate::scene::parse_str(&xml, std::path::Path::new("gen.xml"), &Default::default()).unwrap();
+            let (boxes, spheres) = check_packed_hierarchy(&crate::scene::flatten(&file, &Default::default()).unwrap());
+            kinds = (kinds.0 + boxes, kinds.1 + spheres);
+        }
+        assert!(kinds.0 > 0 && kinds.1 > 0, "records (boxes, spheres) {kinds:?}: both kinds checked");
+    }
+
+    /// Points on a canonical shape's surface, its farthest from the centre.
+    fn surface_points(shape: u32) -> Vec<DVec3> {
+        let mut points = Vec::new();
+        for i in 0..27 {
+            let d = DVec3::new((i % 3) as f64 - 1.0, ((i / 3) % 3) as f64 - 1.0, (i / 9) as f64 - 1.0);
+            match shape {
+                layout::SHAPE_SPHERE if d != DVec3::ZERO => points.push(d.normalize() * 0.5),
+                layout::SHAPE_CUBE if d.abs() == DVec3::ONE => points.push(d * 0.5),
+                _ => {}
+            }
+        }
+        if shape == layout::SHAPE_CONE || shape == layout::SHAPE_CYLINDER {
+            for k in 0..16 {
+                let a = k as f64 * std::f64::consts::TAU / 16.0;
+                points.push(DVec3::new(0.5 * a.cos(), -0.5, 0.5 * a.sin()));
+                points.push(DVec3::new(0.5 * a.cos(), 0.5, 0.5 * a.sin()));
+            }
+        }
+        points
+    }
+
+    /// The walk of `packed_hierarchy_reaches_every_primitive_once` over one
+    /// scene; how many box and sphere records it checked.
+    fn check_packed_hierarchy(scene: &Scene) -> (usize, usize) {
+        let data = build(scene, &RenderSettings::default()).unwrap();
         assert!(data.frame.node_count > 0);
+        let mat = |m: &Mat4| glam::Mat4::from_cols_array_2d(m).as_dmat4();
         let mut seen = vec![0u32; scene.primitive_count() as usize];
-        // (node, first id of the group)
-        let mut stack = vec![(data.frame.root_node, 0u32)];
-        while let Some((n, first_id)) = stack.pop() {
+        let mut kinds = (0, 0);
+        // (node, first id of the group, world from the group's space, the
+        // spheres of the records that led there: their space from the
+        // world's, centre, radius)
+        type Spheres = Vec<(DMat4, DVec3, f64)>;
+        let mut stack: Vec<(u32, u32, DMat4, Spheres)> = vec![(data.frame.root_node, 0u32, DMat4::IDENTITY, Vec::new())];
+        while let Some((n, first_id, world_from_group, spheres)) = stack.pop() {
             let node = data.nodes[n as usize];
             if node.count == 0 {
                 for c in [node.first, node.first + 1] {
@@ -674,42 +833,60 @@ mod tests {
                     for a in 0..3 {
                         assert!(node.lo[a] <= child.lo[a] && node.hi[a] >= child.hi[a], "node {n} does not hold child {c}");
                     }
-                    stack.push((c, first_id));
+                    stack.push((c, first_id, world_from_group, spheres.clone()));
                 }
                 continue;
             }
             for k in node.first..node.first + node.primitives {
                 let item = data.leaf_items[k as usize].item;
                 assert_eq!(item & layout::ITEM_INSTANCE, 0, "node {n}: item {k} is not a primitive");
-                seen[(first_id + data.primitives[item as usize].id_offset) as usize] += 1;
+                let p = &data.primitives[item as usize];
+                seen[(first_id + p.id_offset) as usize] += 1;
+                let world_from_object = world_from_group * mat(&p.object_from_world).inverse();
+                for point in surface_points(p.shape) {
+                    let w = world_from_object.transform_point3(point);
+                    for (space_from_world, c, r) in &spheres {
+                        let d = (space_from_world.transform_point3(w) - *c).length();
+                        assert!(d <= r * (1.0 + 1e-4), "node {n}: primitive {item}'s point {w} is {d} from a record's sphere's centre {c}, radius {r}");
+                    }
+                }
             }
             // The instances' records, from the next multiple of 4: each box,
             // as the shader computes it, holds the instance's root box mapped
-            // back from the placed group's space (within rounding).
+            // back from the placed group's space (within rounding); each
+            // sphere is checked at the primitives below it.
             let records = (node.first + node.primitives).next_multiple_of(4);
             for r in 0..node.count - node.primitives {
                 let w: [u32; 4] = std::array::from_fn(|i| data.leaf_items[(records + 4 * r) as usize + i].item);
                 assert_ne!(w[3] & layout::ITEM_INSTANCE, 0, "node {n}: record {r} is not an instance");
-                let inst = data.instances[(w[3] & !layout::ITEM_INSTANCE) as usize];
-                stack.push((inst.root, first_id + inst.id_offset));
+                let inst = data.instances[(w[3] & !(layout::ITEM_INSTANCE | layout::RECORD_SPHERE)) as usize];
+                let m = mat(&inst.object_from_parent).inverse();
+                let mut below = spheres.clone();
                 let (q_lo, q_hi) = record_steps(w);
-                let sides: [(f32, f32); 3] = std::array::from_fn(|a| stepped(node.lo[a], node.hi[a], q_lo[a], q_hi[a]));
-                let (lo, hi) = (DVec3::from(sides.map(|s| f64::from(s.0))), DVec3::from(sides.map(|s| f64::from(s.1))));
-                let root = data.nodes[inst.root as usize];
-                let m = glam::Mat4::from_cols_array_2d(&inst.object_from_parent).as_dmat4().inverse();
-                let slack = (hi - lo).max_element() * 1e-4;
-                for c in 0..8 {
-                    let corner = DVec3::new(
-                        f64::from(if c & 1 == 0 { root.lo[0] } else { root.hi[0] }),
-                        f64::from(if c & 2 == 0 { root.lo[1] } else { root.hi[1] }),
-                        f64::from(if c & 4 == 0 { root.lo[2] } else { root.hi[2] }),
-                    );
-                    let p = m.transform_point3(corner);
-                    assert!(
-                        p.cmpge(lo - slack).all() && p.cmple(hi + slack).all(),
-                        "node {n}, record {r}: the root box's corner {p} is outside the record's box {lo} .. {hi}"
-                    );
+                if w[3] & layout::RECORD_SPHERE != 0 {
+                    kinds.1 += 1;
+                    let c = DVec3::from(std::array::from_fn::<f64, 3, _>(|a| f64::from(stepped(node.lo[a], node.hi[a], q_lo[a], 0).0)));
+                    below.push((world_from_group.inverse(), c, f64::from(f32::from_bits(w[2]))));
+                } else {
+                    kinds.0 += 1;
+                    let sides: [(f32, f32); 3] = std::array::from_fn(|a| stepped(node.lo[a], node.hi[a], q_lo[a], q_hi[a]));
+                    let (lo, hi) = (DVec3::from(sides.map(|s| f64::from(s.0))), DVec3::from(sides.map(|s| f64::from(s.1))));
+                    let root = data.nodes[inst.root as usize];
+                    let slack = (hi - lo).max_element() * 1e-4;
+                    for c in 0..8 {
+                        let corner = DVec3::new(
+                            f64::from(if c & 1 == 0 { root.lo[0] } else { root.hi[0] }),
+                            f64::from(if c & 2 == 0 { root.lo[1] } else { root.hi[1] }),
+                            f64::from(if c & 4 == 0 { root.lo[2] } else { root.hi[2] }),
+                        );
+                        let p = m.transform_point3(corner);
+                        assert!(
+                            p.cmpge(lo - slack).all() && p.cmple(hi + slack).all(),
+                            "node {n}, record {r}: the root box's corner {p} is outside the record's box {lo} .. {hi}"
+                        );
+                    }
                 }
+                stack.push((inst.root, first_id + inst.id_offset, world_from_group * m, below));
             }
         }
         assert!(seen.iter().all(|&s| s == 1), "ids reached other than once: {seen:?}");
@@ -718,6 +895,7 @@ mod tests {
         for (id, p) in flat.iter().enumerate() {
             assert_eq!(scene.primitive(id as u64).unwrap().world_from_object, p.world_from_object, "id {id}");
         }
+        kinds
     }
 
     /// Steps hold the box exactly as the shader computes them, as tight as

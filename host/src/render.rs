@@ -154,6 +154,8 @@ const SPEC_NAMES: [(u32, &str); layout::SPEC_COUNT as usize] = [
     (layout::SPEC_SEVERAL_PRIMITIVE_LEAVES, "leaves of several primitives"),
     (layout::SPEC_HIERARCHY, "the hierarchy walk"),
     (layout::SPEC_FLAT_LIST, "the flat primitive list"),
+    (layout::SPEC_BOX_RECORDS, "instance boxes"),
+    (layout::SPEC_SPHERE_RECORDS, "instance spheres"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -183,6 +185,10 @@ pub struct SceneFeatures {
     /// A hierarchy to walk (frame.node_count > 0); without one the walk
     /// tests the primitives in order.
     hierarchy: bool,
+    /// Instance records holding a box, and holding a sphere
+    /// (RECORD_SPHERE): the walk's two tests of an instance's bound.
+    box_records: bool,
+    sphere_records: bool,
 }
 
 impl SceneFeatures {
@@ -205,6 +211,8 @@ impl SceneFeatures {
             // instead where no instance makes them differ).
             several_primitive_leaves: data.nodes.iter().any(|n| n.count > 0 && n.primitives > 1),
             hierarchy: !data.nodes.is_empty(),
+            box_records: record_kind(data, 0),
+            sphere_records: record_kind(data, layout::RECORD_SPHERE),
         }
     }
 
@@ -232,11 +240,23 @@ impl SceneFeatures {
             (layout::SPEC_SEVERAL_PRIMITIVE_LEAVES, self.several_primitive_leaves),
             (layout::SPEC_HIERARCHY, self.hierarchy),
             (layout::SPEC_FLAT_LIST, !self.hierarchy),
+            (layout::SPEC_BOX_RECORDS, self.box_records),
+            (layout::SPEC_SPHERE_RECORDS, self.sphere_records),
         ] {
             on[id as usize] = value;
         }
         Specialization(on)
     }
+}
+
+/// Whether a leaf holds an instance record whose RECORD_SPHERE bit is
+/// `bit` (layout.h, BvhNode: the records follow the leaf's primitives
+/// from the next multiple of 4).
+fn record_kind(data: &FrameData, bit: u32) -> bool {
+    data.nodes.iter().filter(|n| n.count > n.primitives).any(|n| {
+        let records = (n.first + n.primitives).next_multiple_of(4);
+        (0..n.count - n.primitives).any(|r| data.leaf_items[(records + 4 * r + 3) as usize].item & layout::RECORD_SPHERE == bit)
+    })
 }
 
 /// A Vulkan device with the render kernels, each built and checked on
@@ -509,14 +529,15 @@ mod tests {
             layout::SPEC_SHADOWS,
             layout::SPEC_SEVERAL_PRIMITIVE_LEAVES,
             layout::SPEC_HIERARCHY,
+            layout::SPEC_BOX_RECORDS,
         ];
         assert_eq!(s, expect);
         assert_ne!(Specialization::of(&d, &d.frame), Specialization::ALL);
         assert_eq!(
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
-             leaves of several primitives, the hierarchy walk; leaves out cubes, textures, bilinear filtering, mirrors, \
-             inner hierarchy nodes, the flat primitive list"
+             leaves of several primitives, the hierarchy walk, instance boxes; leaves out cubes, textures, bilinear filtering, \
+             mirrors, inner hierarchy nodes, the flat primitive list, instance spheres"
         );
         // Each group of `rich` fits one leaf; twenty cubes in a row do not.
         let cubes: String = (0..20)
@@ -532,6 +553,8 @@ mod tests {
         let d = data(&spheres, &RenderSettings::default());
         let s = on(Specialization::of(&d, &d.frame));
         assert!(!s.contains(&layout::SPEC_INNER_NODES) && !s.contains(&layout::SPEC_SEVERAL_PRIMITIVE_LEAVES), "{s:?}");
+        // Their instances are bounded by spheres (a cone's box is the tighter bound, above).
+        assert!(s.contains(&layout::SPEC_SPHERE_RECORDS) && !s.contains(&layout::SPEC_BOX_RECORDS), "{s:?}");
         assert!(Specialization::ALL.describe().ends_with("leaves out nothing"));
         // Every constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
