@@ -553,7 +553,7 @@ mod tests {
         let d = data(&spheres, &RenderSettings::default());
         let s = on(Specialization::of(&d, &d.frame));
         assert!(!s.contains(&layout::SPEC_INNER_NODES) && !s.contains(&layout::SPEC_SEVERAL_PRIMITIVE_LEAVES), "{s:?}");
-        // Their instances are bounded by spheres (a cone's box is the tighter bound, above).
+        // Their instances are bounded by spheres (a cone keeps its box, above).
         assert!(s.contains(&layout::SPEC_SPHERE_RECORDS) && !s.contains(&layout::SPEC_BOX_RECORDS), "{s:?}");
         assert!(Specialization::ALL.describe().ends_with("leaves out nothing"));
         // Every constant has its name, once.
