@@ -336,12 +336,18 @@ ShapeHit cap(ShapeHit best, Ray r, float s, float ny) {
 }
 
 // Cylinder: body x^2 + z^2 = 0.25 for y in [-0.5, 0.5], normal (x, 0, z);
-// caps y = +-0.5.
+// caps y = +-0.5. The body, as the sphere, from the ray's closest approach
+// to the axis (in x and z), which keeps the 0.25 for rays from far off; a
+// ray parallel to the axis (a = 0) meets the body nowhere or everywhere,
+// and the caps decide.
 ShapeHit intersect_cylinder(Ray r) {
     precise float a = r.direction.x * r.direction.x + r.direction.z * r.direction.z;
-    precise float b = 2.0f * (r.origin.x * r.direction.x + r.origin.z * r.direction.z);
-    precise float c = (r.origin.x * r.origin.x + r.origin.z * r.origin.z) - 0.25f;
-    precise vec2 ts = quadratic_roots(a, b, c);
+    precise float tc = -(r.origin.x * r.direction.x + r.origin.z * r.direction.z) / a;
+    precise float cx = r.origin.x + tc * r.direction.x;
+    precise float cz = r.origin.z + tc * r.direction.z;
+    precise float disc = 0.25f - (cx * cx + cz * cz);
+    precise float half_chord = sqrt(max_f(disc, 0.0f) / a);
+    precise vec2 ts = (a == 0.0f || disc < 0.0f) ? vec2(T_FAR, T_FAR) : vec2(tc - half_chord, tc + half_chord);
     ShapeHit best = no_hit();
     for (int k = 0; k < 2; k++) {
         precise float t = ts[k];

@@ -23,14 +23,15 @@
 //! (M = its f32 object_from_world, evaluated in f64). Every step of the f32
 //! pipeline rounds relative to the magnitudes it handles: the world
 //! coordinates and p = o + t d (a few ULP(R)), the object-space ray (the
-//! eye is 2 to 10 object sizes away), and for the cylinder's and cone's
-//! quadratics c = |o|^2 - r^2, which loses (|o| / r)^2 against r (up to
-//! ~400x), less the factor |o| / R. N per shape, with the worst measured
-//! over 50 seeds (6400 cases each): cube 16 (3: one division per face),
-//! cylinder 128 (45), cone 512 (170: its quadratic also cancels in
-//! a = dx^2 + dz^2 - dy^2/4 for rays near the slope of its side); the
-//! sphere, solved from the ray's closest approach (no c), 16 (3.6 over 8
-//! seeds; 45 while it was a quadratic like the cylinder's).
+//! eye is 2 to 10 object sizes away), and for the cone's quadratic
+//! c = |o|^2 - r^2, which loses (|o| / r)^2 against r (up to ~400x), less
+//! the factor |o| / R. N per shape, with the worst measured: cube 16 (3
+//! over 50 seeds of 6400 cases: one division per face), cone 512 (170 over
+//! 50 seeds: its quadratic also cancels in a = dx^2 + dz^2 - dy^2/4 for
+//! rays near the slope of its side); the sphere and the cylinder's body,
+//! solved from the ray's closest approach to the centre or the axis (no
+//! c), 16 (4.6 and 3.0 over 14 seeds of 128 cases; 45 over 50 seeds while
+//! they were quadratics like the cone's).
 //!
 //! NORMAL: | |n| - 1 | <= 2^-22 (2 ULP of 1.0): unit() divides by a
 //! correctly rounded sqrt of a three-term dot product, each step within
@@ -135,8 +136,7 @@ impl Shape {
     /// The SURFACE bound in ULP(R) (see the top of the file).
     fn surface_ulps(self) -> f64 {
         match self {
-            Shape::Cube | Shape::Sphere => 16.0,
-            Shape::Cylinder => 128.0,
+            Shape::Cube | Shape::Sphere | Shape::Cylinder => 16.0,
             Shape::Cone => 512.0,
         }
     }

@@ -572,12 +572,12 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let mut group_root = vec![u32::MAX; n];
     let mut group_bounds = vec![Aabb::EMPTY; n];
     // Each group's bounding sphere (centre, radius), in its own space, and
-    // whether it reaches a cone or a cylinder: their quadratics lose
-    // precision for rays from far off (b^2 - 4ac), and a hit's error
-    // grows past a bounding sphere's slack (raycast.glsl sphere_hit), so
-    // such groups keep box records.
+    // whether it reaches a cone: the cone's quadratic loses precision for
+    // rays from far off (b^2 - 4ac), and its hits stray past a bounding
+    // sphere's slack (raycast.glsl sphere_hit), so such groups keep box
+    // records.
     let mut group_sphere = vec![(DVec3::ZERO, 0.0f64); n];
-    let mut quadrics = vec![false; n];
+    let mut cones = vec![false; n];
     // The sphere records written (where in leaf_items, and the box record
     // in their place), and the surface of the bounds chosen against boxes.
     let mut spheres: Vec<(usize, Result<[u32; 4], String>)> = Vec::new();
@@ -609,8 +609,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
         if g != 0 {
             group_sphere[g] = bounding_sphere(group, &built.nodes[0].bounds, &group_sphere);
         }
-        quadrics[g] = group.primitives.iter().any(|p| matches!(p.shape, Shape::Cone | Shape::Cylinder))
-            || group.instances.iter().any(|i| quadrics[i.group as usize]);
+        cones[g] = group.primitives.iter().any(|p| p.shape == Shape::Cone) || group.instances.iter().any(|i| cones[i.group as usize]);
         // Depth of each node, for the stack bound.
         let mut depth = vec![0u32; built.nodes.len()];
         for (i, node) in built.nodes.iter().enumerate() {
@@ -635,7 +634,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                     let inst = &group.instances[k as usize - np];
                     let (ilo, ihi) = group_bounds[inst.group as usize].transformed(&inst.parent_from_group).padded_f32();
                     let item = layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32);
-                    // A sphere where no cone or cylinder lies below it and its
+                    // A sphere where no cone lies below it and its
                     // surface is less than twice the box's (a ray meets a
                     // convex bound about in proportion to its surface, and
                     // the sphere's test is the cheaper: on recursive-cubes
@@ -654,7 +653,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                     };
                     areas.boxes += box_area;
                     let record = match sphere_record((lo, hi), sphere, item) {
-                        Some(record) if !quadrics[inst.group as usize] && sphere_area < 2.0 * box_area => {
+                        Some(record) if !cones[inst.group as usize] && sphere_area < 2.0 * box_area => {
                             areas.chosen += sphere_area;
                             spheres.push((leaf_items.len(), boxed()));
                             record
