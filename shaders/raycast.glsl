@@ -294,9 +294,16 @@ precise vec2 quadratic_roots(float a, float b, float c) {
     if (disc < 0.0f) {
         return vec2(T_FAR, T_FAR);
     }
+    // q = -(b + sign(b) root) / 2 adds like signs, so neither root loses
+    // digits to -b + root when a is small (a cone's a = dx^2 + dz^2 -
+    // dy^2/4 for rays along its side): the roots are q / a and c / q.
     precise float root = sqrt(disc);
-    precise float q0 = (-b - root) / (2.0f * a);
-    precise float q1 = (-b + root) / (2.0f * a);
+    precise float q = -0.5f * (b + ((b < 0.0f) ? -root : root));
+    if (q == 0.0f) {
+        return vec2(0.0f, 0.0f); // b = disc = 0, so c = 0: a double root at 0
+    }
+    precise float q0 = q / a;
+    precise float q1 = c / q;
     return (q1 < q0) ? vec2(q1, q0) : vec2(q0, q1);
 }
 
@@ -376,10 +383,17 @@ precise vec3 cone_quadratic(Ray r) {
 }
 
 // Cone: the body for y in [-0.5, 0.5] with normal the gradient
-// (2x, (0.5 - y) / 2, 2z), and the base cap y = -0.5.
+// (2x, (0.5 - y) / 2, 2z), and the base cap y = -0.5. The quadratic is
+// solved for the ray moved to its closest approach to the centre (t0), as
+// the sphere, so that its c keeps the cone's size for rays from far off.
 ShapeHit intersect_cone(Ray r) {
-    precise vec3 q = cone_quadratic(r);
-    precise vec2 ts = quadratic_roots(q.x, q.y, q.z);
+    precise float t0 = -dot3(r.origin, r.direction) / dot3(r.direction, r.direction);
+    Ray near_centre;
+    near_centre.origin = r.origin + t0 * r.direction;
+    near_centre.direction = r.direction;
+    precise vec3 q = cone_quadratic(near_centre);
+    precise vec2 ss = quadratic_roots(q.x, q.y, q.z);
+    precise vec2 ts = (ss.x == T_FAR) ? ss : vec2(t0 + ss.x, t0 + ss.y);
     ShapeHit best = no_hit();
     for (int k = 0; k < 2; k++) {
         precise float t = ts[k];

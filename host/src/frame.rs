@@ -571,13 +571,8 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let mut leaf_items: Vec<layout::LeafItem> = Vec::new();
     let mut group_root = vec![u32::MAX; n];
     let mut group_bounds = vec![Aabb::EMPTY; n];
-    // Each group's bounding sphere (centre, radius), in its own space, and
-    // whether it reaches a cone: the cone's quadratic loses precision for
-    // rays from far off (b^2 - 4ac), and its hits stray past a bounding
-    // sphere's slack (raycast.glsl sphere_hit), so such groups keep box
-    // records.
+    // Each group's bounding sphere (centre, radius), in its own space.
     let mut group_sphere = vec![(DVec3::ZERO, 0.0f64); n];
-    let mut cones = vec![false; n];
     // The sphere records written (where in leaf_items, and the box record
     // in their place), and the surface of the bounds chosen against boxes.
     let mut spheres: Vec<(usize, Result<[u32; 4], String>)> = Vec::new();
@@ -609,7 +604,6 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
         if g != 0 {
             group_sphere[g] = bounding_sphere(group, &built.nodes[0].bounds, &group_sphere);
         }
-        cones[g] = group.primitives.iter().any(|p| p.shape == Shape::Cone) || group.instances.iter().any(|i| cones[i.group as usize]);
         // Depth of each node, for the stack bound.
         let mut depth = vec![0u32; built.nodes.len()];
         for (i, node) in built.nodes.iter().enumerate() {
@@ -634,13 +628,14 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                     let inst = &group.instances[k as usize - np];
                     let (ilo, ihi) = group_bounds[inst.group as usize].transformed(&inst.parent_from_group).padded_f32();
                     let item = layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32);
-                    // A sphere where no cone lies below it and its
-                    // surface is less than twice the box's (a ray meets a
-                    // convex bound about in proportion to its surface, and
-                    // the sphere's test is the cheaper: on recursive-cubes
-                    // depth 6, spheres everywhere, each at least 1.57 times
-                    // its cube's surface, took 517-527 ms against 593-601
-                    // with boxes alone).
+                    // A sphere where its surface is less than twice the
+                    // box's (a ray meets a convex bound about in proportion
+                    // to its surface, and the sphere's test is the cheaper:
+                    // on recursive-cubes depth 6, spheres everywhere, each
+                    // at least 1.57 times its cube's surface, took 517-527
+                    // ms against 593-601 with boxes alone). It holds every
+                    // hit because each shape's test errs by a few f32 steps
+                    // of the ray's offset (raycast.glsl, sphere_hit).
                     let sphere = placed_sphere(&inst.parent_from_group, group_sphere[inst.group as usize]);
                     let size: [f64; 3] = std::array::from_fn(|a| f64::from(ihi[a]) - f64::from(ilo[a]));
                     let box_area = 2.0 * (size[0] * size[1] + size[1] * size[2] + size[2] * size[0]);
@@ -653,7 +648,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                     };
                     areas.boxes += box_area;
                     let record = match sphere_record((lo, hi), sphere, item) {
-                        Some(record) if !cones[inst.group as usize] && sphere_area < 2.0 * box_area => {
+                        Some(record) if sphere_area < 2.0 * box_area => {
                             areas.chosen += sphere_area;
                             spheres.push((leaf_items.len(), boxed()));
                             record
@@ -812,10 +807,11 @@ mod tests {
             <transblock><rotate x="0" y="1" z="0" angle="30"/><translate x="10" y="0" z="0"/><object type="master" name="mid"/></transblock>
             <transblock><object type="primitive" name="cylinder"/></transblock>
             <transblock><translate x="-4" y="0" z="0"/><object type="master" name="leaf"/></transblock>
+            <transblock><translate x="0" y="-6" z="0"/><scale x="8" y="0.25" z="0.25"/><object type="master" name="leaf"/></transblock>
           </object></scenefile>"#;
         let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
         let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
-        assert_eq!(scene.primitive_count(), 2 * 5 + 1 + 2);
+        assert_eq!(scene.primitive_count(), 2 * 5 + 1 + 2 + 2);
         let mut kinds = check_packed_hierarchy(&scene);
         // The generated families: spheres, upright cones, axis-aligned cubes.
         for family in [crate::gen::Family::RecursiveSpheres, crate::gen::Family::RecursiveCones, crate::gen::Family::RecursiveCubes] {

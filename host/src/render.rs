@@ -529,15 +529,15 @@ mod tests {
             layout::SPEC_SHADOWS,
             layout::SPEC_SEVERAL_PRIMITIVE_LEAVES,
             layout::SPEC_HIERARCHY,
-            layout::SPEC_BOX_RECORDS,
+            layout::SPEC_SPHERE_RECORDS,
         ];
         assert_eq!(s, expect);
         assert_ne!(Specialization::of(&d, &d.frame), Specialization::ALL);
         assert_eq!(
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
-             leaves of several primitives, the hierarchy walk, instance boxes; leaves out cubes, textures, bilinear filtering, \
-             mirrors, inner hierarchy nodes, the flat primitive list, instance spheres"
+             leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
+             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes"
         );
         // Each group of `rich` fits one leaf; twenty cubes in a row do not.
         let cubes: String = (0..20)
@@ -553,8 +553,13 @@ mod tests {
         let d = data(&spheres, &RenderSettings::default());
         let s = on(Specialization::of(&d, &d.frame));
         assert!(!s.contains(&layout::SPEC_INNER_NODES) && !s.contains(&layout::SPEC_SEVERAL_PRIMITIVE_LEAVES), "{s:?}");
-        // Their instances are bounded by spheres (a cone keeps its box, above).
+        // Their instances are bounded by spheres; a long thin one by its box.
         assert!(s.contains(&layout::SPEC_SPHERE_RECORDS) && !s.contains(&layout::SPEC_BOX_RECORDS), "{s:?}");
+        let plank = r#"<scenefile><object type="tree" name="m"><transblock><object type="primitive" name="cube"/></transblock></object>
+          <object type="tree" name="root"><transblock><scale x="10" y="0.1" z="0.1"/><object type="master" name="m"/></transblock></object></scenefile>"#;
+        let d = data(plank, &RenderSettings::default());
+        let s = on(Specialization::of(&d, &d.frame));
+        assert!(s.contains(&layout::SPEC_BOX_RECORDS) && !s.contains(&layout::SPEC_SPHERE_RECORDS), "{s:?}");
         assert!(Specialization::ALL.describe().ends_with("leaves out nothing"));
         // Every constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
