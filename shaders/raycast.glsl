@@ -480,10 +480,12 @@ bool box_hit(Ray r, vec4 lo, vec4 hi, float t_max) {
 // Whether ray r may meet the sphere (c, radius) at some t in [0, t_max]:
 // the line passes within the radius of c, and the sphere reaches past
 // t = 0 and back before t_max. An instance record's bound (layout.h,
-// BvhNode) where frame.rs found it tighter than a box, as for the recursive
-// spheres: no division but one, and it culls what the corners of a box
-// would let through. Conservative: the radius grows by 2^-16 of c's offset
-// from the origin, far more than the rounding of the closest approach.
+// BvhNode) where frame.rs chose it over a box (its surface under twice the
+// box's): one division where the box test has six, and around a round
+// master it culls what the corners of a box would let through.
+// Conservative: the radius grows by 2^-16 of c's offset from the origin,
+// far more than the rounding of the closest approach here or of any
+// shape's hit (each errs by a few f32 steps of the ray's offset).
 bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
     precise vec3 oc = c - r.origin;
     precise float dd = dot3(r.direction, r.direction);
@@ -698,10 +700,10 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             precise vec3 step = (xyz(leaf_hi) - xyz(leaf_lo)) / float(BOX_STEPS);
             uint records = (first_item + prim_count + 3u) >> 2u;
             for (uint n = prim_count; n < item_count; n++) {
-                // Pushed only when the ray meets the instance's box: a
-                // missed instance costs no pass.
-                // A box or a sphere (RECORD_SPHERE; a scene's kernel keeps
-                // the tests its records need): lo is a sphere's centre.
+                // Pushed only when the ray meets the instance's bound: a
+                // missed instance costs no pass. The bound is a box or a
+                // sphere (RECORD_SPHERE; a scene's kernel keeps the tests
+                // its records need), whose centre is where a box's lo is.
                 uvec4 record = leaf_record(records + (n - prim_count));
                 precise vec3 q_lo = vec3(float(record.x & 0xffffu), float(record.x >> 16u), float(record.y & 0xffffu));
                 precise vec3 lo = xyz(leaf_lo) + q_lo * step;
