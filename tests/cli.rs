@@ -62,6 +62,10 @@ fn default_scene_renders_to_png() {
     for needle in ["device: ", "time: load ", "upload ", "compile ", "dispatch ", "readback ", "M primary rays/s", "wrote "] {
         assert!(out.contains(needle), "stdout lacks {needle:?}:\n{out}");
     }
+    // On a CPU device (the tests run on lavapipe) it points to the CPU backend.
+    if out.contains("(cpu, Vulkan") {
+        assert!(out.contains("hint: ") && out.contains("`--backend cpu`"), "no hint of the CPU backend:\n{out}");
+    }
     let img = raycast::image_io::read_png(&png).unwrap();
     assert_eq!((img.width, img.height), (512, 384));
     // All four primitives are lit in different colours: many distinct colours,

@@ -421,6 +421,13 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     );
     println!("{}", rate_line(&p.data, &picture, t.dispatch));
     print_kernel(&renderer, &p.data)?;
+    if info.kind == "cpu" {
+        println!(
+            "hint: {} runs on the CPU; `--backend cpu` runs the same code natively, without Vulkan's start-up or a \
+             pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md)",
+            info.name
+        );
+    }
     write_picture(&output, &picture)?;
     let messages = renderer.context().take_validation_messages();
     drop(renderer);
