@@ -42,19 +42,23 @@ impl Aabb {
         self.lo.x > self.hi.x
     }
 
-    /// The box around this box's eight corners mapped by `m`.
-    pub fn transformed(&self, m: &DMat4) -> Aabb {
-        let mut out = Aabb::EMPTY;
-        for i in 0..8 {
-            let c = DVec3::new(
+    /// Its eight corners.
+    pub fn corners(&self) -> [DVec3; 8] {
+        std::array::from_fn(|i| {
+            DVec3::new(
                 if i & 1 == 0 { self.lo.x } else { self.hi.x },
                 if i & 2 == 0 { self.lo.y } else { self.hi.y },
                 if i & 4 == 0 { self.lo.z } else { self.hi.z },
-            );
+            )
+        })
+    }
+
+    /// The box around this box's eight corners mapped by `m`.
+    pub fn transformed(&self, m: &DMat4) -> Aabb {
+        self.corners().iter().fold(Aabb::EMPTY, |out, &c| {
             let p = m.transform_point3(c);
-            out = out.union(Aabb { lo: p, hi: p });
-        }
-        out
+            out.union(Aabb { lo: p, hi: p })
+        })
     }
 
     pub fn centroid(&self) -> DVec3 {

@@ -475,16 +475,7 @@ fn shape_radius(shape: &Shape) -> f64 {
 /// `m`, within the unit cube) lies from `c`: the nearer of the unit cube's
 /// farthest corner and the shape's own bounding sphere placed by m.
 fn primitive_reach(shape: &Shape, m: &DMat4, c: DVec3) -> f64 {
-    let corners = (0..8)
-        .map(|i| {
-            let corner = DVec3::new(
-                if i & 1 == 0 { -0.5 } else { 0.5 },
-                if i & 2 == 0 { -0.5 } else { 0.5 },
-                if i & 4 == 0 { -0.5 } else { 0.5 },
-            );
-            (m.transform_point3(corner) - c).length()
-        })
-        .fold(0.0, f64::max);
+    let corners = Aabb::UNIT.corners().iter().map(|&k| (m.transform_point3(k) - c).length()).fold(0.0, f64::max);
     let (centre, radius) = placed_sphere(m, (DVec3::ZERO, shape_radius(shape)));
     corners.min((centre - c).length() + radius)
 }
@@ -506,7 +497,7 @@ fn bounding_sphere(group: &crate::scene::Group, bounds: &Aabb, spheres: &[(DVec3
         let insts = balls[group.primitives.len()..].iter().map(|(b, r)| (*b - c).length() + r);
         prims.chain(insts).fold(0.0, f64::max)
     };
-    let start = (bounds.lo + bounds.hi) * 0.5;
+    let start = bounds.centroid();
     let mut c = start;
     // Each pass looks at every item: a few million looks in all.
     let passes = (2_000_000 / balls.len().max(1)).clamp(1, 200);
@@ -904,13 +895,9 @@ mod tests {
                     let sides: [(f32, f32); 3] = std::array::from_fn(|a| stepped(node.lo[a], node.hi[a], q_lo[a], q_hi[a]));
                     let (lo, hi) = (DVec3::from(sides.map(|s| f64::from(s.0))), DVec3::from(sides.map(|s| f64::from(s.1))));
                     let root = data.nodes[inst.root as usize];
+                    let root_box = Aabb { lo: glam::Vec3::from_slice(&root.lo).as_dvec3(), hi: glam::Vec3::from_slice(&root.hi).as_dvec3() };
                     let slack = (hi - lo).max_element() * 1e-4;
-                    for c in 0..8 {
-                        let corner = DVec3::new(
-                            f64::from(if c & 1 == 0 { root.lo[0] } else { root.hi[0] }),
-                            f64::from(if c & 2 == 0 { root.lo[1] } else { root.hi[1] }),
-                            f64::from(if c & 4 == 0 { root.lo[2] } else { root.hi[2] }),
-                        );
+                    for corner in root_box.corners() {
                         let p = m.transform_point3(corner);
                         assert!(
                             p.cmpge(lo - slack).all() && p.cmple(hi + slack).all(),
