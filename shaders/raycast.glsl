@@ -307,6 +307,14 @@ precise vec2 quadratic_roots(float a, float b, float c) {
     return (q1 < q0) ? vec2(q1, q0) : vec2(q0, q1);
 }
 
+// The t at which ray r passes closest to the point c. The quadrics and
+// the bounding spheres solve from there rather than from the ray's origin,
+// so that a ray from far off keeps their size (intersect_sphere).
+precise float closest_t(Ray r, vec3 c) {
+    precise float t = dot3(c - r.origin, r.direction) / dot3(r.direction, r.direction);
+    return t;
+}
+
 // Sphere: |o + t d|^2 = 0.25; normal = the hit point. Solved from the
 // ray's closest approach to the centre, not the quadratic's b^2 - 4ac,
 // which loses the 0.25 against |o|^2 once the ray starts far off in object
@@ -316,7 +324,7 @@ precise vec2 quadratic_roots(float a, float b, float c) {
 // bounding sphere with a small slack holds every hit (sphere_hit).
 ShapeHit intersect_sphere(Ray r) {
     precise float a = dot3(r.direction, r.direction);
-    precise float tc = -dot3(r.origin, r.direction) / a;
+    precise float tc = closest_t(r, vec3(0.0f, 0.0f, 0.0f));
     precise vec3 closest = r.origin + tc * r.direction;
     precise float disc = 0.25f - dot3(closest, closest);
     precise float half_chord = sqrt(max_f(disc, 0.0f) / a);
@@ -387,7 +395,7 @@ precise vec3 cone_quadratic(Ray r) {
 // solved for the ray moved to its closest approach to the centre (t0), as
 // the sphere, so that its c keeps the cone's size for rays from far off.
 ShapeHit intersect_cone(Ray r) {
-    precise float t0 = -dot3(r.origin, r.direction) / dot3(r.direction, r.direction);
+    precise float t0 = closest_t(r, vec3(0.0f, 0.0f, 0.0f));
     Ray near_centre;
     near_centre.origin = r.origin + t0 * r.direction;
     near_centre.direction = r.direction;
@@ -489,7 +497,7 @@ bool box_hit(Ray r, vec4 lo, vec4 hi, float t_max) {
 bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
     precise vec3 oc = c - r.origin;
     precise float dd = dot3(r.direction, r.direction);
-    precise float tc = dot3(oc, r.direction) / dd;
+    precise float tc = closest_t(r, c);
     precise vec3 perp = oc - tc * r.direction;
     precise float reach = radius + max_abs3(oc) * 1.52587891e-5f;
     precise float rr = reach * reach;
