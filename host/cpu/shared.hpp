@@ -90,7 +90,15 @@ const bool HAS_FLAT_LIST = true;
 const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
 
+// Internal linkage: each translation unit has its own copy, so GCC may
+// inline a function called once (sphere_hit in walk) without keeping an
+// outside copy's worth of growth against it; each unit uses only some.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-function"
+namespace {
 #include "raycast.glsl"
+} // namespace
+#pragma GCC diagnostic pop
 
 #undef precise
 } // namespace raycast_cpu
