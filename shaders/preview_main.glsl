@@ -54,8 +54,8 @@ void main() {
     vec2 offset = (preview.sample_index == 0u) ? vec2(0.0f, 0.0f) : vec2(preview.jitter.x, preview.jitter.y);
 
     // Every mode goes through sample_pixel, so the kernel holds one copy of
-    // the nearest-hit walk (lavapipe compiles and runs every copy); for the
-    // depth and id modes the host asks for the first hit only (AOV_NORMAL).
+    // the walk (lavapipe compiles and runs every copy); for the depth and
+    // id modes the host asks for the first hit only (AOV_NORMAL).
     PixelSample s = sample_pixel(j, i, offset);
     SceneHit hit = s.hit;
     vec3 color = s.color;
