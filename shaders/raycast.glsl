@@ -990,7 +990,7 @@ struct PixelSample {
 // recursiveSpheres4's), and runs a vector's lanes through a copy together:
 // with one, a lane's mirror ray goes beside a neighbour's shadow ray, not
 // after it. (Keeping the lanes in step, one pass per light whether its
-// shadow ray is needed or not, was 5-8% slower.) With the normal AOV, the
+// shadow ray is needed or not, was 4-8% slower.) With the normal AOV, the
 // first hit only: its normal as a colour.
 PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     Ray ray = camera_ray(j, i, offset); // the level's ray: the camera's, then the mirror's
