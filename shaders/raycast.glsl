@@ -1009,7 +1009,6 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     Ray next = ray;
     float next_t_max = T_FAR;
     bool shadow = false;
-    SceneHit hit;
     Surface surface;
     precise vec3 color = vec3(0.0f, 0.0f, 0.0f);
     precise vec3 pending = vec3(0.0f, 0.0f, 0.0f);
@@ -1023,19 +1022,18 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             }
             li = li + 1u;
         } else {
-            hit = h;
             if (level == 0u) {
-                s.hit = hit;
+                s.hit = h;
             }
-            if (hit.id == NO_HIT) {
+            if (h.id == NO_HIT) {
                 break;
             }
             if (frame.aov == AOV_NORMAL) {
-                precise vec3 c = (hit.normal + 1.0f) * 0.5f;
+                precise vec3 c = (h.normal + 1.0f) * 0.5f;
                 s.color = clamp3(c);
                 break;
             }
-            surface = surface_at(ray, hit);
+            surface = surface_at(ray, h);
             color = surface.base;
             li = 0u;
         }
@@ -1089,7 +1087,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
         // Mirror direction of the unit ray direction about N, from 0.001
         // (ray_offset) along it.
         precise vec3 d = -surface.v;
-        precise vec3 mirror = d - (2.0f * dot3(hit.normal, d)) * hit.normal;
+        precise vec3 mirror = d - (2.0f * dot3(surface.n, d)) * surface.n;
         precise vec3 mirror_origin = surface.p + ray_offset(surface.p, ray.origin) * mirror;
         ray.origin = mirror_origin;
         ray.direction = mirror;

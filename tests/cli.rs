@@ -413,3 +413,43 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
     let d = raycast::image_io::compare(&a, &b, 0).unwrap();
     assert_eq!(d.differing, 0, "rule: bit-exact; {d:?}");
 }
+
+/// `bench --versus`: two kernels in turn in one process. The same shaders
+/// give identical pictures; a planted reordering (as in the check test
+/// above) is reported as a difference; its statistics are printed, also as
+/// JSON; it refuses the CPU backend.
+#[test]
+fn bench_versus_times_two_kernels_and_compares_their_pictures() {
+    let same = copy_of_shaders("versus-same");
+    let args = |dir: &Path| -> Vec<String> {
+        ["bench", "--versus", dir.to_str().unwrap(), "--frames", "3", "--warmup", "0", "--width", "48", "--height", "32"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    };
+    let run = |extra: &[&str], dir: &Path| {
+        let mut a = args(dir);
+        a.extend(extra.iter().map(|s| s.to_string()));
+        raycast(&a.iter().map(String::as_str).collect::<Vec<_>>(), &[])
+    };
+    let o = run(&[], &same);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("A: the built-in kernel"), "{out}");
+    assert!(out.contains("B/A: ") && out.contains("median of 3 pairs") && out.contains("sign test p = "), "{out}");
+    assert!(out.contains("pictures: identical"), "{out}");
+
+    let planted = copy_of_shaders("versus-planted");
+    let glsl = planted.join("raycast.glsl");
+    let source = std::fs::read_to_string(&glsl).unwrap();
+    let sum = "precise float r = (a.x * b.x + a.y * b.y) + a.z * b.z;";
+    assert_eq!(source.matches(sum).count(), 1, "dot3 changed: update this test");
+    std::fs::write(&glsl, source.replace(sum, "precise float r = a.x * b.x + (a.y * b.y + a.z * b.z);")).unwrap();
+    let o = run(&["--json"], &planted);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("\"identical\":false") && out.contains("\"ratio_median\":"), "{out}");
+
+    let o = run(&["--backend", "cpu"], &same);
+    assert_fails(&o, 2, "--versus compares two device kernels");
+}

@@ -48,6 +48,13 @@ pub struct BenchArgs {
     /// A Markdown table (BENCHMARKS.md), with the command line that made it.
     #[arg(long)]
     pub markdown: bool,
+    /// Time a second device kernel, compiled from DIR's shaders, against the
+    /// first (the built-in one, or --shaders') in one process, frame pairs
+    /// in turn: per scene both dispatch medians, the median of the paired
+    /// ratios, how many pairs each won (with a sign test), and whether the
+    /// two pictures have the same bits.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["growth", "markdown"])]
+    pub versus: Option<PathBuf>,
     /// After the results, how each scene's frame median grows against the
     /// first scene's, beside ln N / ln N0 (what logarithmic growth in the
     /// primitive count N allows).
@@ -328,7 +335,7 @@ fn thousands(n: u64) -> String {
     out
 }
 
-fn json_str(s: &str) -> String {
+pub(crate) fn json_str(s: &str) -> String {
     let mut out = String::from("\"");
     for c in s.chars() {
         match c {
@@ -625,6 +632,9 @@ fn print_growth(rows: &[Row], markdown: bool) {
 }
 
 pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
+    if let Some(dir) = &args.versus {
+        return crate::versus::run(args, dir);
+    }
     let settings = args.render.settings();
     settings.validate()?;
     let r = &args.render;

@@ -20,3 +20,4 @@ pub mod layout;
 pub mod preview;
 pub mod render;
 pub mod scene;
+pub mod versus;

@@ -1,0 +1,234 @@
+//! `raycast bench --versus DIR`: two device kernels timed side by side in
+//! one process, for whoever is changing the shaders. Kernel A is the
+//! built-in one (or `--shaders`), kernel B is compiled from DIR; each has
+//! its own Vulkan device, over the same FrameData. After K warm-up frames
+//! of each, N pairs of frames alternate A B, B A, A B, … (so a drift of
+//! the machine's speed favours neither), and per scene the report gives:
+//!
+//! - each kernel's dispatch median (the kernel's work; upload and readback
+//!   are the same buffers for both);
+//! - the median of the N paired ratios B/A and their range: a machine
+//!   whose speed wanders by tens of percent between runs still gives
+//!   pairs taken seconds apart a like footing;
+//! - how many pairs each won, and the two-sided sign test's p-value (the
+//!   chance of a split at least that uneven if the kernels were alike);
+//! - whether the two pictures have the same bits (`check::compare`).
+
+use crate::bench::{json_str, load_scene, BenchArgs, BenchBackend};
+use crate::check;
+use crate::cli::{check_validation, parse_device, scene_failure, validation_wanted, Failure};
+use crate::gpu::{GpuError, GpuOptions};
+use crate::render::{GpuRenderer, Picture};
+use crate::scene::{FlattenLimits, ParseOptions};
+use std::path::Path;
+use std::time::Duration;
+
+/// The paired comparison of one scene: dispatch times of A and B, pair by pair.
+pub struct Pairs {
+    pub a: Vec<Duration>,
+    pub b: Vec<Duration>,
+}
+
+/// What the pairs say.
+#[derive(Debug, PartialEq)]
+pub struct Verdict {
+    pub a_median_ms: f64,
+    pub b_median_ms: f64,
+    /// Median, min and max of B/A over the pairs.
+    pub ratio: (f64, f64, f64),
+    pub b_faster: usize,
+    pub a_faster: usize,
+    /// Two-sided sign test over the pairs that were not tied.
+    pub p_value: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
+}
+
+/// P(a split at least as uneven as k of n | each side wins with chance 1/2), both tails.
+pub fn sign_test(k: usize, n: usize) -> f64 {
+    if n == 0 {
+        return 1.0;
+    }
+    let low = k.min(n - k);
+    // Sum C(n, i) / 2^n for i <= low, in f64 (n is a frame count: small).
+    let mut term = 0.5f64.powi(n as i32); // C(n, 0) / 2^n
+    let mut tail = term;
+    for i in 1..=low {
+        term = term * (n - i + 1) as f64 / i as f64;
+        tail += term;
+    }
+    (2.0 * tail).min(1.0)
+}
+
+impl Pairs {
+    pub fn verdict(&self) -> Verdict {
+        let ms = |d: &Duration| d.as_secs_f64() * 1e3;
+        let ratios: Vec<f64> = self.a.iter().zip(&self.b).map(|(a, b)| ms(b) / ms(a).max(1e-9)).collect();
+        let b_faster = self.a.iter().zip(&self.b).filter(|(a, b)| b < a).count();
+        let a_faster = self.a.iter().zip(&self.b).filter(|(a, b)| a < b).count();
+        let min = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Verdict {
+            a_median_ms: median(self.a.iter().map(ms).collect()),
+            b_median_ms: median(self.b.iter().map(ms).collect()),
+            ratio: (median(ratios), min, max),
+            b_faster,
+            a_faster,
+            p_value: sign_test(b_faster, a_faster + b_faster),
+        }
+    }
+}
+
+fn renderer(args: &BenchArgs, shaders: Option<&Path>) -> Result<GpuRenderer, Failure> {
+    let r = &args.render;
+    let options = GpuOptions { device: parse_device(&r.device), validation: validation_wanted(r.validate), ..GpuOptions::default() };
+    let renderer = match shaders {
+        Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
+        None => GpuRenderer::new(&options)?,
+    };
+    Ok(renderer.with_scene_buffers(r.scene_buffers))
+}
+
+/// `bench --versus DIR`.
+pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
+    if args.backend != BenchBackend::Gpu {
+        return Err(Failure(
+            "raycast: error: --versus compares two device kernels: use it without --backend cpu or both".into(),
+            2,
+        ));
+    }
+    let settings = args.render.settings();
+    settings.validate()?;
+    let a_name = args.render.shaders.as_ref().map_or("the built-in kernel".to_string(), |d| format!("the kernel from {}", d.display()));
+    let b_name = format!("the kernel from {}", versus.display());
+    let a = renderer(args, args.render.shaders.as_deref())?;
+    let b = renderer(args, Some(versus))?;
+    if !args.json {
+        let info = a.context().info();
+        println!("device: {} ({}), two devices in one process", info.name, info.kind);
+        println!("A: {a_name}\nB: {b_name}");
+        println!(
+            "{} pairs of frames after {} warm-up frames each, in turn A B, B A, …; dispatch times",
+            args.frames, args.warmup
+        );
+    }
+    let opts = ParseOptions { assets: args.render.assets.clone() };
+    let limits = FlattenLimits { max_primitives: args.render.max_primitives };
+    let names: Vec<Option<&str>> = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    for name in names {
+        let loaded = load_scene(name, &opts, &limits, &settings).map_err(scene_failure)?;
+        let timed = (|| {
+            for _ in 0..args.warmup {
+                a.render(&loaded.data)?;
+                b.render(&loaded.data)?;
+            }
+            let mut pairs = Pairs { a: Vec::new(), b: Vec::new() };
+            let mut last: (Option<Picture>, Option<Picture>) = (None, None);
+            for i in 0..args.frames {
+                for first_a in if i % 2 == 0 { [true, false] } else { [false, true] } {
+                    let (picture, t) = if first_a { a.render(&loaded.data)? } else { b.render(&loaded.data)? };
+                    if first_a {
+                        pairs.a.push(t.dispatch);
+                        last.0 = Some(picture);
+                    } else {
+                        pairs.b.push(t.dispatch);
+                        last.1 = Some(picture);
+                    }
+                }
+            }
+            Ok::<_, GpuError>((pairs, last))
+        })();
+        let (pairs, (pa, pb)) = match timed {
+            Ok(x) => x,
+            Err(GpuError::CutShort { count, total, .. }) => {
+                println!(
+                    "scene: {}: not timed: a kernel cut {count} of {total} pixels short (Mesa's loop budget per invocation)",
+                    loaded.name
+                );
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
+        let (Some(pa), Some(pb)) = (pa, pb) else { continue };
+        let report = check::compare(&pa, "A", &pb, "B").map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
+        let v = pairs.verdict();
+        let pictures = if report.identical() {
+            "identical (every buffer, bit for bit)".to_string()
+        } else {
+            format!("differ ({} of {} pixels)", report.differing_pixels, u64::from(pa.width) * u64::from(pa.height))
+        };
+        if args.json {
+            println!(
+                "{{\"scene\":{},\"a\":{},\"b\":{},\"pairs\":{},\"a_dispatch_ms\":{:.3},\"b_dispatch_ms\":{:.3},\"ratio_median\":{:.4},\"ratio_min\":{:.4},\"ratio_max\":{:.4},\"b_faster\":{},\"a_faster\":{},\"sign_test_p\":{:.4},\"identical\":{}}}",
+                json_str(&loaded.name),
+                json_str(&a_name),
+                json_str(&b_name),
+                args.frames,
+                v.a_median_ms,
+                v.b_median_ms,
+                v.ratio.0,
+                v.ratio.1,
+                v.ratio.2,
+                v.b_faster,
+                v.a_faster,
+                v.p_value,
+                report.identical()
+            );
+        } else {
+            println!("scene: {}", loaded.name);
+            println!("  dispatch median: A {:.1} ms, B {:.1} ms", v.a_median_ms, v.b_median_ms);
+            println!(
+                "  B/A: {:.3} median of {} pairs ({:.3} – {:.3}); B faster in {}, A in {} (sign test p = {:.3})",
+                v.ratio.0, args.frames, v.ratio.1, v.ratio.2, v.b_faster, v.a_faster, v.p_value
+            );
+            println!("  pictures: {pictures}");
+        }
+    }
+    let messages = [a.context().take_validation_messages(), b.context().take_validation_messages()].concat();
+    drop(a);
+    drop(b);
+    check_validation(messages)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sign_test_matches_the_binomial_tails() {
+        // 8 of 8: 2 / 256.
+        assert!((sign_test(8, 8) - 2.0 / 256.0).abs() < 1e-12);
+        assert!((sign_test(0, 8) - 2.0 / 256.0).abs() < 1e-12);
+        // 6 of 8: 2 (1 + 8 + 28) / 256.
+        assert!((sign_test(6, 8) - 74.0 / 256.0).abs() < 1e-12);
+        // An even split, and nothing to test.
+        assert_eq!(sign_test(4, 8), 1.0);
+        assert_eq!(sign_test(0, 0), 1.0);
+    }
+
+    #[test]
+    fn verdict_of_pairs() {
+        let d = |ms: u64| Duration::from_millis(ms);
+        let pairs = Pairs { a: vec![d(100), d(200), d(100), d(300)], b: vec![d(50), d(100), d(100), d(330)] };
+        let v = pairs.verdict();
+        assert_eq!(v.a_median_ms, 150.0);
+        assert_eq!(v.b_median_ms, 100.0);
+        // Ratios 0.5, 0.5, 1.0, 1.1: median 0.75.
+        assert!((v.ratio.0 - 0.75).abs() < 1e-12, "{v:?}");
+        assert!((v.ratio.1 - 0.5).abs() < 1e-12 && (v.ratio.2 - 1.1).abs() < 1e-12, "{v:?}");
+        assert_eq!((v.b_faster, v.a_faster), (2, 1));
+        // The tie is left out: 2 of 3.
+        assert!((v.p_value - 1.0).abs() < 1e-12, "{v:?}");
+    }
+}
