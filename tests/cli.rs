@@ -206,17 +206,24 @@ fn copy_of_shaders(name: &str) -> PathBuf {
     common::copy_of_shaders(&out_dir().join(name))
 }
 
-/// The check itself is tested: a copy of the shaders with one sum reordered
-/// (dot3 summed right to left) must be reported, with counts, values and
-/// ULP distances, and exit status 4.
-#[test]
-fn check_reports_a_planted_difference() {
-    let planted = copy_of_shaders("planted-shaders");
+/// A copy of the shaders with dot3 summed right to left: the same pictures
+/// but for a few rounding differences.
+fn planted_shaders(name: &str) -> PathBuf {
+    let planted = copy_of_shaders(name);
     let glsl = planted.join("raycast.glsl");
     let source = std::fs::read_to_string(&glsl).unwrap();
     let sum = "precise float r = (a.x * b.x + a.y * b.y) + a.z * b.z;";
     assert_eq!(source.matches(sum).count(), 1, "dot3 changed: update this test");
     std::fs::write(&glsl, source.replace(sum, "precise float r = a.x * b.x + (a.y * b.y + a.z * b.z);")).unwrap();
+    planted
+}
+
+/// The check itself is tested: a copy of the shaders with one sum reordered
+/// (dot3 summed right to left) must be reported, with counts, values and
+/// ULP distances, and exit status 4.
+#[test]
+fn check_reports_a_planted_difference() {
+    let planted = planted_shaders("planted-shaders");
 
     let diff = out_dir().join("check-planted.png");
     let o = raycast(&["check", "--shaders", planted.to_str().unwrap(), "-o", diff.to_str().unwrap()], &[]);
@@ -439,12 +446,7 @@ fn bench_versus_times_two_kernels_and_compares_their_pictures() {
     assert!(out.contains("B/A: ") && out.contains("median of 3 pairs") && out.contains("sign test p = "), "{out}");
     assert!(out.contains("pictures: identical"), "{out}");
 
-    let planted = copy_of_shaders("versus-planted");
-    let glsl = planted.join("raycast.glsl");
-    let source = std::fs::read_to_string(&glsl).unwrap();
-    let sum = "precise float r = (a.x * b.x + a.y * b.y) + a.z * b.z;";
-    assert_eq!(source.matches(sum).count(), 1, "dot3 changed: update this test");
-    std::fs::write(&glsl, source.replace(sum, "precise float r = a.x * b.x + (a.y * b.y + a.z * b.z);")).unwrap();
+    let planted = planted_shaders("versus-planted");
     let o = run(&["--json"], &planted);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
