@@ -509,7 +509,8 @@ bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
 // best, or the hit of ray lr (in the space of the primitive's group) with
 // primitive `item` when it is nearer (on equal t, when its id, first_id
 // plus its offset, is lower): its t, id, item and object-space point and
-// normal. The walk finishes the hit it keeps (hit_attributes).
+// normal. The walk finishes the hit it keeps after its loop (the world
+// normal, material and shape).
 SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id) {
     Ray local = ray_through(primitive_at(item).object_from_world, lr);
     ShapeHit h = intersect_shape(primitive_at(item).shape, local);
@@ -532,8 +533,8 @@ uint stack_word(uint entry, uint level) {
 }
 
 // The nearest hit of ray r with 0 < t < t_max (or, with any_hit, the first
-// one found): on equal t the lowest primitive id, so the answer does not
-// depend on the order things are tested in.
+// one found, its t and id only): on equal t the lowest primitive id, so the
+// answer does not depend on the order things are tested in.
 //
 // The scene is a two-level (in general, nested) hierarchy: each group (the
 // root tree, each master tree) has a BVH over its primitives and its
