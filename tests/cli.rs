@@ -451,6 +451,7 @@ fn bench_versus_times_two_kernels_and_compares_their_pictures() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
     assert!(out.contains("\"identical\":false") && out.contains("\"ratio_median\":"), "{out}");
+    assert!(out.contains("\"a_kernel\":\"render_uniform\",\"b_kernel\":\"render_uniform\""), "{out}");
 
     let o = run(&["--backend", "cpu"], &same);
     assert_fails(&o, 2, "--versus compares two device kernels");

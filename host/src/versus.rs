@@ -128,6 +128,8 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     let names: Vec<Option<&str>> = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
     for name in names {
         let loaded = load_scene(name, &opts, &limits, &settings).map_err(scene_failure)?;
+        // Which kernel each runs: a folder without render_uniform.comp has only the storage one.
+        let kernels = (a.kernel_for(&loaded.data)?.name().to_string(), b.kernel_for(&loaded.data)?.name().to_string());
         let timed = (|| {
             for _ in 0..args.warmup {
                 a.render(&loaded.data)?;
@@ -170,10 +172,12 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
         };
         if args.json {
             println!(
-                "{{\"scene\":{},\"a\":{},\"b\":{},\"pairs\":{},\"a_dispatch_ms\":{:.3},\"b_dispatch_ms\":{:.3},\"ratio_median\":{:.4},\"ratio_min\":{:.4},\"ratio_max\":{:.4},\"b_faster\":{},\"a_faster\":{},\"sign_test_p\":{:.4},\"identical\":{}}}",
+                "{{\"scene\":{},\"a\":{},\"b\":{},\"a_kernel\":{},\"b_kernel\":{},\"pairs\":{},\"a_dispatch_ms\":{:.3},\"b_dispatch_ms\":{:.3},\"ratio_median\":{:.4},\"ratio_min\":{:.4},\"ratio_max\":{:.4},\"b_faster\":{},\"a_faster\":{},\"sign_test_p\":{:.4},\"identical\":{}}}",
                 json_str(&loaded.name),
                 json_str(&a_name),
                 json_str(&b_name),
+                json_str(&kernels.0),
+                json_str(&kernels.1),
                 args.frames,
                 v.a_median_ms,
                 v.b_median_ms,
@@ -187,6 +191,9 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
             );
         } else {
             println!("scene: {}", loaded.name);
+            if kernels.0 != kernels.1 {
+                println!("  kernels differ: A {}, B {} (the scene's arrays read another way)", kernels.0, kernels.1);
+            }
             println!("  dispatch median: A {:.1} ms, B {:.1} ms", v.a_median_ms, v.b_median_ms);
             println!(
                 "  B/A: {:.3} median of {} pairs ({:.3} – {:.3}); B faster in {}, A in {} (sign test p = {:.3})",
