@@ -11,13 +11,13 @@
 //! median, min and max of their wall times. Every backend runs on the same
 //! FrameData in the same process, so ratios compare like with like.
 
-use crate::cli::{check_validation, parse_device, scene_failure, validation_wanted, Failure, DEFAULT_SCENE};
+use crate::cli::{check_validation, open_renderer, scene_failure, Failure, DEFAULT_SCENE};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
-use crate::gpu::{GpuError, GpuOptions};
+use crate::gpu::GpuError;
 use crate::layout::{Frame, PixelOut, SampleSum};
-use crate::render::{GpuRenderer, Picture, SceneBuffers};
+use crate::render::{Picture, SceneBuffers};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use clap::{Args, ValueEnum};
 use std::fmt::Write as _;
@@ -643,16 +643,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         BenchBackend::Cpu => (false, true),
         BenchBackend::Both => (true, true),
     };
-    let gpu = if want_gpu {
-        let options = GpuOptions { device: parse_device(&r.device), validation: validation_wanted(r.validate), ..GpuOptions::default() };
-        let renderer = match &r.shaders {
-            Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
-            None => GpuRenderer::new(&options)?,
-        };
-        Some(renderer.with_scene_buffers(r.scene_buffers))
-    } else {
-        None
-    };
+    let gpu = if want_gpu { Some(open_renderer(&r.device, r.validate, r.shaders.as_deref(), r.scene_buffers)?) } else { None };
     let cpu = if want_cpu { Some(CpuRenderer::new()?) } else { None };
     let gpu_device = gpu.as_ref().map(|g| {
         let i = g.context().info();

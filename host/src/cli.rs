@@ -323,16 +323,24 @@ fn default_output(args: &FrameArgs, suffix: &str) -> PathBuf {
 }
 
 fn gpu_renderer(args: &FrameArgs) -> Result<GpuRenderer, Failure> {
-    let options = GpuOptions {
-        device: parse_device(&args.device),
-        validation: validation_wanted(args.validate),
-        ..GpuOptions::default()
-    };
-    let renderer = match &args.shaders {
+    open_renderer(&args.device, args.validate, args.shaders.as_deref(), args.scene_buffers)
+}
+
+/// The render kernel on the device `--device` names (validated where
+/// asked), built in or compiled from `shaders`, reading the scene as
+/// `--scene-buffers` says: for `render`, `check` and `bench`.
+pub(crate) fn open_renderer(
+    device: &Option<String>,
+    validate: bool,
+    shaders: Option<&Path>,
+    buffers: SceneBuffers,
+) -> Result<GpuRenderer, Failure> {
+    let options = GpuOptions { device: parse_device(device), validation: validation_wanted(validate), ..GpuOptions::default() };
+    let renderer = match shaders {
         Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
         None => GpuRenderer::new(&options)?,
     };
-    Ok(renderer.with_scene_buffers(args.scene_buffers))
+    Ok(renderer.with_scene_buffers(buffers))
 }
 
 fn print_scene(p: &Prepared) {

@@ -16,9 +16,9 @@
 
 use crate::bench::{json_str, load_scene, BenchArgs, BenchBackend};
 use crate::check;
-use crate::cli::{check_validation, parse_device, scene_failure, validation_wanted, Failure};
-use crate::gpu::{GpuError, GpuOptions};
-use crate::render::{GpuRenderer, Picture};
+use crate::cli::{check_validation, open_renderer, scene_failure, Failure};
+use crate::gpu::GpuError;
+use crate::render::Picture;
 use crate::scene::{FlattenLimits, ParseOptions};
 use std::path::Path;
 use std::time::Duration;
@@ -90,16 +90,6 @@ impl Pairs {
     }
 }
 
-fn renderer(args: &BenchArgs, shaders: Option<&Path>) -> Result<GpuRenderer, Failure> {
-    let r = &args.render;
-    let options = GpuOptions { device: parse_device(&r.device), validation: validation_wanted(r.validate), ..GpuOptions::default() };
-    let renderer = match shaders {
-        Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
-        None => GpuRenderer::new(&options)?,
-    };
-    Ok(renderer.with_scene_buffers(r.scene_buffers))
-}
-
 /// `bench --versus DIR`.
 pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     if args.backend != BenchBackend::Gpu {
@@ -112,8 +102,9 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     settings.validate()?;
     let a_name = args.render.shaders.as_ref().map_or("the built-in kernel".to_string(), |d| format!("the kernel from {}", d.display()));
     let b_name = format!("the kernel from {}", versus.display());
-    let a = renderer(args, args.render.shaders.as_deref())?;
-    let b = renderer(args, Some(versus))?;
+    let r = &args.render;
+    let a = open_renderer(&r.device, r.validate, r.shaders.as_deref(), r.scene_buffers)?;
+    let b = open_renderer(&r.device, r.validate, Some(versus), r.scene_buffers)?;
     if !args.json {
         let info = a.context().info();
         println!("device: {} ({}), two devices in one process", info.name, info.kind);
