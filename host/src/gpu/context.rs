@@ -121,6 +121,9 @@ pub(crate) struct Inner {
     max_allocation: u64,
     pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
     pub(crate) timeout: Duration,
+    /// Kernels get `SignedZeroInfNanPreserve` (float_controls.rs): the device
+    /// has VK_KHR_shader_float_controls and shaderSignedZeroInfNanPreserveFloat32.
+    pub(crate) preserve_nan: bool,
     pub(crate) physical: vk::PhysicalDevice,
     /// The window surface of `GpuContext::with_surface`; destroyed after the
     /// device, before the instance (field order).
@@ -467,13 +470,20 @@ impl GpuContext {
         let instance = &parts.instance;
         let props = unsafe { instance.get_physical_device_properties(physical.handle) };
         let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
+        let mut float_controls = vk::PhysicalDeviceFloatControlsProperties::default();
+        let has_float_controls = physical.extensions.iter().any(|e| e == "VK_KHR_shader_float_controls");
         let max_allocation = if props.api_version >= vk::API_VERSION_1_1 {
             let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut maintenance3);
+            if has_float_controls {
+                props2 = props2.push_next(&mut float_controls);
+            }
             unsafe { instance.get_physical_device_properties2(physical.handle, &mut props2) };
             maintenance3.max_memory_allocation_size
         } else {
             u64::MAX
         };
+        // IEEE NaN and infinities in every kernel where the device can promise them (float_controls.rs).
+        let preserve_nan = has_float_controls && float_controls.shader_signed_zero_inf_nan_preserve_float32 == vk::TRUE;
         let memory = unsafe { instance.get_physical_device_memory_properties(physical.handle) };
 
         // VK_KHR_portability_subset must be enabled where the device offers it.
@@ -483,6 +493,9 @@ impl GpuContext {
         }
         if surface.is_some() {
             device_exts.push(ash::khr::swapchain::NAME);
+        }
+        if preserve_nan {
+            device_exts.push(ash::khr::shader_float_controls::NAME);
         }
         let ext_ptrs = cstrs(&device_exts);
         let priorities = [1.0f32];
@@ -507,6 +520,7 @@ impl GpuContext {
                 max_allocation,
                 memory,
                 timeout: opts.timeout,
+                preserve_nan,
                 physical: physical.handle,
                 surface,
                 parts,

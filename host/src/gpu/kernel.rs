@@ -6,7 +6,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::context::Inner;
-use super::{reflect, GpuContext, GpuError, ImageBinding};
+use super::{float_controls, reflect, GpuContext, GpuError, ImageBinding};
 use crate::layout::BindingLayout;
 
 /// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
@@ -62,10 +62,11 @@ impl Kernel {
         constants: &[u32],
     ) -> Result<Kernel, GpuError> {
         let reflection = reflect::reflect(name, spirv, expected, images)?;
-        let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|e| GpuError::InvalidSpirv {
-            kernel: name.to_string(),
-            message: e.to_string(),
-        })?;
+        let invalid = |message: String| GpuError::InvalidSpirv { kernel: name.to_string(), message };
+        let mut words = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|e| invalid(e.to_string()))?;
+        if ctx.inner.preserve_nan {
+            words = float_controls::preserve_nan(&words).map_err(invalid)?;
+        }
 
         let d = &ctx.inner.device;
         let mut kernel = Kernel {

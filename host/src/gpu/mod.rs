@@ -14,6 +14,7 @@ mod compile;
 mod buffer;
 mod context;
 mod error;
+mod float_controls;
 mod frames;
 mod image;
 mod kernel;
