@@ -50,9 +50,101 @@ precise float clamp01(float x) {
     return min_f(max_f(x, 0.0f), 1.0f);
 }
 
+// a / b and sqrt(x) rounded to nearest, as IEEE 754 has them: the same
+// bits on every device. lavapipe and the C++ build round these two
+// operations correctly, and then they are the plain operation; a device
+// that does not (the Vulkan specification allows 2.5 ULP division and
+// 3 ULP square roots; NVIDIA's driver uses them) gets INEXACT_DIVISION
+// (a specialization constant set by the host), which corrects the
+// operation's result. Every division and square root of this file goes
+// through them.
+// The floats next to a finite nonzero x, toward zero and away from it.
+float toward_zero(float x) {
+    return intBitsToFloat(floatBitsToInt(x) - 1);
+}
+
+float away_from_zero(float x) {
+    return intBitsToFloat(floatBitsToInt(x) + 1);
+}
+
+// The float nearest a / b from c at most 1 ULP off it: c or a neighbour,
+// judged by |a - c b| = |b| |a / b - c| (fma; a quotient of floats is
+// never halfway between two, so there is no tie).
+precise float nearest_quotient(float a, float b, float c) {
+    precise float lo = toward_zero(c);
+    precise float hi = away_from_zero(c);
+    precise float rc = abs(fma(-c, b, a));
+    precise float rl = abs(fma(-lo, b, a));
+    precise float rh = abs(fma(-hi, b, a));
+    if (rl < rc) {
+        c = lo;
+    } else if (rh < rc) {
+        c = hi;
+    }
+    return c;
+}
+
+// The float nearest a / b, from q a few ULP off it (div_rn): a Newton step
+// with the residual a - q b (fma) brings it within 1 ULP, then
+// nearest_quotient. Zero, infinite, NaN, subnormal and huge quotients, and
+// b zero or infinite, come back as given.
+precise float correct_quotient(float a, float b, float q) {
+    if (!(abs(q) > 1.17549435e-38f) || abs(q) > 1.0e38f || b == 0.0f || isinf(b)) {
+        return q;
+    }
+    precise float c = fma(fma(-q, b, a), 1.0f / b, q);
+    return nearest_quotient(a, b, c);
+}
+
+// The float nearest sqrt(x) from c > 0 at most 1 ULP off it: Tuckerman's
+// test with the exact sign of an fma: c is the nearest unless x <= lo c
+// (below the midpoint with its lower neighbour lo) or x > c hi (above the
+// one with hi).
+precise float nearest_root(float x, float c) {
+    precise float lo = toward_zero(c);
+    precise float hi = away_from_zero(c);
+    if (fma(-lo, c, x) <= 0.0f) {
+        c = lo;
+    } else if (fma(-c, hi, x) > 0.0f) {
+        c = hi;
+    }
+    return c;
+}
+
+// The float nearest sqrt(x), from s a few ULP off it (sqrt_rn): a Newton
+// step brings it within 1 ULP, then nearest_root. x zero, negative,
+// subnormal, huge, infinite or NaN comes back as given.
+precise float correct_root(float x, float s) {
+    if (!(x > 1.17549435e-38f) || x > 1.0e38f || !(s > 0.0f)) {
+        return s;
+    }
+    precise float c = fma(fma(-s, s, x), 0.5f / s, s);
+    return nearest_root(x, c);
+}
+
+precise float div_rn(float a, float b) {
+    precise float q = a / b;
+    if (INEXACT_DIVISION) {
+        q = correct_quotient(a, b, q);
+    }
+    return q;
+}
+
+precise vec3 div3_rn(vec3 v, float b) {
+    return vec3(div_rn(v.x, b), div_rn(v.y, b), div_rn(v.z, b));
+}
+
+precise float sqrt_rn(float x) {
+    precise float r = sqrt(x);
+    if (INEXACT_DIVISION) {
+        r = correct_root(x, r);
+    }
+    return r;
+}
+
 precise vec3 unit(vec3 v) {
-    precise float len = sqrt(dot3(v, v));
-    precise vec3 r = v / len;
+    precise float len = sqrt_rn(dot3(v, v));
+    precise vec3 r = div3_rn(v, len);
     return r;
 }
 
@@ -92,7 +184,7 @@ precise float log2_portable(float x) {
         m = m * 0.5f;
         e = e + 1;
     }
-    precise float s = (m - 1.0f) / (m + 1.0f);
+    precise float s = div_rn(m - 1.0f, m + 1.0f);
     precise float s2 = s * s;
     precise float p = ((((s2 * 0.0909090936f + 0.111111112f) * s2 + 0.142857149f) * s2 + 0.200000003f) * s2 + 0.333333343f) * s2 + 1.0f;
     precise float r = float(e) + (s * p) * 2.88539004f; // 2 / ln 2
@@ -133,7 +225,7 @@ precise float acos_portable(float x) {
     precise float c = min_f(max_f(x, -1.0f), 1.0f);
     precise float a = abs(c);
     precise float p = ((((((-0.0012624911f * a + 0.0066700901f) * a - 0.0170881256f) * a + 0.0308918810f) * a - 0.0501743046f) * a + 0.0889789874f) * a - 0.2145988016f) * a + 1.57079630f;
-    precise float r = sqrt(1.0f - a) * p;
+    precise float r = sqrt_rn(1.0f - a) * p;
     if (c < 0.0f) {
         // pi - r with pi in two parts: the float nearest pi is 8.7e-8 too big.
         r = (3.14159274f - r) - 8.74227766e-8f;
@@ -154,11 +246,11 @@ precise float atan_portable(float x) {
     precise float a = abs(x);
     bool invert = a > 1.0f;
     if (invert) {
-        a = 1.0f / a;
+        a = div_rn(1.0f, a);
     }
     precise float offset = 0.0f;
     if (a > 0.267949194f) {
-        a = (a * 1.73205078f - 1.0f) / (a + 1.73205078f);
+        a = div_rn(a * 1.73205078f - 1.0f, a + 1.73205078f);
         offset = 0.523598776f;
     }
     precise float s = a * a;
@@ -173,10 +265,10 @@ precise float atan_portable(float x) {
 // atan2(y, x) in (-pi, pi], radians; atan2(0, 0) = 0.
 precise float atan2_portable(float y, float x) {
     if (x > 0.0f) {
-        return atan_portable(y / x);
+        return atan_portable(div_rn(y, x));
     }
     if (x < 0.0f) {
-        precise float r = atan_portable(y / x);
+        precise float r = atan_portable(div_rn(y, x));
         return (y < 0.0f) ? r - PI : r + PI;
     }
     if (y > 0.0f) {
@@ -226,8 +318,8 @@ ShapeHit no_hit() {
 // (x, y, -1) has x, y in [-1, 1]; world_from_film maps it to world space, so
 // its linear part maps it to the ray direction.
 Ray camera_ray(uint j, uint i, vec2 offset) {
-    precise float x = (((float(j) + 0.5f) + offset.x) / float(frame.width)) * 2.0f - 1.0f;
-    precise float y = 1.0f - (((float(i) + 0.5f) + offset.y) / float(frame.height)) * 2.0f;
+    precise float x = div_rn((float(j) + 0.5f) + offset.x, float(frame.width)) * 2.0f - 1.0f;
+    precise float y = 1.0f - div_rn((float(i) + 0.5f) + offset.y, float(frame.height)) * 2.0f;
     Ray r;
     r.origin = xyz(frame.eye);
     r.direction = transform_vector(frame.world_from_film, vec3(x, y, -1.0f));
@@ -244,7 +336,7 @@ Ray camera_ray(uint j, uint i, vec2 offset) {
 // parallel to the plane gives +-inf or NaN, which every caller's `t > 0 &&
 // t < best` rejects.
 precise float plane_t(Ray r, int axis, float s) {
-    precise float t = (s - r.origin[axis]) / r.direction[axis];
+    precise float t = div_rn(s - r.origin[axis], r.direction[axis]);
     return t;
 }
 
@@ -288,7 +380,7 @@ precise vec2 quadratic_roots(float a, float b, float c) {
         if (b == 0.0f) {
             return vec2(T_FAR, T_FAR);
         }
-        precise float t = -c / b;
+        precise float t = div_rn(-c, b);
         return vec2(t, t);
     }
     precise float disc = b * b - 4.0f * a * c;
@@ -298,13 +390,13 @@ precise vec2 quadratic_roots(float a, float b, float c) {
     // q = -(b + sign(b) root) / 2 adds like signs, so neither root loses
     // digits to -b + root when a is small (a cone's a = dx^2 + dz^2 -
     // dy^2/4 for rays along its side): the roots are q / a and c / q.
-    precise float root = sqrt(disc);
+    precise float root = sqrt_rn(disc);
     precise float q = -0.5f * (b + ((b < 0.0f) ? -root : root));
     if (q == 0.0f) {
         return vec2(0.0f, 0.0f); // b = disc = 0, so c = 0: a double root at 0
     }
-    precise float q0 = q / a;
-    precise float q1 = c / q;
+    precise float q0 = div_rn(q, a);
+    precise float q1 = div_rn(c, q);
     return (q1 < q0) ? vec2(q1, q0) : vec2(q0, q1);
 }
 
@@ -312,7 +404,7 @@ precise vec2 quadratic_roots(float a, float b, float c) {
 // the bounding spheres solve from there rather than from the ray's origin,
 // so that a ray from far off keeps their size (intersect_sphere).
 precise float closest_t(Ray r, vec3 c) {
-    precise float t = dot3(c - r.origin, r.direction) / dot3(r.direction, r.direction);
+    precise float t = div_rn(dot3(c - r.origin, r.direction), dot3(r.direction, r.direction));
     return t;
 }
 
@@ -328,7 +420,7 @@ ShapeHit intersect_sphere(Ray r) {
     precise float tc = closest_t(r, vec3(0.0f, 0.0f, 0.0f));
     precise vec3 closest = r.origin + tc * r.direction;
     precise float disc = 0.25f - dot3(closest, closest);
-    precise float half_chord = sqrt(max_f(disc, 0.0f) / a);
+    precise float half_chord = sqrt_rn(div_rn(max_f(disc, 0.0f), a));
     precise vec2 ts = (disc < 0.0f) ? vec2(T_FAR, T_FAR) : vec2(tc - half_chord, tc + half_chord);
     ShapeHit best = no_hit();
     for (int k = 0; k < 2; k++) {
@@ -358,11 +450,11 @@ ShapeHit cap(ShapeHit best, Ray r, float s, float ny) {
 // and the caps decide.
 ShapeHit intersect_cylinder(Ray r) {
     precise float a = r.direction.x * r.direction.x + r.direction.z * r.direction.z;
-    precise float tc = -(r.origin.x * r.direction.x + r.origin.z * r.direction.z) / a;
+    precise float tc = div_rn(-(r.origin.x * r.direction.x + r.origin.z * r.direction.z), a);
     precise float cx = r.origin.x + tc * r.direction.x;
     precise float cz = r.origin.z + tc * r.direction.z;
     precise float disc = 0.25f - (cx * cx + cz * cz);
-    precise float half_chord = sqrt(max_f(disc, 0.0f) / a);
+    precise float half_chord = sqrt_rn(div_rn(max_f(disc, 0.0f), a));
     precise vec2 ts = (a == 0.0f || disc < 0.0f) ? vec2(T_FAR, T_FAR) : vec2(tc - half_chord, tc + half_chord);
     ShapeHit best = no_hit();
     for (int k = 0; k < 2; k++) {
@@ -468,8 +560,8 @@ precise vec2 slab(float o, float d, float lo, float hi, vec2 span) {
     if (d == 0.0f) {
         return (o < lo || o > hi) ? vec2(1.0f, -1.0f) : span;
     }
-    precise float t0 = (lo - o) / d;
-    precise float t1 = (hi - o) / d;
+    precise float t0 = div_rn(lo - o, d);
+    precise float t1 = div_rn(hi - o, d);
     return vec2(max_f(span.x, min_f(t0, t1)), min_f(span.y, max_f(t0, t1)));
 }
 
@@ -715,7 +807,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         if (HAS_INSTANCES) {
             // Their records follow the primitives from the next multiple
             // of 4, each box in steps of the leaf's (layout.h, BvhNode).
-            precise vec3 step = (xyz(leaf_hi) - xyz(leaf_lo)) / float(BOX_STEPS);
+            precise vec3 step = div3_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
             uint records = (first_item + prim_count + 3u) >> 2u;
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's bound: a
@@ -815,7 +907,7 @@ precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
 // Texel (column, row) of texture tex as RGB in [0, 1].
 precise vec3 texel_rgb(Texture tex, uint column, uint row) {
     uint v = texels[tex.offset + row * tex.width + column].rgba;
-    precise vec3 c = vec3(float(v & 255u), float((v >> 8u) & 255u), float((v >> 16u) & 255u)) / 255.0f;
+    precise vec3 c = div3_rn(vec3(float(v & 255u), float((v >> 8u) & 255u), float((v >> 16u) & 255u)), 255.0f);
     return c;
 }
 
@@ -863,7 +955,7 @@ precise vec3 sample_texture(Material m, vec2 uv) {
 // light_intensity of a point or spot light of colour `color`.
 precise vec3 positioned_light_intensity(Light l, vec3 color, vec3 to_light, float dist) {
     precise float falloff = (l.attenuation.x + l.attenuation.y * dist) + l.attenuation.z * (dist * dist);
-    precise float att = min_f(1.0f, 1.0f / falloff);
+    precise float att = min_f(1.0f, div_rn(1.0f, falloff));
     precise vec3 intensity = color * att;
     if (HAS_SPOT_LIGHTS && l.kind == LIGHT_SPOT) {
         // Angle between the spot axis and (p - position) = -to_light.
@@ -874,7 +966,7 @@ precise vec3 positioned_light_intensity(Light l, vec3 color, vec3 to_light, floa
             return vec3(0.0f, 0.0f, 0.0f);
         }
         if (theta > inner) {
-            precise float x = (theta - inner) / l.penumbra_deg;
+            precise float x = div_rn(theta - inner, l.penumbra_deg);
             precise float smooth_step = (3.0f * (x * x)) - 2.0f * ((x * x) * x);
             intensity = intensity * (1.0f - smooth_step);
         }
@@ -948,6 +1040,15 @@ precise vec3 light_term(Surface s, Light l, vec3 to_light, float dist) {
     return lit;
 }
 
+// Whether every channel of c is 0 or subnormal (below 2^-126 in size). A
+// light term or mirror weight that small changes no pixel (the colours it
+// would add are below 2^-126, far under a step of 1/255), and a GPU may
+// flush it to 0 where the CPU build keeps it (NVIDIA promises no
+// subnormals), so both builds treat it as nothing: no shadow or mirror ray.
+bool negligible(vec3 c) {
+    return abs(c.x) < 1.17549435e-38f && abs(c.y) < 1.17549435e-38f && abs(c.z) < 1.17549435e-38f;
+}
+
 precise vec3 clamp3(vec3 c) {
     return vec3(clamp01(c.x), clamp01(c.y), clamp01(c.z));
 }
@@ -979,7 +1080,8 @@ struct PixelSample {
 //   c_k = clamp(local_k + weight_k c_(k+1)).
 // A level's local colour is Phong: ambient + emissive, then for each light
 // in order that would add something (a light facing away or outside its
-// spot adds +-0, which changes no stored bit, so it needs no shadow ray)
+// spot adds +-0, and a subnormal term (`negligible`) less than any step
+// of a stored colour: neither is added, so neither needs a shadow ray)
 // and that no shadow ray finds blocked, its diffuse (textured: blended
 // with the texel) and specular term. Not clamped until the fold.
 //
@@ -1047,11 +1149,11 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             precise float dist = 0.0f;
             if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
                 precise vec3 d = xyz(l.position) - surface.p;
-                dist = sqrt(dot3(d, d));
-                to_light = d / dist;
+                dist = sqrt_rn(dot3(d, d));
+                to_light = div3_rn(d, dist);
             }
             precise vec3 lit = light_term(surface, l, to_light, dist);
-            if (lit.x == 0.0f && lit.y == 0.0f && lit.z == 0.0f) {
+            if (negligible(lit)) {
                 li = li + 1u;
                 continue;
             }
@@ -1065,7 +1167,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
                 precise float t_max = T_FAR;
                 if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
                     precise vec3 rest = xyz(l.position) - shadow_origin;
-                    t_max = sqrt(dot3(rest, rest));
+                    t_max = sqrt_rn(dot3(rest, rest));
                 }
                 next_t_max = t_max;
                 pending = lit;
@@ -1082,7 +1184,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
         levels = level + 1u;
         precise vec3 w = surface.mirror;
         weight_at[level] = w;
-        if (!reflections || level == depth || (w.x == 0.0f && w.y == 0.0f && w.z == 0.0f)) {
+        if (!reflections || level == depth || negligible(w)) {
             break;
         }
         // Mirror direction of the unit ray direction about N, from 0.001
@@ -1129,8 +1231,8 @@ precise float radical_inverse(uint s) {
 // offset from the pixel centre. n = 1 gives the centre; n = 4 gives
 // (+-1/8 or +-3/8) in both axes, one sample per row and column stratum.
 vec2 sample_offset(uint s, uint n) {
-    precise float x = (float(s) + 0.5f) / float(n) - 0.5f;
-    precise float y = radical_inverse(s) + 0.5f / float(n);
+    precise float x = div_rn(float(s) + 0.5f, float(n)) - 0.5f;
+    precise float y = radical_inverse(s) + div_rn(0.5f, float(n));
     if (y >= 1.0f) {
         y = y - 1.0f;
     }
@@ -1188,7 +1290,7 @@ bool loop_budget_ok() {
 
 // The colour a pixel stores: its n samples' colour sum over n.
 precise vec3 sample_average(vec3 sum, uint n) {
-    precise vec3 average = sum / float(n);
+    precise vec3 average = div3_rn(sum, float(n));
     return average;
 }
 

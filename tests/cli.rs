@@ -94,6 +94,29 @@ fn devices_lists_lavapipe() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
     assert!(out.contains("llvmpipe"), "{out}");
+    // lavapipe's division and square root are IEEE's: not corrected, unless asked.
+    assert!(out.contains("arithmetic: division and square root as the device gives them"), "{out}");
+    let o = raycast(&["devices"], &[("RAYCAST_INEXACT_DIVISION", "1")]);
+    let (out, err) = text(&o);
+    assert!(o.status.success() && out.contains("arithmetic: division and square root corrected to IEEE's"), "{out}{err}");
+}
+
+/// The GPU path of div_rn and sqrt_rn (INEXACT_DIVISION), forced on
+/// lavapipe: its kernels build and render with no validation message. (Its
+/// pixels are not lavapipe's: lavapipe does not fuse `fma`, which the
+/// correction needs and every GPU has. The correction itself is tested in
+/// the C++ build, cpu_intersect, and was measured bit-exact on an H100.)
+#[test]
+fn the_gpu_division_correction_builds_valid_kernels() {
+    let out = std::env::temp_dir().join(format!("raycast-cli-inexact-{}.png", std::process::id()));
+    let o = raycast(
+        &["render", "--width", "64", "--height", "48", "-o", out.to_str().unwrap(), "--validate"],
+        &[("RAYCAST_INEXACT_DIVISION", "1")],
+    );
+    let (stdout, err) = text(&o);
+    let _ = std::fs::remove_file(&out);
+    assert!(o.status.success(), "{stdout}{err}");
+    assert!(!err.contains("validation"), "{err}");
 }
 
 #[test]

@@ -161,6 +161,55 @@ TEST(PortableMath, AcosWithin3Ulp) {
     EXPECT_LE(worst, 3.0) << "worst at acos(" << worst_x << ")";
 }
 
+// The corrections that div_rn and sqrt_rn apply on a GPU (raycast.glsl),
+// run here where fma is fused as on every GPU: from a start up to 3 ULP off
+// either way correct_quotient and correct_root, and from 1 ULP off
+// nearest_quotient and nearest_root (their last step, which the Newton step
+// before it seldom leaves anything to do), must give the correctly rounded
+// quotient and root, which IEEE float division and sqrtf are. Random
+// operands over 2^-20 .. 2^20 and both signs, a fixed seed; rule:
+// bit-exact, every case.
+TEST(PortableMath, QuotientAndRootCorrectionsAreIeee) {
+    uint32_t state = 12345u;
+    auto next = [&state]() {
+        state = state * 1664525u + 1013904223u;
+        return state;
+    };
+    auto random_float = [&]() {
+        uint32_t bits = (next() >> 9) | ((107u + next() % 40u) << 23) | (next() & 0x80000000u);
+        return glm::uintBitsToFloat(bits);
+    };
+    auto off_by = [](float x, int ulps) { return glm::intBitsToFloat(glm::floatBitsToInt(x) + ulps); };
+    int quotients = 0, roots = 0;
+    for (int i = 0; i < 300000; i++) {
+        float a = random_float();
+        float b = std::fabs(random_float());
+        int ulps = int(next() % 7u) - 3;
+        int one = ulps % 2; // -1, 0 or 1
+        float q = a / b;
+        for (float got : {correct_quotient(a, b, off_by(q, ulps)), nearest_quotient(a, b, off_by(q, one))}) {
+            if (glm::floatBitsToUint(got) != glm::floatBitsToUint(q) && quotients++ < 5) {
+                ADD_FAILURE() << std::hexfloat << a << " / " << b << " = " << q << ", corrected from " << ulps << " or " << one
+                              << " ULP off: " << got;
+            }
+        }
+        float r = std::sqrt(b);
+        for (float got : {correct_root(b, off_by(r, ulps)), nearest_root(b, off_by(r, one))}) {
+            if (glm::floatBitsToUint(got) != glm::floatBitsToUint(r) && roots++ < 5) {
+                ADD_FAILURE() << std::hexfloat << "sqrt " << b << " = " << r << ", corrected from " << ulps << " or " << one
+                              << " ULP off: " << got;
+            }
+        }
+    }
+    EXPECT_EQ(quotients, 0) << "quotients not correctly rounded";
+    EXPECT_EQ(roots, 0) << "roots not correctly rounded";
+    // As given: zero, infinite and NaN quotients, b = 0, x = 0.
+    EXPECT_EQ(correct_quotient(0.0f, 3.0f, 0.0f), 0.0f);
+    EXPECT_TRUE(std::isinf(correct_quotient(1.0f, 0.0f, 1.0f / 0.0f)));
+    EXPECT_TRUE(std::isnan(correct_quotient(0.0f, 0.0f, std::nanf(""))));
+    EXPECT_EQ(correct_root(0.0f, 0.0f), 0.0f);
+}
+
 TEST(Camera, CentreRayOfAnOddImageIsTheLookDirection) {
     // world_from_film = identity with the eye at the origin: the centre of
     // pixel (1, 1) of a 3x3 image is film (0, 0), direction (0, 0, -1).

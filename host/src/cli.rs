@@ -255,6 +255,7 @@ fn devices() -> Result<(), Failure> {
     let list = gpu::list_devices()?;
     for d in &list {
         println!("{}: {} ({}, Vulkan {}, driver {})", d.index, d.name, d.kind, d.api_version, d.driver);
+        println!("   arithmetic: {}", d.arithmetic);
     }
     Ok(())
 }

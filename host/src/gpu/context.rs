@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use ash::vk;
 
+use super::float_controls;
 use super::present::Surface;
 use super::image::color_range;
 use super::{GpuError, ImageFormat, Kernel};
@@ -62,6 +63,9 @@ pub struct DeviceInfo {
     pub kind: String,
     pub api_version: String,
     pub driver: String,
+    /// How the kernels' arithmetic is made the CPU build's on this device
+    /// (float_controls.rs, layout.h SPEC_INEXACT_DIVISION), for people.
+    pub arithmetic: String,
 }
 
 /// Wall-clock times of the phases of one `GpuContext::run`.
@@ -107,6 +111,8 @@ struct Physical {
     rank: u32,
     compute_family: Option<u32>,
     extensions: Vec<String>,
+    float_modes: float_controls::Modes,
+    inexact_division: bool,
 }
 
 /// Everything behind a `GpuContext`; dropped when the context and all its kernels are gone.
@@ -121,9 +127,10 @@ pub(crate) struct Inner {
     max_allocation: u64,
     pub(crate) memory: vk::PhysicalDeviceMemoryProperties,
     pub(crate) timeout: Duration,
-    /// Kernels get `SignedZeroInfNanPreserve` (float_controls.rs): the device
-    /// has VK_KHR_shader_float_controls and shaderSignedZeroInfNanPreserveFloat32.
-    pub(crate) preserve_nan: bool,
+    /// The float-controls execution modes every kernel gets (float_controls.rs).
+    pub(crate) float_modes: float_controls::Modes,
+    /// The value of every kernel's SPEC_INEXACT_DIVISION (layout.h).
+    pub(crate) inexact_division: bool,
     pub(crate) physical: vk::PhysicalDevice,
     /// The window surface of `GpuContext::with_surface`; destroyed after the
     /// device, before the instance (field order).
@@ -341,6 +348,32 @@ impl InstanceParts {
                 .position(|f| f.queue_count > 0 && f.queue_flags.contains(vk::QueueFlags::COMPUTE))
                 .map(|i| i as u32);
             let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            // IEEE NaN, infinities and subnormals in every kernel where the
+            // device can promise them (float_controls.rs).
+            let mut float_modes = float_controls::Modes::default();
+            if props.api_version >= vk::API_VERSION_1_1 && extensions.iter().any(|e| e == "VK_KHR_shader_float_controls") {
+                let mut controls = vk::PhysicalDeviceFloatControlsProperties::default();
+                let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut controls);
+                unsafe { self.instance.get_physical_device_properties2(handle, &mut props2) };
+                float_modes.preserve_nan = controls.shader_signed_zero_inf_nan_preserve_float32 == vk::TRUE;
+                float_modes.preserve_denorms = controls.shader_denorm_preserve_float32 == vk::TRUE;
+            }
+            // A CPU device (lavapipe) divides and takes square roots as IEEE
+            // does; a GPU's are approximations that raycast.glsl corrects
+            // (layout.h SPEC_INEXACT_DIVISION). RAYCAST_INEXACT_DIVISION=0 or 1
+            // overrides, to measure the correction's cost.
+            let inexact_division = match std::env::var("RAYCAST_INEXACT_DIVISION").as_deref() {
+                Ok("1") => true,
+                Ok("0") => false,
+                _ => props.device_type != vk::PhysicalDeviceType::CPU,
+            };
+            let yes_no = |b: bool, yes: &str, no: &str| if b { yes.to_string() } else { no.to_string() };
+            let arithmetic = [
+                yes_no(inexact_division, "division and square root corrected to IEEE's", "division and square root as the device gives them"),
+                yes_no(float_modes.preserve_nan, "NaN and infinities preserved", "NaN and infinities not promised"),
+                yes_no(float_modes.preserve_denorms, "subnormals preserved", "subnormals not promised"),
+            ]
+            .join(", ");
             out.push(Physical {
                 handle,
                 info: DeviceInfo {
@@ -349,10 +382,13 @@ impl InstanceParts {
                     kind: kind.to_string(),
                     api_version: version_string(props.api_version),
                     driver,
+                    arithmetic,
                 },
                 rank,
                 compute_family,
                 extensions,
+                float_modes,
+                inexact_division,
             });
         }
         Ok(out)
@@ -470,20 +506,13 @@ impl GpuContext {
         let instance = &parts.instance;
         let props = unsafe { instance.get_physical_device_properties(physical.handle) };
         let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
-        let mut float_controls = vk::PhysicalDeviceFloatControlsProperties::default();
-        let has_float_controls = physical.extensions.iter().any(|e| e == "VK_KHR_shader_float_controls");
         let max_allocation = if props.api_version >= vk::API_VERSION_1_1 {
             let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut maintenance3);
-            if has_float_controls {
-                props2 = props2.push_next(&mut float_controls);
-            }
             unsafe { instance.get_physical_device_properties2(physical.handle, &mut props2) };
             maintenance3.max_memory_allocation_size
         } else {
             u64::MAX
         };
-        // IEEE NaN and infinities in every kernel where the device can promise them (float_controls.rs).
-        let preserve_nan = has_float_controls && float_controls.shader_signed_zero_inf_nan_preserve_float32 == vk::TRUE;
         let memory = unsafe { instance.get_physical_device_memory_properties(physical.handle) };
 
         // VK_KHR_portability_subset must be enabled where the device offers it.
@@ -494,7 +523,7 @@ impl GpuContext {
         if surface.is_some() {
             device_exts.push(ash::khr::swapchain::NAME);
         }
-        if preserve_nan {
+        if physical.float_modes != float_controls::Modes::default() {
             device_exts.push(ash::khr::shader_float_controls::NAME);
         }
         let ext_ptrs = cstrs(&device_exts);
@@ -520,7 +549,8 @@ impl GpuContext {
                 max_allocation,
                 memory,
                 timeout: opts.timeout,
-                preserve_nan,
+                float_modes: physical.float_modes,
+                inexact_division: physical.inexact_division,
                 physical: physical.handle,
                 surface,
                 parts,

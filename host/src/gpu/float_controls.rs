@@ -1,5 +1,5 @@
-//! IEEE NaN and infinity semantics for every kernel, where the device
-//! promises them (VK_KHR_shader_float_controls).
+//! IEEE NaN, infinity and subnormal semantics for every kernel, where the
+//! device promises them (VK_KHR_shader_float_controls).
 //!
 //! Without the SPIR-V execution mode `SignedZeroInfNanPreserve`, Vulkan
 //! lets a driver assume no NaN, infinity or signed zero reaches a float
@@ -8,18 +8,30 @@
 //! (0 · inf = NaN) takes the same branch on every backend
 //! (../shared/docs/EXACTNESS.md). NVIDIA's driver (580, H100) turned
 //! `min_f(NaN, 1)` into a hardware min that returns 1 where lavapipe and the
-//! CPU build return the NaN; with the mode it returns the NaN.
+//! CPU build return the NaN; with the mode it returns the NaN. Likewise,
+//! without `DenormPreserve` a driver may flush subnormal results to zero
+//! where the CPU build keeps them (a specular highlight of 1e-40 that adds a
+//! shadow ray on one and not the other).
 //!
-//! glslang cannot ask for the mode without an extension naga does not read,
-//! so the host adds it to the words it hands the driver, after naga has
-//! checked the module as compiled, and only on a device that reports
-//! `shaderSignedZeroInfNanPreserveFloat32`.
+//! glslang cannot ask for the modes without an extension naga does not read,
+//! so the host adds them to the words it hands the driver, after naga has
+//! checked the module as compiled, and only those the device reports
+//! (`shaderSignedZeroInfNanPreserveFloat32`, `shaderDenormPreserveFloat32`).
+
+/// Which modes a device's kernels get.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Modes {
+    pub preserve_nan: bool,
+    pub preserve_denorms: bool,
+}
 
 /// SPIR-V opcodes, capability and execution mode (SPIR-V 1.6 spec, 3.x).
 const OP_EXTENSION: u32 = 10;
 const OP_CAPABILITY: u32 = 17;
 const OP_ENTRY_POINT: u32 = 15;
 const OP_EXECUTION_MODE: u32 = 16;
+const CAPABILITY_DENORM_PRESERVE: u32 = 4464;
+const MODE_DENORM_PRESERVE: u32 = 4459;
 const CAPABILITY_SIGNED_ZERO_INF_NAN_PRESERVE: u32 = 4466;
 const MODE_SIGNED_ZERO_INF_NAN_PRESERVE: u32 = 4461;
 const EXTENSION: &str = "SPV_KHR_float_controls";
@@ -50,21 +62,30 @@ fn string_words(s: &str) -> Vec<u32> {
     bytes.chunks(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
 }
 
-/// `words` with `OpCapability SignedZeroInfNanPreserve`, `OpExtension
-/// "SPV_KHR_float_controls"` and, for every entry point,
-/// `OpExecutionMode SignedZeroInfNanPreserve 32`. A module that has the
-/// mode already comes back unchanged.
-pub(crate) fn preserve_nan(words: &[u32]) -> Result<Vec<u32>, String> {
-    let instructions = instructions(words)?;
-    let has_mode = instructions
-        .iter()
-        .any(|&(at, op, count)| op == OP_EXECUTION_MODE && count >= 3 && words[at + 2] == MODE_SIGNED_ZERO_INF_NAN_PRESERVE);
-    if has_mode {
+/// `words` with the execution modes of `modes` (each with its capability,
+/// for every entry point, on 32-bit floats) and `OpExtension
+/// "SPV_KHR_float_controls"`. Modes the module has already are not added
+/// again; with none to add, the words come back unchanged.
+pub(crate) fn add_modes(words: &[u32], modes: Modes) -> Result<Vec<u32>, String> {
+    let wanted: Vec<(u32, u32)> = [
+        (modes.preserve_nan, CAPABILITY_SIGNED_ZERO_INF_NAN_PRESERVE, MODE_SIGNED_ZERO_INF_NAN_PRESERVE),
+        (modes.preserve_denorms, CAPABILITY_DENORM_PRESERVE, MODE_DENORM_PRESERVE),
+    ]
+    .into_iter()
+    .filter(|w| w.0)
+    .map(|(_, capability, mode)| (capability, mode))
+    .collect();
+    if wanted.is_empty() {
         return Ok(words.to_vec());
     }
-    let has_capability = instructions
-        .iter()
-        .any(|&(at, op, _)| op == OP_CAPABILITY && words[at + 1] == CAPABILITY_SIGNED_ZERO_INF_NAN_PRESERVE);
+    let instructions = instructions(words)?;
+    let has = |op: u32, operand: usize, value: u32| {
+        instructions.iter().any(|&(at, o, count)| o == op && count > operand && words[at + operand] == value)
+    };
+    let missing: Vec<(u32, u32)> = wanted.into_iter().filter(|&(_, mode)| !has(OP_EXECUTION_MODE, 2, mode)).collect();
+    if missing.is_empty() {
+        return Ok(words.to_vec());
+    }
     let name = string_words(EXTENSION);
     let has_extension = instructions.iter().any(|&(at, op, count)| op == OP_EXTENSION && words[at + 1..at + count] == name[..]);
     // Capabilities come first, then extensions; entry points before execution modes.
@@ -78,10 +99,12 @@ pub(crate) fn preserve_nan(words: &[u32]) -> Result<Vec<u32>, String> {
         return Err("a module without OpCapability or OpEntryPoint".into());
     };
 
-    let mut out = Vec::with_capacity(words.len() + 16);
+    let mut out = Vec::with_capacity(words.len() + 32);
     out.extend_from_slice(&words[..after_capabilities]);
-    if !has_capability {
-        out.extend([(2 << 16) | OP_CAPABILITY, CAPABILITY_SIGNED_ZERO_INF_NAN_PRESERVE]);
+    for &(capability, _) in &missing {
+        if !has(OP_CAPABILITY, 1, capability) {
+            out.extend([(2 << 16) | OP_CAPABILITY, capability]);
+        }
     }
     if !has_extension {
         out.push(((1 + name.len() as u32) << 16) | OP_EXTENSION);
@@ -89,7 +112,9 @@ pub(crate) fn preserve_nan(words: &[u32]) -> Result<Vec<u32>, String> {
     }
     out.extend_from_slice(&words[after_capabilities..after_entry_points]);
     for &(_, id) in &entry_points {
-        out.extend([(4 << 16) | OP_EXECUTION_MODE, id, MODE_SIGNED_ZERO_INF_NAN_PRESERVE, 32]);
+        for &(_, mode) in &missing {
+            out.extend([(4 << 16) | OP_EXECUTION_MODE, id, mode, 32]);
+        }
     }
     out.extend_from_slice(&words[after_entry_points..]);
     Ok(out)
@@ -103,14 +128,20 @@ mod tests {
         ash::util::read_spv(&mut std::io::Cursor::new(spv)).unwrap()
     }
 
+    const BOTH: Modes = Modes { preserve_nan: true, preserve_denorms: true };
+
     /// The patched render kernel passes spirv-val for Vulkan 1.1 and says,
-    /// in its disassembly, what was added; a second patch changes nothing.
+    /// in its disassembly, what was added; a second patch changes nothing,
+    /// and neither does one with no modes.
     #[test]
-    fn the_render_kernel_gains_the_mode_and_stays_valid() {
+    fn the_render_kernel_gains_the_modes_and_stays_valid() {
         let original = words(crate::render::kernel_spirv("render").unwrap());
-        let patched = preserve_nan(&original).unwrap();
-        assert_eq!(patched.len(), original.len() + 2 + 1 + string_words(EXTENSION).len() + 4);
-        assert_eq!(preserve_nan(&patched).unwrap(), patched, "patching twice");
+        assert_eq!(add_modes(&original, Modes::default()).unwrap(), original);
+        let nan = add_modes(&original, Modes { preserve_nan: true, preserve_denorms: false }).unwrap();
+        assert_eq!(nan.len(), original.len() + 2 + 1 + string_words(EXTENSION).len() + 4);
+        let patched = add_modes(&nan, BOTH).unwrap();
+        assert_eq!(patched.len(), nan.len() + 2 + 4, "the denormal mode added to the NaN one");
+        assert_eq!(add_modes(&patched, BOTH).unwrap(), patched, "patching twice");
 
         let path = std::env::temp_dir().join(format!("raycast-float-controls-{}.spv", std::process::id()));
         std::fs::write(&path, bytemuck::cast_slice::<u32, u8>(&patched)).unwrap();
@@ -119,16 +150,22 @@ mod tests {
         let dis = std::process::Command::new("spirv-dis").arg(&path).output().unwrap();
         let _ = std::fs::remove_file(&path);
         let text = String::from_utf8_lossy(&dis.stdout);
-        for line in ["OpCapability SignedZeroInfNanPreserve", "OpExtension \"SPV_KHR_float_controls\"", "OpExecutionMode %main SignedZeroInfNanPreserve 32"] {
+        for line in [
+            "OpCapability SignedZeroInfNanPreserve",
+            "OpCapability DenormPreserve",
+            "OpExtension \"SPV_KHR_float_controls\"",
+            "OpExecutionMode %main SignedZeroInfNanPreserve 32",
+            "OpExecutionMode %main DenormPreserve 32",
+        ] {
             assert_eq!(text.matches(line).count(), 1, "{line} once in\n{}", &text[..text.len().min(2000)]);
         }
     }
 
     #[test]
     fn bad_modules_are_errors() {
-        assert!(preserve_nan(&[1, 2, 3]).unwrap_err().contains("magic"));
+        assert!(add_modes(&[1, 2, 3], BOTH).unwrap_err().contains("magic"));
         // A header and an instruction claiming 9 words of 2.
-        assert!(preserve_nan(&[0x0723_0203, 0x10300, 0, 10, 0, (9 << 16) | OP_CAPABILITY, 1]).unwrap_err().contains("word count"));
-        assert!(preserve_nan(&[0x0723_0203, 0x10300, 0, 10, 0]).unwrap_err().contains("without"));
+        assert!(add_modes(&[0x0723_0203, 0x10300, 0, 10, 0, (9 << 16) | OP_CAPABILITY, 1], BOTH).unwrap_err().contains("word count"));
+        assert!(add_modes(&[0x0723_0203, 0x10300, 0, 10, 0], BOTH).unwrap_err().contains("without"));
     }
 }
