@@ -34,20 +34,24 @@ fn main() {
             continue;
         }
         let stem = path.file_stem().unwrap().to_str().unwrap().to_string();
-        let spv = out.join(format!("{stem}.spv"));
-        match &prebuilt {
-            Some(dir) => {
-                let from = dir.join(format!("{stem}.spv"));
-                println!("cargo:rerun-if-changed={}", from.display());
-                std::fs::copy(&from, &spv).unwrap_or_else(|e| {
-                    panic!("RAYCAST_SPIRV_DIR: cannot copy {}: {e}", from.display())
-                });
-                // CMake ran glslang alone.
-                optimize_spirv(&spv).unwrap_or_else(|e| panic!("{e}"));
+        // As it is, and with CORRECT_DIVISION for GPUs (STEM_gpu).
+        for correct_division in [false, true] {
+            let name = if correct_division { format!("{stem}{GPU_KERNEL_SUFFIX}") } else { stem.clone() };
+            let spv = out.join(format!("{name}.spv"));
+            match &prebuilt {
+                Some(dir) => {
+                    let from = dir.join(format!("{name}.spv"));
+                    println!("cargo:rerun-if-changed={}", from.display());
+                    std::fs::copy(&from, &spv).unwrap_or_else(|e| {
+                        panic!("RAYCAST_SPIRV_DIR: cannot copy {}: {e}", from.display())
+                    });
+                    // CMake ran glslang alone.
+                    optimize_spirv(&spv).unwrap_or_else(|e| panic!("{e}"));
+                }
+                None => glsl_to_spirv(&path, &shaders, &spv, correct_division).unwrap_or_else(|e| panic!("{e}")),
             }
-            None => compile(&path, &shaders, &spv),
+            kernels.push(name);
         }
-        kernels.push(stem);
     }
     kernels.sort();
     link_cpu_library(&manifest, &out);
@@ -96,10 +100,6 @@ fn run(cmd: &mut Command) {
             String::from_utf8_lossy(&output.stderr)
         );
     }
-}
-
-fn compile(src: &Path, include: &Path, spv: &Path) {
-    glsl_to_spirv(src, include, spv).unwrap_or_else(|e| panic!("{e}"));
 }
 
 /// `#define NAME 12` / `#define NAME 3u` / `#define NAME 0xffffffffu` -> `pub const NAME: u32 = …;`

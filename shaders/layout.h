@@ -88,12 +88,7 @@
 #define SPEC_FLAT_LIST 15        // frame.node_count == 0: the walk's primitives in order
 #define SPEC_BOX_RECORDS 16      // an instance record holds a box
 #define SPEC_SPHERE_RECORDS 17   // an instance record holds a sphere (RECORD_SPHERE)
-#define SPEC_COUNT 18             // the scene's constants: 0 .. SPEC_COUNT - 1
-// Set from the device, not the scene: gpu::Kernel gives it to every
-// pipeline. True where the device's division and square root are not
-// correctly rounded (every GPU; not lavapipe), so that raycast.glsl's
-// div_rn and sqrt_rn correct them and the pixels stay the CPU build's.
-#define SPEC_INEXACT_DIVISION 18
+#define SPEC_COUNT 18
 
 // Primitive.shape
 #define SHAPE_CUBE 0u

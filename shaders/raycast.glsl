@@ -54,10 +54,13 @@ precise float clamp01(float x) {
 // bits on every device. lavapipe and the C++ build round these two
 // operations correctly, and then they are the plain operation; a device
 // that does not (the Vulkan specification allows 2.5 ULP division and
-// 3 ULP square roots; NVIDIA's driver uses them) gets INEXACT_DIVISION
-// (a specialization constant set by the host), which corrects the
-// operation's result. Every division and square root of this file goes
-// through them.
+// 3 ULP square roots; NVIDIA's driver uses them) runs the kernels compiled
+// with CORRECT_DIVISION defined (the `_gpu` SPIR-V, which the host picks
+// for any device that is not a CPU), which correct the operation's result.
+// A preprocessor switch, not a specialization constant: lavapipe inlines
+// every function before it drops dead code, so the corrections' code at
+// every division doubled its pipeline build even when switched off.
+// Every division and square root of this file goes through them.
 // The floats next to a finite nonzero x, toward zero and away from it.
 float toward_zero(float x) {
     return intBitsToFloat(floatBitsToInt(x) - 1);
@@ -124,9 +127,9 @@ precise float correct_root(float x, float s) {
 
 precise float div_rn(float a, float b) {
     precise float q = a / b;
-    if (INEXACT_DIVISION) {
-        q = correct_quotient(a, b, q);
-    }
+#ifdef CORRECT_DIVISION
+    q = correct_quotient(a, b, q);
+#endif
     return q;
 }
 
@@ -136,9 +139,9 @@ precise vec3 div3_rn(vec3 v, float b) {
 
 precise float sqrt_rn(float x) {
     precise float r = sqrt(x);
-    if (INEXACT_DIVISION) {
-        r = correct_root(x, r);
-    }
+#ifdef CORRECT_DIVISION
+    r = correct_root(x, r);
+#endif
     return r;
 }
 

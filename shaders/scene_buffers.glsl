@@ -107,8 +107,6 @@ layout(constant_id = SPEC_HIERARCHY) const bool HAS_HIERARCHY = true;
 layout(constant_id = SPEC_FLAT_LIST) const bool HAS_FLAT_LIST = true;
 layout(constant_id = SPEC_BOX_RECORDS) const bool HAS_BOX_RECORDS = true;
 layout(constant_id = SPEC_SPHERE_RECORDS) const bool HAS_SPHERE_RECORDS = true;
-// Not the scene's: the device's arithmetic (layout.h, raycast.glsl div_rn).
-layout(constant_id = SPEC_INEXACT_DIVISION) const bool INEXACT_DIVISION = false;
 
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };

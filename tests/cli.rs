@@ -101,7 +101,7 @@ fn devices_lists_lavapipe() {
     assert!(o.status.success() && out.contains("arithmetic: division and square root corrected to IEEE's"), "{out}{err}");
 }
 
-/// The GPU path of div_rn and sqrt_rn (INEXACT_DIVISION), forced on
+/// The GPU kernels of div_rn and sqrt_rn (CORRECT_DIVISION), forced on
 /// lavapipe: its kernels build and render with no validation message. (Its
 /// pixels are not lavapipe's: lavapipe does not fuse `fma`, which the
 /// correction needs and every GPU has. The correction itself is tested in

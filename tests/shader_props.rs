@@ -467,9 +467,10 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
     kernels.sort();
     assert!(!kernels.is_empty());
     let mut errors = Vec::new();
-    for path in &kernels {
+    // Each as it is and with CORRECT_DIVISION (a GPU's kernels).
+    for (path, correct) in kernels.iter().flat_map(|p| [(p, false), (p, true)]) {
         let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
-        let spirv = match gpu::compile_kernel(path) {
+        let spirv = match gpu::compile_kernel(path, correct) {
             Ok(s) => s,
             Err(e) => {
                 errors.push(e);
@@ -497,15 +498,19 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
             )),
         }
     }
-    // The embedded render kernel too (what the binary runs).
-    if let Err(e) = reflect::check_layouts("render (embedded)", raycast::render::render_spirv(), &layout::render_bindings()) {
-        errors.push(e.to_string());
+    // The embedded render kernels too (what the binary runs), both variants.
+    for suffix in ["", gpu::GPU_KERNEL_SUFFIX] {
+        let storage = raycast::render::kernel_spirv(&format!("render{suffix}")).expect("embedded");
+        if let Err(e) = reflect::check_layouts(&format!("render{suffix} (embedded)"), storage, &layout::render_bindings()) {
+            errors.push(e.to_string());
+        }
+        let uniform = raycast::render::kernel_spirv(&format!("render_uniform{suffix}")).expect("embedded");
+        let (buffers, images) = (layout::render_uniform_bindings(), layout::uniform_kernel_images());
+        if let Err(e) = reflect::check_layouts_with_images(&format!("render_uniform{suffix} (embedded)"), uniform, &buffers, &images) {
+            errors.push(e.to_string());
+        }
     }
     let uniform_spirv = raycast::render::kernel_spirv("render_uniform").expect("embedded");
-    let (uniform_buffers, uniform_images) = (layout::render_uniform_bindings(), layout::uniform_kernel_images());
-    if let Err(e) = reflect::check_layouts_with_images("render_uniform (embedded)", uniform_spirv, &uniform_buffers, &uniform_images) {
-        errors.push(e.to_string());
-    }
     // Each kernel against the other's layout: the storage / uniform mismatch is named.
     match reflect::check_layouts("render_uniform", uniform_spirv, &layout::render_bindings()) {
         Ok(()) => errors.push("render_uniform.comp passed as a storage-buffer kernel".into()),

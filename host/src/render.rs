@@ -20,6 +20,16 @@ pub fn kernel_spirv(stem: &str) -> Option<&'static [u8]> {
     EMBEDDED_KERNELS.iter().find(|(name, _)| *name == stem).map(|(_, spv)| *spv)
 }
 
+/// The embedded kernel `stem` for `ctx`'s device: compiled with
+/// CORRECT_DIVISION (`STEM_gpu`) where the device `corrects_division`.
+pub fn kernel_spirv_for(ctx: &GpuContext, stem: &str) -> Option<&'static [u8]> {
+    if ctx.corrects_division() {
+        kernel_spirv(&format!("{stem}{}", crate::gpu::GPU_KERNEL_SUFFIX))
+    } else {
+        kernel_spirv(stem)
+    }
+}
+
 /// Every pixel's output: colour (or AOV), t, hit id and normal.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Picture {
@@ -324,34 +334,43 @@ pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str, advice: &
 }
 
 impl GpuRenderer {
-    /// The device of `options` with the embedded render kernels.
+    /// The device of `options` with the embedded render kernels (the
+    /// `_gpu` ones where the device `corrects_division`).
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer, GpuError> {
-        let uniform = kernel_spirv(UNIFORM_KERNEL).expect("build.rs embeds shaders/render_uniform.comp");
-        GpuRenderer::with_spirv(options, render_spirv(), Some(uniform))
+        let context = GpuContext::new(options)?;
+        let storage = kernel_spirv_for(&context, "render").expect("build.rs embeds shaders/render.comp");
+        let uniform = kernel_spirv_for(&context, UNIFORM_KERNEL).expect("build.rs embeds shaders/render_uniform.comp");
+        Ok(GpuRenderer::with_context(context, storage, Some(uniform)))
     }
 
     /// The device of `options` with render kernels of the caller's (for
     /// example compiled from `--shaders DIR`): render.comp's and, when
     /// there is one, render_uniform.comp's; checked like the embedded ones.
     pub fn with_spirv(options: &GpuOptions, spirv: &[u8], uniform: Option<&[u8]>) -> Result<GpuRenderer, GpuError> {
-        Ok(GpuRenderer {
+        Ok(GpuRenderer::with_context(GpuContext::new(options)?, spirv, uniform))
+    }
+
+    fn with_context(context: GpuContext, spirv: &[u8], uniform: Option<&[u8]>) -> GpuRenderer {
+        GpuRenderer {
             kernels: Mutex::new(Vec::new()),
             storage: spirv.to_vec(),
             uniform: uniform.map(<[u8]>::to_vec),
-            context: GpuContext::new(options)?,
+            context,
             compile_time: Mutex::new(Duration::ZERO),
             choice: SceneBuffers::Auto,
-        })
+        }
     }
 
     /// The device of `options` with the kernels compiled from `dir`
     /// (`--shaders DIR`): its render.comp, and its render_uniform.comp
     /// when it has one.
     pub fn from_shaders(options: &GpuOptions, dir: &std::path::Path) -> Result<GpuRenderer, String> {
-        let spirv = crate::gpu::compile_kernel(&dir.join("render.comp"))?;
+        let context = GpuContext::new(options).map_err(|e| e.to_string())?;
+        let correct = context.corrects_division();
+        let spirv = crate::gpu::compile_kernel(&dir.join("render.comp"), correct)?;
         let uniform_src = dir.join("render_uniform.comp");
-        let uniform = if uniform_src.is_file() { Some(crate::gpu::compile_kernel(&uniform_src)?) } else { None };
-        GpuRenderer::with_spirv(options, &spirv, uniform.as_deref()).map_err(|e| e.to_string())
+        let uniform = if uniform_src.is_file() { Some(crate::gpu::compile_kernel(&uniform_src, correct)?) } else { None };
+        Ok(GpuRenderer::with_context(context, &spirv, uniform.as_deref()))
     }
 
     /// Where the scene's arrays go from now on (Auto unless told).

@@ -4,9 +4,10 @@
 use super::glsl_to_spirv;
 use std::path::Path;
 
-/// Compiles `src` (a `.comp` kernel) with its folder on the include path.
-/// The error carries glslang's own messages (file:line: …).
-pub fn compile_kernel(src: &Path) -> Result<Vec<u8>, String> {
+/// Compiles `src` (a `.comp` kernel) with its folder on the include path,
+/// for a device that `corrects_division` or not (`GpuContext`). The error
+/// carries glslang's own messages (file:line: …).
+pub fn compile_kernel(src: &Path, correct_division: bool) -> Result<Vec<u8>, String> {
     if !src.is_file() {
         return Err(format!("kernel source {} does not exist", src.display()));
     }
@@ -19,7 +20,7 @@ pub fn compile_kernel(src: &Path) -> Result<Vec<u8>, String> {
         CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         src.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
     ));
-    let result = glsl_to_spirv(src, include, &out)
+    let result = glsl_to_spirv(src, include, &out, correct_division)
         .and_then(|()| std::fs::read(&out).map_err(|e| format!("cannot read {}: {e}", out.display())));
     let _ = std::fs::remove_file(&out);
     result

@@ -64,7 +64,7 @@ pub struct DeviceInfo {
     pub api_version: String,
     pub driver: String,
     /// How the kernels' arithmetic is made the CPU build's on this device
-    /// (float_controls.rs, layout.h SPEC_INEXACT_DIVISION), for people.
+    /// (float_controls.rs, `GpuContext::corrects_division`), for people.
     pub arithmetic: String,
 }
 
@@ -129,7 +129,7 @@ pub(crate) struct Inner {
     pub(crate) timeout: Duration,
     /// The float-controls execution modes every kernel gets (float_controls.rs).
     pub(crate) float_modes: float_controls::Modes,
-    /// The value of every kernel's SPEC_INEXACT_DIVISION (layout.h).
+    /// Kernels for this device are the `_gpu` ones (`corrects_division`).
     pub(crate) inexact_division: bool,
     pub(crate) physical: vk::PhysicalDevice,
     /// The window surface of `GpuContext::with_surface`; destroyed after the
@@ -359,9 +359,10 @@ impl InstanceParts {
                 float_modes.preserve_denorms = controls.shader_denorm_preserve_float32 == vk::TRUE;
             }
             // A CPU device (lavapipe) divides and takes square roots as IEEE
-            // does; a GPU's are approximations that raycast.glsl corrects
-            // (layout.h SPEC_INEXACT_DIVISION). RAYCAST_INEXACT_DIVISION=0 or 1
-            // overrides, to measure the correction's cost.
+            // does; a GPU's are approximations that the kernels compiled with
+            // CORRECT_DIVISION correct (raycast.glsl div_rn).
+            // RAYCAST_INEXACT_DIVISION=0 or 1 overrides, to measure the
+            // correction's cost.
             let inexact_division = match std::env::var("RAYCAST_INEXACT_DIVISION").as_deref() {
                 Ok("1") => true,
                 Ok("0") => false,
@@ -563,6 +564,13 @@ impl GpuContext {
     pub fn storage_image_limit(&self) -> u32 {
         let l = &self.inner.limits;
         l.max_per_stage_descriptor_storage_images.min(l.max_descriptor_set_storage_images)
+    }
+
+    /// Whether kernels for this device must be compiled with
+    /// `CORRECT_DIVISION` (glslang_args.rs; the embedded `_gpu` kernels):
+    /// every device but a CPU one, unless RAYCAST_INEXACT_DIVISION says.
+    pub fn corrects_division(&self) -> bool {
+        self.inner.inexact_division
     }
 
     pub fn info(&self) -> &DeviceInfo {

@@ -370,7 +370,7 @@ void main() {
         std::fs::create_dir_all(&dir).unwrap();
         let src = dir.join("frames.comp");
         std::fs::write(&src, SRC).unwrap();
-        let spv = compile_kernel(&src).unwrap_or_else(|e| panic!("{e}"));
+        let spv = compile_kernel(&src, false).unwrap_or_else(|e| panic!("{e}"));
         let _ = std::fs::remove_dir_all(&dir);
 
         let opts = GpuOptions { device: Some(DeviceSelector::Name("llvmpipe".into())), validation: true, ..Default::default() };

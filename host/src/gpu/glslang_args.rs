@@ -6,20 +6,36 @@
 /// The glslang compiler (Debian package glslang-tools).
 pub const GLSLANG: &str = "glslangValidator";
 
+/// The macro that makes raycast.glsl's div_rn and sqrt_rn correct a GPU's
+/// division and square root (`GpuContext::corrects_division`).
+pub const CORRECT_DIVISION: &str = "CORRECT_DIVISION";
+
+/// The file stem suffix of an embedded kernel compiled with it
+/// (`render_uniform_gpu` beside `render_uniform`).
+pub const GPU_KERNEL_SUFFIX: &str = "_gpu";
+
 /// Arguments for compiling `src` (a `.comp` kernel) to the SPIR-V file `spv`,
 /// with `include` on the include path: Vulkan 1.1 semantics, debug names
-/// kept (naga reads struct and member names from them).
-pub fn glslang_args(src: &std::path::Path, include: &std::path::Path, spv: &std::path::Path) -> Vec<std::ffi::OsString> {
-    vec![
+/// kept (naga reads struct and member names from them); with
+/// `correct_division`, CORRECT_DIVISION defined.
+pub fn glslang_args(
+    src: &std::path::Path,
+    include: &std::path::Path,
+    spv: &std::path::Path,
+    correct_division: bool,
+) -> Vec<std::ffi::OsString> {
+    let mut args: Vec<std::ffi::OsString> = vec![
         "-V".into(),
         "--target-env".into(),
         "vulkan1.1".into(),
         "--quiet".into(),
         format!("-I{}", include.display()).into(),
-        "-o".into(),
-        spv.as_os_str().to_owned(),
-        src.as_os_str().to_owned(),
-    ]
+    ];
+    if correct_division {
+        args.push(format!("-D{CORRECT_DIVISION}").into());
+    }
+    args.extend(["-o".into(), spv.as_os_str().to_owned(), src.as_os_str().to_owned()]);
+    args
 }
 
 /// The SPIR-V optimizer (Debian package spirv-tools).
@@ -85,11 +101,17 @@ fn tool_result(tool: &str, path: &std::path::Path, output: &std::process::Output
 }
 
 /// Compiles the kernel `src` to the SPIR-V file `spv` (glslang with
-/// `include` on the include path, then `optimize_spirv`); the error
-/// carries the tools' messages (file:line: … for GLSL errors).
-pub fn glsl_to_spirv(src: &std::path::Path, include: &std::path::Path, spv: &std::path::Path) -> Result<(), String> {
+/// `include` on the include path, CORRECT_DIVISION defined with
+/// `correct_division`, then `optimize_spirv`); the error carries the tools'
+/// messages (file:line: … for GLSL errors).
+pub fn glsl_to_spirv(
+    src: &std::path::Path,
+    include: &std::path::Path,
+    spv: &std::path::Path,
+    correct_division: bool,
+) -> Result<(), String> {
     let output = std::process::Command::new(GLSLANG)
-        .args(glslang_args(src, include, spv))
+        .args(glslang_args(src, include, spv, correct_division))
         .output()
         .map_err(|e| format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"))?;
     tool_result(GLSLANG, src, &output)?;

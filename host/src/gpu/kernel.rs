@@ -7,7 +7,7 @@ use ash::vk;
 
 use super::context::Inner;
 use super::{float_controls, reflect, GpuContext, GpuError, ImageBinding};
-use crate::layout::{self, BindingLayout};
+use crate::layout::BindingLayout;
 
 /// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
 pub struct Kernel {
@@ -106,20 +106,10 @@ impl Kernel {
 
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let module = unsafe { d.create_shader_module(&info, None) }.map_err(GpuError::vk("vkCreateShaderModule"))?;
-        // The caller's constants 0 .. n, then the device's SPEC_INEXACT_DIVISION
-        // (an id that a kernel does not declare is ignored).
-        let mut values = constants.to_vec();
-        let mut ids: Vec<u32> = (0..constants.len() as u32).collect();
-        if !ids.contains(&layout::SPEC_INEXACT_DIVISION) {
-            ids.push(layout::SPEC_INEXACT_DIVISION);
-            values.push(u32::from(ctx.inner.inexact_division));
-        }
-        let entries: Vec<vk::SpecializationMapEntry> = ids
-            .iter()
-            .enumerate()
-            .map(|(i, &id)| vk::SpecializationMapEntry { constant_id: id, offset: i as u32 * 4, size: 4 })
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+            .map(|id| vk::SpecializationMapEntry { constant_id: id, offset: id * 4, size: 4 })
             .collect();
-        let specialization = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(&values));
+        let specialization = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)

@@ -33,7 +33,7 @@ fn compile(name: &str, src: &str) -> Vec<u8> {
     let (comp, spv) = (dir.join(format!("{name}.comp")), dir.join(format!("{name}.spv")));
     std::fs::write(&comp, src).unwrap();
     let include = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shaders");
-    glsl_to_spirv(&comp, &include, &spv).unwrap_or_else(|e| panic!("{name}: {e}"));
+    glsl_to_spirv(&comp, &include, &spv, false).unwrap_or_else(|e| panic!("{name}: {e}"));
     let bytes = std::fs::read(&spv).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     bytes

@@ -42,6 +42,8 @@ pub struct WatchConfig {
     pub settings: RenderSettings,
     /// The folder with preview.comp and what it includes; None: no shader reload.
     pub shaders: Option<PathBuf>,
+    /// Compile it for a device that `corrects_division` (GpuContext).
+    pub correct_division: bool,
 }
 
 /// The watcher thread; stopped and joined on drop.
@@ -124,7 +126,7 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
             let now = Some(shader_stamps(dir));
             if now != shader_stamp {
                 shader_stamp = now;
-                if tx.send(compile(dir)).is_err() {
+                if tx.send(compile(dir, config.correct_division)).is_err() {
                     return;
                 }
             }
@@ -133,15 +135,16 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
 }
 
 /// glslang on `dir/preview.comp` and, when there is one,
-/// `dir/preview_uniform.comp` (with `dir` on the include path), checked
-/// (PreviewKernels::new; the renderer builds their pipelines).
-pub fn compile(dir: &Path) -> Reload {
-    let storage = match compile_one(dir, KERNEL_FILE) {
+/// `dir/preview_uniform.comp` (with `dir` on the include path; CORRECT_DIVISION
+/// defined with `correct_division`), checked (PreviewKernels::new; the
+/// renderer builds their pipelines).
+pub fn compile(dir: &Path, correct_division: bool) -> Reload {
+    let storage = match compile_one(dir, KERNEL_FILE, correct_division) {
         Ok(b) => b,
         Err(e) => return Reload::Failed(e),
     };
     let uniform = if dir.join(UNIFORM_KERNEL_FILE).is_file() {
-        match compile_one(dir, UNIFORM_KERNEL_FILE) {
+        match compile_one(dir, UNIFORM_KERNEL_FILE, correct_division) {
             Ok(b) => Some(b),
             Err(e) => return Reload::Failed(e),
         }
@@ -155,10 +158,10 @@ pub fn compile(dir: &Path) -> Reload {
 }
 
 /// glslang on `dir/file`: its SPIR-V, or glslang's message.
-fn compile_one(dir: &Path, file: &str) -> Result<Vec<u8>, String> {
+fn compile_one(dir: &Path, file: &str, correct_division: bool) -> Result<Vec<u8>, String> {
     let src = dir.join(file);
     let spv = std::env::temp_dir().join(format!("raycast-preview-{}-{file}.spv", std::process::id()));
-    let output = match std::process::Command::new(GLSLANG).args(glslang_args(&src, dir, &spv)).output() {
+    let output = match std::process::Command::new(GLSLANG).args(glslang_args(&src, dir, &spv, correct_division)).output() {
         Ok(o) => o,
         Err(e) => return Err(format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}")),
     };

@@ -38,10 +38,11 @@ impl PreviewKernels {
         Ok(PreviewKernels { storage: storage.to_vec(), uniform: uniform.map(<[u8]>::to_vec) })
     }
 
-    /// The embedded kernels (shaders/preview*.comp, compiled at build time).
-    pub fn embedded() -> Result<PreviewKernels, GpuError> {
-        let storage = crate::render::kernel_spirv("preview").expect("build.rs embeds shaders/preview.comp");
-        PreviewKernels::new(storage, crate::render::kernel_spirv("preview_uniform"))
+    /// The embedded kernels (shaders/preview*.comp, compiled at build time)
+    /// for `ctx`'s device (`render::kernel_spirv_for`).
+    pub fn embedded(ctx: &GpuContext) -> Result<PreviewKernels, GpuError> {
+        let storage = crate::render::kernel_spirv_for(ctx, "preview").expect("build.rs embeds shaders/preview.comp");
+        PreviewKernels::new(storage, crate::render::kernel_spirv_for(ctx, "preview_uniform"))
     }
 
     /// The uniform kernel (data images) when the scene fits it (`fits`) and there
