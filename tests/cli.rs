@@ -476,6 +476,12 @@ fn bench_versus_times_two_kernels_and_compares_their_pictures() {
     assert!(out.contains("\"identical\":false") && out.contains("\"ratio_median\":"), "{out}");
     assert!(out.contains("\"a_kernel\":\"render_uniform\",\"b_kernel\":\"render_uniform\""), "{out}");
 
+    // Over --max-primitives: listed as skipped, as `bench` lists it, not an error.
+    let o = run(&["gen:recursive-spheres:4", "--max-primitives", "100"], &same);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("skipped: expands to more than --max-primitives 100"), "{out}");
+
     let o = run(&["--backend", "cpu"], &same);
     assert_fails(&o, 2, "--versus compares two device kernels");
 }

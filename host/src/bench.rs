@@ -232,6 +232,26 @@ pub fn load_scene(name: Option<&str>, opts: &ParseOptions, limits: &FlattenLimit
     load_parsed(name, file, counts, start, limits, settings)
 }
 
+/// `load_scene`, or None once the scene is listed as skipped (`skipped`)
+/// because it expands to more than `limits.max_primitives`.
+pub(crate) fn load_or_skip(
+    name: Option<&str>,
+    opts: &ParseOptions,
+    limits: &FlattenLimits,
+    settings: &RenderSettings,
+    args: &BenchArgs,
+) -> Result<Option<LoadedScene>, String> {
+    let start = Instant::now();
+    let file = parse_scene(name, opts)?;
+    let counts = count_primitives(&file);
+    if counts.expanded > limits.max_primitives as u64 {
+        let why = format!("skipped: expands to more than --max-primitives {}", thousands(limits.max_primitives as u64));
+        skipped(name.unwrap_or("<default scene>"), None, counts, &why, args);
+        return Ok(None);
+    }
+    load_parsed(name, file, counts, start, limits, settings).map(Some)
+}
+
 /// The rest of `load_scene` once the file is parsed (at `start`) and counted.
 fn load_parsed(
     name: Option<&str>,
@@ -515,7 +535,7 @@ fn short_name(scene: &str) -> &str {
 /// A scene (or one backend of it) listed but not timed, and not an error,
 /// so that one table can name every depth while only some are feasible:
 /// over --max-primitives, or cut short by the device (lavapipe's loop budget).
-fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCounts, why: &str, args: &BenchArgs) {
+pub(crate) fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCounts, why: &str, args: &BenchArgs) {
     if args.json {
         println!(
             "{{\"scene\":{},{}\"skipped\":{},\"primitives_expanded\":{},\"primitives_unique\":{}}}",
@@ -678,15 +698,9 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     let mut all_rows: Vec<Row> = Vec::new();
     for name in names {
         reset_peak_host();
-        let start = Instant::now();
-        let file = parse_scene(name, &opts).map_err(scene_failure)?;
-        let counts = count_primitives(&file);
-        if counts.expanded > limits.max_primitives as u64 {
-            let why = format!("skipped: expands to more than --max-primitives {}", thousands(limits.max_primitives as u64));
-            skipped(name.unwrap_or("<default scene>"), None, counts, &why, args);
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
             continue;
-        }
-        let loaded = load_parsed(name, file, counts, start, &limits, &settings).map_err(scene_failure)?;
+        };
         let load_peak = peak_host_bytes();
         let row = |backend: &'static str, device: &str| Row {
             scene: loaded.name.clone(),

@@ -14,7 +14,7 @@
 //!   chance of a split at least that uneven if the kernels were alike);
 //! - whether the two pictures have the same bits (`check::compare`).
 
-use crate::bench::{json_str, load_scene, BenchArgs, BenchBackend};
+use crate::bench::{json_str, load_or_skip, skipped, BenchArgs, BenchBackend};
 use crate::check;
 use crate::cli::{check_validation, open_renderer, scene_failure, Failure};
 use crate::gpu::GpuError;
@@ -118,7 +118,10 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     let limits = FlattenLimits { max_primitives: args.render.max_primitives };
     let names: Vec<Option<&str>> = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
     for name in names {
-        let loaded = load_scene(name, &opts, &limits, &settings).map_err(scene_failure)?;
+        // Over --max-primitives: listed as skipped, as `bench` does.
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
+            continue;
+        };
         // Which kernel each runs: a folder without render_uniform.comp has only the storage one.
         let kernels = (a.kernel_for(&loaded.data)?.name().to_string(), b.kernel_for(&loaded.data)?.name().to_string());
         let timed = (|| {
@@ -145,10 +148,8 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
         let (pairs, (pa, pb)) = match timed {
             Ok(x) => x,
             Err(GpuError::CutShort { count, total, .. }) => {
-                println!(
-                    "scene: {}: not timed: a kernel cut {count} of {total} pixels short (Mesa's loop budget per invocation)",
-                    loaded.name
-                );
+                let why = format!("not timed: a kernel cut {count} of {total} pixels short (Mesa's loop budget per invocation)");
+                skipped(&loaded.name, None, loaded.counts, &why, args);
                 continue;
             }
             Err(e) => return Err(e.into()),
