@@ -343,13 +343,9 @@ impl GpuRenderer {
         Ok(GpuRenderer::with_context(context, storage, Some(uniform)))
     }
 
-    /// The device of `options` with render kernels of the caller's (for
-    /// example compiled from `--shaders DIR`): render.comp's and, when
-    /// there is one, render_uniform.comp's; checked like the embedded ones.
-    pub fn with_spirv(options: &GpuOptions, spirv: &[u8], uniform: Option<&[u8]>) -> Result<GpuRenderer, GpuError> {
-        Ok(GpuRenderer::with_context(GpuContext::new(options)?, spirv, uniform))
-    }
-
+    /// `context` with render kernels: render.comp's SPIR-V and, when there
+    /// is one, render_uniform.comp's; checked like the embedded ones when
+    /// their pipelines are built.
     fn with_context(context: GpuContext, spirv: &[u8], uniform: Option<&[u8]>) -> GpuRenderer {
         GpuRenderer {
             kernels: Mutex::new(Vec::new()),

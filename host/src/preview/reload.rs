@@ -13,7 +13,6 @@ use std::thread::JoinHandle;
 use std::time::{Duration, SystemTime};
 
 use crate::frame::{self, FrameData, RenderSettings};
-use crate::gpu::{glslang_args, GLSLANG};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 
 use super::renderer::PreviewKernels;
@@ -134,17 +133,18 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
     }
 }
 
-/// glslang on `dir/preview.comp` and, when there is one,
-/// `dir/preview_uniform.comp` (with `dir` on the include path; CORRECT_DIVISION
-/// defined with `correct_division`), checked (PreviewKernels::new; the
+/// `dir/preview.comp` and, when there is one, `dir/preview_uniform.comp`
+/// compiled as every runtime kernel is (`gpu::compile_kernel`: glslang with
+/// `dir` on the include path and CORRECT_DIVISION defined with
+/// `correct_division`, then spirv-opt), checked (PreviewKernels::new; the
 /// renderer builds their pipelines).
 pub fn compile(dir: &Path, correct_division: bool) -> Reload {
-    let storage = match compile_one(dir, KERNEL_FILE, correct_division) {
+    let storage = match crate::gpu::compile_kernel(&dir.join(KERNEL_FILE), correct_division) {
         Ok(b) => b,
         Err(e) => return Reload::Failed(e),
     };
     let uniform = if dir.join(UNIFORM_KERNEL_FILE).is_file() {
-        match compile_one(dir, UNIFORM_KERNEL_FILE, correct_division) {
+        match crate::gpu::compile_kernel(&dir.join(UNIFORM_KERNEL_FILE), correct_division) {
             Ok(b) => Some(b),
             Err(e) => return Reload::Failed(e),
         }
@@ -155,22 +155,4 @@ pub fn compile(dir: &Path, correct_division: bool) -> Reload {
         Ok(k) => Reload::Kernel(k),
         Err(e) => Reload::Failed(format!("{}: {e}", dir.join(KERNEL_FILE).display())),
     }
-}
-
-/// glslang on `dir/file`: its SPIR-V, or glslang's message.
-fn compile_one(dir: &Path, file: &str, correct_division: bool) -> Result<Vec<u8>, String> {
-    let src = dir.join(file);
-    let spv = std::env::temp_dir().join(format!("raycast-preview-{}-{file}.spv", std::process::id()));
-    let output = match std::process::Command::new(GLSLANG).args(glslang_args(&src, dir, &spv, correct_division)).output() {
-        Ok(o) => o,
-        Err(e) => return Err(format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}")),
-    };
-    if !output.status.success() {
-        let text = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
-        let _ = std::fs::remove_file(&spv);
-        return Err(format!("{}: {GLSLANG} failed:\n{}", src.display(), text.trim_end()));
-    }
-    let bytes = std::fs::read(&spv);
-    let _ = std::fs::remove_file(&spv);
-    bytes.map_err(|e| format!("cannot read {}: {e}", spv.display()))
 }
