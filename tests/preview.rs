@@ -65,11 +65,13 @@ fn assert_clean(o: &Output, what: &str) {
 }
 
 /// The preview's screenshot after `frames` frames of `scene` (None: the default scene).
-fn screenshot(scene: Option<&Path>, size: [u32; 2], frames: u32, name: &str) -> Rgb8 {
+/// `extra`: more flags for the preview.
+fn screenshot(scene: Option<&Path>, size: [u32; 2], frames: u32, name: &str, extra: &[&str]) -> Rgb8 {
     let png = out_dir().join(format!("{name}-preview-{frames}.png"));
     let _ = std::fs::remove_file(&png);
     let (w, h, n) = (size[0].to_string(), size[1].to_string(), frames.to_string());
     let mut args = vec!["--width", &w, "--height", &h, "--frames", &n, "--screenshot", png.to_str().unwrap()];
+    args.extend_from_slice(extra);
     let scene_arg;
     if let Some(s) = scene {
         scene_arg = s.to_str().unwrap().to_string();
@@ -96,9 +98,9 @@ fn render(scene: Option<&Path>, size: [u32; 2], name: &str) -> Rgb8 {
     image_io::read_png(&png).unwrap()
 }
 
-/// Rule: bit-exact.
-fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: &str) {
-    let actual = screenshot(scene, size, 1, name);
+/// Rule: bit-exact. `extra`: more flags for the preview.
+fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str]) {
+    let actual = screenshot(scene, size, 1, name, extra);
     let expected = render(scene, size, name);
     let diff = image_io::compare(&actual, &expected, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
     if diff.differing > 0 {
@@ -115,14 +117,14 @@ fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: 
 
 #[test]
 fn first_frame_of_the_default_scene_is_the_render() {
-    assert_first_frame_is_the_render(None, [512, 384], "default");
+    assert_first_frame_is_the_render(None, [512, 384], "default", &[]);
 }
 
 /// A size that is not a multiple of the 8x8 work group, and a file path (watched for reloads).
 #[test]
 fn first_frame_at_an_odd_size_is_the_render() {
     let scene = repo().join("scenes/default.xml");
-    assert_first_frame_is_the_render(Some(&scene), [203, 97], "default-203x97");
+    assert_first_frame_is_the_render(Some(&scene), [203, 97], "default-203x97", &[]);
 }
 
 #[test]
@@ -135,8 +137,18 @@ fn first_frame_of_corpus_scenes_is_the_render() {
         let scene = corpus.join(rel);
         assert!(scene.is_file(), "RAYCAST_CORPUS={} has no {rel}", corpus.display());
         let name = rel.replace('/', "-").trim_end_matches(".xml").to_string();
-        assert_first_frame_is_the_render(Some(&scene), [512, 384], &name);
+        assert_first_frame_is_the_render(Some(&scene), [512, 384], &name, &[]);
     }
+}
+
+/// A --shaders folder without preview_uniform.comp: preview.comp draws
+/// the scene from buffers alone (the scene's arrays are uploaded once, for
+/// the kernel that draws them), and gives the same picture.
+#[test]
+fn first_frame_without_the_uniform_kernel_is_the_render() {
+    let dir = common::copy_of_shaders(&out_dir().join("no-uniform-shaders"));
+    std::fs::remove_file(dir.join("preview_uniform.comp")).unwrap();
+    assert_first_frame_is_the_render(None, [96, 64], "default-no-uniform", &["--shaders", dir.to_str().unwrap()]);
 }
 
 /// Largest channel difference between two colours.
@@ -153,8 +165,8 @@ fn delta(a: [u8; 3], b: [u8; 3]) -> u8 {
 #[test]
 fn more_frames_accumulate_jittered_samples() {
     let size = [256, 192];
-    let one = screenshot(None, size, 1, "default-accumulate");
-    let eight = screenshot(None, size, 8, "default-accumulate");
+    let one = screenshot(None, size, 1, "default-accumulate", &[]);
+    let eight = screenshot(None, size, 8, "default-accumulate", &[]);
     let (w, h) = (size[0] as i64, size[1] as i64);
     let at = |img: &Rgb8, x: i64, y: i64| img.pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32);
     let mut changed = 0;

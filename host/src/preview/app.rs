@@ -779,7 +779,7 @@ impl Preview {
                 self.error = None;
                 self.restart();
             }
-            Reload::Kernel(kernels) => match self.renderer.set_kernels(kernels)? {
+            Reload::Kernel(kernels) => match self.renderer.set_kernels(kernels, &self.data)? {
                 Ok(()) => {
                     eprintln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
                     self.error = None;

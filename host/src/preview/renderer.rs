@@ -45,12 +45,13 @@ impl PreviewKernels {
         PreviewKernels::new(storage, crate::render::kernel_spirv_for(ctx, "preview_uniform"))
     }
 
-    /// The uniform kernel (data images) when the scene fits it (`fits`) and there
-    /// is one, else the storage one, built for `spec`.
-    fn build(&self, ctx: &GpuContext, fits: bool, spec: Specialization) -> Result<Kernel, GpuError> {
+    /// The uniform kernel (data images) when `uniform` (the scene's arrays
+    /// are laid out for it: `SceneBuffers`) and there is one, else the
+    /// storage one, built for `spec`.
+    fn build(&self, ctx: &GpuContext, uniform: bool, spec: Specialization) -> Result<Kernel, GpuError> {
         let constants = spec.constants();
         match &self.uniform {
-            Some(u) if fits => {
+            Some(u) if uniform => {
                 Kernel::specialized(ctx, "preview_uniform", u, &preview_uniform_bindings(), &preview_uniform_images(), &constants)
             }
             _ => Kernel::specialized(ctx, "preview", &self.storage, &preview_bindings(), &preview_images(), &constants),
@@ -58,33 +59,42 @@ impl PreviewKernels {
     }
 }
 
-/// The scene's buffers (FrameData::scene_buffers) on the device, by binding.
+/// The scene's arrays (FrameData::scene_buffers) on the device, by
+/// binding: each array once, as a data image where preview_uniform.comp
+/// draws the scene and reads it as one, else as a buffer.
 struct SceneBuffers {
     buffers: Vec<(u32, Buffer)>,
-    /// When the scene fits preview_uniform.comp: the arrays it reads from
+    /// When preview_uniform.comp draws the scene: the arrays it reads from
     /// storage images (`layout::UNIFORM_KERNEL_IMAGES`), by binding.
     images: Vec<(u32, DataImage)>,
-    /// The scene fits preview_uniform.comp's blocks, and the arrays it
-    /// reads as uniform blocks are padded to their declared size.
-    fits_uniform: bool,
+    /// preview_uniform.comp draws the scene: there is one, the scene fits
+    /// its blocks, and the arrays it reads as uniform blocks are padded to
+    /// their declared size.
+    uniform: bool,
     /// What the kernel for it needs (with the frame's flags).
     features: SceneFeatures,
 }
 
 impl SceneBuffers {
-    fn new(ctx: &GpuContext, data: &FrameData) -> Result<SceneBuffers, GpuError> {
-        let fits_uniform = crate::render::fits_uniform(ctx, data, preview_uniform_images().len()).is_ok();
+    /// `data`'s arrays for the uniform kernel when `has_uniform` (the
+    /// kernels include one) and the scene fits it, else for preview.comp.
+    fn new(ctx: &GpuContext, data: &FrameData, has_uniform: bool) -> Result<SceneBuffers, GpuError> {
+        let uniform = has_uniform && crate::render::fits_uniform(ctx, data, preview_uniform_images().len()).is_ok();
         let mut images = Vec::new();
         let mut buffers = Vec::new();
         for &(binding, what, bytes) in &data.scene_buffers() {
-            let bytes = if fits_uniform { crate::layout::padded_for_uniform(binding, bytes) } else { bytes.into() };
-            if fits_uniform && layout::UNIFORM_KERNEL_IMAGES.contains(&binding) {
-                images.push((binding, DataImage::new(ctx, &bytes, what)?));
+            if !uniform {
+                buffers.push((binding, Buffer::with_data(ctx, bytes, what)?));
+                continue;
             }
-            // Also for the images' bindings: without preview_uniform.comp (a --shaders folder), preview.comp draws it.
-            buffers.push((binding, Buffer::with_data(ctx, &bytes, what)?));
+            let bytes = crate::layout::padded_for_uniform(binding, bytes);
+            if layout::UNIFORM_KERNEL_IMAGES.contains(&binding) {
+                images.push((binding, DataImage::new(ctx, &bytes, what)?));
+            } else {
+                buffers.push((binding, Buffer::with_data(ctx, &bytes, what)?));
+            }
         }
-        Ok(SceneBuffers { buffers, images, fits_uniform, features: SceneFeatures::of(data) })
+        Ok(SceneBuffers { buffers, images, uniform, features: SceneFeatures::of(data) })
     }
 }
 
@@ -146,7 +156,7 @@ impl PreviewRenderer {
             preview: Buffer::new(ctx, std::mem::size_of::<PreviewFrame>(), false, "the preview frame")?,
             status: Buffer::new(ctx, std::mem::size_of::<PreviewStatus>(), true, "the status word")?,
             frame_size: size,
-            scene: SceneBuffers::new(ctx, data)?,
+            scene: SceneBuffers::new(ctx, data, kernels.uniform.is_some())?,
             picture: PictureBuffers::new(ctx, size)?,
             swapchain: Swapchain::new(ctx, window, mode)?,
             kernel: None,
@@ -168,7 +178,7 @@ impl PreviewRenderer {
     /// The kernel for the scene drawn with `frame`, built when the scene
     /// or the frame's flags want another one, and the descriptor set.
     fn prepare(&mut self, frame: &Frame) -> Result<(), GpuError> {
-        let key = (self.scene.fits_uniform, self.scene.features.specialization(frame));
+        let key = (self.scene.uniform, self.scene.features.specialization(frame));
         if self.kernel.as_ref().map(|(k, _)| *k) != Some(key) {
             self.frames.wait()?;
             self.set = None;
@@ -187,13 +197,8 @@ impl PreviewRenderer {
         let s = &self.scene;
         let (_, kernel) = self.kernel.as_ref().expect("prepare builds the kernel first");
         let mut resources = vec![(layout::BINDING_FRAME, Resource::Buffer(&self.frame))];
-        // A binding the kernel reads as an image gets the data image, the others their buffer.
-        resources.extend(s.buffers.iter().map(|(binding, buffer)| {
-            match s.images.iter().find(|(b, _)| b == binding && kernel.images().iter().any(|i| i.binding == *b)) {
-                Some((_, image)) => (*binding, Resource::Data(image)),
-                None => (*binding, Resource::Buffer(buffer)),
-            }
-        }));
+        resources.extend(s.buffers.iter().map(|(binding, buffer)| (*binding, Resource::Buffer(buffer))));
+        resources.extend(s.images.iter().map(|(binding, image)| (*binding, Resource::Data(image))));
         resources.extend([
             (layout::BINDING_PIXELS, Resource::Buffer(&p.pixels)),
             (BINDING_PREVIEW, Resource::Buffer(&self.preview)),
@@ -205,15 +210,21 @@ impl PreviewRenderer {
         Ok(())
     }
 
-    /// Replaces the kernels (a reloaded shader). The kernel the last frame
-    /// used is built from them at once: when the driver refuses it (a shader
-    /// that glslang and naga accept can still fail vkCreateComputePipelines),
-    /// the old kernels stay and the inner error says why.
-    pub fn set_kernels(&mut self, kernels: PreviewKernels) -> Result<Result<(), String>, GpuError> {
+    /// Replaces the kernels (a reloaded shader) for `data`, the scene on
+    /// the device. The kernel the last frame used is built from them at
+    /// once: when the driver refuses it (a shader that glslang and naga
+    /// accept can still fail vkCreateComputePipelines), the old kernels stay
+    /// and the inner error says why. When the new kernels add or drop
+    /// preview_uniform.comp, the scene's arrays are laid out again for the
+    /// kernel that now draws it.
+    pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), String>, GpuError> {
         self.frames.wait()?;
+        let relayout = kernels.uniform.is_some() != self.kernels.uniform.is_some();
+        let scene = if relayout { Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some())?) } else { None };
+        let uniform = scene.as_ref().map_or(self.scene.uniform, |s| s.uniform);
         let built = match &self.kernel {
-            Some((key, _)) => match kernels.build(&self.context, key.0, key.1) {
-                Ok(kernel) => Some((*key, kernel)),
+            Some(((_, spec), _)) => match kernels.build(&self.context, uniform, *spec) {
+                Ok(kernel) => Some(((uniform, *spec), kernel)),
                 Err(e) => return Ok(Err(e.to_string())),
             },
             None => None,
@@ -221,6 +232,9 @@ impl PreviewRenderer {
         self.set = None;
         self.kernel = built;
         self.kernels = kernels;
+        if let Some(scene) = scene {
+            self.scene = scene;
+        }
         Ok(Ok(()))
     }
 
@@ -228,7 +242,7 @@ impl PreviewRenderer {
     pub fn set_scene(&mut self, data: &FrameData) -> Result<(), GpuError> {
         self.frames.wait()?;
         self.set = None;
-        self.scene = SceneBuffers::new(&self.context, data)?;
+        self.scene = SceneBuffers::new(&self.context, data, self.kernels.uniform.is_some())?;
         Ok(())
     }
 
