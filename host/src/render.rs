@@ -3,7 +3,7 @@
 
 use crate::cpu::CpuRenderer;
 use crate::frame::FrameData;
-use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel};
+use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel, RunBuffers};
 use crate::layout::{self, PixelOut};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -443,19 +443,16 @@ impl GpuRenderer {
             .collect();
         let mut inputs = vec![(layout::BINDING_FRAME, bytemuck::bytes_of(&data.frame))];
         inputs.extend(scene.iter().map(|(binding, bytes)| (*binding, bytes.as_ref())));
-        // The samples' running sums start at zero: sample 0 is next.
-        let sums = vec![0u8; count * std::mem::size_of::<layout::SampleSum>()];
-        inputs.push((layout::BINDING_SAMPLE_SUMS, &sums));
-        let (bytes, t) = self.context.run_passes(
-            &kernel,
-            &inputs,
-            (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
+        let buffers = RunBuffers {
+            inputs: &inputs,
+            // The samples' running sums start at zero: sample 0 is next.
+            cleared: &[(layout::BINDING_SAMPLE_SUMS, count * std::mem::size_of::<layout::SampleSum>())],
+            output: (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
             // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.
-            0xffff_ffff,
-            groups,
-            // One sample of every pixel per dispatch (render.comp).
-            f.spp.max(1),
-        )?;
+            fill: 0xffff_ffff,
+        };
+        // One sample of every pixel per dispatch (render.comp).
+        let (bytes, t) = self.context.run_passes(&kernel, &buffers, groups, f.spp.max(1))?;
         let pixels: Vec<PixelOut> = bytemuck::pod_collect_to_vec(&bytes);
         // Every pixel the kernel covers counts at least its camera ray, far
         // fewer than the sentinel.

@@ -7,11 +7,8 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::context::Inner;
+use super::context::{Inner, MIN_BUFFER};
 use super::{DataImage, GpuContext, GpuError, ImageFormat, Kernel, StorageImage};
-
-/// Storage buffers cannot be empty; shorter ones get this many bytes.
-const MIN_BUFFER: u64 = 16;
 
 /// A storage buffer in host-visible, host-coherent memory, mapped for its
 /// whole life. Reads and writes are plain copies: the caller makes sure the

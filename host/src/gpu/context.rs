@@ -17,7 +17,18 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 /// Instance API version requested; nothing newer is used.
 const API_VERSION: u32 = vk::API_VERSION_1_1;
 /// Storage buffers cannot be empty; zero-length inputs get this many bytes.
-const MIN_BUFFER: u64 = 16;
+pub(crate) const MIN_BUFFER: u64 = 16;
+
+/// Who touches a buffer's memory (`Inner::create_buffer`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Place {
+    /// The host writes it, the device reads it.
+    Upload,
+    /// The device writes it, the host reads it.
+    Readback,
+    /// Only the device.
+    Device,
+}
 
 /// Which device `GpuContext::new` opens.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -611,26 +622,82 @@ impl GpuContext {
         fill: u32,
         groups: [u32; 3],
     ) -> Result<(Vec<u8>, RunTimings), GpuError> {
-        self.run_passes(kernel, inputs, output, fill, groups, 1)
+        self.run_passes(kernel, &RunBuffers { inputs, cleared: &[], output, fill }, groups, 1)
     }
 
     /// `run` with `passes` dispatches of `groups` in one submission, each
     /// seeing the writes of the one before (a kernel that keeps its own
-    /// state in its buffers, like render.comp's one sample per pass).
+    /// state in its buffers, like render.comp's one sample per pass), and
+    /// with buffers the device clears (`RunBuffers::cleared`).
     pub fn run_passes(
         &self,
         kernel: &Kernel,
-        inputs: &[(u32, &[u8])],
-        output: (u32, usize),
-        fill: u32,
+        buffers: &RunBuffers,
         groups: [u32; 3],
         passes: u32,
     ) -> Result<(Vec<u8>, RunTimings), GpuError> {
         let inner = &*self.inner;
-        let bad = |message: String| GpuError::BadRun { kernel: kernel.name().to_string(), message };
         if !Arc::ptr_eq(&kernel.inner, &self.inner) {
-            return Err(bad("the kernel was created on another GpuContext".into()));
+            return Err(GpuError::BadRun {
+                kernel: kernel.name().to_string(),
+                message: "the kernel was created on another GpuContext".into(),
+            });
         }
+        inner.check_run(kernel, buffers, groups)?;
+
+        let start = Instant::now();
+        let (res, set) = inner.prepare_run(kernel, buffers)?;
+        let upload = start.elapsed();
+
+        // Clear, fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
+        let start = Instant::now();
+        let res = inner.submit_once(res, |d, cmd, res| unsafe { record_run(d, cmd, res, kernel, set, groups, passes) })?;
+        let dispatch = start.elapsed();
+
+        let start = Instant::now();
+        let d = &inner.device;
+        let memory = res.output;
+        let ptr = unsafe { d.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+            .map_err(GpuError::vk("vkMapMemory"))?;
+        // SAFETY: the mapping covers at least the output's bytes; the fence and barrier made the writes visible.
+        let bytes = unsafe { std::slice::from_raw_parts(ptr as *const u8, buffers.output.1) }.to_vec();
+        unsafe { d.unmap_memory(memory) };
+        let readback = start.elapsed();
+        drop(res);
+        Ok((bytes, RunTimings { upload, dispatch, readback }))
+    }
+}
+
+/// What a run binds: every binding of its kernel exactly once.
+pub struct RunBuffers<'a> {
+    /// Bindings uploaded from the host: (binding, bytes).
+    pub inputs: &'a [(u32, &'a [u8])],
+    /// Storage buffers the device clears to zero before the first pass,
+    /// which the host neither writes nor reads (device-local where the
+    /// device has such memory): (binding, bytes).
+    pub cleared: &'a [(u32, usize)],
+    /// The buffer read back: (binding, bytes); every u32 word of it is
+    /// `fill` until the kernel writes it (on the device, before the first pass).
+    pub output: (u32, usize),
+    pub fill: u32,
+}
+
+impl RunBuffers<'_> {
+    /// Every binding with its length: the inputs, the cleared buffers, the output.
+    fn lengths(&self) -> impl Iterator<Item = (u32, usize)> + '_ {
+        self.inputs.iter().map(|(b, d)| (*b, d.len())).chain(self.cleared.iter().copied()).chain([self.output])
+    }
+}
+
+/// A run's storage buffer size for `len` bytes: not empty, whole words.
+fn buffer_size(len: usize) -> u64 {
+    (len as u64).max(MIN_BUFFER).next_multiple_of(4)
+}
+
+impl Inner {
+    /// Checks a run against the kernel and the device limits before anything is allocated.
+    fn check_run(&self, kernel: &Kernel, buffers: &RunBuffers, groups: [u32; 3]) -> Result<(), GpuError> {
+        let bad = |message: String| GpuError::BadRun { kernel: kernel.name().to_string(), message };
         if let Some(i) = kernel.images().iter().find(|i| i.writable || i.format != ImageFormat::Rgba32Uint) {
             return Err(bad(format!(
                 "run() binds storage buffers and read-only rgba32ui data images; binding {} is a picture: \
@@ -639,35 +706,33 @@ impl GpuContext {
             )));
         }
         let is_image = |binding: u32| kernel.images().iter().any(|i| i.binding == binding);
-
-        // Check the call against the kernel and the device limits before allocating.
-        let (out_binding, out_bytes) = output;
-        let mut given: Vec<u32> = inputs.iter().map(|(b, _)| *b).chain([out_binding]).collect();
+        let mut given: Vec<u32> = buffers.lengths().map(|(b, _)| b).collect();
         given.sort_unstable();
         let mut wanted: Vec<u32> =
             kernel.bindings().iter().map(|b| b.binding).chain(kernel.images().iter().map(|i| i.binding)).collect();
         wanted.sort_unstable();
         if given != wanted {
             return Err(bad(format!(
-                "run() was given bindings {given:?} (inputs and output), the kernel declares {wanted:?}; \
+                "run() was given bindings {given:?} (inputs, cleared and output), the kernel declares {wanted:?}; \
                  pass each binding exactly once"
             )));
         }
-        let limit = inner.limits.max_compute_work_group_count;
+        let limit = self.limits.max_compute_work_group_count;
         if groups.iter().zip(limit).any(|(g, l)| *g > l) {
             return Err(GpuError::TooManyGroups { groups, limit });
         }
-        let buffer_size = |len: usize| (len as u64).max(MIN_BUFFER).next_multiple_of(4);
-        if is_image(out_binding) {
-            return Err(bad(format!("binding {out_binding} is a read-only image; it cannot be the output")));
+        let out_binding = buffers.output.0;
+        if let Some(&(binding, _)) = buffers.cleared.iter().chain([&buffers.output]).find(|(b, _)| is_image(*b)) {
+            let what = if binding == out_binding { "the output" } else { "cleared" };
+            return Err(bad(format!("binding {binding} is a read-only image; it cannot be {what}")));
         }
-        for (binding, len) in inputs.iter().map(|(b, d)| (*b, d.len())).chain([(out_binding, out_bytes)]) {
+        for (binding, len) in buffers.lengths() {
             if is_image(binding) {
-                inner.check_data_image(kernel.name(), &kernel.binding_label(binding), len)?;
+                self.check_data_image(kernel.name(), &kernel.binding_label(binding), len)?;
                 continue;
             }
-            inner.check_storage_size(buffer_size(len), || kernel.binding_label(binding))?;
-            let uniform_range = u64::from(inner.limits.max_uniform_buffer_range);
+            self.check_storage_size(buffer_size(len), || kernel.binding_label(binding))?;
+            let uniform_range = u64::from(self.limits.max_uniform_buffer_range);
             if kernel.descriptor_type(binding) == vk::DescriptorType::UNIFORM_BUFFER && buffer_size(len) > uniform_range {
                 return Err(GpuError::TooLarge {
                     what: kernel.binding_label(binding),
@@ -677,44 +742,51 @@ impl GpuContext {
                 });
             }
         }
+        Ok(())
+    }
 
-        // Upload: one host-visible buffer per binding, filled in place.
-        let start = Instant::now();
-        let mut res = RunResources::new(inner.device.clone());
-        let mut out_index = 0;
-        for (binding, data, readback) in inputs
-            .iter()
-            .map(|(b, d)| (*b, Some(*d), false))
-            .chain([(out_binding, None, true)])
-        {
-            let len = data.map_or(out_bytes, |d| d.len());
-            let (buffer, memory) = inner.create_buffer(&mut res, buffer_size(len), readback, &kernel.binding_label(binding))?;
-            let ptr = unsafe { inner.device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+    /// The buffers and data images of a checked run, the inputs written,
+    /// and a descriptor set binding them.
+    fn prepare_run(&self, kernel: &Kernel, buffers: &RunBuffers) -> Result<(RunResources, vk::DescriptorSet), GpuError> {
+        let is_image = |binding: u32| kernel.images().iter().any(|i| i.binding == binding);
+        let mut res = RunResources::new(self.device.clone());
+        // Inputs: one host-visible buffer per binding, written in place.
+        for &(binding, data) in buffers.inputs {
+            let (buffer, memory) =
+                self.create_buffer(&mut res, buffer_size(data.len()), Place::Upload, &kernel.binding_label(binding))?;
+            let ptr = unsafe { self.device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
                 .map_err(GpuError::vk("vkMapMemory"))?;
-            let size = buffer_size(len) as usize;
-            // SAFETY: the mapping covers the whole allocation, at least `size` bytes.
+            // SAFETY: the mapping covers the whole allocation, at least `data.len()` bytes.
             unsafe {
-                match data {
-                    Some(d) => std::ptr::copy_nonoverlapping(d.as_ptr(), ptr as *mut u8, d.len()),
-                    None => {
-                        let words = std::slice::from_raw_parts_mut(ptr as *mut u32, size / 4);
-                        words.fill(fill);
-                        out_index = res.buffers.len() - 1;
-                    }
-                }
-                inner.device.unmap_memory(memory);
+                std::ptr::copy_nonoverlapping(data.as_ptr(), ptr as *mut u8, data.len());
+                self.device.unmap_memory(memory);
             }
             res.bindings.push((binding, buffer));
-        }
-
-        // Data images: a device image per image binding, copied from its
-        // buffer (filled above) when the command buffer starts.
-        for (binding, buffer) in res.bindings.clone() {
             if is_image(binding) {
-                let len = inputs.iter().find(|(b, _)| *b == binding).map_or(0, |(_, d)| d.len());
-                inner.create_data_image(&mut res, binding, buffer, (len / 16) as u32, &kernel.binding_label(binding))?;
+                // A device image, copied from this buffer when the command buffer starts.
+                let texels = (data.len() / 16) as u32;
+                self.create_data_image(&mut res, binding, buffer, texels, &kernel.binding_label(binding))?;
             }
         }
+        // Cleared buffers and the output: filled by the device, before the first pass.
+        for &(binding, len) in buffers.cleared {
+            let (buffer, _) = self.create_buffer(&mut res, buffer_size(len), Place::Device, &kernel.binding_label(binding))?;
+            res.bindings.push((binding, buffer));
+            res.fills.push((buffer, 0));
+        }
+        let (out_binding, out_len) = buffers.output;
+        let (buffer, memory) =
+            self.create_buffer(&mut res, buffer_size(out_len), Place::Readback, &kernel.binding_label(out_binding))?;
+        res.bindings.push((out_binding, buffer));
+        res.fills.push((buffer, buffers.fill));
+        res.output = memory;
+        let set = self.run_descriptor_set(&mut res, kernel)?;
+        Ok((res, set))
+    }
+
+    /// A descriptor set (from a pool in `res`) with `res`'s buffers and data images at their bindings.
+    fn run_descriptor_set(&self, res: &mut RunResources, kernel: &Kernel) -> Result<vk::DescriptorSet, GpuError> {
+        let is_image = |binding: u32| kernel.images().iter().any(|i| i.binding == binding);
         let images = res.images.len() as u32;
         let uniform = res.bindings.iter().filter(|(b, _)| kernel.descriptor_type(*b) == vk::DescriptorType::UNIFORM_BUFFER).count() as u32;
         let sizes: Vec<vk::DescriptorPoolSize> = [
@@ -727,13 +799,13 @@ impl GpuContext {
         .map(|(ty, n)| vk::DescriptorPoolSize::default().ty(ty).descriptor_count(n))
         .collect();
         let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
-        res.descriptor_pool = unsafe { inner.device.create_descriptor_pool(&pool_info, None) }
+        res.descriptor_pool = unsafe { self.device.create_descriptor_pool(&pool_info, None) }
             .map_err(GpuError::vk("vkCreateDescriptorPool"))?;
         let set_layouts = [kernel.set_layout];
         let alloc = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(res.descriptor_pool)
             .set_layouts(&set_layouts);
-        let set = unsafe { inner.device.allocate_descriptor_sets(&alloc) }
+        let set = unsafe { self.device.allocate_descriptor_sets(&alloc) }
             .map_err(GpuError::vk("vkAllocateDescriptorSets"))?[0];
         let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = res
             .bindings
@@ -765,41 +837,59 @@ impl GpuContext {
                     .image_info(info)
             }))
             .collect();
-        unsafe { inner.device.update_descriptor_sets(&writes, &[]) };
-        let upload = start.elapsed();
+        unsafe { self.device.update_descriptor_sets(&writes, &[]) };
+        Ok(set)
+    }
+}
 
-        // Dispatch: fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
-        let start = Instant::now();
-        let res = inner.submit_once(res, |d, cmd, res| unsafe {
-            for image in &res.images {
-                record_image_upload(d, cmd, image.source, image.image, image.texels);
+/// Records a run: the device's fills (`RunResources::fills`) and the data
+/// images' copies, then `passes` dispatches of `groups`, each seeing the
+/// writes of the one before, then a barrier that makes the writes visible
+/// to the host.
+///
+/// # Safety
+/// `cmd` is a command buffer of `d` in the recording state; `res` and
+/// `set` were made for `kernel` (`Inner::prepare_run`).
+unsafe fn record_run(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    res: &RunResources,
+    kernel: &Kernel,
+    set: vk::DescriptorSet,
+    groups: [u32; 3],
+    passes: u32,
+) {
+    // SAFETY: the caller's; every handle lives as long as the run.
+    unsafe {
+        for &(buffer, value) in &res.fills {
+            d.cmd_fill_buffer(cmd, buffer, 0, vk::WHOLE_SIZE, value);
+        }
+        let filled = [vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::DependencyFlags::empty(),
+            &filled,
+            &[],
+            &[],
+        );
+        for image in &res.images {
+            record_image_upload(d, cmd, image.source, image.image, image.texels);
+        }
+        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
+        d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
+        for pass in 0..passes {
+            if pass > 0 {
+                // The pass before's writes, visible to this one's reads and writes.
+                let access = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+                shader_writes_barrier(d, cmd, vk::PipelineStageFlags::COMPUTE_SHADER, access);
             }
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
-            d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
-            for pass in 0..passes {
-                if pass > 0 {
-                    // The pass before's writes, visible to this one's reads and writes.
-                    let access = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
-                    shader_writes_barrier(d, cmd, vk::PipelineStageFlags::COMPUTE_SHADER, access);
-                }
-                d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
-            }
-            shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
-        })?;
-        let d = &inner.device;
-        let dispatch = start.elapsed();
-
-        // Readback.
-        let start = Instant::now();
-        let memory = res.buffers[out_index].1;
-        let ptr = unsafe { d.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
-            .map_err(GpuError::vk("vkMapMemory"))?;
-        // SAFETY: the mapping covers at least `out_bytes` bytes; the fence and barrier made the writes visible.
-        let bytes = unsafe { std::slice::from_raw_parts(ptr as *const u8, out_bytes) }.to_vec();
-        unsafe { d.unmap_memory(memory) };
-        let readback = start.elapsed();
-        drop(res);
-        Ok((bytes, RunTimings { upload, dispatch, readback }))
+            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+        }
+        shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
     }
 }
 
@@ -908,7 +998,7 @@ impl Inner {
     ) -> Result<(vk::Buffer, vk::DeviceMemory), GpuError> {
         self.check_storage_size(size, || what.to_string())?;
         let mut res = RunResources::new(self.device.clone());
-        let made = self.create_buffer(&mut res, size, readback, what)?;
+        let made = self.create_buffer(&mut res, size, if readback { Place::Readback } else { Place::Upload }, what)?;
         // Hand it over: `res` must not destroy it.
         res.buffers.clear();
         Ok(made)
@@ -966,26 +1056,30 @@ impl Inner {
         }
     }
 
-    /// A storage buffer in host-visible, host-coherent memory. Memory types are
-    /// tried best first (device-local; host-cached for `readback`), falling
-    /// back to the next when an allocation fails.
-    fn create_buffer(
-        &self,
-        res: &mut RunResources,
-        size: u64,
-        readback: bool,
-        what: &str,
-    ) -> Result<(vk::Buffer, vk::DeviceMemory), GpuError> {
+    /// A storage buffer in memory for `place`: host-visible and
+    /// host-coherent for `Place::Upload` and `Place::Readback`, any for
+    /// `Place::Device`. Memory types are tried best first (device-local;
+    /// host-cached for readback), falling back to the next when an
+    /// allocation fails.
+    fn create_buffer(&self, res: &mut RunResources, size: u64, place: Place, what: &str) -> Result<(vk::Buffer, vk::DeviceMemory), GpuError> {
         let d = &self.device;
         let info = vk::BufferCreateInfo::default()
             .size(size)
-            .usage(vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC)
+            .usage(
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::UNIFORM_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_SRC
+                    | vk::BufferUsageFlags::TRANSFER_DST,
+            )
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let buffer = unsafe { d.create_buffer(&info, None) }.map_err(GpuError::vk("vkCreateBuffer"))?;
         res.buffers.push((buffer, vk::DeviceMemory::null()));
         let req = unsafe { d.get_buffer_memory_requirements(buffer) };
 
-        let needed = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
+        let needed = match place {
+            Place::Device => vk::MemoryPropertyFlags::empty(),
+            Place::Upload | Place::Readback => vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+        };
         let types = &self.memory.memory_types[..self.memory.memory_type_count as usize];
         let mut candidates: Vec<(u32, u32)> = types
             .iter()
@@ -999,7 +1093,7 @@ impl Inner {
                 let f = t.property_flags;
                 let local = f.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL) as u32;
                 let cached = f.contains(vk::MemoryPropertyFlags::HOST_CACHED) as u32;
-                let score = if readback { cached * 2 + local } else { local * 2 };
+                let score = if place == Place::Readback { cached * 2 + local } else { local * 2 };
                 (i as u32, score)
             })
             .collect();
@@ -1017,10 +1111,11 @@ impl Inner {
                 Err(e) => return Err(GpuError::vk("vkAllocateMemory")(e)),
             }
         }
+        let kind = if place == Place::Device { "" } else { "host-visible, host-coherent " };
         let detail = if candidates.is_empty() {
-            "no host-visible, host-coherent memory type is large enough".to_string()
+            format!("no {kind}memory type is large enough")
         } else {
-            format!("vkAllocateMemory failed with {last:?} for every host-visible memory type")
+            format!("vkAllocateMemory failed with {last:?} for every {kind}memory type")
         };
         Err(GpuError::OutOfMemory { what: what.to_string(), bytes: req.size, detail })
     }
@@ -1122,6 +1217,10 @@ pub(crate) struct RunResources {
     device: ash::Device,
     buffers: Vec<(vk::Buffer, vk::DeviceMemory)>,
     bindings: Vec<(u32, vk::Buffer)>,
+    /// Buffers the device fills before the first pass, and each one's word.
+    fills: Vec<(vk::Buffer, u32)>,
+    /// The memory of the buffer read back.
+    output: vk::DeviceMemory,
     images: Vec<RunImage>,
     descriptor_pool: vk::DescriptorPool,
     command_pool: vk::CommandPool,
@@ -1134,6 +1233,8 @@ impl RunResources {
             device,
             buffers: Vec::new(),
             bindings: Vec::new(),
+            fills: Vec::new(),
+            output: vk::DeviceMemory::null(),
             images: Vec::new(),
             descriptor_pool: vk::DescriptorPool::null(),
             command_pool: vk::CommandPool::null(),

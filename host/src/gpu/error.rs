@@ -135,7 +135,7 @@ impl fmt::Display for GpuError {
             }
             GpuError::OutOfMemory { what, bytes, detail } => write!(
                 f,
-                "cannot allocate {} of host-visible memory for {what} ({detail}); use less data \
+                "cannot allocate {} of memory for {what} ({detail}); use less data \
                  (e.g. render a smaller image) or select a device with more memory",
                 fmt_bytes(*bytes)
             ),

@@ -24,7 +24,7 @@ pub mod reflect;
 mod tests;
 
 pub use compile::compile_kernel;
-pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunTimings};
+pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
 pub use error::GpuError;
 pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use frames::{FrameLoop, FrameStatus};
