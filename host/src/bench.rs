@@ -178,7 +178,7 @@ pub fn reset_peak_host() -> bool {
 /// Bytes a GPU frame of `data` puts on the device: the frame block, every
 /// scene buffer (`FrameData::scene_buffers`: primitives, materials, lights,
 /// textures, texels, and whatever else the frame binds), the samples'
-/// running sums (render.comp's, zeroed by the host) and the pixel buffer
+/// running sums (render.comp's, cleared by the device) and the pixel buffer
 /// read back. With `uniform` (render_uniform.comp), the arrays it reads as
 /// uniform blocks count at their declared size, as they are uploaded
 /// (`layout::padded_for_uniform`). The driver's rounding of each
@@ -818,7 +818,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             "load: parse, count, flatten, textures; build: the bounding volume hierarchies and the packing of the groups (`FrameData::build_time`); frame: one whole render call (gpu: upload, dispatch, readback; cpu: every row on every thread); \
              primary Mrays/s: {}x{}x{} camera rays over the frame median; all Mrays/s: every ray of the frame (camera, shadow, mirror; the pixels count them) over the frame median; \
              host peak: VmHWM while loading that scene and rendering it on that backend (the Vulkan driver included); \
-             device: bytes uploaded (frame, scene buffers, the samples' running sums) plus the pixel buffer read back; \
+             device: bytes on the device: uploaded (frame, scene buffers), cleared there (the samples' running sums) and read back (the pixel buffer); \
              cpu ÷ gpu: the CPU's frame median over the device's, and whether their pictures are identical (every buffer, bit for bit).",
             settings.width, settings.height, settings.spp
         );
