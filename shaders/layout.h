@@ -170,6 +170,8 @@ struct Primitive {
 // primitives (frame.rs uses one where its surface is smaller than the
 // box's): (c.x | c.y << 16, c.z, the radius's f32 bits, RECORD_SPHERE |
 // ITEM_INSTANCE | instance index), the centre in steps as lo above.
+// A leaf's `axis` is its first primitive (leaf_items[first]; 0 when it has
+// none), so that a leaf of one primitive needs no leaf-item read.
 // count = 0: children first and first + 1, split along axis.
 struct BvhNode {
     vec4 lo;

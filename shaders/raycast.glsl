@@ -696,6 +696,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         uint first_item = 0u;
         uint item_count = 0u;
         uint prim_count = 0u; // the leaf's primitives come first
+        uint first_primitive = 0u; // the leaf's first primitive (BvhNode.axis)
         vec4 leaf_lo = vec4(0.0f); // the leaf's box: its instances' boxes are in steps of it
         vec4 leaf_hi = vec4(0.0f);
         uint level = 0u;
@@ -772,6 +773,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             first_item = node.first;
             item_count = node.count;
             prim_count = HAS_INSTANCES ? node.primitives : node.count;
+            first_primitive = node.axis;
             leaf_lo = node.lo;
             leaf_hi = node.hi;
         }
@@ -784,7 +786,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         } else if (prim_count > 0u) {
             // At most one: an `if`, not a loop (12% of recursiveSpheres4's
             // dispatch: a lavapipe loop costs far more than its body).
-            best = primitive_hit(best, direct ? first_item : leaf_item(first_item), lr, first_id);
+            best = primitive_hit(best, direct ? first_item : first_primitive, lr, first_id);
         }
         if (best.id != best_before) {
             // A nearer hit in this leaf (ids are unique, so it has another

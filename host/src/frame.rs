@@ -601,6 +601,8 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
             let (lo, hi) = node.bounds.padded_f32();
             let interior = node.count == 0;
             let mut first = node_base + node.first;
+            // An inner node's split axis; a leaf's first primitive (layout.h, BvhNode).
+            let mut axis = node.axis;
             if interior {
                 depth[node.first as usize] = depth[i] + 1;
                 depth[node.first as usize + 1] = depth[i] + 1;
@@ -609,6 +611,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                 // multiple of 4 (layout.h, BvhNode).
                 first = leaf_items.len() as u32;
                 let items = &built.order[node.first as usize..(node.first + node.count) as usize];
+                axis = items.iter().find(|&&k| (k as usize) < np).map_or(0, |&k| prim_base[g] + k);
                 for &k in items.iter().filter(|&&k| (k as usize) < np) {
                     leaf_items.push(layout::LeafItem { item: prim_base[g] + k });
                 }
@@ -668,7 +671,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                 hi,
                 first,
                 count: node.count,
-                axis: node.axis,
+                axis,
                 primitives: node.primitives,
             });
         }
@@ -780,8 +783,8 @@ mod tests {
     }
 
     /// Every primitive id is reached exactly once walking the packed
-    /// hierarchy from the root through every instance, every node's box
-    /// holds its children's, every instance record's box (as the shader
+    /// hierarchy from the root through every instance, every leaf's axis
+    /// is its first primitive, every node's box holds its children's, every instance record's box (as the shader
     /// computes it) its root's, and every record's sphere the points of
     /// every primitive it leads to.
     #[test]
@@ -860,6 +863,9 @@ mod tests {
                 }
                 continue;
             }
+            // A leaf's axis is its first primitive (the walk reads it in place of that item).
+            let first = if node.primitives > 0 { data.leaf_items[node.first as usize].item } else { 0 };
+            assert_eq!(node.axis, first, "node {n}: its axis is not its first primitive");
             for k in node.first..node.first + node.primitives {
                 let item = data.leaf_items[k as usize].item;
                 assert_eq!(item & layout::ITEM_INSTANCE, 0, "node {n}: item {k} is not a primitive");
