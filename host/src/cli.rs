@@ -203,6 +203,7 @@ pub(crate) fn scene_failure(e: String) -> Failure {
 
 pub fn main() -> ExitCode {
     crate::gpu::spread_lavapipe_work();
+    crate::gpu::skip_drivers_without_devices();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {

@@ -55,8 +55,11 @@ impl GpuError {
 
     /// The "no device" error, naming the driver environment variables that are set.
     pub(crate) fn no_device(what: &str) -> GpuError {
-        let set: Vec<String> = ["VK_DRIVER_FILES", "VK_ICD_FILENAMES", "VK_ADD_DRIVER_FILES"]
+        // VK_LOADER_DRIVERS_DISABLE only when the user set it: raycast's own
+        // (gpu::skip_drivers_without_devices) leaves out drivers that could find no device.
+        let set: Vec<String> = super::DRIVER_CHOICE_VARS
             .iter()
+            .filter(|var| **var != "VK_LOADER_DRIVERS_DISABLE" || super::user_disabled_drivers())
             .filter_map(|var| std::env::var_os(var).map(|v| format!("{var}={:?}", v.to_string_lossy())))
             .collect();
         let hint = if set.is_empty() {
