@@ -147,6 +147,18 @@ fn unwritable_output() {
     let folder = out_dir();
     let o = raycast(&["render", "-o", folder.to_str().unwrap()], &[]);
     assert_fails(&o, 1, "it is a folder");
+    // Another image format's name: refused before the work, not a PNG under a .jpg name.
+    let jpg = folder.join("x.jpg");
+    let o = raycast(&["render", "-o", jpg.to_str().unwrap()], &[]);
+    assert_fails(&o, 1, "raycast writes PNG pictures; name the file .png, not .jpg");
+    assert!(!text(&o).0.contains("device:") && !jpg.exists(), "{:?}", text(&o));
+    // No extension (a device, a pipe's name): PNG all the same.
+    let bare = folder.join("no-extension");
+    let _ = std::fs::remove_file(&bare);
+    let o = raycast(&["render", "--width", "16", "--height", "12", "-o", bare.to_str().unwrap()], &[]);
+    assert_eq!(o.status.code(), Some(0), "{:?}", text(&o));
+    let bytes = std::fs::read(&bare).unwrap();
+    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG: {:?}", &bytes[..bytes.len().min(8)]);
     for args in [
         vec!["check", "-o", "/nonexistent-dir/d.png"],
         vec!["compare", "a.png", "b.png", "-o", "/nonexistent-dir/d.png"],
@@ -154,6 +166,10 @@ fn unwritable_output() {
     ] {
         let o = raycast(&args, &[]);
         assert_fails(&o, 1, "cannot write /nonexistent-dir/");
+    }
+    for args in [vec!["check", "-o", "d.bmp"], vec!["compare", "a.png", "b.png", "-o", "d.jpeg"], vec!["preview", "--screenshot", "s.tiff"]] {
+        let o = raycast(&args, &[]);
+        assert_fails(&o, 1, "raycast writes PNG pictures");
     }
 }
 

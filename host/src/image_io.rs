@@ -19,18 +19,25 @@ impl Rgb8 {
     }
 }
 
+/// Writes PNG whatever the name's extension (`check_output_path` refuses
+/// other image extensions before the work).
 pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
-    image::save_buffer(path, &image.data, image.width, image.height, image::ExtendedColorType::Rgb8)
+    image::save_buffer_with_format(path, &image.data, image.width, image.height, image::ExtendedColorType::Rgb8, image::ImageFormat::Png)
         .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 /// Whether a picture could be written to `path`, asked before the work that
-/// makes it: its folder exists and it is not itself a folder. (The write can
+/// makes it: its folder exists, it is not itself a folder, and its name
+/// ends in .png or has no extension (a device such as /dev/stdout): raycast
+/// writes PNG, and `out.jpg` holding PNG bytes would mislead. (The write can
 /// still fail later, on permissions or a full disk; `write_png` says so.)
 pub fn check_output_path(path: &Path) -> Result<(), String> {
     let cannot = |why: &str| Err(format!("cannot write {}: {why}", path.display()));
     if path.is_dir() {
         return cannot("it is a folder");
+    }
+    if let Some(ext) = path.extension().filter(|e| !e.eq_ignore_ascii_case("png")) {
+        return cannot(&format!("raycast writes PNG pictures; name the file .png, not .{}", ext.to_string_lossy()));
     }
     let folder = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
