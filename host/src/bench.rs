@@ -226,25 +226,23 @@ pub fn parse_scene(name: Option<&str>, opts: &ParseOptions) -> Result<SceneFile,
 /// Loads, counts, flattens and builds one scene, timing each part. Prints
 /// the scene's warnings and notes to stderr.
 pub fn load_scene(name: Option<&str>, opts: &ParseOptions, limits: &FlattenLimits, settings: &RenderSettings) -> Result<LoadedScene, String> {
-    let start = Instant::now();
-    let file = parse_scene(name, opts)?;
-    let counts = count_primitives(&file);
-    load_parsed(name, file, counts, start, limits, settings)
+    load_or_skip(name, opts, limits, settings, None)?.ok_or_else(|| "raycast: error: a scene was skipped unasked".to_string())
 }
 
-/// `load_scene`, or None once the scene is listed as skipped (`skipped`)
-/// because it expands to more than `limits.max_primitives`.
+/// `load_scene`; with `args`, None once the scene is listed as skipped
+/// (`skipped`) because it expands to more than `limits.max_primitives`
+/// (without, flattening refuses it).
 pub(crate) fn load_or_skip(
     name: Option<&str>,
     opts: &ParseOptions,
     limits: &FlattenLimits,
     settings: &RenderSettings,
-    args: &BenchArgs,
+    args: Option<&BenchArgs>,
 ) -> Result<Option<LoadedScene>, String> {
     let start = Instant::now();
     let file = parse_scene(name, opts)?;
     let counts = count_primitives(&file);
-    if counts.expanded > limits.max_primitives as u64 {
+    if let Some(args) = args.filter(|_| counts.expanded > limits.max_primitives as u64) {
         let why = format!("skipped: expands to more than --max-primitives {}", thousands(limits.max_primitives as u64));
         skipped(name.unwrap_or("<default scene>"), None, counts, &why, args);
         return Ok(None);
@@ -252,7 +250,7 @@ pub(crate) fn load_or_skip(
     load_parsed(name, file, counts, start, limits, settings).map(Some)
 }
 
-/// The rest of `load_scene` once the file is parsed (at `start`) and counted.
+/// The rest of `load_or_skip` once the file is parsed (at `start`) and counted.
 fn load_parsed(
     name: Option<&str>,
     file: SceneFile,
@@ -305,18 +303,26 @@ struct Row {
     identical: Option<bool>,
 }
 
-fn median(sorted: &[Duration]) -> Duration {
-    let n = sorted.len();
-    if n % 2 == 1 {
-        sorted[n / 2]
-    } else {
-        (sorted[n / 2 - 1] + sorted[n / 2]) / 2
+/// The median of `values` (the mean of the middle two for an even count);
+/// NaN when there are none.
+pub(crate) fn median(values: impl IntoIterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.into_iter().collect();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => (v[n / 2 - 1] + v[n / 2]) / 2.0,
     }
+}
+
+/// `median` of durations (none: zero).
+fn median_time(times: &[Duration]) -> Duration {
+    Duration::try_from_secs_f64(median(times.iter().map(Duration::as_secs_f64))).unwrap_or_default()
 }
 
 impl Row {
     fn median(&self) -> Duration {
-        median(&self.frames)
+        median_time(&self.frames)
     }
 
     fn mrays(&self) -> f64 {
@@ -449,7 +455,7 @@ impl Row {
             ms_f(self.median()),
             ms_f(self.frames[0]),
             ms_f(*self.frames.last().unwrap()),
-            json_num(d(&self.dispatch, median)),
+            json_num(d(&self.dispatch, median_time)),
             self.primary_rays,
             json_num(Some((self.mrays() * 1e4).round() / 1e4)),
             self.all_rays,
@@ -471,7 +477,7 @@ impl Row {
             self.frames.len()
         );
         if !self.dispatch.is_empty() {
-            let _ = write!(s, ", dispatch {} median", ms(median(&self.dispatch)));
+            let _ = write!(s, ", dispatch {} median", ms(median_time(&self.dispatch)));
         }
         let _ = write!(
             s,
@@ -698,7 +704,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     let mut all_rows: Vec<Row> = Vec::new();
     for name in names {
         reset_peak_host();
-        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, Some(args)).map_err(scene_failure)? else {
             continue;
         };
         let load_peak = peak_host_bytes();
@@ -779,7 +785,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             row.host_peak = peak(peak_host_bytes());
             if let (Some(g), Some(p)) = (rows.first(), &gpu_picture) {
                 row.frames.sort();
-                row.cpu_over_gpu = Some(median(&row.frames).as_secs_f64() / g.median().as_secs_f64().max(1e-12));
+                row.cpu_over_gpu = Some(median_time(&row.frames).as_secs_f64() / g.median().as_secs_f64().max(1e-12));
                 row.identical = last.map(|c| bytemuck::cast_slice::<PixelOut, u8>(&c.pixels) == bytemuck::cast_slice::<PixelOut, u8>(&p.pixels));
             }
             rows.push(row);
@@ -877,6 +883,18 @@ mod tests {
             })
             .sum();
         assert_eq!(device_bytes(&loaded.data, true), expect - scene + images);
+    }
+
+    /// One median for bench's frames and versus's ratios: unsorted input,
+    /// odd and even counts, none.
+    #[test]
+    fn medians() {
+        assert_eq!(median([3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median([4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert!(median(std::iter::empty()).is_nan());
+        let ms = Duration::from_millis;
+        assert_eq!(median_time(&[ms(30), ms(10), ms(20), ms(40)]), ms(25));
+        assert_eq!(median_time(&[]), Duration::ZERO);
     }
 
     #[test]

@@ -14,7 +14,7 @@
 //!   chance of a split at least that uneven if the kernels were alike);
 //! - whether the two pictures have the same bits (`check::compare`).
 
-use crate::bench::{json_str, load_or_skip, skipped, BenchArgs, BenchBackend};
+use crate::bench::{json_str, load_or_skip, median, skipped, BenchArgs, BenchBackend};
 use crate::check;
 use crate::cli::{check_validation, open_renderer, scene_failure, Failure};
 use crate::gpu::GpuError;
@@ -42,19 +42,6 @@ pub struct Verdict {
     pub p_value: f64,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    }
-}
-
 /// P(a split at least as uneven as k of n | each side wins with chance 1/2), both tails.
 pub fn sign_test(k: usize, n: usize) -> f64 {
     if n == 0 {
@@ -80,8 +67,8 @@ impl Pairs {
         let min = ratios.iter().copied().fold(f64::INFINITY, f64::min);
         let max = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         Verdict {
-            a_median_ms: median(self.a.iter().map(ms).collect()),
-            b_median_ms: median(self.b.iter().map(ms).collect()),
+            a_median_ms: median(self.a.iter().map(ms)),
+            b_median_ms: median(self.b.iter().map(ms)),
             ratio: (median(ratios), min, max),
             b_faster,
             a_faster,
@@ -119,7 +106,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     let names: Vec<Option<&str>> = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
     for name in names {
         // Over --max-primitives: listed as skipped, as `bench` does.
-        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, Some(args)).map_err(scene_failure)? else {
             continue;
         };
         // Which kernel each runs: a folder without render_uniform.comp has only the storage one.
