@@ -138,6 +138,28 @@ fn unknown_flag_is_a_usage_error() {
     assert_fails(&raycast(&["render", "--frobnicate"], &[]), 2, "--frobnicate");
 }
 
+/// Stdout closed by its reader (`raycast render | head -1`): the status
+/// lines are lost, the picture is written and the exit status is 0, where
+/// println! panicked on the broken pipe.
+#[test]
+fn closed_stdout_is_no_panic() {
+    let png = out_dir().join("closed-stdout.png");
+    let _ = std::fs::remove_file(&png);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(["render", "--width", "32", "--height", "24", "-o", png.to_str().unwrap()])
+        .env("RAYCAST_VALIDATION", "1")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run raycast");
+    drop(child.stdout.take()); // the reader is gone before the first line
+    let o = child.wait_with_output().expect("wait for raycast");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(raycast::image_io::read_png(&png).is_ok(), "no picture at {}", png.display());
+}
+
 #[test]
 fn unwritable_output() {
     let o = raycast(&["render", "-o", "/nonexistent-dir/x.png"], &[]);

@@ -262,13 +262,13 @@ fn load_parsed(
     let scene = scene::flatten(&file, limits).map_err(|e| e.to_string())?;
     drop(file);
     for w in &scene.warnings {
-        eprintln!("{w}");
+        errln!("{w}");
     }
     let data = frame::build(&scene, settings)?;
     let build = data.build_time;
     let load = start.elapsed().saturating_sub(build);
     for note in &data.notes {
-        eprintln!("raycast: note: {note}");
+        errln!("raycast: note: {note}");
     }
     Ok(LoadedScene {
         name: name.unwrap_or("<default scene>").to_string(),
@@ -543,7 +543,7 @@ fn short_name(scene: &str) -> &str {
 /// over --max-primitives, or cut short by the device (lavapipe's loop budget).
 pub(crate) fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCounts, why: &str, args: &BenchArgs) {
     if args.json {
-        println!(
+        outln!(
             "{{\"scene\":{},{}\"skipped\":{},\"primitives_expanded\":{},\"primitives_unique\":{}}}",
             json_str(scene),
             backend.map(|b| format!("\"backend\":{},", json_str(b))).unwrap_or_default(),
@@ -552,7 +552,7 @@ pub(crate) fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCount
             counts.unique
         );
     } else if args.markdown {
-        println!(
+        outln!(
             "| {} | {} | {} / {} | {why} |{}",
             short_name(scene),
             backend.unwrap_or("–"),
@@ -561,7 +561,7 @@ pub(crate) fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCount
             " – |".repeat(MARKDOWN_HEADER.lines().next().unwrap_or("").matches('|').count() - 5)
         );
     } else {
-        println!(
+        outln!(
             "scene: {scene} ({} primitives expanded, {} unique){}: {why}",
             thousands(counts.expanded),
             thousands(counts.unique),
@@ -624,8 +624,8 @@ fn growth(rows: &[Row]) -> Vec<Growth<'_>> {
 /// the ratio of the logarithms of their expanded primitive counts.
 fn print_growth(rows: &[Row], markdown: bool) {
     let Some(first) = rows.first() else { return };
-    println!();
-    println!(
+    outln!();
+    outln!(
         "Growth against {} ({} primitives): frame median over its frame median, and ln N / ln N0, the ratio logarithmic growth allows; \
          rays: every ray of the frame over its, and a ray: the frame ratio over the rays' (deeper scenes cover more of the picture, \
          so they trace more shadow and mirror rays).",
@@ -633,22 +633,22 @@ fn print_growth(rows: &[Row], markdown: bool) {
         thousands(first.counts.expanded)
     );
     if markdown {
-        println!();
-        println!("| scene | primitives N | ln N / ln N0 | rays / first | gpu frame / first | gpu a ray / first | cpu frame / first | cpu a ray / first |");
-        println!("|---|---|---|---|---|---|---|---|");
+        outln!();
+        outln!("| scene | primitives N | ln N / ln N0 | rays / first | gpu frame / first | gpu a ray / first | cpu frame / first | cpu a ray / first |");
+        outln!("|---|---|---|---|---|---|---|---|");
     }
     let text = |x: Option<f64>| x.map_or("–".to_string(), |x| format!("{x:.2}"));
     for g in growth(rows) {
         let (l, rays, gpu, cpu) = (text(g.log_ratio), text(g.rays), text(g.gpu), text(g.cpu));
         let (gpu_ray, cpu_ray) = (text(g.per_ray(g.gpu)), text(g.per_ray(g.cpu)));
         if markdown {
-            println!(
+            outln!(
                 "| {} | {} | {l} | {rays} | {gpu} | {gpu_ray} | {cpu} | {cpu_ray} |",
                 short_name(g.scene),
                 thousands(g.primitives)
             );
         } else {
-            println!(
+            outln!(
                 "  {}: N = {}, ln N / ln N0 {l}, rays {rays}, gpu {gpu} ({gpu_ray} a ray), cpu {cpu} ({cpu_ray} a ray)",
                 g.scene,
                 thousands(g.primitives)
@@ -681,19 +681,19 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     let plural = |n: u32, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
     let frames_text = format!("median of {} after {}", plural(args.frames, "frame"), plural(args.warmup, "warm-up frame"));
     if args.markdown {
-        println!("`{}`", command_line());
-        println!();
+        outln!("`{}`", command_line());
+        outln!();
         let devices: Vec<&str> = [gpu_device.as_deref(), cpu_device.as_deref()].into_iter().flatten().collect();
-        println!("{}; {frames_text}; {}.", settings_text(&settings), devices.join("; "));
-        println!();
-        println!("{MARKDOWN_HEADER}");
+        outln!("{}; {frames_text}; {}.", settings_text(&settings), devices.join("; "));
+        outln!();
+        outln!("{MARKDOWN_HEADER}");
     } else if !args.json {
         for d in [&gpu_device, &cpu_device].into_iter().flatten() {
-            println!("device: {d}");
+            outln!("device: {d}");
         }
-        println!("settings: {}; {frames_text}", settings_text(&settings));
+        outln!("settings: {}; {frames_text}", settings_text(&settings));
         if !peaks_per_scene {
-            println!("note: cannot reset the peak resident set (/proc/self/clear_refs): host peaks are the process's so far");
+            outln!("note: cannot reset the peak resident set (/proc/self/clear_refs): host peaks are the process's so far");
         }
     }
 
@@ -796,14 +796,14 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         }
         if args.json {
             for row in &rows {
-                println!("{}", row.json(&settings, args.warmup));
+                outln!("{}", row.json(&settings, args.warmup));
             }
         } else if args.markdown {
             for row in &rows {
-                println!("{}", row.markdown());
+                outln!("{}", row.markdown());
             }
         } else {
-            println!(
+            outln!(
                 "scene: {} ({} primitives expanded, {} unique; {} lights)\n  load {} (parse, count, flatten, textures), build {} (hierarchy)",
                 loaded.name,
                 thousands(loaded.counts.expanded),
@@ -813,14 +813,14 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
                 ms(loaded.build)
             );
             for row in &rows {
-                println!("{}", row.human());
+                outln!("{}", row.human());
             }
         }
         all_rows.extend(rows);
     }
     if args.markdown {
-        println!();
-        println!(
+        outln!();
+        outln!(
             "load: parse, count, flatten, textures; build: the bounding volume hierarchies and the packing of the groups (`FrameData::build_time`); frame: one whole render call (gpu: upload, dispatch, readback; cpu: every row on every thread); \
              primary Mrays/s: {}x{}x{} camera rays over the frame median; all Mrays/s: every ray of the frame (camera, shadow, mirror; the pixels count them) over the frame median; \
              host peak: VmHWM while loading that scene and rendering it on that backend (the Vulkan driver included); \

@@ -225,7 +225,7 @@ pub fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure(message, code)) => {
-            eprintln!("{message}");
+            errln!("{message}");
             ExitCode::from(code)
         }
     }
@@ -248,7 +248,7 @@ pub(crate) fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
         return Ok(());
     }
     for m in &messages {
-        eprintln!("raycast: validation: {m}");
+        errln!("raycast: validation: {m}");
     }
     Err(Failure(format!("raycast: error: the Vulkan validation layer reported {} message(s)", messages.len()), 3))
 }
@@ -256,8 +256,8 @@ pub(crate) fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
 fn devices() -> Result<(), Failure> {
     let list = gpu::list_devices()?;
     for d in &list {
-        println!("{}: {} ({}, Vulkan {}, driver {})", d.index, d.name, d.kind, d.api_version, d.driver);
-        println!("   arithmetic: {}", d.arithmetic);
+        outln!("{}: {} ({}, Vulkan {}, driver {})", d.index, d.name, d.kind, d.api_version, d.driver);
+        outln!("   arithmetic: {}", d.arithmetic);
     }
     Ok(())
 }
@@ -276,7 +276,7 @@ pub fn load_scene(path: Option<&Path>, opts: &ParseOptions, limits: &FlattenLimi
     }
     .map_err(|e| e.to_string())?;
     for w in &scene.warnings {
-        eprintln!("{w}");
+        errln!("{w}");
     }
     Ok(scene)
 }
@@ -314,7 +314,7 @@ fn prepare(args: &FrameArgs) -> Result<Prepared, Failure> {
         .map_err(scene_failure)?;
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
-        eprintln!("raycast: note: {note}");
+        errln!("raycast: note: {note}");
     }
     Ok(Prepared { scene, data, load: start.elapsed() })
 }
@@ -347,7 +347,7 @@ pub(crate) fn open_renderer(
 }
 
 fn print_scene(p: &Prepared) {
-    println!(
+    outln!(
         "scene: {} ({} primitives, {} unique in {} groups, {} lights; hierarchy built in {})",
         p.scene.path.display(),
         p.data.expanded,
@@ -362,7 +362,7 @@ fn print_scene(p: &Prepared) {
 fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure> {
     let kernel = renderer.kernel_for(data)?;
     let spec = crate::render::Specialization::of(data, &data.frame);
-    println!("kernel: {}, specialised for the scene: {}", kernel.name(), spec.describe());
+    outln!("kernel: {}, specialised for the scene: {}", kernel.name(), spec.describe());
     Ok(())
 }
 
@@ -383,7 +383,7 @@ fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> String {
 fn write_picture(path: &Path, picture: &Picture) -> Result<(), Failure> {
     let image = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8() };
     image_io::write_png(path, &image)?;
-    println!("wrote {} ({}x{})", path.display(), picture.width, picture.height);
+    outln!("wrote {} ({}x{})", path.display(), picture.width, picture.height);
     Ok(())
 }
 
@@ -393,18 +393,18 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     let p = prepare(&args.frame)?;
     if args.backend == Backend::Cpu {
         let cpu = CpuRenderer::new()?;
-        println!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
+        outln!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
         print_scene(&p);
         let start = Instant::now();
         let picture = cpu.render(&p.data);
         let time = start.elapsed();
-        println!("time: load {}, render {}", ms(p.load), ms(time));
-        println!("{}", rate_line(&p.data, &picture, time));
+        outln!("time: load {}, render {}", ms(p.load), ms(time));
+        outln!("{}", rate_line(&p.data, &picture, time));
         return write_picture(&output, &picture);
     }
     let renderer = gpu_renderer(&args.frame)?;
     let info = renderer.context().info();
-    println!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
+    outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
     print_scene(&p);
     let (mut picture, t) = if args.frame.shaders.is_some() {
         // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
@@ -414,7 +414,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     };
     if picture.pixels.iter().any(crate::layout::PixelOut::is_cut_short) {
         let finished = crate::render::finish_cut_short(&mut picture, &p.data, &CpuRenderer::new()?);
-        eprintln!(
+        errln!(
             "raycast: note: {} cut {finished} of {} pixels short (Mesa's lavapipe gives each shader invocation 65535 loop \
              iterations in all); the CPU build of the same code computed those pixels, which on lavapipe gives the \
              same bits (`raycast check` compares the two builds)",
@@ -422,7 +422,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
             picture.pixels.len()
         );
     }
-    println!(
+    outln!(
         "time: load {}, upload {}, compile {}, dispatch {}, readback {}",
         ms(p.load),
         ms(t.upload),
@@ -430,10 +430,10 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         ms(t.dispatch),
         ms(t.readback)
     );
-    println!("{}", rate_line(&p.data, &picture, t.dispatch));
+    outln!("{}", rate_line(&p.data, &picture, t.dispatch));
     print_kernel(&renderer, &p.data)?;
     if info.kind == "cpu" {
-        println!(
+        outln!(
             "hint: {} runs on the CPU; `--backend cpu` runs the same code natively, without Vulkan's start-up or a \
              pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md)",
             info.name
@@ -459,7 +459,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     let cpu = CpuRenderer::new()?;
     let device = renderer.context().info().name.clone();
     print_scene(&p);
-    println!(
+    outln!(
         "check: {} on {device} against the CPU build ({} threads), {}x{}, every buffer bit for bit",
         if args.frame.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
         cpu.threads,
@@ -470,12 +470,12 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     print_kernel(&renderer, &p.data)?;
     let cpu_picture = cpu.render(&p.data);
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
-    println!("{report}");
+    outln!("{report}");
     // The diff image where asked (-o), or by default when there is something to see.
     if args.output.is_some() || !report.identical() {
         let diff_path = args.output.clone().unwrap_or_else(|| default_output(&args.frame, "-check"));
         image_io::write_png(&diff_path, &report.diff_image)?;
-        println!("wrote {} (red: pixels that differ)", diff_path.display());
+        outln!("wrote {} (red: pixels that differ)", diff_path.display());
     }
     let messages = renderer.context().take_validation_messages();
     drop(renderer);
@@ -487,7 +487,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         return Ok(());
     }
     if report.differing_pixels <= args.allow_pixels {
-        println!(
+        outln!(
             "NOT EXACT: {} pixels differ, accepted by --allow-pixels {} (lavapipe and an NVIDIA H100 measured exact; \
              a driver that does not fuse `fma` or honour `precise` may not be: README, \"On a GPU too\")",
             report.differing_pixels, args.allow_pixels
@@ -528,13 +528,13 @@ fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cp
     let results = harness.run(&cases);
     for (&(x, y), r) in args.pixel.iter().zip(&results) {
         let index = (y * width + x) as usize;
-        println!("pixel ({x}, {y}) in the frame:  device {}", pixel_text(&gpu_picture.pixels[index]));
-        println!("                              cpu    {}", pixel_text(&cpu_picture.pixels[index]));
+        outln!("pixel ({x}, {y}) in the frame:  device {}", pixel_text(&gpu_picture.pixels[index]));
+        outln!("                              cpu    {}", pixel_text(&cpu_picture.pixels[index]));
         let alone = |v: &Option<crate::harness::Value>| v.as_ref().map_or("did not run".to_string(), |v| v.text());
-        println!("  alone (harness, {}): device {}", if r.passed { "identical" } else { "DIFFER" }, alone(&r.device));
-        println!("                              cpu    {}", alone(&r.cpu));
+        outln!("  alone (harness, {}): device {}", if r.passed { "identical" } else { "DIFFER" }, alone(&r.device));
+        outln!("                              cpu    {}", alone(&r.cpu));
         if r.device.is_none() || r.cpu.is_none() {
-            println!("{}", r.report);
+            outln!("{}", r.report);
         }
     }
     check_validation(harness.take_validation_messages())
@@ -557,10 +557,10 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
     let actual = image_io::read_png(&args.actual)?;
     let expected = image_io::read_png(&args.expected)?;
     let diff = image_io::compare(&actual, &expected, args.tolerance)?;
-    println!("{diff}");
+    outln!("{diff}");
     if let Some(path) = &args.output {
         image_io::write_png(path, &diff.diff_image)?;
-        println!("wrote {} (red: pixels that differ)", path.display());
+        outln!("wrote {} (red: pixels that differ)", path.display());
     }
     if diff.fraction() * 100.0 > args.max_percent {
         return Err(Failure(

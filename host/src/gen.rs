@@ -141,7 +141,7 @@ pub(crate) fn run(args: &GenArgs) -> Result<(), Failure> {
         None => std::io::stdout().lock().write_all(xml.as_bytes())?,
         Some(path) => {
             std::fs::write(path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-            eprintln!(
+            errln!(
                 "wrote {} ({} --depth {}: {} primitives expanded, {} in the file, {} bytes)",
                 path.display(),
                 args.family.name(),

@@ -6,6 +6,36 @@
 //! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
 //! and compares pictures, `cli` is the command line.
 
+/// `println!` that goes on when stdout is closed (`raycast render | head`):
+/// the status lines are for reading, the work (the PNG, the exit status)
+/// is what counts, and `println!` panics on a broken pipe.
+macro_rules! outln {
+    () => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout());
+    }};
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// `print!`, going on when stdout is closed (`outln!`).
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// `eprintln!`, going on when stderr is closed (`outln!`).
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 pub mod bvh;
 pub mod bench;
 pub mod cli;

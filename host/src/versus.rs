@@ -94,9 +94,9 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     let b = open_renderer(&r.device, r.validate, Some(versus), r.scene_buffers)?;
     if !args.json {
         let info = a.context().info();
-        println!("device: {} ({}), two devices in one process", info.name, info.kind);
-        println!("A: {a_name}\nB: {b_name}");
-        println!(
+        outln!("device: {} ({}), two devices in one process", info.name, info.kind);
+        outln!("A: {a_name}\nB: {b_name}");
+        outln!(
             "{} pairs of frames after {} warm-up frames each, in turn A B, B A, …; dispatch times",
             args.frames, args.warmup
         );
@@ -150,7 +150,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
             format!("differ ({} of {} pixels)", report.differing_pixels, u64::from(pa.width) * u64::from(pa.height))
         };
         if args.json {
-            println!(
+            outln!(
                 "{{\"scene\":{},\"a\":{},\"b\":{},\"a_kernel\":{},\"b_kernel\":{},\"pairs\":{},\"a_dispatch_ms\":{:.3},\"b_dispatch_ms\":{:.3},\"ratio_median\":{:.4},\"ratio_min\":{:.4},\"ratio_max\":{:.4},\"b_faster\":{},\"a_faster\":{},\"sign_test_p\":{:.4},\"identical\":{}}}",
                 json_str(&loaded.name),
                 json_str(&a_name),
@@ -169,16 +169,16 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
                 report.identical()
             );
         } else {
-            println!("scene: {}", loaded.name);
+            outln!("scene: {}", loaded.name);
             if kernels.0 != kernels.1 {
-                println!("  kernels differ: A {}, B {} (the scene's arrays read another way)", kernels.0, kernels.1);
+                outln!("  kernels differ: A {}, B {} (the scene's arrays read another way)", kernels.0, kernels.1);
             }
-            println!("  dispatch median: A {:.1} ms, B {:.1} ms", v.a_median_ms, v.b_median_ms);
-            println!(
+            outln!("  dispatch median: A {:.1} ms, B {:.1} ms", v.a_median_ms, v.b_median_ms);
+            outln!(
                 "  B/A: {:.3} median of {} pairs ({:.3} – {:.3}); B faster in {}, A in {} (sign test p = {:.3})",
                 v.ratio.0, args.frames, v.ratio.1, v.ratio.2, v.b_faster, v.a_faster, v.p_value
             );
-            println!("  pictures: {pictures}");
+            outln!("  pictures: {pictures}");
         }
     }
     let messages = [a.context().take_validation_messages(), b.context().take_validation_messages()].concat();

@@ -51,7 +51,7 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
     }
     let total: usize = per_file.iter().map(|(_, c)| c.len()).sum();
     let d = harness.device();
-    println!(
+    outln!(
         "shader-test: {total} cases from {} file{}; device {} ({}); shaders {}",
         per_file.len(),
         if per_file.len() == 1 { "" } else { "s" },
@@ -68,25 +68,25 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
         at += cases.len();
         let failed = mine.iter().filter(|r| !r.passed).count();
         if failed == 0 {
-            println!("ok   {shown}: {} cases", cases.len());
+            outln!("ok   {shown}: {} cases", cases.len());
         } else {
-            println!("FAIL {shown}: {failed} of {} cases failed", cases.len());
+            outln!("FAIL {shown}: {failed} of {} cases failed", cases.len());
         }
     }
     for r in results.iter().filter(|r| !r.passed) {
-        print!("\n{}", r.report);
+        out!("\n{}", r.report);
     }
     let failed = results.iter().filter(|r| !r.passed).count();
     if failed > 0 {
-        println!();
+        outln!();
     }
-    println!("{}", summary(&results));
+    outln!("{}", summary(&results));
 
     let messages = harness.take_validation_messages();
     drop(harness);
     if !messages.is_empty() {
         for m in &messages {
-            eprintln!("raycast: validation: {m}");
+            errln!("raycast: validation: {m}");
         }
         return Err((format!("raycast: error: the Vulkan validation layer reported {} message(s)", messages.len()), 3));
     }

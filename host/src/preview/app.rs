@@ -65,7 +65,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(scene_failure)?;
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
-        eprintln!("raycast: note: {note}");
+        errln!("raycast: note: {note}");
     }
     let (shaders, compile_at_start) = shader_folder(args.shaders.as_deref())?;
 
@@ -121,8 +121,8 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
     })?);
     let info = context.info().clone();
-    println!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
-    println!("scene: {} ({} primitives, {} lights)", scene.path.display(), data.primitives.len(), data.lights.len());
+    outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
+    outln!("scene: {} ({} primitives, {} lights)", scene.path.display(), data.primitives.len(), data.lights.len());
 
     // A --shaders folder's kernel from the first frame on (so --frames and
     // --screenshot see it); a compile error ends the command.
@@ -145,7 +145,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let renderer = PreviewRenderer::new(context.clone(), kernel, &data, size, window_size, mode)?;
     let sc = renderer.swapchain();
     if sc.mode() != sc.requested_mode() {
-        eprintln!("raycast: note: the window does not offer --present-mode {}; using fifo", sc.requested_mode().name());
+        errln!("raycast: note: the window does not offer --present-mode {}; using fifo", sc.requested_mode().name());
     }
 
     let watcher = Watcher::spawn(WatchConfig {
@@ -163,7 +163,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     preview.reflections = !args.no_reflections;
     preview.textures = !args.no_textures;
     if args.screenshot.is_none() && args.frames.is_none() {
-        eprintln!("raycast: preview: F1 prints the controls, Esc quits");
+        errln!("raycast: preview: F1 prints the controls, Esc quits");
     }
     let result = preview.run(&mut glfw, &mut window, &events, &watcher, args.frames.or(args.screenshot.as_ref().map(|_| 1)), args.screenshot.as_deref());
 
@@ -191,7 +191,7 @@ fn shader_folder(arg: Option<&Path>) -> Result<(Option<PathBuf>, bool), Failure>
     if source.join(KERNEL_FILE).is_file() {
         Ok((Some(source.canonicalize().unwrap_or_else(|_| source.to_path_buf())), false))
     } else {
-        eprintln!(
+        errln!(
             "raycast: note: shader reload is off: the source tree's shaders/ ({}) is not here; use --shaders DIR",
             source.display()
         );
@@ -442,7 +442,7 @@ impl Preview {
             }
             let cut = self.renderer.cut_short()?;
             if cut > 0 && self.cut_short == 0 {
-                eprintln!(
+                errln!(
                     "raycast: preview: the picture is WRONG: the device cut {cut} pixels short. Mesa's lavapipe gives each \
                      shader invocation 65535 loop iterations in all and these pixels need more; \
                      reflections off (M) or another Vulkan device avoid it"
@@ -598,7 +598,7 @@ impl Preview {
     fn report_moving(&self) {
         let mut times: Vec<(Duration, [u32; 2])> = self.moving_times.iter().skip(1).copied().collect();
         if times.is_empty() {
-            println!("moving: too few frames to time (--moving 2 or more, with --frames more than that)");
+            outln!("moving: too few frames to time (--moving 2 or more, with --frames more than that)");
             return;
         }
         let sizes: Vec<String> = {
@@ -608,7 +608,7 @@ impl Preview {
         };
         times.sort();
         let median = times[times.len() / 2].0.as_secs_f64();
-        println!(
+        outln!(
             "moving: {} frames at {} (the picture {}x{}): median {:.1} ms a frame, {:.1} frames a second",
             times.len(),
             sizes.join(" then "),
@@ -718,7 +718,7 @@ impl Preview {
                     self.restart();
                 }
             }
-            Key::C => println!("{}", self.camera.cameradata_block()),
+            Key::C => outln!("{}", self.camera.cameradata_block()),
             Key::H => {
                 self.shadows = !self.shadows;
                 self.restart();
@@ -731,7 +731,7 @@ impl Preview {
                 self.textures = !self.textures;
                 self.restart();
             }
-            Key::F1 => println!("{HELP}"),
+            Key::F1 => outln!("{HELP}"),
             _ => {}
         }
     }
@@ -757,10 +757,10 @@ impl Preview {
             Reload::Scene(loaded) => {
                 let (scene, data) = *loaded;
                 for w in &scene.warnings {
-                    eprintln!("{w}");
+                    errln!("{w}");
                 }
                 for note in &data.notes {
-                    eprintln!("raycast: note: {note}");
+                    errln!("raycast: note: {note}");
                 }
                 self.renderer.set_scene(&data)?;
                 let new_camera = scene.camera != self.scene.camera;
@@ -768,7 +768,7 @@ impl Preview {
                 if new_camera {
                     self.camera = CameraControl::new(&scene.camera, self.bounds);
                 }
-                eprintln!(
+                errln!(
                     "raycast: preview: reloaded {} ({} primitives, {} lights)",
                     scene.path.display(),
                     data.primitives.len(),
@@ -781,7 +781,7 @@ impl Preview {
             }
             Reload::Kernel(kernels) => match self.renderer.set_kernels(kernels, &self.data)? {
                 Ok(()) => {
-                    eprintln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
+                    errln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
                     self.error = None;
                     self.restart();
                 }
@@ -797,8 +797,8 @@ impl Preview {
     /// A reload that did not take: says why, keeps the last good picture
     /// and shows the first error line in the title.
     fn reload_failed(&mut self, message: &str) {
-        eprintln!("{message}");
-        eprintln!("raycast: preview: keeping the last good picture");
+        errln!("{message}");
+        errln!("raycast: preview: keeping the last good picture");
         let first = message.lines().find(|l| l.contains("ERROR") || l.contains("error")).or(message.lines().next());
         let first = first.unwrap_or_default().trim();
         self.error = Some(first.strip_prefix("ERROR: ").unwrap_or(first).to_string());
@@ -819,11 +819,11 @@ impl Preview {
         let (j, i) = (j as u32, i as u32);
         let p = self.renderer.pixel(j, i)?;
         if p.id == NO_HIT {
-            println!("pixel ({j}, {i}): nothing (the ray misses every primitive)");
+            outln!("pixel ({j}, {i}): nothing (the ray misses every primitive)");
             return Ok(());
         }
         let Some(prim) = self.scene.primitive(u64::from(p.id)) else {
-            println!("pixel ({j}, {i}): primitive {} (not in the scene on the host: reloading?)", p.id);
+            outln!("pixel ({j}, {i}): primitive {} (not in the scene on the host: reloading?)", p.id);
             return Ok(());
         };
         // The ray through the pixel centre, as camera_ray in raycast.glsl (in f64, for the report).
@@ -837,15 +837,15 @@ impl Preview {
         let m = &self.scene.materials[prim.material as usize];
         let v3 = |v: DVec3| format!("({:.4}, {:.4}, {:.4})", v.x, v.y, v.z);
         let c3 = |c: [f32; 3]| format!("({}, {}, {})", c[0], c[1], c[2]);
-        println!("pixel ({j}, {i}): primitive {} ({}) at {}", p.id, shape_name(&prim.shape), prim.loc);
-        println!(
+        outln!("pixel ({j}, {i}): primitive {} ({}) at {}", p.id, shape_name(&prim.shape), prim.loc);
+        outln!(
             "  t {} (ray direction not unit; distance {:.4}), position {}, normal {}",
             p.t,
             f64::from(p.t) * dir.length(),
             v3(hit),
             v3(DVec3::new(f64::from(p.normal[0]), f64::from(p.normal[1]), f64::from(p.normal[2])))
         );
-        println!(
+        outln!(
             "  material: diffuse {} ambient {} specular {} shininess {} reflective {} transparent {} emissive {} ior {} blend {}{}",
             c3(m.diffuse),
             c3(m.ambient),
@@ -873,7 +873,7 @@ impl Preview {
         )?;
         let picture = Picture { width, height, pixels };
         image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8() })?;
-        println!("wrote {} ({width}x{height}, {} samples per pixel)", path.display(), self.sample);
+        outln!("wrote {} ({width}x{height}, {} samples per pixel)", path.display(), self.sample);
         Ok(())
     }
 }
