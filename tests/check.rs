@@ -117,7 +117,7 @@ fn main() -> ExitCode {
             let without = RenderSettings { bvh: false, ..with.clone() };
             match (frame::build(&scene, &with), frame::build(&scene, &without)) {
                 (Ok(a), Ok(b)) => {
-                    let report = check::compare(&cpu.render(&a), "bvh", &cpu.render(&b), "no-bvh").expect("same size");
+                    let report = check::compare(&cpu.render(&a).unwrap(), "bvh", &cpu.render(&b).unwrap(), "no-bvh").expect("same size");
                     if report.identical() {
                         passed += 1;
                         println!("ok     {label}: identical");
@@ -147,7 +147,7 @@ fn main() -> ExitCode {
                 let label = format!("{name} Color {what}, device against cpu");
                 match frame::build(&scene, &settings).map_err(|e| e.to_string()).and_then(|d| {
                     let (g, _) = renderer.render(&d).map_err(|e| e.to_string())?;
-                    check::compare(&g, "device", &cpu.render(&d), "cpu")
+                    check::compare(&g, "device", &cpu.render(&d).unwrap(), "cpu")
                 }) {
                     Ok(report) if report.identical() => {
                         passed += 1;
@@ -187,7 +187,7 @@ fn main() -> ExitCode {
                         continue;
                     }
                 };
-                let cpu_picture = cpu.render(&data);
+                let cpu_picture = cpu.render(&data).unwrap();
                 let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu").expect("same size");
                 let messages = gpu.context().take_validation_messages();
                 if report.identical() && messages.is_empty() {

@@ -160,6 +160,21 @@ fn closed_stdout_is_no_panic() {
     assert!(raycast::image_io::read_png(&png).is_ok(), "no picture at {}", png.display());
 }
 
+/// A picture too large for the memory the CPU build can have (16384 x
+/// 16384, 8 GiB of pixels, under a 2 GB address-space limit): a clear
+/// error and exit status 1, where `vec!` aborted the process.
+#[test]
+fn cpu_picture_beyond_memory_is_an_error() {
+    let exe = env!("CARGO_BIN_EXE_raycast");
+    let png = out_dir().join("huge-cpu.png");
+    let o = Command::new("sh")
+        .args(["-c", &format!("ulimit -v 2000000 && exec '{exe}' render --backend cpu --width 16384 --height 16384 -o '{}'", png.display())])
+        .output()
+        .expect("run raycast under sh");
+    assert_fails(&o, 1, "raycast: error: cannot allocate 8 GiB (8589934592 bytes) for the 16384x16384 picture's pixels (32 bytes each); render a smaller image");
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"), "{:?}", text(&o));
+}
+
 #[test]
 fn unwritable_output() {
     let o = raycast(&["render", "-o", "/nonexistent-dir/x.png"], &[]);

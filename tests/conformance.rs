@@ -113,7 +113,7 @@ fn run_case(renderer: &GpuRenderer, corpus: &Path, case: &Case, out_dir: &Path) 
     };
     let data = frame::build(&scene, &settings)?;
     let (picture, _) = renderer.render(&data).map_err(|e| e.to_string())?;
-    let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8() };
+    let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
     let expected = image_io::read_png(&case.reference)?;
     let diff = image_io::compare(&actual, &expected, TOLERANCE)?;
 

@@ -772,12 +772,12 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             let mut row = row("cpu", device);
             reset_peak_host();
             for _ in 0..args.warmup {
-                c.render(&loaded.data);
+                c.render(&loaded.data)?;
             }
             let mut last = None;
             for _ in 0..args.frames {
                 let start = Instant::now();
-                let picture = c.render(&loaded.data);
+                let picture = c.render(&loaded.data)?;
                 row.frames.push(start.elapsed());
                 row.all_rays = picture.rays();
                 last = Some(picture);

@@ -381,7 +381,7 @@ fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> String {
 }
 
 fn write_picture(path: &Path, picture: &Picture) -> Result<(), Failure> {
-    let image = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8() };
+    let image = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
     image_io::write_png(path, &image)?;
     outln!("wrote {} ({}x{})", path.display(), picture.width, picture.height);
     Ok(())
@@ -396,7 +396,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         outln!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
         print_scene(&p);
         let start = Instant::now();
-        let picture = cpu.render(&p.data);
+        let picture = cpu.render(&p.data)?;
         let time = start.elapsed();
         outln!("time: load {}, render {}", ms(p.load), ms(time));
         outln!("{}", rate_line(&p.data, &picture, time));
@@ -468,7 +468,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     );
     let (gpu_picture, _) = renderer.render(&p.data)?;
     print_kernel(&renderer, &p.data)?;
-    let cpu_picture = cpu.render(&p.data);
+    let cpu_picture = cpu.render(&p.data)?;
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
     outln!("{report}");
     // The diff image where asked (-o), or by default when there is something to see.

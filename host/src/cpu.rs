@@ -73,9 +73,11 @@ impl CpuRenderer {
         Ok(CpuRenderer { threads })
     }
 
-    pub fn render(&self, data: &FrameData) -> Picture {
+    /// The frame on every core; an error when its pixels' memory cannot be had.
+    pub fn render(&self, data: &FrameData) -> Result<Picture, String> {
         let (width, height) = (data.frame.width, data.frame.height);
-        let mut pixels = vec![PixelOut::default(); width as usize * height as usize];
+        let what = format!("the {width}x{height} picture's pixels ({} bytes each)", std::mem::size_of::<PixelOut>());
+        let mut pixels = crate::render::try_filled(width as usize * height as usize, PixelOut::default(), &what)?;
         // Jobs: disjoint slices of ROWS_PER_JOB rows.
         let jobs = pixels.chunks_mut(width as usize * ROWS_PER_JOB as usize).enumerate().map(|(job, slice)| {
             let begin = job as u32 * ROWS_PER_JOB;
@@ -83,7 +85,7 @@ impl CpuRenderer {
         });
         let done = self.run(data, jobs);
         debug_assert_eq!(done, height);
-        Picture { width, height, pixels }
+        Ok(Picture { width, height, pixels })
     }
 
     /// Rows `rows` of the frame (each below its height), in that order: a
@@ -190,7 +192,7 @@ mod tests {
                 max_depth: depth,
                 ..Default::default()
             };
-            let picture = renderer.render(&crate::frame::build(&mirrors(second), &settings).unwrap());
+            let picture = renderer.render(&crate::frame::build(&mirrors(second), &settings).unwrap()).unwrap();
             let wrong: Vec<(usize, u32)> =
                 picture.pixels.iter().enumerate().filter(|(_, p)| p.rays != want).map(|(i, p)| (i, p.rays)).collect();
             assert!(

@@ -39,16 +39,31 @@ pub struct Picture {
     pub pixels: Vec<PixelOut>,
 }
 
+/// `n` copies of `value`, or an error naming `what` and the bytes when the
+/// memory cannot be had (an absurd picture size on the CPU), where `vec!`
+/// would abort the process.
+pub(crate) fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, String> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| {
+        let bytes = (n as u128 * std::mem::size_of::<T>() as u128).min(u128::from(u64::MAX)) as u64;
+        format!(
+            "cannot allocate {} for {what}; render a smaller image",
+            crate::gpu::fmt_bytes(bytes)
+        )
+    })?;
+    v.resize(n, value);
+    Ok(v)
+}
+
 impl Picture {
-    /// 8-bit RGB, row 0 at the top.
-    pub fn rgb8(&self) -> Vec<u8> {
-        self.pixels
-            .iter()
-            .flat_map(|p| {
-                let [r, g, b, _] = p.rgba.to_le_bytes();
-                [r, g, b]
-            })
-            .collect()
+    /// 8-bit RGB, row 0 at the top; an error when its memory cannot be had.
+    pub fn rgb8(&self) -> Result<Vec<u8>, String> {
+        let what = format!("the {}x{} picture's RGB bytes", self.width, self.height);
+        let mut out = try_filled(self.pixels.len() * 3, 0u8, &what)?;
+        for (rgb, p) in out.chunks_exact_mut(3).zip(&self.pixels) {
+            rgb.copy_from_slice(&p.rgba.to_le_bytes()[..3]);
+        }
+        Ok(out)
     }
 
     /// Every ray the frame traced (camera, shadow and mirror): the sum of the pixels' counts.

@@ -26,6 +26,7 @@ mod tests;
 pub use compile::compile_kernel;
 pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
 pub use error::GpuError;
+pub(crate) use error::fmt_bytes;
 pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};

@@ -872,7 +872,7 @@ impl Preview {
             "Turn mirror reflections off (M, or --no-reflections), or use another Vulkan device",
         )?;
         let picture = Picture { width, height, pixels };
-        image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8() })?;
+        image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8()? })?;
         outln!("wrote {} ({width}x{height}, {} samples per pixel)", path.display(), self.sample);
         Ok(())
     }
