@@ -36,6 +36,7 @@ macro_rules! errln {
     }};
 }
 
+pub mod bounded;
 pub mod bvh;
 pub mod bench;
 pub mod cli;

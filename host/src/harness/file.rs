@@ -16,7 +16,7 @@ const CASE_KEYS: [&str; 8] = ["name", "function", "inputs", "expected", "same_as
 /// The cases of one file. `shown` is how the file is named in locations
 /// (`tests/shaders/cone.toml`). Errors read `file:line: error: …`.
 pub fn load(path: &Path, shown: &str, info: &ShaderInfo) -> Result<Vec<Case>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{shown}: error: cannot read it: {e}"))?;
+    let text = crate::bounded::read_text(path).map_err(|e| format!("{shown}: error: cannot read it: {e}"))?;
     parse(&text, shown, info)
 }
 

@@ -70,7 +70,7 @@ impl ShaderInfo {
     pub fn load(dir: &Path) -> Result<ShaderInfo, String> {
         let read = |name: &str| {
             let path = dir.join(name);
-            std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+            crate::bounded::read_text(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
         };
         let (layout, buffers, shared) = (read(LAYOUT)?, read(SCENE_BUFFERS)?, read(SHARED)?);
         let mut info = ShaderInfo {

@@ -112,32 +112,16 @@ pub struct ParseOptions {
 }
 
 /// Reads and parses a scene file.
-/// The most bytes a scene file may have: far beyond any real one (the
-/// course's largest are kilobytes; a million primitives written out flat
-/// are about 300 MB), and a bound on what a device such as /dev/zero, or a
-/// wrong path to a huge file, makes raycast read into memory.
-pub const MAX_SCENE_FILE_BYTES: u64 = 1 << 30;
-
-/// The bytes of scene file `path`, at most `max` of them; the error says why not.
-fn read_scene_bytes(path: &Path, max: u64) -> Result<Vec<u8>, String> {
-    use std::io::Read as _;
-    let cannot = |e: std::io::Error| format!("cannot read scene file \"{}\": {e}", path.display());
-    let mut bytes = Vec::new();
-    std::fs::File::open(path).and_then(|f| f.take(max + 1).read_to_end(&mut bytes)).map_err(cannot)?;
-    if bytes.len() as u64 > max {
-        return Err(format!("scene file \"{}\" is larger than {}: not a scene file raycast can read", path.display(), fmt_size(max)));
-    }
-    Ok(bytes)
-}
-
-/// `1 << 30` as "1024 MiB", small sizes in bytes.
-fn fmt_size(bytes: u64) -> String {
-    if bytes >= 1 << 20 { format!("{} MiB", bytes >> 20) } else { format!("{bytes} bytes") }
-}
-
 pub fn parse_file(path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneError> {
     let file = Arc::new(path.to_path_buf());
-    let bytes = read_scene_bytes(path, MAX_SCENE_FILE_BYTES).map_err(|message| SceneError { loc: None, file: file.clone(), message })?;
+    let bytes = crate::bounded::read(path, crate::bounded::MAX_INPUT_BYTES).map_err(|e| SceneError {
+        loc: None,
+        file: file.clone(),
+        message: match e {
+            crate::bounded::ReadError::Io(e) => format!("cannot read scene file \"{}\": {e}", path.display()),
+            too_large => format!("scene file \"{}\" is {too_large}: not a scene file raycast can read", path.display()),
+        },
+    })?;
     let text = match String::from_utf8(bytes) {
         Ok(t) => t,
         Err(e) => {
@@ -1350,20 +1334,6 @@ impl<'a> Ctx<'a> {
 mod tests {
     use super::*;
 
-    /// A scene file is read up to a bound (MAX_SCENE_FILE_BYTES for
-    /// parse_file), so /dev/zero or a wrong path to a huge file is an
-    /// error, not all of memory; a file at the bound is read whole.
-    #[test]
-    fn scene_files_are_read_up_to_a_bound() {
-        let e = read_scene_bytes(Path::new("/dev/zero"), 4096).unwrap_err();
-        assert_eq!(e, "scene file \"/dev/zero\" is larger than 4096 bytes: not a scene file raycast can read");
-        let path = std::env::temp_dir().join(format!("raycast-bound-{}.xml", std::process::id()));
-        std::fs::write(&path, b"<scenefile/>").unwrap();
-        assert_eq!(read_scene_bytes(&path, 12).unwrap(), b"<scenefile/>");
-        assert!(read_scene_bytes(&path, 11).unwrap_err().contains("is larger than 11 bytes"));
-        std::fs::remove_file(&path).unwrap();
-        assert_eq!(fmt_size(MAX_SCENE_FILE_BYTES), "1024 MiB");
-    }
 
     fn opts() -> ParseOptions {
         ParseOptions::default()

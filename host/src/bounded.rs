@@ -1,0 +1,64 @@
+//! Input files read with a bound on their size, so that a device such as
+//! /dev/zero, or a wrong path to a huge file, is an error rather than all
+//! of memory.
+
+use std::io::Read as _;
+use std::path::Path;
+
+/// The most bytes a text input may have (a scene file, a shader test file,
+/// a shader source): far beyond any real one (the course's largest scenes
+/// are kilobytes; a million primitives written out flat are about 300 MB).
+pub const MAX_INPUT_BYTES: u64 = 1 << 30;
+
+/// Why `read` gave no bytes.
+#[derive(Debug)]
+pub enum ReadError {
+    Io(std::io::Error),
+    /// More than the bound, which is given.
+    TooLarge(u64),
+}
+
+impl std::fmt::Display for ReadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ReadError::Io(e) => e.fmt(f),
+            ReadError::TooLarge(max) if *max >= 1 << 20 => write!(f, "larger than {} MiB", max >> 20),
+            ReadError::TooLarge(max) => write!(f, "larger than {max} bytes"),
+        }
+    }
+}
+
+/// The bytes of `path`, at most `max` of them.
+pub fn read(path: &Path, max: u64) -> Result<Vec<u8>, ReadError> {
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).and_then(|f| f.take(max + 1).read_to_end(&mut bytes)).map_err(ReadError::Io)?;
+    if bytes.len() as u64 > max {
+        return Err(ReadError::TooLarge(max));
+    }
+    Ok(bytes)
+}
+
+/// `read` as UTF-8 text, at most MAX_INPUT_BYTES.
+pub fn read_text(path: &Path) -> Result<String, String> {
+    let bytes = read(path, MAX_INPUT_BYTES).map_err(|e| e.to_string())?;
+    String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text (byte offset {})", e.utf8_error().valid_up_to()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// /dev/zero ends at the bound; a file at the bound is read whole, one
+    /// byte over it is refused.
+    #[test]
+    fn reads_stop_at_the_bound() {
+        assert_eq!(read(Path::new("/dev/zero"), 4096).unwrap_err().to_string(), "larger than 4096 bytes");
+        let path = std::env::temp_dir().join(format!("raycast-bound-{}.txt", std::process::id()));
+        std::fs::write(&path, b"<scenefile/>").unwrap();
+        assert_eq!(read(&path, 12).unwrap(), b"<scenefile/>");
+        assert!(matches!(read(&path, 11), Err(ReadError::TooLarge(11))));
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(ReadError::TooLarge(MAX_INPUT_BYTES).to_string(), "larger than 1024 MiB");
+        assert!(read_text(Path::new("/nonexistent/x")).unwrap_err().contains("No such file"));
+    }
+}
