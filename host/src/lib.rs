@@ -4,7 +4,8 @@
 //! Parts (see README "Architecture"): `scene` reads scene files, `frame`
 //! turns a scene into the buffers of `layout`, `gpu` runs kernels on a
 //! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
-//! and compares pictures, `cli` is the command line.
+//! and compares pictures, `bounded` reads text inputs up to a size, `cli`
+//! is the command line.
 
 /// `println!` that goes on when stdout is closed (`raycast render | head`):
 /// the status lines are for reading, the work (the PNG, the exit status)
