@@ -8,11 +8,6 @@ use crate::layout::{self, PixelOut};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-/// The render kernel's SPIR-V, compiled from shaders/render.comp at build time.
-pub fn render_spirv() -> &'static [u8] {
-    kernel_spirv("render").expect("build.rs embeds shaders/render.comp")
-}
-
 include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
 
 /// A kernel of shaders/*.comp by file stem, as embedded at build time.
@@ -377,10 +372,7 @@ impl GpuRenderer {
     /// when it has one.
     pub fn from_shaders(options: &GpuOptions, dir: &std::path::Path) -> Result<GpuRenderer, String> {
         let context = GpuContext::new(options).map_err(|e| e.to_string())?;
-        let correct = context.corrects_division();
-        let spirv = crate::gpu::compile_kernel(&dir.join("render.comp"), correct)?;
-        let uniform_src = dir.join("render_uniform.comp");
-        let uniform = if uniform_src.is_file() { Some(crate::gpu::compile_kernel(&uniform_src, correct)?) } else { None };
+        let (spirv, uniform) = crate::gpu::compile_kernel_pair(dir, "render", context.corrects_division())?;
         Ok(GpuRenderer::with_context(context, &spirv, uniform.as_deref()))
     }
 

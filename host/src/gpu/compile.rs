@@ -25,3 +25,13 @@ pub fn compile_kernel(src: &Path, correct_division: bool) -> Result<Vec<u8>, Str
     let _ = std::fs::remove_file(&out);
     result
 }
+
+/// `dir/STEM.comp` compiled (`compile_kernel`) and, when the folder has
+/// one, its uniform-block sibling `dir/STEM_uniform.comp`: a `--shaders`
+/// folder's render or preview kernels.
+pub fn compile_kernel_pair(dir: &Path, stem: &str, correct_division: bool) -> Result<(Vec<u8>, Option<Vec<u8>>), String> {
+    let storage = compile_kernel(&dir.join(format!("{stem}.comp")), correct_division)?;
+    let uniform_src = dir.join(format!("{stem}_uniform.comp"));
+    let uniform = if uniform_src.is_file() { Some(compile_kernel(&uniform_src, correct_division)?) } else { None };
+    Ok((storage, uniform))
+}

@@ -23,7 +23,7 @@ pub mod reflect;
 #[cfg(test)]
 mod tests;
 
-pub use compile::compile_kernel;
+pub use compile::{compile_kernel, compile_kernel_pair};
 pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
 pub use error::GpuError;
 pub(crate) use error::fmt_bytes;

@@ -18,10 +18,10 @@ use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 use super::renderer::PreviewKernels;
 
 const POLL: Duration = Duration::from_millis(250);
-/// The kernel that is recompiled, in the shader folder.
+/// The kernel that is recompiled, in the shader folder, by stem and file;
+/// its uniform variant (preview_uniform.comp) too when the folder has it.
+const KERNEL_STEM: &str = "preview";
 pub const KERNEL_FILE: &str = "preview.comp";
-/// Its uniform-buffer variant, compiled too when the folder has it.
-pub const UNIFORM_KERNEL_FILE: &str = "preview_uniform.comp";
 
 /// What the watcher sends.
 pub enum Reload {
@@ -134,22 +134,14 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
 }
 
 /// `dir/preview.comp` and, when there is one, `dir/preview_uniform.comp`
-/// compiled as every runtime kernel is (`gpu::compile_kernel`: glslang with
-/// `dir` on the include path and CORRECT_DIVISION defined with
+/// compiled as every runtime kernel is (`gpu::compile_kernel_pair`: glslang
+/// with `dir` on the include path and CORRECT_DIVISION defined with
 /// `correct_division`, then spirv-opt), checked (PreviewKernels::new; the
 /// renderer builds their pipelines).
 pub fn compile(dir: &Path, correct_division: bool) -> Reload {
-    let storage = match crate::gpu::compile_kernel(&dir.join(KERNEL_FILE), correct_division) {
-        Ok(b) => b,
+    let (storage, uniform) = match crate::gpu::compile_kernel_pair(dir, KERNEL_STEM, correct_division) {
+        Ok(pair) => pair,
         Err(e) => return Reload::Failed(e),
-    };
-    let uniform = if dir.join(UNIFORM_KERNEL_FILE).is_file() {
-        match crate::gpu::compile_kernel(&dir.join(UNIFORM_KERNEL_FILE), correct_division) {
-            Ok(b) => Some(b),
-            Err(e) => return Reload::Failed(e),
-        }
-    } else {
-        None
     };
     match PreviewKernels::new(&storage, uniform.as_deref()) {
         Ok(k) => Reload::Kernel(k),
