@@ -183,7 +183,7 @@ unsafe extern "system" fn on_message(
         let text = |s: Option<&CStr>| s.map(|s| s.to_string_lossy().into_owned());
         let id = text(unsafe { data.message_id_name_as_c_str() }).unwrap_or_else(|| "-".into());
         let message = text(unsafe { data.message_as_c_str() }).unwrap_or_default();
-        if own_driver_choice(&message) {
+        if super::own_driver_choice(&message) {
             return;
         }
         let level = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) { "ERROR" } else { "WARNING" };
@@ -191,14 +191,6 @@ unsafe extern "system" fn on_message(
         sink.lock().unwrap_or_else(|p| p.into_inner()).push(line);
     });
     vk::FALSE
-}
-
-/// The loader's note that a driver was left out as VK_LOADER_DRIVERS_DISABLE
-/// or VK_LOADER_DRIVERS_SELECT asked (the user's, or raycast's own:
-/// `gpu::skip_drivers_without_devices`): what it was asked for, not a
-/// problem to report.
-pub(crate) fn own_driver_choice(message: &str) -> bool {
-    message.starts_with("Driver ") && message.contains(" ignored because ") && message.contains("env var 'VK_LOADER_DRIVERS_")
 }
 
 impl InstanceParts {
