@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 include!("src/gpu/glslang_args.rs");
+include!("src/uint_defines.rs");
 
 fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
@@ -102,25 +103,9 @@ fn run(cmd: &mut Command) {
     }
 }
 
-/// `#define NAME 12` / `#define NAME 3u` / `#define NAME 0xffffffffu` -> `pub const NAME: u32 = …;`
+/// The uint `#define`s of `header` (`uint_defines`) -> `pub const NAME: u32 = …;`
 fn write_layout_consts(header: &Path, out: &Path) {
     let text = std::fs::read_to_string(header).expect("shaders/layout.h");
-    let mut rs = String::new();
-    for line in text.lines() {
-        let mut words = line.split_whitespace();
-        if words.next() != Some("#define") {
-            continue;
-        }
-        let (Some(name), Some(value)) = (words.next(), words.next()) else { continue };
-        let digits = value.trim_end_matches('u');
-        let parsed = if let Some(hex) = digits.strip_prefix("0x") {
-            u32::from_str_radix(hex, 16).ok()
-        } else {
-            digits.parse::<u32>().ok()
-        };
-        if let Some(v) = parsed {
-            rs.push_str(&format!("pub const {name}: u32 = {v:#x};\n"));
-        }
-    }
+    let rs: String = uint_defines(&text).iter().map(|(name, v)| format!("pub const {name}: u32 = {v:#x};\n")).collect();
     std::fs::write(out, rs).unwrap();
 }

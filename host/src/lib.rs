@@ -4,8 +4,9 @@
 //! Parts (see README "Architecture"): `scene` reads scene files, `frame`
 //! turns a scene into the buffers of `layout`, `gpu` runs kernels on a
 //! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
-//! and compares pictures, `bounded` reads text inputs up to a size, `cli`
-//! is the command line.
+//! and compares pictures, `bounded` reads text inputs up to a size,
+//! `uint_defines` reads the shaders' `#define`d constants, `cli` is the
+//! command line.
 
 /// `println!` that goes on when stdout is closed (`raycast render | head`):
 /// the status lines are for reading, the work (the PNG, the exit status)
@@ -52,4 +53,5 @@ pub mod layout;
 pub mod preview;
 pub mod render;
 pub mod scene;
+pub mod uint_defines;
 pub mod versus;

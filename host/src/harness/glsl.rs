@@ -113,22 +113,10 @@ impl ShaderInfo {
         builtin_type(name).or_else(|| self.structs.get(name).map(|s| Type::Struct(s.clone())))
     }
 
-    /// `#define NAME 12`, `3u`, `0xffffffffu` as uint constants.
+    /// The uint `#define`s (`uint_defines`) as constants.
     fn read_defines(&mut self, text: &str) {
-        for line in text.lines() {
-            let mut words = line.split_whitespace();
-            if words.next() != Some("#define") {
-                continue;
-            }
-            let (Some(name), Some(value)) = (words.next(), words.next()) else { continue };
-            let digits = value.trim_end_matches('u');
-            let parsed = match digits.strip_prefix("0x") {
-                Some(hex) => u32::from_str_radix(hex, 16).ok(),
-                None => digits.parse::<u32>().ok(),
-            };
-            if let Some(v) = parsed {
-                self.constants.insert(name.to_string(), Value::Uint(v));
-            }
+        for (name, v) in crate::uint_defines::uint_defines(text) {
+            self.constants.insert(name.to_string(), Value::Uint(v));
         }
     }
 
