@@ -13,11 +13,11 @@
 
 use crate::cli::{check_validation, open_renderer, scene_failure, Failure, DEFAULT_SCENE};
 use crate::cpu::CpuRenderer;
-use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
+use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
 use crate::gpu::GpuError;
 use crate::layout::{Frame, PixelOut, SampleSum};
-use crate::render::{Picture, SceneBuffers};
+use crate::render::Picture;
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use clap::{Args, ValueEnum};
 use std::fmt::Write as _;
@@ -41,7 +41,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1, value_name = "K")]
     pub warmup: u32,
     #[command(flatten)]
-    pub render: BenchRenderArgs,
+    pub render: crate::cli::RenderOptions,
     /// One JSON object per scene and backend, one per line.
     #[arg(long, conflicts_with = "markdown")]
     pub json: bool,
@@ -67,96 +67,6 @@ pub enum BenchBackend {
     Gpu,
     Cpu,
     Both,
-}
-
-/// The render options of `raycast render` (its FrameArgs without the scene).
-#[derive(Args, Debug)]
-pub struct BenchRenderArgs {
-    #[arg(long, default_value_t = 512, value_name = "W")]
-    pub width: u32,
-    #[arg(long, default_value_t = 384, value_name = "H")]
-    pub height: u32,
-    /// What the picture shows.
-    #[arg(long, value_enum, default_value_t = BenchAov::Color)]
-    pub aov: BenchAov,
-    /// Turn shadow rays off.
-    #[arg(long)]
-    pub no_shadows: bool,
-    /// Turn mirror reflections off.
-    #[arg(long)]
-    pub no_reflections: bool,
-    /// Turn texture mapping off.
-    #[arg(long)]
-    pub no_textures: bool,
-    /// Mirror bounces (at most 16).
-    #[arg(long, default_value_t = 4, value_name = "N")]
-    pub depth: u32,
-    /// Test every primitive for every ray: no bounding volume hierarchy.
-    #[arg(long)]
-    pub no_bvh: bool,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    pub spp: u32,
-    /// How textures are sampled.
-    #[arg(long, value_enum, default_value_t = BenchFilter::Nearest)]
-    pub texture_filter: BenchFilter,
-    /// Vulkan device: an index from `raycast devices` or part of its name.
-    #[arg(long, value_name = "NAME|INDEX")]
-    pub device: Option<String>,
-    /// Extra folder to find textures in, after the scene file's folder (repeatable).
-    /// Generated scenes name the corpus's texture: pass the corpus root.
-    #[arg(long, value_name = "DIR")]
-    pub assets: Vec<PathBuf>,
-    /// Skip scenes that expand to more primitives than this (listed as skipped, not an error).
-    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
-    pub max_primitives: usize,
-    /// Compile the device's kernel from DIR/render.comp instead of the built-in one.
-    #[arg(long, value_name = "DIR")]
-    pub shaders: Option<PathBuf>,
-    /// Where the device kernel keeps the scene's arrays: storage images and
-    /// uniform blocks (render_uniform.comp, several times faster on
-    /// lavapipe) when the scene fits them, storage buffers (render.comp, any
-    /// size) otherwise; or either one.
-    #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
-    pub scene_buffers: SceneBuffers,
-    /// Enable the Khronos validation layer (slow: not for timing); any message fails (exit 3).
-    #[arg(long)]
-    pub validate: bool,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum BenchAov {
-    Color,
-    Normal,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum BenchFilter {
-    Nearest,
-    Bilinear,
-}
-
-impl BenchRenderArgs {
-    pub fn settings(&self) -> RenderSettings {
-        RenderSettings {
-            width: self.width,
-            height: self.height,
-            aov: match self.aov {
-                BenchAov::Color => Aov::Color,
-                BenchAov::Normal => Aov::Normal,
-            },
-            shadows: !self.no_shadows,
-            reflections: !self.no_reflections,
-            textures: !self.no_textures,
-            max_depth: self.depth,
-            bvh: !self.no_bvh,
-            spp: self.spp,
-            texture_filter: match self.texture_filter {
-                BenchFilter::Nearest => TextureFilter::Nearest,
-                BenchFilter::Bilinear => TextureFilter::Bilinear,
-            },
-        }
-    }
 }
 
 /// The process's peak resident set so far (VmHWM of /proc/self/status), in

@@ -49,63 +49,99 @@ enum Command {
     Bench(crate::bench::BenchArgs),
 }
 
-/// What to render and how: shared by every command that renders.
+/// What to render and how: shared by every command that renders a scene file.
 #[derive(Args, Debug)]
 struct FrameArgs {
     /// Scene file (XML). Without one, the embedded default scene.
     scene: Option<PathBuf>,
+    #[command(flatten)]
+    render: RenderOptions,
+}
+
+/// The options of every command that renders frames (`render`, `check`,
+/// `bench`), the scene aside.
+#[derive(Args, Debug)]
+pub struct RenderOptions {
     #[arg(long, default_value_t = 512, value_name = "W")]
-    width: u32,
+    pub width: u32,
     #[arg(long, default_value_t = 384, value_name = "H")]
-    height: u32,
+    pub height: u32,
     /// What the picture shows.
     #[arg(long, value_enum, default_value_t = AovArg::Color)]
-    aov: AovArg,
+    pub aov: AovArg,
     /// Turn shadow rays off.
     #[arg(long)]
-    no_shadows: bool,
+    pub no_shadows: bool,
     /// Turn mirror reflections off.
     #[arg(long)]
-    no_reflections: bool,
+    pub no_reflections: bool,
     /// Turn texture mapping off.
     #[arg(long)]
-    no_textures: bool,
+    pub no_textures: bool,
     /// Mirror bounces (at most 16).
     #[arg(long, default_value_t = 4, value_name = "N")]
-    depth: u32,
+    pub depth: u32,
     /// Test every primitive for every ray: no bounding volume hierarchy. The
     /// picture is identical; only slower.
     #[arg(long)]
-    no_bvh: bool,
+    pub no_bvh: bool,
     /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
     #[arg(long, default_value_t = 1, value_name = "N")]
-    spp: u32,
+    pub spp: u32,
     /// How textures are sampled: the nearest texel, as the course's renders, or bilinear.
     #[arg(long, value_enum, default_value_t = FilterArg::Nearest)]
-    texture_filter: FilterArg,
+    pub texture_filter: FilterArg,
     /// Vulkan device: an index from `raycast devices` or part of its name.
     #[arg(long, value_name = "NAME|INDEX")]
-    device: Option<String>,
-    /// Extra folder to find textures in, after the scene file's folder (repeatable).
+    pub device: Option<String>,
+    /// Extra folder to find textures in, after the scene file's folder
+    /// (repeatable). Generated scenes (`raycast gen`) name the corpus's
+    /// texture: pass the corpus root.
     #[arg(long, value_name = "DIR")]
-    assets: Vec<PathBuf>,
-    /// Refuse scenes that expand to more primitives than this.
+    pub assets: Vec<PathBuf>,
+    /// Refuse scenes that expand to more primitives than this (`bench` lists
+    /// them as skipped and goes on).
     #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
-    max_primitives: usize,
+    pub max_primitives: usize,
     /// Compile the device's kernel from DIR/render.comp at start-up instead of
     /// the one built in (the CPU build is always the built-in code).
     #[arg(long, value_name = "DIR")]
-    shaders: Option<PathBuf>,
+    pub shaders: Option<PathBuf>,
     /// Where the device kernel keeps the scene's arrays: storage images and
     /// uniform blocks (render_uniform.comp, several times faster on
     /// lavapipe) when the scene fits them, storage buffers (render.comp, any
     /// size) otherwise; or either one.
     #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
-    scene_buffers: SceneBuffers,
-    /// Enable the Khronos validation layer; any message fails the command (exit 3).
+    pub scene_buffers: SceneBuffers,
+    /// Enable the Khronos validation layer (slow: not for timing); any
+    /// message fails the command (exit 3).
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
-    validate: bool,
+    pub validate: bool,
+}
+
+impl RenderOptions {
+    /// The settings these options ask for (checked later: `RenderSettings::validate`).
+    pub fn settings(&self) -> RenderSettings {
+        RenderSettings {
+            width: self.width,
+            height: self.height,
+            aov: match self.aov {
+                AovArg::Color => Aov::Color,
+                AovArg::Normal => Aov::Normal,
+            },
+            shadows: !self.no_shadows,
+            reflections: !self.no_reflections,
+            textures: !self.no_textures,
+            max_depth: self.depth,
+            bvh: !self.no_bvh,
+            spp: self.spp,
+            texture_filter: match self.texture_filter {
+                FilterArg::Nearest => TextureFilter::Nearest,
+                FilterArg::Bilinear => TextureFilter::Bilinear,
+            },
+        }
+    }
 }
 
 #[derive(Args, Debug)]
@@ -170,7 +206,7 @@ struct CompareArgs {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
-enum FilterArg {
+pub enum FilterArg {
     Nearest,
     Bilinear,
 }
@@ -182,7 +218,7 @@ enum Backend {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
-enum AovArg {
+pub enum AovArg {
     Color,
     Normal,
 }
@@ -202,8 +238,7 @@ pub(crate) fn scene_failure(e: String) -> Failure {
 }
 
 pub fn main() -> ExitCode {
-    crate::gpu::spread_lavapipe_work();
-    crate::gpu::skip_drivers_without_devices();
+    crate::gpu::prepare_process();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {
@@ -289,28 +324,11 @@ struct Prepared {
 }
 
 fn prepare(args: &FrameArgs) -> Result<Prepared, Failure> {
-    let settings = RenderSettings {
-        width: args.width,
-        height: args.height,
-        aov: match args.aov {
-            AovArg::Color => Aov::Color,
-            AovArg::Normal => Aov::Normal,
-        },
-        shadows: !args.no_shadows,
-        reflections: !args.no_reflections,
-        textures: !args.no_textures,
-        max_depth: args.depth,
-        bvh: !args.no_bvh,
-        spp: args.spp,
-        texture_filter: match args.texture_filter {
-            FilterArg::Nearest => TextureFilter::Nearest,
-            FilterArg::Bilinear => TextureFilter::Bilinear,
-        },
-    };
+    let settings = args.render.settings();
     settings.validate()?;
     let start = Instant::now();
-    let parse = ParseOptions { assets: args.assets.clone() };
-    let scene = load_scene(args.scene.as_deref(), &parse, &FlattenLimits { max_primitives: args.max_primitives })
+    let parse = ParseOptions { assets: args.render.assets.clone() };
+    let scene = load_scene(args.scene.as_deref(), &parse, &FlattenLimits { max_primitives: args.render.max_primitives })
         .map_err(scene_failure)?;
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
@@ -326,7 +344,8 @@ fn default_output(args: &FrameArgs, suffix: &str) -> PathBuf {
 }
 
 fn gpu_renderer(args: &FrameArgs) -> Result<GpuRenderer, Failure> {
-    open_renderer(&args.device, args.validate, args.shaders.as_deref(), args.scene_buffers)
+    let o = &args.render;
+    open_renderer(&o.device, o.validate, o.shaders.as_deref(), o.scene_buffers)
 }
 
 /// The render kernel on the device `--device` names (validated where
@@ -406,7 +425,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     let info = renderer.context().info();
     outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
     print_scene(&p);
-    let (mut picture, t) = if args.frame.shaders.is_some() {
+    let (mut picture, t) = if args.frame.render.shaders.is_some() {
         // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
         renderer.render(&p.data)?
     } else {
@@ -461,7 +480,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     print_scene(&p);
     outln!(
         "check: {} on {device} against the CPU build ({} threads), {}x{}, every buffer bit for bit",
-        if args.frame.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
+        if args.frame.render.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
         cpu.threads,
         p.data.frame.width,
         p.data.frame.height
@@ -505,9 +524,9 @@ fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cp
     use crate::harness::{Case, Harness, HarnessOptions, SceneBuffers};
     let width = data.frame.width;
     let mut harness = Harness::new(&HarnessOptions {
-        shaders: args.frame.shaders.clone(),
-        device: parse_device(&args.frame.device),
-        validation: validation_wanted(args.frame.validate),
+        shaders: args.frame.render.shaders.clone(),
+        device: parse_device(&args.frame.render.device),
+        validation: validation_wanted(args.frame.render.validate),
     })
     .map_err(|e| Failure(format!("raycast: error: --pixel: {e}"), 1))?;
     // The frame's buffers under the names scene_buffers.glsl gives them.

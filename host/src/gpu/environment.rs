@@ -1,7 +1,16 @@
 //! The process environment that Mesa's lavapipe and the Vulkan loader
-//! read, set before any instance exists (`spread_lavapipe_work`,
-//! `skip_drivers_without_devices`), and the loader's notes on drivers left
-//! out as asked.
+//! read, set before any instance exists (`prepare_process`:
+//! `spread_lavapipe_work`, `skip_drivers_without_devices`), and the
+//! loader's notes on drivers left out as asked.
+
+/// Sets the environment lavapipe and the loader read
+/// (`spread_lavapipe_work`, then `skip_drivers_without_devices`). Call
+/// first thing in the process: before any Vulkan instance exists, while no
+/// other thread reads the environment.
+pub fn prepare_process() {
+    spread_lavapipe_work();
+    skip_drivers_without_devices();
+}
 
 /// Mesa's lavapipe gives each of its threads (LP_NUM_THREADS, by default
 /// one per core) one contiguous block of a dispatch's workgroups, so the
@@ -12,9 +21,8 @@
 /// from 2790 to 2350 ms, the same pixels (BENCHMARKS.md, "What made
 /// lavapipe faster"). Sets LP_NUM_THREADS to 4 a core (at most Mesa's 32)
 /// unless it is set already; other drivers ignore it. Call first thing in
-/// the process: before any Vulkan instance exists, while no other thread
-/// reads the environment.
-pub fn spread_lavapipe_work() {
+/// the process (`prepare_process`).
+fn spread_lavapipe_work() {
     if std::env::var_os("LP_NUM_THREADS").is_none() {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         std::env::set_var("LP_NUM_THREADS", (4 * cores).min(32).to_string());
@@ -39,8 +47,8 @@ static DRIVERS_DISABLED_HERE: std::sync::atomic::AtomicBool = std::sync::atomic:
 /// VK_LOADER_DRIVERS_DISABLE set), sets VK_LOADER_DRIVERS_DISABLE to
 /// `DRM_DRIVER_MANIFESTS` (loaders from 1.3.234 read it, older ones ignore
 /// it); lavapipe, NVIDIA's driver (/dev/nvidia*) and any other driver load
-/// as before. Call first thing in the process, like `spread_lavapipe_work`.
-pub fn skip_drivers_without_devices() {
+/// as before. Call first thing in the process (`prepare_process`).
+fn skip_drivers_without_devices() {
     let has_drm_nodes = std::fs::read_dir("/dev/dri").is_ok_and(|mut d| d.next().is_some());
     if let Some(value) = drivers_to_disable(|var| std::env::var_os(var).is_some(), has_drm_nodes) {
         std::env::set_var("VK_LOADER_DRIVERS_DISABLE", value);

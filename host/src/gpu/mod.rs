@@ -25,7 +25,7 @@ pub mod reflect;
 mod tests;
 
 pub use compile::{compile_kernel, compile_kernel_pair};
-pub use environment::{skip_drivers_without_devices, spread_lavapipe_work, DRM_DRIVER_MANIFESTS};
+pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
 pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
 pub use error::GpuError;
