@@ -9,7 +9,7 @@ use ash::vk;
 
 use super::float_controls;
 use super::present::Surface;
-use super::image::color_range;
+use super::image::layout_barrier;
 use super::{GpuError, ImageFormat, Kernel};
 use crate::layout::IMAGE_WIDTH;
 
@@ -1179,17 +1179,7 @@ struct RunImage {
 /// `cmd` is a command buffer of `d` in the recording state.
 pub(crate) unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer, source: vk::Buffer, image: vk::Image, texels: u32) {
     let [width, height] = data_image_size(u64::from(texels)).map(|n| n as u32);
-    let barrier = |old, new, src, dst| {
-        [vk::ImageMemoryBarrier::default()
-            .old_layout(old)
-            .new_layout(new)
-            .src_access_mask(src)
-            .dst_access_mask(dst)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(image)
-            .subresource_range(color_range())]
-    };
+    let barrier = |old, new, src, dst| [layout_barrier(image, old, new, src, dst)];
     let region = [vk::BufferImageCopy::default()
         .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
         .image_extent(vk::Extent3D { width, height, depth: 1 })];

@@ -19,7 +19,7 @@ use std::time::Duration;
 use ash::vk;
 
 use super::context::Inner;
-use super::image::color_range;
+use super::image::layout_barrier;
 use super::{DescriptorSet, GpuContext, GpuError, Kernel, StorageImage, Swapchain};
 
 /// What became of a frame.
@@ -171,15 +171,7 @@ impl FrameLoop {
             let memory = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ)
                 .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
-            let to_general = [vk::ImageMemoryBarrier::default()
-                .old_layout(image.layout.get())
-                .new_layout(vk::ImageLayout::GENERAL)
-                .src_access_mask(vk::AccessFlags::empty())
-                .dst_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(image.image)
-                .subresource_range(color_range())];
+            let to_general = [layout_barrier(image.image, image.layout.get(), vk::ImageLayout::GENERAL, vk::AccessFlags::empty(), vk::AccessFlags::SHADER_WRITE)];
             d.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
@@ -205,15 +197,7 @@ impl FrameLoop {
             let memory = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE)
                 .dst_access_mask(vk::AccessFlags::HOST_READ)];
-            let to_src = [vk::ImageMemoryBarrier::default()
-                .old_layout(vk::ImageLayout::GENERAL)
-                .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(image.image)
-                .subresource_range(color_range())];
+            let to_src = [layout_barrier(image.image, vk::ImageLayout::GENERAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, vk::AccessFlags::SHADER_WRITE, vk::AccessFlags::TRANSFER_READ)];
             let image_barriers: &[vk::ImageMemoryBarrier] = if target.is_some() { &to_src } else { &[] };
             image.layout.set(if target.is_some() { vk::ImageLayout::TRANSFER_SRC_OPTIMAL } else { vk::ImageLayout::GENERAL });
             d.cmd_pipeline_barrier(
@@ -228,15 +212,7 @@ impl FrameLoop {
 
             if let Some((sc, index)) = &target {
                 let dst = sc.images[*index as usize];
-                let to_dst = [vk::ImageMemoryBarrier::default()
-                    .old_layout(vk::ImageLayout::UNDEFINED)
-                    .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                    .src_access_mask(vk::AccessFlags::empty())
-                    .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(dst)
-                    .subresource_range(color_range())];
+                let to_dst = [layout_barrier(dst, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::AccessFlags::empty(), vk::AccessFlags::TRANSFER_WRITE)];
                 // TRANSFER: the stage the acquire semaphore is waited at.
                 d.cmd_pipeline_barrier(
                     cmd,
@@ -268,15 +244,7 @@ impl FrameLoop {
                     &region,
                     vk::Filter::NEAREST,
                 );
-                let to_present = [vk::ImageMemoryBarrier::default()
-                    .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                    .new_layout(vk::ImageLayout::PRESENT_SRC_KHR)
-                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::empty())
-                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(dst)
-                    .subresource_range(color_range())];
+                let to_present = [layout_barrier(dst, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::PRESENT_SRC_KHR, vk::AccessFlags::TRANSFER_WRITE, vk::AccessFlags::empty())];
                 d.cmd_pipeline_barrier(
                     cmd,
                     vk::PipelineStageFlags::TRANSFER,
