@@ -6,21 +6,12 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 mod common;
-use common::repo;
+use common::{raycast, repo, text};
 
 fn out_dir() -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-fn raycast(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_raycast"));
-    cmd.args(args).env("RAYCAST_VALIDATION", "1");
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    cmd.output().expect("run raycast")
 }
 
 /// `raycast ARGS` run in `dir`, emptied first: what it writes by default lands there.
@@ -38,10 +29,6 @@ fn raycast_in(dir: &Path, args: &[&str]) -> Output {
 /// The names of the files in `dir`.
 fn files_in(dir: &Path) -> Vec<String> {
     std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect()
-}
-
-fn text(o: &Output) -> (String, String) {
-    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
 /// Asserts the command failed with `code`, said `needle` on stderr, and did not panic.

@@ -33,16 +33,13 @@ fn out_dir() -> PathBuf {
 }
 
 fn text(o: &Output) -> String {
-    format!("stdout:\n{}\nstderr:\n{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+    let (out, err) = common::text(o);
+    format!("stdout:\n{out}\nstderr:\n{err}")
 }
 
 /// `raycast ARGS`, validation on.
 fn raycast(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raycast"))
-        .args(args)
-        .env("RAYCAST_VALIDATION", "1")
-        .output()
-        .expect("run raycast")
+    common::raycast(args, &[])
 }
 
 /// `raycast preview ARGS` in a window: under `xvfb-run -a` (a private X

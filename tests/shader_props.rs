@@ -46,7 +46,7 @@
 //! renderer would cast re-enters the convex primitive it leaves.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::Arc;
 
 use glam::{DMat4, DQuat, DVec3, DVec4};
@@ -66,7 +66,12 @@ const LEAVE_MIN_COS: f64 = 0.1;
 const DEFAULT_SEED: u64 = 0x5eed_2024_0004;
 
 mod common;
-use common::repo;
+use common::{repo, text};
+
+/// `raycast ARGS`, validation on.
+fn raycast(args: &[&str]) -> Output {
+    common::raycast(args, &[])
+}
 
 fn harness_on_lavapipe() -> Harness {
     let opts = HarnessOptions { shaders: None, device: Some(gpu::DeviceSelector::Name("llvmpipe".into())), validation: true };
@@ -535,18 +540,6 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
     }
     assert!(errors.is_empty(), "{} kernel(s) failed:\n{}", errors.len(), errors.join("\n"));
     println!("{} kernels of shaders/ and {} harness kernels validated", kernels.len(), info.functions.len());
-}
-
-fn raycast(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raycast"))
-        .args(args)
-        .env("RAYCAST_VALIDATION", "1")
-        .output()
-        .expect("run raycast")
-}
-
-fn text(o: &Output) -> (String, String) {
-    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
 #[test]

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 /// The repository root.
 pub fn repo() -> PathBuf {
@@ -18,4 +19,20 @@ pub fn copy_of_shaders(dir: &Path) -> PathBuf {
         std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
     }
     dir.to_path_buf()
+}
+
+/// `raycast ARGS` with `env` added to the environment, validation on
+/// (RAYCAST_VALIDATION=1: any validation message fails the command).
+pub fn raycast(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_raycast"));
+    cmd.args(args).env("RAYCAST_VALIDATION", "1");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("run raycast")
+}
+
+/// A command's stdout and stderr as text.
+pub fn text(o: &Output) -> (String, String) {
+    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
