@@ -232,6 +232,57 @@ fn bad_scene_files() {
 }
 
 #[test]
+fn several_scenes_render_on_one_device() {
+    let scenes = [repo().join("scenes/default.xml"), repo().join("tests/scenes/stress/scales.xml")];
+    let names = ["default.png", "scales.png"];
+    let dir = out_dir().join("batch");
+    let _ = std::fs::remove_dir_all(&dir);
+    let batch: Vec<&str> = scenes.iter().map(|s| s.to_str().unwrap()).collect();
+    // --out-dir is made when missing.
+    let o = raycast(&[&["render"], &batch[..], &["--out-dir", dir.to_str().unwrap()]].concat(), &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert_eq!(out.matches("device: ").count(), 1, "one device for both scenes:\n{out}");
+    // Rule: bit-exact, each picture against the same scene rendered alone.
+    for (scene, name) in scenes.iter().zip(names) {
+        let alone = out_dir().join(format!("alone-{name}"));
+        let o = raycast(&["render", scene.to_str().unwrap(), "-o", alone.to_str().unwrap()], &[]);
+        assert!(o.status.success(), "{:?}", text(&o));
+        let (a, b) = (raycast::image_io::read_png(&dir.join(name)).unwrap(), raycast::image_io::read_png(&alone).unwrap());
+        let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
+        assert_eq!(diff.differing, 0, "{name}: {diff}");
+    }
+
+    // A bad scene among good ones: the good ones are written, the command fails naming it.
+    let bad = repo().join("tests/scenes/bad/malformed.xml");
+    let dir = out_dir().join("batch-with-a-bad-scene");
+    let _ = std::fs::remove_dir_all(&dir);
+    let o = raycast(&["render", batch[0], bad.to_str().unwrap(), batch[1], "--out-dir", dir.to_str().unwrap()], &[]);
+    assert_fails(&o, 1, "malformed.xml:");
+    assert_fails(&o, 1, "1 of 3 scenes failed: ");
+    for name in names {
+        assert!(dir.join(name).is_file(), "{name} not written");
+    }
+
+    // Without a device the batch ends at once, not once a scene.
+    let o = raycast(
+        &[&["render"], &batch[..], &["--out-dir", dir.to_str().unwrap()]].concat(),
+        &[("VK_DRIVER_FILES", "/nonexistent/icd.json"), ("RAYCAST_VALIDATION", "0")],
+    );
+    assert_fails(&o, 1, "no Vulkan device");
+    assert_eq!(text(&o).1.matches("no Vulkan device").count(), 1, "{:?}", text(&o));
+    assert!(!text(&o).1.contains("scenes failed"), "{:?}", text(&o));
+
+    // Mistakes in the outputs fail before any work: -o for several pictures, two pictures of one name.
+    let o = raycast(&[&["render"], &batch[..], &["-o", out_dir().join("one.png").to_str().unwrap()]].concat(), &[]);
+    assert_fails(&o, 2, "-o names one picture, but 2 scenes were given: use --out-dir");
+    assert!(!text(&o).0.contains("device: "), "{:?}", text(&o));
+    let o = raycast(&["render", batch[0], batch[0], "--out-dir", dir.to_str().unwrap()], &[]);
+    assert_fails(&o, 2, "would both be written to");
+    assert!(!text(&o).0.contains("device: "), "{:?}", text(&o));
+}
+
+#[test]
 fn cpu_backend_writes_the_same_png_as_the_device() {
     let (gpu, cpu) = (out_dir().join("backend-gpu.png"), out_dir().join("backend-cpu.png"));
     let o = raycast(&["render", "-o", gpu.to_str().unwrap()], &[]);

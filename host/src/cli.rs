@@ -30,7 +30,7 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Render a scene to a PNG (the embedded default scene when none is given).
+    /// Render scenes to PNGs, one after the other on one device (the embedded default scene when none is given).
     Render(RenderArgs),
     /// Render on the device and on the CPU build and compare every buffer bit for bit.
     Check(CheckArgs),
@@ -49,7 +49,7 @@ enum Command {
     Bench(crate::bench::BenchArgs),
 }
 
-/// What to render and how: shared by every command that renders a scene file.
+/// One scene and how to render it (`check`).
 #[derive(Args, Debug)]
 struct FrameArgs {
     /// Scene file (XML). Without one, the embedded default scene.
@@ -146,11 +146,19 @@ impl RenderOptions {
 
 #[derive(Args, Debug)]
 struct RenderArgs {
+    /// Scene files (XML), rendered one after the other on one device (its
+    /// start-up and each kernel paid once). Without any, the embedded
+    /// default scene.
+    #[arg(value_name = "SCENE")]
+    scenes: Vec<PathBuf>,
     #[command(flatten)]
-    frame: FrameArgs,
-    /// Output PNG [default: <scene name>.png in the current folder]
-    #[arg(short, long, value_name = "OUT.png")]
+    render: RenderOptions,
+    /// Output PNG, for one scene [default: <scene name>.png in the current folder]
+    #[arg(short, long, value_name = "OUT.png", conflicts_with = "out_dir")]
     output: Option<PathBuf>,
+    /// Folder for the pictures, each <scene name>.png (made if missing) [default: the current folder]
+    #[arg(long, value_name = "DIR")]
+    out_dir: Option<PathBuf>,
     /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
     #[arg(long, value_enum, default_value_t = Backend::Gpu)]
     backend: Backend,
@@ -323,13 +331,13 @@ struct Prepared {
     load: Duration,
 }
 
-fn prepare(args: &FrameArgs) -> Result<Prepared, Failure> {
-    let settings = args.render.settings();
+/// `scene` (None: the embedded default scene) loaded and packed as `o` asks.
+fn prepare(scene: Option<&Path>, o: &RenderOptions) -> Result<Prepared, Failure> {
+    let settings = o.settings();
     settings.validate()?;
     let start = Instant::now();
-    let parse = ParseOptions { assets: args.render.assets.clone() };
-    let scene = load_scene(args.scene.as_deref(), &parse, &FlattenLimits { max_primitives: args.render.max_primitives })
-        .map_err(scene_failure)?;
+    let parse = ParseOptions { assets: o.assets.clone() };
+    let scene = load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives }).map_err(scene_failure)?;
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
         errln!("raycast: note: {note}");
@@ -337,14 +345,15 @@ fn prepare(args: &FrameArgs) -> Result<Prepared, Failure> {
     Ok(Prepared { scene, data, load: start.elapsed() })
 }
 
-/// `<scene stem><suffix>.png` in the current folder ("default" for the embedded scene).
-fn default_output(args: &FrameArgs, suffix: &str) -> PathBuf {
-    let stem = args.scene.as_ref().and_then(|s| s.file_stem()).map(|s| s.to_string_lossy().into_owned());
-    PathBuf::from(format!("{}{suffix}.png", stem.as_deref().unwrap_or("default")))
+/// `<scene stem><suffix>.png` ("default" for the embedded scene) in `dir`,
+/// or in the current folder.
+fn default_output(scene: Option<&Path>, suffix: &str, dir: Option<&Path>) -> PathBuf {
+    let stem = scene.and_then(|s| s.file_stem()).map(|s| s.to_string_lossy().into_owned());
+    let name = format!("{}{suffix}.png", stem.as_deref().unwrap_or("default"));
+    dir.map_or_else(|| PathBuf::from(&name), |d| d.join(&name))
 }
 
-fn gpu_renderer(args: &FrameArgs) -> Result<GpuRenderer, Failure> {
-    let o = &args.render;
+fn gpu_renderer(o: &RenderOptions) -> Result<GpuRenderer, Failure> {
     open_renderer(&o.device, o.validate, o.shaders.as_deref(), o.scene_buffers)
 }
 
@@ -406,26 +415,114 @@ fn write_picture(path: &Path, picture: &Picture) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The picture of each of `args.scenes`: where it goes, checked before any work.
+fn render_outputs(args: &RenderArgs, scenes: &[Option<&Path>]) -> Result<Vec<PathBuf>, Failure> {
+    if args.output.is_some() && scenes.len() > 1 {
+        return Err(Failure(
+            format!(
+                "raycast: error: -o names one picture, but {} scenes were given: use --out-dir DIR (each picture <scene name>.png)",
+                scenes.len()
+            ),
+            2,
+        ));
+    }
+    if let Some(dir) = &args.out_dir {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", dir.display()))?;
+    }
+    let outputs: Vec<PathBuf> = scenes
+        .iter()
+        .map(|scene| args.output.clone().unwrap_or_else(|| default_output(*scene, "", args.out_dir.as_deref())))
+        .collect();
+    for (i, path) in outputs.iter().enumerate() {
+        image_io::check_output_path(path)?;
+        if let Some(j) = outputs[..i].iter().position(|earlier| earlier == path) {
+            let name = |k: usize| scenes[k].map_or("the default scene".to_string(), |s| s.display().to_string());
+            return Err(Failure(
+                format!(
+                    "raycast: error: {} and {} would both be written to {}: render them in separate commands, or rename one",
+                    name(j),
+                    name(i),
+                    path.display()
+                ),
+                2,
+            ));
+        }
+    }
+    Ok(outputs)
+}
+
+/// Where `render` runs its scenes: opened once, for the first scene that loads.
+enum RenderBackend {
+    Cpu(CpuRenderer),
+    Gpu(GpuRenderer),
+}
+
 fn render(args: &RenderArgs) -> Result<(), Failure> {
-    let output = args.output.clone().unwrap_or_else(|| default_output(&args.frame, ""));
-    image_io::check_output_path(&output)?;
-    let p = prepare(&args.frame)?;
-    if args.backend == Backend::Cpu {
+    let scenes: Vec<Option<&Path>> =
+        if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_path())).collect() };
+    let outputs = render_outputs(args, &scenes)?;
+    let mut backend: Option<RenderBackend> = None;
+    let mut failed: Vec<String> = Vec::new();
+    for (scene, output) in scenes.iter().zip(&outputs) {
+        // The device opens for the first scene that loads; its failure ends the command.
+        let result = match prepare(*scene, &args.render) {
+            Ok(p) => {
+                if backend.is_none() {
+                    backend = Some(open_render_backend(args.backend, &args.render)?);
+                }
+                match backend.as_ref().expect("opened above") {
+                    RenderBackend::Cpu(cpu) => render_on_cpu(cpu, &p, output),
+                    RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, &p, output),
+                }
+            }
+            Err(e) => Err(e),
+        };
+        match result {
+            Ok(()) => {}
+            // A single scene fails as it always did; a batch goes on and fails at the end.
+            Err(e) if scenes.len() == 1 => return finish_render(backend, Err(e)),
+            Err(Failure(message, _)) => {
+                errln!("{message}");
+                failed.push(scene.map_or("the default scene".to_string(), |s| s.display().to_string()));
+            }
+        }
+    }
+    let result = if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(Failure(format!("raycast: error: {} of {} scenes failed: {}", failed.len(), scenes.len(), failed.join(", ")), 1))
+    };
+    finish_render(backend, result)
+}
+
+/// The backend `render` runs on, announced.
+fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBackend, Failure> {
+    if backend == Backend::Cpu {
         let cpu = CpuRenderer::new()?;
         outln!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
-        print_scene(&p);
-        let start = Instant::now();
-        let picture = cpu.render(&p.data)?;
-        let time = start.elapsed();
-        outln!("time: load {}, render {}", ms(p.load), ms(time));
-        outln!("{}", rate_line(&p.data, &picture, time));
-        return write_picture(&output, &picture);
+        return Ok(RenderBackend::Cpu(cpu));
     }
-    let renderer = gpu_renderer(&args.frame)?;
+    let renderer = gpu_renderer(o)?;
     let info = renderer.context().info();
     outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
-    print_scene(&p);
-    let (mut picture, t) = if args.frame.render.shaders.is_some() {
+    Ok(RenderBackend::Gpu(renderer))
+}
+
+fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<(), Failure> {
+    print_scene(p);
+    let start = Instant::now();
+    let picture = cpu.render(&p.data)?;
+    let time = start.elapsed();
+    outln!("time: load {}, render {}", ms(p.load), ms(time));
+    outln!("{}", rate_line(&p.data, &picture, time));
+    write_picture(output, &picture)
+}
+
+fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output: &Path) -> Result<(), Failure> {
+    let info = renderer.context().info();
+    print_scene(p);
+    let compiled_before = renderer.compile_time();
+    let (mut picture, t) = if o.shaders.is_some() {
         // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
         renderer.render(&p.data)?
     } else {
@@ -445,36 +542,44 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         "time: load {}, upload {}, compile {}, dispatch {}, readback {}",
         ms(p.load),
         ms(t.upload),
-        ms(renderer.compile_time()),
+        ms(renderer.compile_time() - compiled_before),
         ms(t.dispatch),
         ms(t.readback)
     );
     outln!("{}", rate_line(&p.data, &picture, t.dispatch));
-    print_kernel(&renderer, &p.data)?;
-    if info.kind == "cpu" {
+    print_kernel(renderer, &p.data)?;
+    write_picture(output, &picture)
+}
+
+/// After `render`'s scenes: the hint for a device that is a CPU, then what
+/// the validation layer said (which fails the command), then `result`.
+fn finish_render(backend: Option<RenderBackend>, result: Result<(), Failure>) -> Result<(), Failure> {
+    let Some(RenderBackend::Gpu(renderer)) = backend else { return result };
+    let info = renderer.context().info();
+    if info.kind == "cpu" && result.is_ok() {
         outln!(
             "hint: {} runs on the CPU; `--backend cpu` runs the same code natively, without Vulkan's start-up or a \
              pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md)",
             info.name
         );
     }
-    write_picture(&output, &picture)?;
     let messages = renderer.context().take_validation_messages();
     drop(renderer);
-    check_validation(messages)
+    let validation = check_validation(messages);
+    result.and(validation)
 }
 
 fn check(args: &CheckArgs) -> Result<(), Failure> {
     if let Some(path) = &args.output {
         image_io::check_output_path(path)?;
     }
-    let p = prepare(&args.frame)?;
+    let p = prepare(args.frame.scene.as_deref(), &args.frame.render)?;
     // Bad --pixel input fails before the renders, not after them.
     let (width, height) = (p.data.frame.width, p.data.frame.height);
     if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
         return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
     }
-    let renderer = gpu_renderer(&args.frame)?;
+    let renderer = gpu_renderer(&args.frame.render)?;
     let cpu = CpuRenderer::new()?;
     let device = renderer.context().info().name.clone();
     print_scene(&p);
@@ -492,7 +597,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     outln!("{report}");
     // The diff image where asked (-o), or by default when there is something to see.
     if args.output.is_some() || !report.identical() {
-        let diff_path = args.output.clone().unwrap_or_else(|| default_output(&args.frame, "-check"));
+        let diff_path = args.output.clone().unwrap_or_else(|| default_output(args.frame.scene.as_deref(), "-check", None));
         image_io::write_png(&diff_path, &report.diff_image)?;
         outln!("wrote {} (red: pixels that differ)", diff_path.display());
     }
