@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::context::{Inner, MIN_BUFFER};
+use super::context::{buffer_size, Inner};
 use super::{DataImage, GpuContext, GpuError, ImageFormat, Kernel, StorageImage};
 
 /// A storage buffer in host-visible, host-coherent memory, mapped for its
@@ -27,7 +27,7 @@ impl Buffer {
     /// A buffer of at least `len` bytes, every byte zero. `readback` prefers
     /// host-cached memory (for buffers the host reads); `what` names it in errors.
     pub fn new(ctx: &GpuContext, len: usize, readback: bool, what: &str) -> Result<Buffer, GpuError> {
-        let size = (len as u64).max(MIN_BUFFER).next_multiple_of(4);
+        let size = buffer_size(len);
         let (buffer, memory) = ctx.inner.create_owned_buffer(size, readback, what)?;
         let mut b = Buffer {
             buffer,

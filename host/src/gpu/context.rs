@@ -17,7 +17,7 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 /// Instance API version requested; nothing newer is used.
 const API_VERSION: u32 = vk::API_VERSION_1_1;
 /// Storage buffers cannot be empty; zero-length inputs get this many bytes.
-pub(crate) const MIN_BUFFER: u64 = 16;
+const MIN_BUFFER: u64 = 16;
 
 /// Who touches a buffer's memory (`Inner::create_buffer`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -692,8 +692,8 @@ impl RunBuffers<'_> {
     }
 }
 
-/// A run's storage buffer size for `len` bytes: not empty, whole words.
-fn buffer_size(len: usize) -> u64 {
+/// A storage buffer's size for `len` bytes: not empty, whole words.
+pub(crate) fn buffer_size(len: usize) -> u64 {
     (len as u64).max(MIN_BUFFER).next_multiple_of(4)
 }
 
@@ -708,7 +708,6 @@ impl Inner {
                 i.binding
             )));
         }
-        let is_image = |binding: u32| kernel.images().iter().any(|i| i.binding == binding);
         let mut given: Vec<u32> = buffers.lengths().map(|(b, _)| b).collect();
         given.sort_unstable();
         let mut wanted: Vec<u32> =
@@ -725,12 +724,12 @@ impl Inner {
             return Err(GpuError::TooManyGroups { groups, limit });
         }
         let out_binding = buffers.output.0;
-        if let Some(&(binding, _)) = buffers.cleared.iter().chain([&buffers.output]).find(|(b, _)| is_image(*b)) {
+        if let Some(&(binding, _)) = buffers.cleared.iter().chain([&buffers.output]).find(|(b, _)| kernel.binds_image(*b)) {
             let what = if binding == out_binding { "the output" } else { "cleared" };
             return Err(bad(format!("binding {binding} is a read-only image; it cannot be {what}")));
         }
         for (binding, len) in buffers.lengths() {
-            if is_image(binding) {
+            if kernel.binds_image(binding) {
                 self.check_data_image(kernel.name(), &kernel.binding_label(binding), len)?;
                 continue;
             }
@@ -751,7 +750,6 @@ impl Inner {
     /// The buffers and data images of a checked run, the inputs written,
     /// and a descriptor set binding them.
     fn prepare_run(&self, kernel: &Kernel, buffers: &RunBuffers) -> Result<(RunResources, vk::DescriptorSet), GpuError> {
-        let is_image = |binding: u32| kernel.images().iter().any(|i| i.binding == binding);
         let mut res = RunResources::new(self.device.clone());
         // Inputs: one host-visible buffer per binding, written in place.
         for &(binding, data) in buffers.inputs {
@@ -765,7 +763,7 @@ impl Inner {
                 self.device.unmap_memory(memory);
             }
             res.bindings.push((binding, buffer));
-            if is_image(binding) {
+            if kernel.binds_image(binding) {
                 // A device image, copied from this buffer when the command buffer starts.
                 let texels = (data.len() / 16) as u32;
                 self.create_data_image(&mut res, binding, buffer, texels, &kernel.binding_label(binding))?;
@@ -789,7 +787,6 @@ impl Inner {
 
     /// A descriptor set (from a pool in `res`) with `res`'s buffers and data images at their bindings.
     fn run_descriptor_set(&self, res: &mut RunResources, kernel: &Kernel) -> Result<vk::DescriptorSet, GpuError> {
-        let is_image = |binding: u32| kernel.images().iter().any(|i| i.binding == binding);
         let images = res.images.len() as u32;
         let uniform = res.bindings.iter().filter(|(b, _)| kernel.descriptor_type(*b) == vk::DescriptorType::UNIFORM_BUFFER).count() as u32;
         let sizes: Vec<vk::DescriptorPoolSize> = [
@@ -824,7 +821,7 @@ impl Inner {
             .bindings
             .iter()
             .zip(&buffer_infos)
-            .filter(|((binding, _), _)| !is_image(*binding))
+            .filter(|((binding, _), _)| !kernel.binds_image(*binding))
             .map(|((binding, _), info)| {
                 vk::WriteDescriptorSet::default()
                     .dst_set(set)

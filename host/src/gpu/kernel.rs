@@ -155,6 +155,11 @@ impl Kernel {
         format!("kernel {}: binding {binding} ({})", self.name, shape.as_deref().unwrap_or("?"))
     }
 
+    /// Whether `binding` is one of the kernel's storage images.
+    pub(crate) fn binds_image(&self, binding: u32) -> bool {
+        self.images.iter().any(|i| i.binding == binding)
+    }
+
     /// The descriptor type of buffer binding `binding` (storage unless the kernel declares a uniform block there).
     pub(crate) fn descriptor_type(&self, binding: u32) -> vk::DescriptorType {
         self.bindings.iter().find(|b| b.binding == binding).map_or(vk::DescriptorType::STORAGE_BUFFER, buffer_descriptor_type)
