@@ -315,6 +315,66 @@ fn check_passes_on_the_default_scene() {
     assert_eq!(files_in(&cwd), Vec::<String>::new(), "an identical check wrote files");
 }
 
+/// `check` over several scenes: one device and one CPU build for all, a
+/// report a scene and a summary; a difference or a bad scene fails the
+/// command at the end, naming it, and the others are still checked.
+#[test]
+fn several_scenes_check_on_one_device() {
+    let scenes = [repo().join("scenes/default.xml"), repo().join("tests/scenes/stress/scales.xml")];
+    let batch: Vec<&str> = scenes.iter().map(|s| s.to_str().unwrap()).collect();
+    let small = ["--width", "64", "--height", "48"];
+    let dir = out_dir().join("check-batch");
+    let _ = std::fs::remove_dir_all(&dir);
+    let dir_arg = ["--out-dir", dir.to_str().unwrap()];
+
+    // Identical: success, a summary, and no diff images.
+    let o = raycast(&[&["check"], &batch[..], &small, &dir_arg].concat(), &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert_eq!(out.matches("identical: every pixel of every buffer has the same bits").count(), 2, "{out}");
+    assert!(out.contains("check: 2 of 2 scenes identical, 0 within --allow-pixels, 0 differ, 0 failed"), "{out}");
+    assert_eq!(files_in(&dir), Vec::<String>::new(), "an identical check wrote files");
+
+    // A planted difference: each scene's diff image in --out-dir, exit 4 naming both.
+    let planted = planted_shaders("planted-shaders-batch");
+    let shaders = ["--shaders", planted.to_str().unwrap()];
+    let o = raycast(&[&["check"], &batch[..], &small, &dir_arg, &shaders].concat(), &[]);
+    assert_fails(&o, 4, "check failed: 2 of 2 scenes differ between the device and the CPU build: ");
+    assert!(text(&o).0.contains("check: 0 of 2 scenes identical, 0 within --allow-pixels, 2 differ, 0 failed"), "{:?}", text(&o));
+    assert_eq!(files_in(&dir), ["default-check.png", "scales-check.png"], "{:?}", text(&o));
+    let o = raycast(&[&["check"], &batch[..], &small, &dir_arg, &shaders, &["--allow-pixels", "1000000"]].concat(), &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(text(&o).0.contains("0 of 2 scenes identical, 2 within --allow-pixels, 0 differ, 0 failed"), "{:?}", text(&o));
+
+    // A bad scene among good ones: reported, the others checked, the command fails naming it.
+    let bad = repo().join("tests/scenes/bad/malformed.xml");
+    let o = raycast(&[&["check", batch[0], bad.to_str().unwrap(), batch[1]][..], &small, &dir_arg].concat(), &[]);
+    assert_fails(&o, 1, "malformed.xml:");
+    assert_fails(&o, 1, "1 of 3 scenes failed: ");
+    assert!(text(&o).0.contains("check: 2 of 3 scenes identical, 0 within --allow-pixels, 0 differ, 1 failed"), "{:?}", text(&o));
+
+    // Without a device the command ends at once, not once a scene.
+    let o = raycast(
+        &[&["check"], &batch[..], &small].concat(),
+        &[("VK_DRIVER_FILES", "/nonexistent/icd.json"), ("RAYCAST_VALIDATION", "0")],
+    );
+    assert_fails(&o, 1, "no Vulkan device");
+    assert_eq!(text(&o).1.matches("no Vulkan device").count(), 1, "{:?}", text(&o));
+
+    // Usage mistakes fail before any work: -o or --pixel with several scenes, two diff images of one name.
+    let one = out_dir().join("one.png");
+    let mistakes = [
+        (vec!["check", batch[0], batch[1], "-o", one.to_str().unwrap()], "-o names one picture, but 2 scenes were given: use --out-dir DIR (each picture <scene name>-check.png)"),
+        (vec!["check", batch[0], batch[1], "--pixel", "1,1"], "--pixel looks at one scene's pixel, but 2 scenes were given"),
+        (vec!["check", batch[0], batch[0]], "would both be written to default-check.png"),
+    ];
+    for (args, message) in mistakes {
+        let o = raycast(&args, &[]);
+        assert_fails(&o, 2, message);
+        assert!(!text(&o).0.contains("check: the built-in kernel"), "{:?}", text(&o));
+    }
+}
+
 /// A fresh copy of shaders/ in the test output folder, to plant changes in.
 fn copy_of_shaders(name: &str) -> PathBuf {
     common::copy_of_shaders(&out_dir().join(name))

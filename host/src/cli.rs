@@ -49,15 +49,6 @@ enum Command {
     Bench(crate::bench::BenchArgs),
 }
 
-/// One scene and how to render it (`check`).
-#[derive(Args, Debug)]
-struct FrameArgs {
-    /// Scene file (XML). Without one, the embedded default scene.
-    scene: Option<PathBuf>,
-    #[command(flatten)]
-    render: RenderOptions,
-}
-
 /// The options of every command that renders frames (`render`, `check`,
 /// `bench`), the scene aside.
 #[derive(Args, Debug)]
@@ -166,16 +157,26 @@ struct RenderArgs {
 
 #[derive(Args, Debug)]
 struct CheckArgs {
+    /// Scene files (XML), checked one after the other on one device and one
+    /// CPU build (their start-up and each kernel paid once). Without any,
+    /// the embedded default scene.
+    #[arg(value_name = "SCENE")]
+    scenes: Vec<PathBuf>,
     #[command(flatten)]
-    frame: FrameArgs,
-    /// Where to write the diff image [default: <scene name>-check.png, and
-    /// only when something differs]: red where any buffer differs, a dim
-    /// copy of the device's render elsewhere.
-    #[arg(short, long, value_name = "DIFF.png")]
+    render: RenderOptions,
+    /// Where to write the diff image, for one scene [default:
+    /// <scene name>-check.png, and only when something differs]: red where
+    /// any buffer differs, a dim copy of the device's render elsewhere.
+    #[arg(short, long, value_name = "DIFF.png", conflicts_with = "out_dir")]
     output: Option<PathBuf>,
-    /// Succeed when at most K pixels differ. For a GPU whose driver breaks the
-    /// kernels' exactness (lavapipe and an NVIDIA H100 keep it: README, "On a
-    /// GPU too"); the output says the check was not exact.
+    /// Folder for the diff images, each <scene name>-check.png (made if
+    /// missing) [default: the current folder]
+    #[arg(long, value_name = "DIR")]
+    out_dir: Option<PathBuf>,
+    /// Succeed when at most K pixels differ (in each scene). For a GPU whose
+    /// driver breaks the kernels' exactness (lavapipe and an NVIDIA H100
+    /// keep it: README, "On a GPU too"); the output says the check was not
+    /// exact.
     #[arg(long, default_value_t = 0, value_name = "K")]
     allow_pixels: usize,
     /// Also run pixel (X, Y) alone through the shader-test harness:
@@ -183,7 +184,7 @@ struct CheckArgs {
     /// C++ build compiled at run time, both from --shaders DIR (or the source
     /// tree's shaders/), compared bit for bit. Tells a difference that
     /// follows the code from one that follows the whole-frame kernel, and
-    /// lets instrumentation of DIR run on both sides. Repeatable.
+    /// lets instrumentation of DIR run on both sides. Repeatable; one scene.
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
     pixel: Vec<(u32, u32)>,
 }
@@ -415,33 +416,49 @@ fn write_picture(path: &Path, picture: &Picture) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The picture of each of `args.scenes`: where it goes, checked before any work.
-fn render_outputs(args: &RenderArgs, scenes: &[Option<&Path>]) -> Result<Vec<PathBuf>, Failure> {
-    if args.output.is_some() && scenes.len() > 1 {
+/// The scenes a command was given: each path, or None for the embedded default scene.
+fn scene_list(scenes: &[PathBuf]) -> Vec<Option<&Path>> {
+    if scenes.is_empty() { vec![None] } else { scenes.iter().map(|s| Some(s.as_path())).collect() }
+}
+
+/// A scene as the command's messages name it.
+fn scene_name(scene: Option<&Path>) -> String {
+    scene.map_or("the default scene".to_string(), |s| s.display().to_string())
+}
+
+/// Where each scene's picture goes (`render`: `<scene name>.png`; `check`:
+/// `<scene name>-check.png`, its diff image): `-o` for one scene, else in
+/// `--out-dir` (made here) or the current folder. Checked before any work:
+/// -o with several scenes, a path that cannot be written, two scenes
+/// writing one file.
+fn output_paths(
+    output: &Option<PathBuf>,
+    out_dir: &Option<PathBuf>,
+    suffix: &str,
+    scenes: &[Option<&Path>],
+) -> Result<Vec<PathBuf>, Failure> {
+    if output.is_some() && scenes.len() > 1 {
         return Err(Failure(
             format!(
-                "raycast: error: -o names one picture, but {} scenes were given: use --out-dir DIR (each picture <scene name>.png)",
+                "raycast: error: -o names one picture, but {} scenes were given: use --out-dir DIR (each picture <scene name>{suffix}.png)",
                 scenes.len()
             ),
             2,
         ));
     }
-    if let Some(dir) = &args.out_dir {
+    if let Some(dir) = out_dir {
         std::fs::create_dir_all(dir).map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", dir.display()))?;
     }
-    let outputs: Vec<PathBuf> = scenes
-        .iter()
-        .map(|scene| args.output.clone().unwrap_or_else(|| default_output(*scene, "", args.out_dir.as_deref())))
-        .collect();
+    let outputs: Vec<PathBuf> =
+        scenes.iter().map(|scene| output.clone().unwrap_or_else(|| default_output(*scene, suffix, out_dir.as_deref()))).collect();
     for (i, path) in outputs.iter().enumerate() {
         image_io::check_output_path(path)?;
         if let Some(j) = outputs[..i].iter().position(|earlier| earlier == path) {
-            let name = |k: usize| scenes[k].map_or("the default scene".to_string(), |s| s.display().to_string());
             return Err(Failure(
                 format!(
-                    "raycast: error: {} and {} would both be written to {}: render them in separate commands, or rename one",
-                    name(j),
-                    name(i),
+                    "raycast: error: {} and {} would both be written to {}: give them in separate commands, or rename one",
+                    scene_name(scenes[j]),
+                    scene_name(scenes[i]),
                     path.display()
                 ),
                 2,
@@ -458,9 +475,8 @@ enum RenderBackend {
 }
 
 fn render(args: &RenderArgs) -> Result<(), Failure> {
-    let scenes: Vec<Option<&Path>> =
-        if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_path())).collect() };
-    let outputs = render_outputs(args, &scenes)?;
+    let scenes = scene_list(&args.scenes);
+    let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
     let mut backend: Option<RenderBackend> = None;
     let mut failed: Vec<String> = Vec::new();
     for (scene, output) in scenes.iter().zip(&outputs) {
@@ -483,7 +499,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
             Err(e) if scenes.len() == 1 => return finish_render(backend, Err(e)),
             Err(Failure(message, _)) => {
                 errln!("{message}");
-                failed.push(scene.map_or("the default scene".to_string(), |s| s.display().to_string()));
+                failed.push(scene_name(*scene));
             }
         }
     }
@@ -569,59 +585,137 @@ fn finish_render(backend: Option<RenderBackend>, result: Result<(), Failure>) ->
     result.and(validation)
 }
 
+/// How one scene's check came out.
+enum Checked {
+    Identical,
+    /// Some pixels differ, within --allow-pixels.
+    Accepted,
+    /// This many pixels differ, beyond --allow-pixels.
+    Differ(usize),
+}
+
+/// The device and the CPU build `check` compares, opened once, for the first scene that loads.
+struct CheckBackends {
+    gpu: GpuRenderer,
+    cpu: CpuRenderer,
+}
+
 fn check(args: &CheckArgs) -> Result<(), Failure> {
-    if let Some(path) = &args.output {
-        image_io::check_output_path(path)?;
+    let scenes = scene_list(&args.scenes);
+    if !args.pixel.is_empty() && scenes.len() > 1 {
+        return Err(Failure(
+            format!("raycast: error: --pixel looks at one scene's pixel, but {} scenes were given: check that scene alone", scenes.len()),
+            2,
+        ));
     }
-    let p = prepare(args.frame.scene.as_deref(), &args.frame.render)?;
-    // Bad --pixel input fails before the renders, not after them.
-    let (width, height) = (p.data.frame.width, p.data.frame.height);
-    if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
-        return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
+    let diffs = output_paths(&args.output, &args.out_dir, "-check", &scenes)?;
+    let mut backends: Option<CheckBackends> = None;
+    // The one scene's frame and pictures, for --pixel.
+    let mut last = None;
+    let (mut accepted, mut differ, mut failed) = (0, Vec::new(), Vec::new());
+    for (scene, diff) in scenes.iter().zip(&diffs) {
+        let result = match prepare(*scene, &args.render) {
+            Ok(p) => {
+                // Bad --pixel input fails before the renders, not after them.
+                let (width, height) = (p.data.frame.width, p.data.frame.height);
+                if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
+                    return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
+                }
+                // The device opens for the first scene that loads; its failure ends the command.
+                if backends.is_none() {
+                    backends = Some(CheckBackends { gpu: gpu_renderer(&args.render)?, cpu: CpuRenderer::new()? });
+                }
+                check_scene(args, backends.as_ref().expect("opened above"), &p, diff).map(|(checked, gpu, cpu)| {
+                    if !args.pixel.is_empty() {
+                        last = Some((p.data, gpu, cpu));
+                    }
+                    checked
+                })
+            }
+            Err(e) => Err(e),
+        };
+        let name = scene_name(*scene);
+        match result {
+            Ok(Checked::Identical) => {}
+            Ok(Checked::Accepted) => accepted += 1,
+            Ok(Checked::Differ(pixels)) => differ.push((name, pixels)),
+            // A single scene fails as it always did; several go on and fail at the end.
+            Err(e) if scenes.len() == 1 => return Err(e),
+            Err(Failure(message, _)) => {
+                errln!("{message}");
+                failed.push(name);
+            }
+        }
     }
-    let renderer = gpu_renderer(&args.frame.render)?;
-    let cpu = CpuRenderer::new()?;
-    let device = renderer.context().info().name.clone();
-    print_scene(&p);
+    if let Some(b) = backends {
+        let messages = b.gpu.context().take_validation_messages();
+        drop(b);
+        check_validation(messages)?;
+    }
+    if let Some((data, gpu_picture, cpu_picture)) = &last {
+        isolated_pixels(args, data, gpu_picture, cpu_picture)?;
+    }
+    let n = scenes.len();
+    if n > 1 {
+        outln!(
+            "check: {} of {n} scenes identical, {} within --allow-pixels, {} differ, {} failed",
+            n - accepted - differ.len() - failed.len(),
+            accepted,
+            differ.len(),
+            failed.len()
+        );
+    }
+    let differ_text = || match &differ[..] {
+        [(_, pixels)] if n == 1 => format!("{pixels} pixels differ between the device and the CPU build"),
+        _ => {
+            let list: Vec<String> = differ.iter().map(|(name, pixels)| format!("{name} ({pixels} pixels)")).collect();
+            format!("{} of {n} scenes differ between the device and the CPU build: {}", differ.len(), list.join(", "))
+        }
+    };
+    match (failed.is_empty(), differ.is_empty()) {
+        (true, true) => Ok(()),
+        (true, false) => Err(Failure(format!("raycast: check failed: {}", differ_text()), 4)),
+        (false, _) => {
+            let also = if differ.is_empty() { String::new() } else { format!("; and {}", differ_text()) };
+            Err(Failure(format!("raycast: error: {} of {n} scenes failed: {}{also}", failed.len(), failed.join(", ")), 1))
+        }
+    }
+}
+
+/// One scene on the device and on the CPU build, compared and reported; the
+/// diff image written to `diff` where asked (-o) or where something differs.
+fn check_scene(args: &CheckArgs, b: &CheckBackends, p: &Prepared, diff: &Path) -> Result<(Checked, Picture, Picture), Failure> {
+    let device = b.gpu.context().info().name.clone();
+    print_scene(p);
     outln!(
         "check: {} on {device} against the CPU build ({} threads), {}x{}, every buffer bit for bit",
-        if args.frame.render.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
-        cpu.threads,
+        if args.render.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
+        b.cpu.threads,
         p.data.frame.width,
         p.data.frame.height
     );
-    let (gpu_picture, _) = renderer.render(&p.data)?;
-    print_kernel(&renderer, &p.data)?;
-    let cpu_picture = cpu.render(&p.data)?;
+    let (gpu_picture, _) = b.gpu.render(&p.data)?;
+    print_kernel(&b.gpu, &p.data)?;
+    let cpu_picture = b.cpu.render(&p.data)?;
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
     outln!("{report}");
-    // The diff image where asked (-o), or by default when there is something to see.
     if args.output.is_some() || !report.identical() {
-        let diff_path = args.output.clone().unwrap_or_else(|| default_output(args.frame.scene.as_deref(), "-check", None));
-        image_io::write_png(&diff_path, &report.diff_image)?;
-        outln!("wrote {} (red: pixels that differ)", diff_path.display());
+        image_io::write_png(diff, &report.diff_image)?;
+        outln!("wrote {} (red: pixels that differ)", diff.display());
     }
-    let messages = renderer.context().take_validation_messages();
-    drop(renderer);
-    check_validation(messages)?;
-    if !args.pixel.is_empty() {
-        isolated_pixels(args, &p.data, &gpu_picture, &cpu_picture)?;
-    }
-    if report.identical() {
-        return Ok(());
-    }
-    if report.differing_pixels <= args.allow_pixels {
-        outln!(
-            "NOT EXACT: {} pixels differ, accepted by --allow-pixels {} (lavapipe and an NVIDIA H100 measured exact; \
-             a driver that does not fuse `fma` or honour `precise` may not be: README, \"On a GPU too\")",
-            report.differing_pixels, args.allow_pixels
-        );
-        return Ok(());
-    }
-    Err(Failure(
-        format!("raycast: check failed: {} pixels differ between the device and the CPU build", report.differing_pixels),
-        4,
-    ))
+    let checked = match report.differing_pixels {
+        _ if report.identical() => Checked::Identical,
+        n if n <= args.allow_pixels => {
+            outln!(
+                "NOT EXACT: {n} pixels differ, accepted by --allow-pixels {} (lavapipe and an NVIDIA H100 measured exact; \
+                 a driver that does not fuse `fma` or honour `precise` may not be: README, \"On a GPU too\")",
+                args.allow_pixels
+            );
+            Checked::Accepted
+        }
+        n => Checked::Differ(n),
+    };
+    Ok((checked, gpu_picture, cpu_picture))
 }
 
 /// `check --pixel`: each pixel's render_pixel alone, through the harness.
@@ -629,9 +723,9 @@ fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cp
     use crate::harness::{Case, Harness, HarnessOptions, SceneBuffers};
     let width = data.frame.width;
     let mut harness = Harness::new(&HarnessOptions {
-        shaders: args.frame.render.shaders.clone(),
-        device: parse_device(&args.frame.render.device),
-        validation: validation_wanted(args.frame.render.validate),
+        shaders: args.render.shaders.clone(),
+        device: parse_device(&args.render.device),
+        validation: validation_wanted(args.render.validate),
     })
     .map_err(|e| Failure(format!("raycast: error: --pixel: {e}"), 1))?;
     // The frame's buffers under the names scene_buffers.glsl gives them.
