@@ -144,6 +144,13 @@ struct Frame {
     uint root_node;  // the root group's hierarchy
     uint node_count; // 0: no hierarchy; primitives are tested in order
     uint loop_canary; // LOOP_CANARY: the trip count of raycast.glsl's loop_budget_ok
+    // render.comp: the first row of the band this dispatch draws; its
+    // buffers hold that band alone (a picture larger than one storage
+    // buffer renders in bands). 0 elsewhere.
+    uint row_offset;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 };
 
 // A primitive of a group. Its matrix maps the group's space (the world for

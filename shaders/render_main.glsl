@@ -6,6 +6,9 @@
 // normal and rays. All the work is in raycast.glsl, shared with the CPU
 // build.
 //
+// A picture whose pixels do not fit one storage buffer is drawn in bands of
+// rows (frame.row_offset), each with buffers of its own.
+//
 // The host dispatches the kernel frame.spp times over the same buffers:
 // the running sums (`sums`, zeroed by the host) say which sample is next.
 // Computed this way, the pixel is bit for bit render_pixel's (sample 0
@@ -24,13 +27,15 @@ layout(std430, binding = BINDING_SAMPLE_SUMS) buffer SampleSumBlock { SampleSum 
 #include "raycast.glsl"
 
 void main() {
+    // The pixel in the band the dispatch draws, from frame.row_offset on
+    // (every band but the last a whole number of tiles high).
     uvec2 pixel = tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationIndex);
     uint j = pixel.x;
-    uint i = pixel.y;
+    uint i = frame.row_offset + pixel.y;
     if (j >= frame.width || i >= frame.height) {
         return;
     }
-    uint index = i * frame.width + j;
+    uint index = pixel.y * frame.width + j;
     uint n = max(frame.spp, 1u);
     uint s = sums[index].samples;
     if (s >= n) {

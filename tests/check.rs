@@ -13,7 +13,9 @@
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
 //! build's bits. The device renders every scene that fits with its arrays in
 //! uniform buffers (render_uniform.comp); each scene is also checked with
-//! them in storage buffers (render.comp, 128x96). A failure
+//! them in storage buffers (render.comp, 128x96), and drawn in bands of 16
+//! rows, a dispatch each (131x97), as pictures too large for one storage
+//! buffer are. A failure
 //! prints the per-buffer report and writes the diff image. Ends with
 //! `N passed, M failed`.
 
@@ -36,6 +38,9 @@ fn xml_files(dir: &Path) -> Vec<PathBuf> {
     files.sort();
     files
 }
+
+/// The width of the banded check's pictures.
+const BAND_WIDTH: u32 = 131;
 
 fn main() -> ExitCode {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -83,6 +88,20 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    // The same device drawing each picture in bands of BAND_ROWS rows (a
+    // dispatch per band, frame.row_offset), as it does pictures whose
+    // pixels do not fit one storage buffer: at 131x97 the last band is
+    // partial and the tiles overhang the right edge.
+    const BAND_ROWS: u32 = 16;
+    let band_bytes = u64::from(BAND_WIDTH) * std::mem::size_of::<raycast::layout::PixelOut>() as u64 * u64::from(BAND_ROWS);
+    let gpu_bands = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
+        Ok(r) => r.with_band_bytes(band_bytes),
+        Err(e) => {
+            println!("FAILED: cannot start the Vulkan device: {e}\n0 passed, 1 failed");
+            return ExitCode::FAILURE;
+        }
+    };
+    assert_eq!(gpu_bands.band_rows(BAND_WIDTH), BAND_ROWS, "the bands' size");
     println!("bit-exact check: {} against the CPU build ({} threads)", gpu.context().info().name, cpu.threads);
     let out_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("check");
     let (mut passed, mut failed) = (0, 0);
@@ -142,6 +161,11 @@ fn main() -> ExitCode {
             let checks = [
                 ("64x48 --no-bvh", RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() }, &gpu),
                 ("128x96 storage buffers", RenderSettings { width: 128, height: 96, ..RenderSettings::default() }, &gpu_storage),
+                (
+                    "131x97 in bands of 16 rows",
+                    RenderSettings { width: BAND_WIDTH, height: 97, ..RenderSettings::default() },
+                    &gpu_bands,
+                ),
             ];
             for (what, settings, renderer) in checks {
                 let label = format!("{name} Color {what}, device against cpu");

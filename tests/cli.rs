@@ -282,6 +282,28 @@ fn several_scenes_render_on_one_device() {
     assert!(!text(&o).0.contains("device: "), "{:?}", text(&o));
 }
 
+/// A picture whose pixel records exceed one storage buffer of the device
+/// (lavapipe's maxStorageBufferRange is 128 MiB: 4,194,304 records of 32
+/// bytes; 4096x1032 is 4,227,072) renders in bands of rows, a dispatch
+/// each, with the CPU build's bits. It used to be refused.
+#[test]
+fn a_picture_beyond_one_storage_buffer_renders_in_bands() {
+    let (gpu, cpu) = (out_dir().join("bands-gpu.png"), out_dir().join("bands-cpu.png"));
+    let size = ["--width", "4096", "--height", "1032", "--aov", "normal"];
+    let o = raycast(&[&["render", "-o", gpu.to_str().unwrap()][..], &size].concat(), &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    if out.contains("llvmpipe") {
+        assert!(out.contains("bands: 2 dispatches of up to 1024 rows each"), "{out}");
+    }
+    let o = raycast(&[&["render", "--backend", "cpu", "-o", cpu.to_str().unwrap()][..], &size].concat(), &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    // Rule: bit-exact.
+    let (a, b) = (raycast::image_io::read_png(&gpu).unwrap(), raycast::image_io::read_png(&cpu).unwrap());
+    let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
+    assert_eq!(diff.differing, 0, "{diff}");
+}
+
 #[test]
 fn cpu_backend_writes_the_same_png_as_the_device() {
     let (gpu, cpu) = (out_dir().join("backend-gpu.png"), out_dir().join("backend-cpu.png"));

@@ -43,6 +43,7 @@ const Field fields[] = {
     AT(Frame, height), AT(Frame, primitive_count), AT(Frame, light_count), AT(Frame, aov),
     AT(Frame, flags), AT(Frame, max_depth), AT(Frame, spp), AT(Frame, texture_filter),
     AT(Frame, root_node), AT(Frame, node_count), AT(Frame, loop_canary),
+    AT(Frame, row_offset), AT(Frame, pad0), AT(Frame, pad1), AT(Frame, pad2),
     SIZE(BvhNode), AT(BvhNode, lo), AT(BvhNode, hi), AT(BvhNode, first), AT(BvhNode, count),
     AT(BvhNode, axis), AT(BvhNode, primitives),
     SIZE(LeafItem), AT(LeafItem, item),

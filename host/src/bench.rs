@@ -92,15 +92,17 @@ pub fn reset_peak_host() -> bool {
 /// read back. With `uniform` (render_uniform.comp), the arrays it reads as
 /// uniform blocks count at their declared size, as they are uploaded
 /// (`layout::padded_for_uniform`). The driver's rounding of each
-/// allocation is not counted, nor the kernel itself.
-pub fn device_bytes(data: &FrameData, uniform: bool) -> u64 {
+/// allocation is not counted, nor the kernel itself. A picture drawn in
+/// bands (`GpuRenderer::band_rows`) holds the running sums and pixels of
+/// one band of `band_rows` rows at a time.
+pub fn device_bytes(data: &FrameData, uniform: bool, band_rows: u32) -> u64 {
     let scene: u64 = data
         .scene_buffers()
         .iter()
         .map(|&(binding, _, bytes)| if uniform { crate::layout::padded_for_uniform(binding, bytes).len() } else { bytes.len() } as u64)
         .sum();
     let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
-    let pixels = u64::from(data.frame.width) * u64::from(data.frame.height) * per_pixel as u64;
+    let pixels = u64::from(data.frame.width) * u64::from(data.frame.height.min(band_rows)) * per_pixel as u64;
     std::mem::size_of::<Frame>() as u64 + scene + pixels
 }
 
@@ -664,7 +666,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             match timed {
                 Ok(()) => {
                     row.host_peak = peak(peak_host_bytes());
-                    row.device_bytes = Some(device_bytes(&loaded.data, uniform));
+                    row.device_bytes = Some(device_bytes(&loaded.data, uniform, g.band_rows(loaded.data.frame.width)));
                     rows.push(row);
                 }
                 Err(GpuError::CutShort { count, total, .. }) => {
@@ -780,7 +782,9 @@ mod tests {
         assert!(scene > 0);
         let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
         let expect = std::mem::size_of::<Frame>() as u64 + scene + 40 * per_pixel as u64;
-        assert_eq!(device_bytes(&loaded.data, false), expect);
+        assert_eq!(device_bytes(&loaded.data, false, u32::MAX), expect);
+        // In bands of 2 rows, half the pixels at a time.
+        assert_eq!(device_bytes(&loaded.data, false, 2), expect - 20 * per_pixel as u64);
         // The uniform kernels' images are uploaded as `padded_for_uniform` pads them:
         // at least one texel, and these arrays are all shorter than a row.
         let images: u64 = loaded
@@ -792,7 +796,7 @@ mod tests {
                 (if image { bytes.len().max(16) } else { bytes.len() }) as u64
             })
             .sum();
-        assert_eq!(device_bytes(&loaded.data, true), expect - scene + images);
+        assert_eq!(device_bytes(&loaded.data, true, 4), expect - scene + images);
     }
 
     /// One median for bench's frames and versus's ratios: unsorted input,

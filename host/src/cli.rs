@@ -562,6 +562,16 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
         ms(t.dispatch),
         ms(t.readback)
     );
+    if t.bands > 1 {
+        outln!(
+            "bands: {} dispatches of up to {} rows each: the picture's pixel records ({}) do not fit one storage buffer \
+             of this device ({})",
+            t.bands,
+            t.band_rows,
+            gpu::fmt_bytes(picture.pixels.len() as u64 * std::mem::size_of::<crate::layout::PixelOut>() as u64),
+            gpu::fmt_bytes(renderer.context().max_storage_bytes())
+        );
+    }
     outln!("{}", rate_line(&p.data, &picture, t.dispatch));
     print_kernel(renderer, &p.data)?;
     write_picture(output, &picture)

@@ -334,6 +334,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         root_node: packed.root_node,
         node_count: packed.nodes.len() as u32,
         loop_canary: layout::LOOP_CANARY,
+        ..layout::Frame::default()
     };
     Ok(FrameData {
         frame,

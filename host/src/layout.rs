@@ -34,6 +34,11 @@ pub struct Frame {
     pub node_count: u32,
     /// LOOP_CANARY (raycast.glsl loop_budget_ok).
     pub loop_canary: u32,
+    /// render.comp: the first row of the band a dispatch draws (`GpuRenderer::render_marked`).
+    pub row_offset: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 #[repr(C)]
@@ -211,7 +216,8 @@ macro_rules! struct_layout {
 impl Frame {
     pub fn layout() -> StructLayout {
         struct_layout!(Frame, "Frame", [world_from_film, eye, k, width, height,
-            primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, root_node, node_count, loop_canary])
+            primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, root_node, node_count, loop_canary,
+            row_offset, pad0, pad1, pad2])
     }
 }
 

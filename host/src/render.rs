@@ -73,6 +73,9 @@ pub struct GpuTimings {
     pub upload: Duration,
     pub dispatch: Duration,
     pub readback: Duration,
+    /// The dispatches' bands of rows (`GpuRenderer::band_rows`): how many, and the rows of each but the last.
+    pub bands: u32,
+    pub band_rows: u32,
 }
 
 /// The render kernel with the scene's arrays in data images
@@ -295,6 +298,9 @@ pub struct GpuRenderer {
     /// Time to check the SPIR-V and build the pipelines so far.
     compile_time: Mutex<Duration>,
     choice: SceneBuffers,
+    /// The most bytes of a band's buffers (`with_band_bytes`); None: as
+    /// many as the device's storage buffers hold.
+    band_bytes: Option<u64>,
 }
 
 /// Recomputes with the CPU build the pixels of `picture` (a render of
@@ -364,6 +370,7 @@ impl GpuRenderer {
             context,
             compile_time: Mutex::new(Duration::ZERO),
             choice: SceneBuffers::Auto,
+            band_bytes: None,
         }
     }
 
@@ -380,6 +387,24 @@ impl GpuRenderer {
     pub fn with_scene_buffers(mut self, choice: SceneBuffers) -> GpuRenderer {
         self.choice = choice;
         self
+    }
+
+    /// Bands of rows whose pixel and sums buffers take at most `bytes` each
+    /// (but at least one tile high), where the device's limit would allow
+    /// larger: to test the bands on small pictures.
+    pub fn with_band_bytes(mut self, bytes: u64) -> GpuRenderer {
+        self.band_bytes = Some(bytes);
+        self
+    }
+
+    /// How many rows of a `width`-pixel picture one dispatch draws: as many
+    /// as a storage buffer of the device holds in pixel records and running
+    /// sums (or `with_band_bytes`), a whole number of tiles.
+    pub fn band_rows(&self, width: u32) -> u32 {
+        let per_row = u64::from(width) * std::mem::size_of::<PixelOut>().max(std::mem::size_of::<layout::SampleSum>()) as u64;
+        let limit = self.band_bytes.unwrap_or(u64::MAX).min(self.context.max_storage_bytes());
+        let tiles = (limit / per_row.max(1) / u64::from(layout::WORKGROUP_SIZE)).max(1);
+        u32::try_from(tiles * u64::from(layout::WORKGROUP_SIZE)).unwrap_or(u32::MAX)
     }
 
     /// Time spent checking SPIR-V and building pipelines so far.
@@ -438,8 +463,6 @@ impl GpuRenderer {
     /// marked (RAYS_CUT_SHORT in `rays`): for `finish_cut_short`.
     pub fn render_marked(&self, data: &FrameData) -> Result<(Picture, GpuTimings), GpuError> {
         let f = &data.frame;
-        let count = f.width as usize * f.height as usize;
-        let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), f.height.div_ceil(layout::WORKGROUP_SIZE), 1];
         let kernel = self.kernel_for(data)?;
         // A uniform block's buffer holds its whole declared array (zeros past the scene's own).
         let uniform = kernel.name() == UNIFORM_KERNEL;
@@ -448,29 +471,58 @@ impl GpuRenderer {
             .into_iter()
             .map(|(binding, _, bytes)| (binding, if uniform { layout::padded_for_uniform(binding, bytes) } else { bytes.into() }))
             .collect();
-        let mut inputs = vec![(layout::BINDING_FRAME, bytemuck::bytes_of(&data.frame))];
-        inputs.extend(scene.iter().map(|(binding, bytes)| (*binding, bytes.as_ref())));
-        let buffers = RunBuffers {
-            inputs: &inputs,
-            // The samples' running sums start at zero: sample 0 is next.
-            cleared: &[(layout::BINDING_SAMPLE_SUMS, count * std::mem::size_of::<layout::SampleSum>())],
-            output: (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
-            // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.
-            fill: 0xffff_ffff,
-        };
-        // One sample of every pixel per dispatch (render.comp).
-        let (bytes, t) = self.context.run_passes(&kernel, &buffers, groups, f.spp.max(1))?;
-        let pixels: Vec<PixelOut> = bytemuck::pod_collect_to_vec(&bytes);
-        // Every pixel the kernel covers counts at least its camera ray, far
-        // fewer than the sentinel.
-        let unwritten = pixels.iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();
-        if unwritten > 0 {
-            return Err(GpuError::BadRun {
-                kernel: "render".into(),
-                message: format!("the kernel left {unwritten} of {count} pixels unwritten (the sentinel is still in place)"),
-            });
+        let count = f.width as usize * f.height as usize;
+        let mut pixels: Vec<PixelOut> = Vec::new();
+        pixels.try_reserve_exact(count).map_err(|_| GpuError::BadRun {
+            kernel: "render".into(),
+            message: format!(
+                "cannot hold the {}x{} picture's pixels in host memory ({})",
+                f.width,
+                f.height,
+                crate::gpu::fmt_bytes((count * std::mem::size_of::<PixelOut>()) as u64)
+            ),
+        })?;
+        let mut timings = GpuTimings::default();
+        // Bands of rows where the picture's pixels do not fit one storage buffer.
+        let band_rows = self.band_rows(f.width);
+        for row_offset in (0..f.height).step_by(band_rows as usize) {
+            let rows = band_rows.min(f.height - row_offset);
+            let frame = layout::Frame { row_offset, ..*f };
+            let count = f.width as usize * rows as usize;
+            let mut inputs = vec![(layout::BINDING_FRAME, bytemuck::bytes_of(&frame))];
+            inputs.extend(scene.iter().map(|(binding, bytes)| (*binding, bytes.as_ref())));
+            let buffers = RunBuffers {
+                inputs: &inputs,
+                // The samples' running sums start at zero: sample 0 is next.
+                cleared: &[(layout::BINDING_SAMPLE_SUMS, count * std::mem::size_of::<layout::SampleSum>())],
+                output: (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
+                // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.
+                fill: 0xffff_ffff,
+            };
+            let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), rows.div_ceil(layout::WORKGROUP_SIZE), 1];
+            // One sample of every pixel per dispatch (render.comp).
+            let (bytes, t) = self.context.run_passes(&kernel, &buffers, groups, f.spp.max(1))?;
+            // Read as records wherever the bytes lie (a Vec<u8> promises no alignment).
+            let band: Vec<PixelOut> = bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned).collect();
+            // Every pixel the kernel covers counts at least its camera ray, far
+            // fewer than the sentinel.
+            let unwritten = band.iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();
+            if unwritten > 0 {
+                return Err(GpuError::BadRun {
+                    kernel: "render".into(),
+                    message: format!(
+                        "the kernel left {unwritten} of {count} pixels unwritten (rows {row_offset} to {}: the sentinel is still in place)",
+                        row_offset + rows - 1
+                    ),
+                });
+            }
+            pixels.extend_from_slice(&band);
+            timings.upload += t.upload;
+            timings.dispatch += t.dispatch;
+            timings.readback += t.readback;
+            timings.bands += 1;
         }
-        let timings = GpuTimings { upload: t.upload, dispatch: t.dispatch, readback: t.readback };
+        timings.band_rows = band_rows.min(f.height);
         Ok((Picture { width: f.width, height: f.height, pixels }, timings))
     }
 }

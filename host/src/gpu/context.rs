@@ -607,6 +607,13 @@ impl GpuContext {
         self.inner.limits.max_storage_buffer_range as u64
     }
 
+    /// The largest storage buffer the device can both address in one
+    /// binding and allocate: the lesser of maxStorageBufferRange and
+    /// maxMemoryAllocationSize.
+    pub fn max_storage_bytes(&self) -> u64 {
+        self.max_storage_buffer_range().min(self.inner.max_allocation)
+    }
+
     /// The most work groups one dispatch may have, per dimension.
     pub fn max_compute_work_group_count(&self) -> [u32; 3] {
         self.inner.limits.max_compute_work_group_count
