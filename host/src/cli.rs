@@ -568,8 +568,8 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
              of this device ({})",
             t.bands,
             t.band_rows,
-            gpu::fmt_bytes(picture.pixels.len() as u64 * std::mem::size_of::<crate::layout::PixelOut>() as u64),
-            gpu::fmt_bytes(renderer.context().max_storage_bytes())
+            crate::units::fmt_bytes(picture.pixels.len() as u64 * std::mem::size_of::<crate::layout::PixelOut>() as u64),
+            crate::units::fmt_bytes(renderer.context().max_storage_bytes())
         );
     }
     outln!("{}", rate_line(&p.data, &picture, t.dispatch));

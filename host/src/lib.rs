@@ -5,7 +5,8 @@
 //! turns a scene into the buffers of `layout`, `gpu` runs kernels on a
 //! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
 //! and compares pictures, `bounded` reads text inputs up to a size,
-//! `uint_defines` reads the shaders' `#define`d constants, `cli` is the
+//! `uint_defines` reads the shaders' `#define`d constants, `units` writes
+//! byte counts for people, `cli` is the
 //! command line.
 
 /// `println!` that goes on when stdout is closed (`raycast render | head`):
@@ -54,4 +55,5 @@ pub mod preview;
 pub mod render;
 pub mod scene;
 pub mod uint_defines;
+pub mod units;
 pub mod versus;

@@ -43,7 +43,7 @@ pub(crate) fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec
         let bytes = (n as u128 * std::mem::size_of::<T>() as u128).min(u128::from(u64::MAX)) as u64;
         format!(
             "cannot allocate {} for {what}; render a smaller image",
-            crate::gpu::fmt_bytes(bytes)
+            crate::units::fmt_bytes(bytes)
         )
     })?;
     v.resize(n, value);
@@ -479,7 +479,7 @@ impl GpuRenderer {
                 "cannot hold the {}x{} picture's pixels in host memory ({})",
                 f.width,
                 f.height,
-                crate::gpu::fmt_bytes((count * std::mem::size_of::<PixelOut>()) as u64)
+                crate::units::fmt_bytes((count * std::mem::size_of::<PixelOut>()) as u64)
             ),
         })?;
         let mut timings = GpuTimings::default();

@@ -1,6 +1,7 @@
 //! `GpuError`: every way the gpu part can fail, each with a message that
 //! says what happened and what to do.
 
+use crate::units::fmt_bytes;
 use std::fmt;
 use std::time::Duration;
 
@@ -75,23 +76,6 @@ impl GpuError {
         };
         GpuError::NoDevice { detail: format!("{what}; {hint}") }
     }
-}
-
-/// `3435973836` → `3.2 GiB (3435973836 bytes)`.
-pub(crate) fn fmt_bytes(bytes: u64) -> String {
-    const UNITS: [&str; 4] = ["KiB", "MiB", "GiB", "TiB"];
-    if bytes < 1024 {
-        return format!("{bytes} bytes");
-    }
-    let mut value = bytes as f64 / 1024.0;
-    let mut unit = 0;
-    while value >= 1024.0 && unit + 1 < UNITS.len() {
-        value /= 1024.0;
-        unit += 1;
-    }
-    let number = format!("{value:.1}");
-    let number = number.strip_suffix(".0").unwrap_or(&number);
-    format!("{number} {} ({bytes} bytes)", UNITS[unit])
 }
 
 impl fmt::Display for GpuError {

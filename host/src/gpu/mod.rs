@@ -29,7 +29,6 @@ pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
 pub use context::{list_devices, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
 pub use error::GpuError;
-pub(crate) use error::fmt_bytes;
 pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};

@@ -7,7 +7,6 @@ use std::process::Command;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;
 
-use super::error::fmt_bytes;
 use super::*;
 use crate::layout::{pixel_kernel_bindings, BindingLayout, BufferShape, FieldLayout, StructLayout};
 
@@ -490,13 +489,6 @@ fn missing_loader_is_explained() {
     let e = super::context::load_entry_from("/nonexistent/libvulkan.so.1").err().unwrap().to_string();
     assert!(e.starts_with("cannot load the Vulkan loader libvulkan.so.1 ("), "{e}");
     assert!(e.contains("install libvulkan1") && e.contains("mesa-vulkan-drivers"), "{e}");
-}
-
-#[test]
-fn byte_counts_are_readable() {
-    assert_eq!(fmt_bytes(16), "16 bytes");
-    assert_eq!(fmt_bytes(2 << 30), "2 GiB (2147483648 bytes)");
-    assert_eq!(fmt_bytes(3_435_973_836), "3.2 GiB (3435973836 bytes)");
 }
 
 // Environment variables are process-wide, so these cases run in a child
