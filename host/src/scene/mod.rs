@@ -3,6 +3,8 @@
 
 pub mod flatten;
 pub mod model;
+#[cfg(test)]
+mod mutation_tests;
 pub mod parse;
 
 pub use flatten::{flatten, load, FlattenLimits};
