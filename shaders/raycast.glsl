@@ -133,7 +133,7 @@ precise float div_rn(float a, float b) {
     return q;
 }
 
-precise vec3 div3_rn(vec3 v, float b) {
+precise vec3 div_rn(vec3 v, float b) {
     return vec3(div_rn(v.x, b), div_rn(v.y, b), div_rn(v.z, b));
 }
 
@@ -147,7 +147,7 @@ precise float sqrt_rn(float x) {
 
 precise vec3 unit(vec3 v) {
     precise float len = sqrt_rn(dot3(v, v));
-    precise vec3 r = div3_rn(v, len);
+    precise vec3 r = div_rn(v, len);
     return r;
 }
 
@@ -812,7 +812,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         if (HAS_INSTANCES) {
             // Their records follow the primitives from the next multiple
             // of 4, each box in steps of the leaf's (layout.h, BvhNode).
-            precise vec3 step = div3_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
+            precise vec3 step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
             uint records = (first_item + prim_count + 3u) >> 2u;
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's bound: a
@@ -912,7 +912,7 @@ precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
 // Texel (column, row) of texture tex as RGB in [0, 1].
 precise vec3 texel_rgb(Texture tex, uint column, uint row) {
     uint v = texels[tex.offset + row * tex.width + column].rgba;
-    precise vec3 c = div3_rn(vec3(float(v & 255u), float((v >> 8u) & 255u), float((v >> 16u) & 255u)), 255.0f);
+    precise vec3 c = div_rn(vec3(float(v & 255u), float((v >> 8u) & 255u), float((v >> 16u) & 255u)), 255.0f);
     return c;
 }
 
@@ -1155,7 +1155,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
                 precise vec3 d = xyz(l.position) - surface.p;
                 dist = sqrt_rn(dot3(d, d));
-                to_light = div3_rn(d, dist);
+                to_light = div_rn(d, dist);
             }
             precise vec3 lit = light_term(surface, l, to_light, dist);
             if (negligible(lit)) {
@@ -1295,7 +1295,7 @@ bool loop_budget_ok() {
 
 // The colour a pixel stores: its n samples' colour sum over n.
 precise vec3 sample_average(vec3 sum, uint n) {
-    precise vec3 average = div3_rn(sum, float(n));
+    precise vec3 average = div_rn(sum, float(n));
     return average;
 }
 

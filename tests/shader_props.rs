@@ -529,7 +529,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
     // Every generated harness kernel.
     let info = harness::ShaderInfo::load(&dir).unwrap();
     for f in &info.functions {
-        match harness::kernel_spirv(&dir, &f.name) {
+        match harness::kernel_spirv(&dir, f) {
             Ok(spirv) => {
                 if let Err(e) = reflect::check_layouts(&harness::kernel_name(f), &spirv, &harness::kernel_bindings()) {
                     errors.push(e.to_string());

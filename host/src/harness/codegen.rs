@@ -28,11 +28,11 @@ pub fn out_stride(f: &Function) -> usize {
     1 + f.ret.words()
 }
 
-/// GLSL and C++ alike: the case body of `f`, as `void harness_case_<name>(uint k)`.
+/// GLSL and C++ alike: the case body of `f`, as `void harness_case_<key>(uint k)` (`Function::key`).
 fn case_body(f: &Function) -> String {
     let mut s = String::new();
     let in_words = f.input_words();
-    s.push_str(&format!("void harness_case_{}(uint k) {{\n", f.name));
+    s.push_str(&format!("void harness_case_{}(uint k) {{\n", f.key()));
     s.push_str(&format!("    uint i = 1u + k * {in_words}u;\n"));
     let mut offset = 0usize;
     let mut args = Vec::new();
@@ -133,17 +133,17 @@ pub fn kernel_source(f: &Function) -> String {
          }}\n",
         sig = f.signature(),
         body = case_body(f),
-        name = f.name,
+        name = f.key(),
     )
 }
 
-/// The C symbol that runs the cases of `name` in the C++ build.
-pub fn cpp_symbol(name: &str) -> String {
-    format!("raycast_harness_{name}")
+/// The C symbol that runs the cases of `key` (`Function::key`) in the C++ build.
+pub fn cpp_symbol(key: &str) -> String {
+    format!("raycast_harness_{key}")
 }
 
 /// One C++ file with an entry point per function:
-/// `void raycast_harness_<name>(const void* const* scene, const uint32_t* in, uint32_t* out)`,
+/// `void raycast_harness_<key>(const void* const* scene, const uint32_t* in, uint32_t* out)`,
 /// `scene` pointing at each buffer of scene_buffers.glsl in its order.
 pub fn cpp_source(info: &ShaderInfo, functions: &[&Function]) -> String {
     let mut s = String::from(
@@ -190,8 +190,8 @@ pub fn cpp_source(info: &ShaderInfo, functions: &[&Function]) -> String {
              \x20       raycast_cpu::harness_case_{name}(k);\n\
              \x20   }}\n\
              }}\n",
-            sym = cpp_symbol(&f.name),
-            name = f.name
+            sym = cpp_symbol(&f.key()),
+            name = f.key()
         ));
     }
     s

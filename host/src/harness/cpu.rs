@@ -99,10 +99,10 @@ impl CpuLibrary {
         Ok(CpuLibrary { lib, path: lib_path })
     }
 
-    /// Runs the cases of `name`: `input` as for the kernel, `out_words` long
+    /// Runs the cases of `key` (`Function::key`): `input` as for the kernel, `out_words` long
     /// output pre-filled with the sentinel.
-    pub fn run(&self, name: &str, scene: &[&[u32]], input: &[u32], out_words: usize) -> Result<Vec<u32>, String> {
-        let symbol = codegen::cpp_symbol(name);
+    pub fn run(&self, key: &str, scene: &[&[u32]], input: &[u32], out_words: usize) -> Result<Vec<u32>, String> {
+        let symbol = codegen::cpp_symbol(key);
         // SAFETY: the symbol was generated with exactly this signature.
         let entry: libloading::Symbol<Entry> = unsafe { self.lib.get(symbol.as_bytes()) }
             .map_err(|e| format!("{}: no symbol {symbol}: {e}", self.path.display()))?;

@@ -99,7 +99,17 @@ fn case(t: &toml::Table, info: &ShaderInfo, scenes: &BTreeMap<String, Arc<SceneB
         }
     };
     let function = string("function")?.ok_or("a case needs `function = \"name\"`")?;
-    let f = info.function(function)?;
+    // Among overloads, the one whose parameters the inputs name and fit.
+    let inputs = match t.get("inputs") {
+        Some(toml::Value::Table(inputs)) => Some(inputs),
+        _ => None,
+    };
+    let f = info.function_where(function, |f| {
+        inputs.is_some_and(|inputs| {
+            f.params.len() == inputs.len()
+                && f.params.iter().all(|(p, ty)| inputs.get(p).is_some_and(|v| value(v, ty, info, false).is_ok()))
+        })
+    })?;
     let mut case = Case::new(function);
     if let Some(n) = string("name")? {
         case.name = n.to_string();

@@ -31,6 +31,13 @@ impl Function {
         format!("{} {}({})", self.ret.glsl_name(), self.name, params.join(", "))
     }
 
+    /// The name the harness gives this overload's kernel, wrapper and C
+    /// symbol: `div_rn__vec3_float`, unique where GLSL overloads the name.
+    pub fn key(&self) -> String {
+        let types: Vec<String> = self.params.iter().map(|(_, t)| t.glsl_name()).collect();
+        format!("{}__{}", self.name, if types.is_empty() { "void".to_string() } else { types.join("_") })
+    }
+
     /// Words of all inputs, one u32 per scalar.
     pub fn input_words(&self) -> usize {
         self.params.iter().map(|(_, t)| t.words()).sum()
@@ -56,7 +63,8 @@ pub struct ShaderInfo {
     /// `const` values of raycast.glsl and numeric `#define`s of layout.h, by name.
     pub constants: BTreeMap<String, Value>,
     pub scene_buffers: Vec<SceneBuffer>,
-    /// Functions that could not be read (name, why); an error only when used.
+    /// Functions that could not be read (name, why); an error only when
+    /// used and no readable overload of the name fits.
     pub unsupported: BTreeMap<String, String>,
 }
 
@@ -92,20 +100,38 @@ impl ShaderInfo {
         Ok(info)
     }
 
+    /// The function `name`, which must not be overloaded (`function_where` chooses among overloads).
     pub fn function(&self, name: &str) -> Result<&Function, String> {
-        if let Some(why) = self.unsupported.get(name) {
-            return Err(format!("function {name} of {} cannot be tested: {why}", self.dir.join(SHARED).display()));
+        self.function_where(name, |_| false)
+    }
+
+    /// The function `name`: its one readable overload, or among several the
+    /// one that `fits` (a case's inputs: their names and values) accepts.
+    pub fn function_where(&self, name: &str, fits: impl Fn(&Function) -> bool) -> Result<&Function, String> {
+        let shared = self.dir.join(SHARED).display().to_string();
+        let overloads: Vec<&Function> = self.functions.iter().filter(|f| f.name == name).collect();
+        match overloads[..] {
+            [] => Err(match self.unsupported.get(name) {
+                Some(why) => format!("function {name} of {shared} cannot be tested: {why}"),
+                None => {
+                    let mut near: Vec<&str> =
+                        self.functions.iter().map(|f| f.name.as_str()).filter(|n| n.contains(name) || name.contains(n)).collect();
+                    near.dedup();
+                    let hint = if near.is_empty() { String::new() } else { format!(" (did you mean {}?)", near.join(", ")) };
+                    format!("{shared} has no top-level function {name:?}{hint}")
+                }
+            }),
+            [only] => Ok(only),
+            _ => {
+                let fitting: Vec<&Function> = overloads.iter().copied().filter(|f| fits(f)).collect();
+                let list = overloads.iter().map(|f| f.signature()).collect::<Vec<_>>().join("; ");
+                match fitting[..] {
+                    [one] => Ok(one),
+                    [] => Err(format!("{name} of {shared} is overloaded and no overload takes these inputs (by name and type): {list}")),
+                    _ => Err(format!("{name} of {shared} is overloaded and the inputs fit more than one: {list}")),
+                }
+            }
         }
-        self.functions.iter().find(|f| f.name == name).ok_or_else(|| {
-            let near = self
-                .functions
-                .iter()
-                .map(|f| f.name.as_str())
-                .filter(|n| n.contains(name) || name.contains(n))
-                .collect::<Vec<_>>();
-            let hint = if near.is_empty() { String::new() } else { format!(" (did you mean {}?)", near.join(", ")) };
-            format!("{} has no top-level function {name:?}{hint}", self.dir.join(SHARED).display())
-        })
     }
 
     /// The type named `name` (`vec3`, `Ray`, `uint`).
@@ -229,10 +255,6 @@ impl ShaderInfo {
                     }
                 }
             }
-        }
-        if self.functions.iter().any(|f| f.name == name) {
-            self.unsupported.insert(name, "it is overloaded".into());
-            return;
         }
         self.functions.push(Function { name, ret, params, line });
     }
@@ -412,7 +434,8 @@ mod tests {
             dir.join(SHARED),
             "const float T_FAR = 3.40282347e38f;\n/* block\ncomment */\nstruct Ray {\n    vec3 origin;\n    vec3 direction;\n};\n\
              precise float\nsquare(float x) {\n  { return x * x; }\n}\nvoid nothing() {}\nRay make(vec3 o, const vec3 d) { Ray r; r.origin = o; r.direction = d; return r; }\n\
-             uint count(Thing t, bool b) { return b ? t.b : 0u; }\nfloat bad(out float x) { x = 1.0f; return x; }\n",
+             uint count(Thing t, bool b) { return b ? t.b : 0u; }\nfloat bad(out float x) { x = 1.0f; return x; }\n\
+             float twice(float x) { return 2.0f * x; }\nvec3 twice(vec3 x) { return 2.0f * x; }\nfloat twice(float x, float y) { return x + y; }\n",
         )
         .unwrap();
         let info = ShaderInfo::load(&dir).unwrap();
@@ -424,7 +447,7 @@ mod tests {
     fn reads_functions_structs_constants_and_buffers() {
         let info = sample();
         let names: Vec<&str> = info.functions.iter().map(|f| f.name.as_str()).collect();
-        assert_eq!(names, ["square", "make", "count"]);
+        assert_eq!(names, ["square", "make", "count", "twice", "twice", "twice"]);
         assert_eq!(info.function("square").unwrap().signature(), "float square(float x)");
         assert_eq!(info.function("square").unwrap().line, 8);
         assert_eq!(info.function("make").unwrap().signature(), "Ray make(vec3 o, vec3 d)");
@@ -432,6 +455,16 @@ mod tests {
         assert!(info.function("bad").unwrap_err().contains("out/inout"), "{}", info.function("bad").unwrap_err());
         assert!(info.function("nothing").unwrap_err().contains("void"));
         assert!(info.function("squar").unwrap_err().contains("did you mean square"));
+        // Overloads: a case's inputs choose one (here by their count and type); each has a key of its own.
+        assert!(info.function("twice").unwrap_err().contains("overloaded"), "{}", info.function("twice").unwrap_err());
+        let vec3 = |f: &Function| f.params.len() == 1 && f.params[0].1 == Type::Vector(Scalar::Float, 3);
+        assert_eq!(info.function_where("twice", vec3).unwrap().signature(), "vec3 twice(vec3 x)");
+        assert_eq!(info.function_where("twice", |f| f.params.len() == 2).unwrap().key(), "twice__float_float");
+        let none = info.function_where("twice", |f| f.params.len() == 3).unwrap_err();
+        assert!(none.contains("no overload takes these inputs") && none.contains("float twice(float x, float y)"), "{none}");
+        assert!(info.function_where("twice", |f| f.params.len() == 1).unwrap_err().contains("more than one"));
+        let keys: std::collections::BTreeSet<String> = info.functions.iter().map(Function::key).collect();
+        assert_eq!(keys.len(), info.functions.len(), "{keys:?}");
         assert_eq!(info.constants.get("T_FAR"), Some(&Value::Float(f32::MAX)));
         assert_eq!(info.constants.get("NO_HIT"), Some(&Value::Uint(u32::MAX)));
         let thing = &info.structs["Thing"];

@@ -325,10 +325,10 @@ impl Harness {
 
         // Groups: one function, one scene.
         let mut groups: Vec<Vec<usize>> = Vec::new();
-        let mut index: HashMap<(&str, &Vec<Vec<u32>>), usize> = HashMap::new();
+        let mut index: HashMap<(String, &Vec<Vec<u32>>), usize> = HashMap::new();
         for (i, p) in prepared.iter().enumerate() {
             if let Ok(p) = p {
-                let g = *index.entry((p.function.name.as_str(), &p.scene)).or_insert_with(|| {
+                let g = *index.entry((p.function.key(), &p.scene)).or_insert_with(|| {
                     groups.push(Vec::new());
                     groups.len() - 1
                 });
@@ -340,12 +340,13 @@ impl Harness {
         let mut wanted_cpu: Vec<&Function> = Vec::new();
         for g in &groups {
             let p = prepared[g[0]].as_ref().expect("grouped cases are prepared");
-            if !self.kernels.contains_key(&p.function.name) {
+            let key = p.function.key();
+            if !self.kernels.contains_key(&key) {
                 let k = self.build_kernel(&p.function);
-                self.kernels.insert(p.function.name.clone(), k);
+                self.kernels.insert(key.clone(), k);
             }
             let needs_cpu = g.iter().any(|&i| cases[i].cpu || cases[i].expected == Expected::SameAsCpu);
-            if needs_cpu && !self.cpu_built.contains_key(&p.function.name) && !wanted_cpu.iter().any(|f| f.name == p.function.name) {
+            if needs_cpu && !self.cpu_built.contains_key(&key) && !wanted_cpu.iter().any(|f| f.key() == key) {
                 wanted_cpu.push(&p.function);
             }
         }
@@ -359,7 +360,7 @@ impl Harness {
                 Err(e) => Err(e),
             };
             for f in &wanted_cpu {
-                self.cpu_built.insert(f.name.clone(), entry.clone());
+                self.cpu_built.insert(f.key(), entry.clone());
             }
         }
 
@@ -378,9 +379,9 @@ impl Harness {
 
             let gpu_out = self.run_device(f, &p0.scene, &input, out_words).map(split);
             let cpu_out = if g.iter().any(|&i| cases[i].cpu || cases[i].expected == Expected::SameAsCpu) {
-                let lib = self.cpu_built.get(&f.name).cloned().unwrap_or_else(|| Err("not built".into()));
+                let lib = self.cpu_built.get(&f.key()).cloned().unwrap_or_else(|| Err("not built".into()));
                 let scene: Vec<&[u32]> = p0.scene.iter().map(Vec::as_slice).collect();
-                Some(lib.and_then(|l| self.libraries[l].run(&f.name, &scene, &input, out_words)).map(split))
+                Some(lib.and_then(|l| self.libraries[l].run(&f.key(), &scene, &input, out_words)).map(split))
             } else {
                 None
             };
@@ -412,7 +413,14 @@ impl Harness {
     /// Checks a case against the function's signature and the scene
     /// buffers, and flattens it.
     fn prepare(&self, case: &Case) -> Result<Prepared, String> {
-        let f = self.info.function(&case.function)?.clone();
+        // Among overloads, the one whose parameters the inputs name and fit.
+        let f = self
+            .info
+            .function_where(&case.function, |f| {
+                f.params.len() == case.inputs.len()
+                    && f.params.iter().all(|(p, ty)| case.inputs.iter().any(|(n, v)| n == p && v.encode(ty, false).is_ok()))
+            })?
+            .clone();
         for (name, _) in &case.inputs {
             if !f.params.iter().any(|(p, _)| p == name) {
                 return Err(format!("{} has no parameter {name:?}", f.signature()));
@@ -469,7 +477,7 @@ impl Harness {
     }
 
     fn run_device(&self, f: &Function, scene: &[Vec<u32>], input: &[u32], out_words: usize) -> Result<Vec<u32>, String> {
-        let kernel = match self.kernels.get(&f.name) {
+        let kernel = match self.kernels.get(&f.key()) {
             Some(Ok(k)) => k,
             Some(Err(e)) => return Err(e.clone()),
             None => return Err(format!("no kernel for {}", f.name)),
@@ -487,9 +495,9 @@ impl Harness {
     }
 }
 
-/// `harness_trace`: the kernel of function `f`, in messages.
+/// `harness_trace__Ray_float_bool`: the kernel of function `f` (its overload), in messages.
 pub fn kernel_name(f: &Function) -> String {
-    format!("harness_{}", f.name)
+    format!("harness_{}", f.key())
 }
 
 /// Copies the .h and .glsl files of `from` into `to`, where the generated
@@ -516,16 +524,14 @@ fn compile_in(work: &Path, real_dir: &Path, f: &Function, correct_division: bool
         for file in [glsl::LAYOUT, glsl::SCENE_BUFFERS, glsl::SHARED] {
             msg = msg.replace(&work.join(file).display().to_string(), &real_dir.join(file).display().to_string());
         }
-        format!("the kernel for {} did not compile:\n{msg}", f.name)
+        format!("the kernel for {} did not compile:\n{msg}", f.signature())
     })
 }
 
-/// The SPIR-V of the harness kernel for `function` of the shaders in
+/// The SPIR-V of the harness kernel for `f`, a function of the shaders in
 /// `shaders`, without a device: for checking every generated kernel with
 /// naga (`gpu::reflect::check_layouts` against [`kernel_bindings`]).
-pub fn kernel_spirv(shaders: &Path, function: &str) -> Result<Vec<u8>, String> {
-    let info = ShaderInfo::load(shaders)?;
-    let f = info.function(function)?;
+pub fn kernel_spirv(shaders: &Path, f: &Function) -> Result<Vec<u8>, String> {
     static COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let work = std::env::temp_dir().join(format!(
         "raycast-harness-spirv-{}-{}",
