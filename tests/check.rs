@@ -14,8 +14,8 @@
 //! build's bits. The device renders every scene that fits with its arrays in
 //! uniform buffers (render_uniform.comp); each scene is also checked with
 //! them in storage buffers (render.comp, 128x96), and drawn in bands of 16
-//! rows, a dispatch each (131x97), as pictures too large for one storage
-//! buffer are. A failure
+//! rows, a dispatch each (131x97, 2 samples per pixel), as pictures too
+//! large for one storage buffer are. A failure
 //! prints the per-buffer report and writes the diff image. Ends with
 //! `N passed, M failed`.
 
@@ -162,8 +162,8 @@ fn main() -> ExitCode {
                 ("64x48 --no-bvh", RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() }, &gpu),
                 ("128x96 storage buffers", RenderSettings { width: 128, height: 96, ..RenderSettings::default() }, &gpu_storage),
                 (
-                    "131x97 in bands of 16 rows",
-                    RenderSettings { width: BAND_WIDTH, height: 97, ..RenderSettings::default() },
+                    "131x97 in bands of 16 rows, 2 samples",
+                    RenderSettings { width: BAND_WIDTH, height: 97, spp: 2, ..RenderSettings::default() },
                     &gpu_bands,
                 ),
             ];
