@@ -397,6 +397,47 @@ fn several_scenes_check_on_one_device() {
     }
 }
 
+/// `conformance`: the course's corpus against its official renders, from
+/// the command line; a shader change that breaks them (the diffuse term
+/// halved) fails with exit 4 and the pictures of what differs.
+#[test]
+fn conformance_command() {
+    let o = raycast(&["conformance"], &[("RAYCAST_CORPUS", "")]);
+    assert_fails(&o, 2, "conformance needs the cs1230 corpus");
+    let o = raycast(&["conformance", repo().join("scenes").to_str().unwrap()], &[]);
+    assert_fails(&o, 1, "has no bench/ folder");
+    let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").filter(|c| !c.is_empty()) else {
+        println!("skipped: conformance against the corpus: RAYCAST_CORPUS is not set");
+        return;
+    };
+    let corpus = corpus.to_str().unwrap().to_string();
+    let o = raycast(&["conformance", &corpus, "--only", "nothing-like-this"], &[]);
+    assert_fails(&o, 2, "matches --only nothing-like-this");
+
+    let dir = out_dir().join("conformance-cli");
+    let _ = std::fs::remove_dir_all(&dir);
+    let dir_arg = ["--out-dir", dir.to_str().unwrap()];
+    let o = raycast(&[&["conformance", &corpus, "--only", "test_unit/"][..], &dir_arg].concat(), &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    let cases = out.lines().filter(|l| l.starts_with("ok     test_unit/")).count();
+    assert!(cases >= 4 && out.contains(&format!("{cases} passed, 0 failed")), "{out}");
+    assert!(dir.join("table.md").is_file());
+
+    let planted = copy_of_shaders("conformance-planted-shaders");
+    let glsl = planted.join("raycast.glsl");
+    let source = std::fs::read_to_string(&glsl).unwrap();
+    let diffuse = "frame.k.y * xyz(m.diffuse)";
+    assert_eq!(source.matches(diffuse).count(), 1, "the diffuse term changed: update this test");
+    std::fs::write(&glsl, source.replace(diffuse, "0.5f * frame.k.y * xyz(m.diffuse)")).unwrap();
+    let shaders = ["--shaders", planted.to_str().unwrap()];
+    let o = raycast(&[&["conformance", &corpus, "--only", "test_unit/"][..], &dir_arg, &shaders].concat(), &[]);
+    assert_fails(&o, 4, "raycast: conformance failed: ");
+    assert!(text(&o).0.contains("FAILED test_unit/"), "{:?}", text(&o));
+    let diffs = files_in(&dir).into_iter().filter(|f| f.ends_with("-diff.png")).count();
+    assert!(diffs >= 1, "{:?}", files_in(&dir));
+}
+
 /// A fresh copy of shaders/ in the test output folder, to plant changes in.
 fn copy_of_shaders(name: &str) -> PathBuf {
     common::copy_of_shaders(&out_dir().join(name))

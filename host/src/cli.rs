@@ -47,6 +47,8 @@ enum Command {
     Gen(crate::gen::GenArgs),
     /// Time scenes per backend: median frame time, ray rates, primitives, memory.
     Bench(crate::bench::BenchArgs),
+    /// Render every scene of the course's corpus as its official reference was made, and compare under a stated rule.
+    Conformance(ConformanceArgs),
 }
 
 /// The options of every command that renders frames (`render`, `check`,
@@ -198,6 +200,35 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 }
 
 #[derive(Args, Debug)]
+struct ConformanceArgs {
+    /// The cs1230 corpus: its scene folders (test_unit, test_intersect, …)
+    /// and bench/ of official renders [default: $RAYCAST_CORPUS]
+    #[arg(value_name = "CORPUS")]
+    corpus: Option<PathBuf>,
+    /// Folder for each failing case's actual / expected / diff pictures and
+    /// for table.md, the measured fractions (made if missing).
+    #[arg(long, value_name = "DIR", default_value = "conformance")]
+    out_dir: PathBuf,
+    /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+    /// Vulkan device: an index or part of a name from `raycast devices`.
+    #[arg(long, value_name = "NAME|INDEX")]
+    device: Option<String>,
+    /// Compile the kernel from DIR/render.comp instead of the built-in one:
+    /// see whether a shader change still matches the course's renders.
+    #[arg(long, value_name = "DIR")]
+    shaders: Option<PathBuf>,
+    /// Turn on the Khronos validation layer; any message fails its case.
+    #[arg(long)]
+    validate: bool,
+    /// Only the cases whose name holds TEXT (`test_light/`, `Normal`,
+    /// `recursiveSpheres4 Color`); repeatable, a case runs if any matches.
+    #[arg(long, value_name = "TEXT")]
+    only: Vec<String>,
+}
+
+#[derive(Args, Debug)]
 struct CompareArgs {
     /// The picture to judge (PNG).
     actual: PathBuf,
@@ -265,6 +296,7 @@ pub fn main() -> ExitCode {
         Command::ShaderTest(args) => crate::harness::cli::run(&args).map_err(|(message, code)| Failure(message, code)),
         Command::Gen(args) => crate::gen::run(&args),
         Command::Bench(args) => crate::bench::run(&args),
+        Command::Conformance(args) => conformance(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -773,6 +805,60 @@ fn pixel_text(p: &crate::layout::PixelOut) -> String {
         "{{ t = {:?}, id = {}, normal = [{:?}, {:?}, {:?}], rgba = 0x{:08x}, rays = {} }}",
         p.t, p.id, p.normal[0], p.normal[1], p.normal[2], p.rgba, p.rays
     )
+}
+
+fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
+    let from_env = std::env::var_os("RAYCAST_CORPUS").filter(|v| !v.is_empty()).map(PathBuf::from);
+    let Some(corpus) = args.corpus.clone().or(from_env) else {
+        return Err(Failure(
+            "raycast: error: conformance needs the cs1230 corpus: give its folder (say ../shared/corpus/cs1230), or set RAYCAST_CORPUS".into(),
+            2,
+        ));
+    };
+    // Not a corpus, or one that cannot be read, fails before the device starts.
+    let all = crate::conformance::cases(&corpus)?;
+    let total = all.len();
+    let cases: Vec<_> =
+        all.into_iter().filter(|c| args.only.is_empty() || args.only.iter().any(|t| c.label().contains(t.as_str()))).collect();
+    if cases.is_empty() {
+        return Err(Failure(
+            format!("raycast: error: no case of the {total} in {} matches --only {}", corpus.display(), args.only.join(", --only ")),
+            2,
+        ));
+    }
+    let count = cases.len();
+    let summary = if args.backend == Backend::Cpu {
+        let cpu = CpuRenderer::new()?;
+        outln!("conformance: the CPU build of the shared GLSL ({} threads) against {}, {count} cases", cpu.threads, corpus.display());
+        crate::conformance::run(&corpus, &cases, &args.out_dir, |data| cpu.render(data), Vec::new)?
+    } else {
+        let renderer = open_renderer(&args.device, args.validate, args.shaders.as_deref(), SceneBuffers::Auto)?;
+        outln!(
+            "conformance: {} on {} against {}, {count} cases",
+            if args.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
+            renderer.context().info().name,
+            corpus.display()
+        );
+        crate::conformance::run(
+            &corpus,
+            &cases,
+            &args.out_dir,
+            |data| renderer.render(data).map(|(picture, _)| picture).map_err(|e| e.to_string()),
+            || renderer.context().take_validation_messages(),
+        )?
+    };
+    outln!("{} passed, {} failed; the measured fractions: {}", summary.passed, summary.failed, summary.table.display());
+    if summary.failed > 0 {
+        return Err(Failure(
+            format!(
+                "raycast: conformance failed: {} of {count} cases beyond the rule (their pictures in {})",
+                summary.failed,
+                args.out_dir.display()
+            ),
+            4,
+        ));
+    }
+    Ok(())
 }
 
 fn compare(args: &CompareArgs) -> Result<(), Failure> {

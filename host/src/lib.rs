@@ -6,8 +6,8 @@
 //! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
 //! and compares pictures, `bounded` reads text inputs up to a size,
 //! `uint_defines` reads the shaders' `#define`d constants, `units` writes
-//! byte counts for people, `cli` is the
-//! command line.
+//! byte counts for people, `conformance` holds the course's renders'
+//! comparison rule, `cli` is the command line.
 
 /// `println!` that goes on when stdout is closed (`raycast render | head`):
 /// the status lines are for reading, the work (the PNG, the exit status)
@@ -43,6 +43,7 @@ pub mod bounded;
 pub mod bvh;
 pub mod bench;
 pub mod cli;
+pub mod conformance;
 pub mod check;
 pub mod cpu;
 pub mod frame;

@@ -1,0 +1,251 @@
+//! Conformance with the CS1230 course's official renders: every corpus
+//! scene rendered as its reference was made, compared under a stated rule.
+//! `raycast conformance CORPUS` and the `conformance` test suite both run
+//! this.
+//!
+//! The rule: at most 0.1% of pixels with any channel off by more than
+//! 2/255, unless an allowance measured for that image is listed in
+//! ALLOWANCES with its reason. A failure writes actual / expected / diff
+//! PNGs and names them.
+
+use crate::frame::{self, Aov, FrameData, RenderSettings};
+use crate::image_io::{self, Rgb8};
+use crate::render::Picture;
+use crate::scene::{self, FlattenLimits, ParseOptions};
+use std::path::{Path, PathBuf};
+
+/// Per channel, a pixel differs when off by more than this.
+pub const TOLERANCE: u8 = 2;
+/// Default rule: at most this fraction of pixels may differ.
+pub const MAX_FRACTION: f64 = 0.001;
+
+/// Measured allowances: (bench folder/reference image, fraction allowed, why). For the
+/// supersampled references the default rule still holds for interior pixels,
+/// whose 3x3 neighbourhood in our render is one primitive: only silhouette
+/// pixels may use the allowance.
+/// Measured on lavapipe 22.3.6 (fraction seen in brackets).
+const SUPERSAMPLED: &str = "reference rendered with supersampling: its silhouette pixels blend the surface with the background (e.g. 3/4 coverage: expected [45, 166, 135] where we write [61, 223, 179])";
+const DEEP_MIRRORS: &str = "hundreds of mirrored, textured primitives seen through up to 4 bounces: a last-bit difference in a reflected direction lands on a neighbouring silhouette or texel; the differences are scattered single pixels, and changing the reflection or shadow conventions does not move them (an independent implementation of the same model measured 0.42% and 0.62% on recursiveSpheres4 and recursiveCones4)";
+const ALLOWANCES: &[(&str, f64, &str)] = &[
+    ("intersect_normal_color/test_intersect_behind_camera", 0.0020, SUPERSAMPLED),   // [0.1663%]
+    ("intersect_normal_color/test_intersect_parse_matrix", 0.0016, SUPERSAMPLED),    // [0.1321%]
+    ("intersect_normal_color/test_intersect_phong_ambient", 0.0032, SUPERSAMPLED),   // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_diffuse", 0.0032, SUPERSAMPLED),   // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_specular", 0.0032, SUPERSAMPLED),  // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_total", 0.0032, SUPERSAMPLED),     // [0.2860%]
+    ("grading_illuminate/test_efficiency_recursiveSpheres3", 0.0013, DEEP_MIRRORS),  // [0.1094%]
+    ("grading_illuminate/test_efficiency_recursiveSpheres4", 0.0065, DEEP_MIRRORS),  // [0.5880%]
+    ("grading_illuminate/test_efficiency_recursiveCones4", 0.0090, DEEP_MIRRORS),    // [0.8367%]
+];
+
+/// Pixels whose 3x3 neighbourhood holds more than one hit id (or a miss and a hit).
+fn silhouette_mask(picture: &Picture) -> Vec<bool> {
+    let (w, h) = (picture.width as i64, picture.height as i64);
+    let id = |x: i64, y: i64| picture.pixels[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize].id;
+    let mut mask = vec![false; picture.pixels.len()];
+    for y in 0..h {
+        for x in 0..w {
+            let centre = id(x, y);
+            mask[(y * w + x) as usize] = (-1..=1).any(|dy| (-1..=1).any(|dx| id(x + dx, y + dy) != centre));
+        }
+    }
+    mask
+}
+
+/// One corpus scene, rendered as its reference was.
+pub struct Case {
+    pub group: &'static str,
+    pub name: String,
+    pub aov: Aov,
+    /// Shadows, reflections and textures on (as the reference was rendered).
+    pub features: bool,
+    pub width: u32,
+    pub height: u32,
+    pub reference: PathBuf,
+}
+
+impl Case {
+    /// `test_light/point_light_1 Color 512x384`.
+    pub fn label(&self) -> String {
+        format!("{}/{} {:?} {}x{}", self.group, self.name, self.aov, self.width, self.height)
+    }
+
+    fn picture_text(&self) -> String {
+        match self.aov {
+            Aov::Color => format!(
+                "colour {}x{}{}",
+                self.width,
+                self.height,
+                if self.features { ", shadows, reflections, textures" } else { ", local only" }
+            ),
+            Aov::Normal => format!("normal {}x{}", self.width, self.height),
+        }
+    }
+
+    /// The scene loaded from `corpus` and packed as its reference was rendered.
+    pub fn frame(&self, corpus: &Path) -> Result<FrameData, String> {
+        let xml = corpus.join(self.group).join(format!("{}.xml", self.name));
+        let parse = ParseOptions { assets: vec![corpus.to_path_buf()] };
+        let scene = scene::load(&xml, &parse, &FlattenLimits::default()).map_err(|e| e.to_string())?;
+        let settings = RenderSettings {
+            width: self.width,
+            height: self.height,
+            aov: self.aov,
+            shadows: self.features,
+            reflections: self.features,
+            textures: self.features,
+            ..RenderSettings::default()
+        };
+        frame::build(&scene, &settings)
+    }
+}
+
+/// Every case of the corpus at `corpus`: colour at 512x384 as the
+/// references were made (corpus README; local Phong only for test_unit and
+/// test_intersect, shadows, reflections and textures on for the rest), and
+/// normals at 1024x768.
+pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
+    if !corpus.join("bench").is_dir() {
+        return Err(format!("{} has no bench/ folder: not the cs1230 corpus (its scenes' folders and bench/ of references)", corpus.display()));
+    }
+    let plan: [(&str, Aov, bool, u32, u32, &str); 8] = [
+        ("test_unit", Aov::Color, false, 512, 384, "grading_illuminate"),
+        ("test_intersect", Aov::Color, false, 512, 384, "grading_illuminate"),
+        ("test_light", Aov::Color, true, 512, 384, "grading_illuminate"),
+        ("test_efficiency", Aov::Color, true, 512, 384, "grading_illuminate"),
+        ("test_feature", Aov::Color, true, 512, 384, "grading_illuminate"),
+        ("test_unit", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
+        ("test_intersect", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
+        ("test_efficiency", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
+    ];
+    let mut cases = Vec::new();
+    for (group, aov, features, width, height, bench) in plan {
+        let dir = corpus.join(group);
+        let mut names: Vec<String> = std::fs::read_dir(&dir)
+            .map_err(|e| format!("cannot list {}: {e}", dir.display()))?
+            .filter_map(|e| {
+                let p = e.ok()?.path();
+                (p.extension()? == "xml").then(|| p.file_stem().map(|s| s.to_string_lossy().into_owned()))?
+            })
+            .collect();
+        names.sort();
+        for name in names {
+            let reference = corpus.join("bench").join(bench).join(format!("{group}_{name}.png"));
+            cases.push(Case { group, name, aov, features, width, height, reference });
+        }
+    }
+    Ok(cases)
+}
+
+/// `picture` (the case's render) against its reference. Ok: the report
+/// line, the measured fraction and the fraction allowed. Err: the same with
+/// the paths of the actual / expected / diff images written to `out_dir`.
+pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, f64, f64), String> {
+    let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
+    let expected = image_io::read_png(&case.reference)?;
+    let diff = image_io::compare(&actual, &expected, TOLERANCE)?;
+
+    let ref_name = case.reference.file_stem().unwrap_or_default().to_string_lossy().into_owned();
+    let bench = case.reference.parent().and_then(|p| p.file_name()).unwrap_or_default().to_string_lossy();
+    let key = format!("{bench}/{ref_name}");
+    let (allowed, why) =
+        ALLOWANCES.iter().find(|(n, _, _)| *n == key).map(|(_, f, why)| (*f, Some(*why))).unwrap_or((MAX_FRACTION, None));
+    let rule = format!(
+        "rule: at most {:.2}% off by more than {TOLERANCE}/255{}",
+        allowed * 100.0,
+        why.map(|w| format!(", allowance: {w}; interior pixels at most {:.2}%", MAX_FRACTION * 100.0)).unwrap_or_default()
+    );
+    // For a supersampled reference, pixels off the silhouette still obey the default rule.
+    let mut interior_report = String::new();
+    let interior_ok = if why == Some(SUPERSAMPLED) {
+        let mask = silhouette_mask(picture);
+        let (mut masked_actual, mut masked_expected) = (actual.clone(), expected.clone());
+        for (i, edge) in mask.iter().enumerate() {
+            if *edge {
+                masked_actual.data[3 * i..3 * i + 3].fill(0);
+                masked_expected.data[3 * i..3 * i + 3].fill(0);
+            }
+        }
+        let interior = image_io::compare(&masked_actual, &masked_expected, TOLERANCE)?;
+        if interior.fraction() > MAX_FRACTION {
+            interior_report = format!("\n      interior pixels: {interior}");
+        }
+        interior.fraction() <= MAX_FRACTION
+    } else {
+        true
+    };
+    if diff.fraction() <= allowed && interior_ok {
+        return Ok((format!("{diff} ({rule})"), diff.fraction(), allowed));
+    }
+    let kind = match case.aov {
+        Aov::Color => "color",
+        Aov::Normal => "normal",
+    };
+    let paths = image_io::write_diff_images(out_dir, &format!("{ref_name}-{kind}"), &actual, &expected, &diff)?;
+    Err(format!(
+        "{diff} ({rule}){interior_report}\n      actual:   {}\n      expected: {}\n      diff:     {}",
+        paths[0].display(),
+        paths[1].display(),
+        paths[2].display()
+    ))
+}
+
+/// What a whole run found.
+pub struct Summary {
+    pub passed: usize,
+    pub failed: usize,
+    /// The measured fractions as a Markdown table, written to `out_dir/table.md`.
+    pub table: PathBuf,
+}
+
+/// `cases` of the corpus at `corpus` (`cases`), rendered by `render` and judged,
+/// a line each on stdout (`ok` or `FAILED` with the report); after each
+/// case, `messages` gives what the device's validation layer said (any
+/// message fails the case). Failures' images and the table go to `out_dir`.
+pub fn run(
+    corpus: &Path,
+    cases: &[Case],
+    out_dir: &Path,
+    mut render: impl FnMut(&FrameData) -> Result<Picture, String>,
+    mut messages: impl FnMut() -> Vec<String>,
+) -> Result<Summary, String> {
+    let (mut passed, mut failed) = (0, 0);
+    let mut table = String::from("| scene | picture | pixels off by more than 2/255 | allowed | result |\n|---|---|---|---|---|\n");
+    for case in cases {
+        let label = case.label();
+        let start = std::time::Instant::now();
+        let outcome = case.frame(corpus).and_then(|data| render(&data)).and_then(|picture| judge(case, &picture, out_dir));
+        match outcome {
+            Ok((msg, fraction, allowed)) => {
+                passed += 1;
+                outln!("ok     {label} [{:.1} s]: {msg}", start.elapsed().as_secs_f64());
+                table.push_str(&format!(
+                    "| {}/{} | {} | {:.4}% | {:.2}% | ok |\n",
+                    case.group,
+                    case.name,
+                    case.picture_text(),
+                    fraction * 100.0,
+                    allowed * 100.0
+                ));
+            }
+            Err(msg) => {
+                failed += 1;
+                outln!("FAILED {label}: {msg}");
+                table.push_str(&format!("| {}/{} | {} | see the log | | FAILED |\n", case.group, case.name, case.picture_text()));
+            }
+        }
+        let said = messages();
+        if !said.is_empty() {
+            failed += 1;
+            outln!("FAILED {label}: {} validation message(s):", said.len());
+            for m in said {
+                outln!("      {m}");
+            }
+        }
+    }
+    let path = out_dir.join("table.md");
+    std::fs::create_dir_all(out_dir)
+        .and_then(|_| std::fs::write(&path, &table))
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(Summary { passed, failed, table: path })
+}
