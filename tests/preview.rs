@@ -214,6 +214,23 @@ fn no_display_is_a_clear_error() {
     assert!(!err.contains("panicked"), "{}", text(&o));
 }
 
+/// A window larger than one storage buffer of the device holds (lavapipe:
+/// 128 MiB of 32-byte pixel records) is refused with the sizes, and the
+/// message says where larger pictures go.
+#[test]
+fn a_window_beyond_one_storage_buffer_is_a_clear_error() {
+    let o = preview(&["--width", "4096", "--height", "3072", "--frames", "1", "--screenshot", out_dir().join("huge.png").to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    if !text(&o).contains("llvmpipe") {
+        println!("skipped: the device is not lavapipe, whose buffer limit this test knows: {}", text(&o));
+        return;
+    }
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(err.contains("the preview's pixel buffer") && err.contains("maxStorageBufferRange"), "{}", text(&o));
+    assert!(err.contains("`raycast render` draws larger pictures in bands") && !err.contains("panicked"), "{}", text(&o));
+    assert!(!out_dir().join("huge.png").exists(), "a screenshot was written");
+}
+
 #[test]
 fn bad_arguments_are_usage_errors() {
     let o = raycast(&["preview", "--frames", "0"]);

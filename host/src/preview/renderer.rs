@@ -106,13 +106,17 @@ struct PictureBuffers {
     display: StorageImage,
 }
 
+/// The pixel buffer's name in messages: too large a window says where larger pictures go.
+const WHOLE_WINDOW_PIXELS: &str = "the preview's pixel buffer (every pixel of the window; `raycast render` draws larger pictures in bands)";
+
 impl PictureBuffers {
     fn new(ctx: &GpuContext, size: [u32; 2]) -> Result<PictureBuffers, GpuError> {
         let count = size[0] as usize * size[1] as usize;
         Ok(PictureBuffers {
             size,
-            pixels: Buffer::new(ctx, count * std::mem::size_of::<PixelOut>(), true, "the pixel buffer")?,
-            accum: Buffer::new(ctx, count * std::mem::size_of::<AccumPixel>(), false, "the accumulation buffer")?,
+            // One buffer each for the whole window (`raycast render` draws larger pictures in bands).
+            pixels: Buffer::new(ctx, count * std::mem::size_of::<PixelOut>(), true, WHOLE_WINDOW_PIXELS)?,
+            accum: Buffer::new(ctx, count * std::mem::size_of::<AccumPixel>(), false, "the preview's accumulation buffer")?,
             display: StorageImage::new(ctx, size[0], size[1])?,
         })
     }
