@@ -406,6 +406,11 @@ fn conformance_command() {
     assert_fails(&o, 2, "conformance needs the cs1230 corpus");
     let o = raycast(&["conformance", repo().join("scenes").to_str().unwrap()], &[]);
     assert_fails(&o, 1, "has no bench/ folder");
+    // The CPU build is raycast's own code: a shader folder for it is a mistake, said before any work.
+    for command in ["conformance", "render"] {
+        let o = raycast(&[command, "--backend", "cpu", "--shaders", repo().join("shaders").to_str().unwrap()], &[]);
+        assert_fails(&o, 2, "compiles the device's kernel, but --backend cpu runs the CPU build");
+    }
     let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").filter(|c| !c.is_empty()) else {
         println!("skipped: conformance against the corpus: RAYCAST_CORPUS is not set");
         return;
