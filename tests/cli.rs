@@ -407,7 +407,7 @@ fn conformance_command() {
     let o = raycast(&["conformance", repo().join("scenes").to_str().unwrap()], &[]);
     assert_fails(&o, 1, "has no bench/ folder");
     // The CPU build is raycast's own code: a shader folder for it is a mistake, said before any work.
-    for command in ["conformance", "render"] {
+    for command in ["conformance", "render", "bench"] {
         let o = raycast(&[command, "--backend", "cpu", "--shaders", repo().join("shaders").to_str().unwrap()], &[]);
         assert_fails(&o, 2, "compiles the device's kernel, but --backend cpu runs the CPU build");
     }

@@ -573,6 +573,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     if let Some(dir) = &args.versus {
         return crate::versus::run(args, dir);
     }
+    crate::cli::cpu_takes_no_shaders(args.backend == BenchBackend::Cpu, &args.render.shaders)?;
     let settings = args.render.settings();
     settings.validate()?;
     let r = &args.render;

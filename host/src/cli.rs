@@ -508,9 +508,9 @@ enum RenderBackend {
 
 /// `--shaders DIR` with `--backend cpu`: a usage error, since the CPU build
 /// is the code raycast was built with and would silently ignore DIR.
-fn cpu_takes_no_shaders(backend: Backend, shaders: &Option<PathBuf>) -> Result<(), Failure> {
-    match (backend, shaders) {
-        (Backend::Cpu, Some(dir)) => Err(Failure(
+pub(crate) fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) -> Result<(), Failure> {
+    match (cpu_only, shaders) {
+        (true, Some(dir)) => Err(Failure(
             format!(
                 "raycast: error: --shaders {} compiles the device's kernel, but --backend cpu runs the CPU build raycast was \
                  built with: drop one (rebuild raycast to put a shader change into the CPU build)",
@@ -523,7 +523,7 @@ fn cpu_takes_no_shaders(backend: Backend, shaders: &Option<PathBuf>) -> Result<(
 }
 
 fn render(args: &RenderArgs) -> Result<(), Failure> {
-    cpu_takes_no_shaders(args.backend, &args.render.shaders)?;
+    cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.render.shaders)?;
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
     let mut backend: Option<RenderBackend> = None;
@@ -825,7 +825,7 @@ fn pixel_text(p: &crate::layout::PixelOut) -> String {
 }
 
 fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
-    cpu_takes_no_shaders(args.backend, &args.shaders)?;
+    cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.shaders)?;
     let from_env = std::env::var_os("RAYCAST_CORPUS").filter(|v| !v.is_empty()).map(PathBuf::from);
     let Some(corpus) = args.corpus.clone().or(from_env) else {
         return Err(Failure(
