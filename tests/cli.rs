@@ -397,6 +397,16 @@ fn several_scenes_check_on_one_device() {
     }
 }
 
+/// The CPU build is raycast's own code: a shader folder for it is a
+/// mistake, said before any work rather than ignored.
+#[test]
+fn cpu_backend_refuses_a_shader_folder() {
+    for command in ["conformance", "render", "bench"] {
+        let o = raycast(&[command, "--backend", "cpu", "--shaders", repo().join("shaders").to_str().unwrap()], &[]);
+        assert_fails(&o, 2, "compiles the device's kernel, but --backend cpu runs the CPU build");
+    }
+}
+
 /// `conformance`: the course's corpus against its official renders, from
 /// the command line; a shader change that breaks them (the diffuse term
 /// halved) fails with exit 4 and the pictures of what differs.
@@ -406,11 +416,6 @@ fn conformance_command() {
     assert_fails(&o, 2, "conformance needs the cs1230 corpus");
     let o = raycast(&["conformance", repo().join("scenes").to_str().unwrap()], &[]);
     assert_fails(&o, 1, "has no bench/ folder");
-    // The CPU build is raycast's own code: a shader folder for it is a mistake, said before any work.
-    for command in ["conformance", "render", "bench"] {
-        let o = raycast(&[command, "--backend", "cpu", "--shaders", repo().join("shaders").to_str().unwrap()], &[]);
-        assert_fails(&o, 2, "compiles the device's kernel, but --backend cpu runs the CPU build");
-    }
     let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").filter(|c| !c.is_empty()) else {
         println!("skipped: conformance against the corpus: RAYCAST_CORPUS is not set");
         return;
