@@ -423,6 +423,10 @@ fn conformance_command() {
     let corpus = corpus.to_str().unwrap().to_string();
     let o = raycast(&["conformance", &corpus, "--only", "nothing-like-this"], &[]);
     assert_fails(&o, 2, "matches --only nothing-like-this");
+    // An --out-dir that cannot be made fails before any case runs.
+    let o = raycast(&["conformance", &corpus, "--out-dir", repo().join("README.md").to_str().unwrap()], &[]);
+    assert_fails(&o, 1, "(--out-dir)");
+    assert!(!text(&o).0.contains("ok     "), "{:?}", text(&o));
 
     let dir = out_dir().join("conformance-cli");
     let _ = std::fs::remove_dir_all(&dir);

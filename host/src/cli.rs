@@ -845,6 +845,7 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
         ));
     }
     let count = cases.len();
+    std::fs::create_dir_all(&args.out_dir).map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
     let summary = if args.backend == Backend::Cpu {
         let cpu = CpuRenderer::new()?;
         outln!("conformance: the CPU build of the shared GLSL ({} threads) against {}, {count} cases", cpu.threads, corpus.display());
