@@ -553,6 +553,20 @@ fn every_shader_test_file_passes() {
     assert!(passed.parse::<usize>().unwrap() >= 80, "{out}");
 }
 
+/// `--only` keeps the cases whose function or name holds its text, over
+/// every file; matching none is a usage error.
+#[test]
+fn only_picks_cases_by_function_or_name() {
+    let o = raycast(&["shader-test", "--device", "llvmpipe", "--only", "div_rn", "--only", "sqrt_rn"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "stdout:\n{out}\nstderr:\n{err}");
+    // div_rn's three cases (its vec3 overload among them) and sqrt_rn's one, all in one file.
+    assert!(out.contains("shader-test: 4 cases from 1 file;") && out.ends_with("4 passed, 0 failed\n"), "{out}");
+    let o = raycast(&["shader-test", "--only", "no-such-function"]);
+    assert_eq!(o.status.code(), Some(2), "{:?}", text(&o));
+    assert!(text(&o).1.contains("matches --only no-such-function"), "{:?}", text(&o));
+}
+
 /// A copy of the shaders whose cone has the wrong slope (dy^2/2 for dy^2/4
 /// in cone_quadratic): the cone's cases must fail, readably.
 #[test]

@@ -1,9 +1,9 @@
-//! `raycast shader-test [FILE…] [--shaders DIR] [--device …] [--validate]`:
+//! `raycast shader-test [FILE…] [--only TEXT]… [--shaders DIR] [--device …] [--validate]`:
 //! runs the cases of shader-test files (default: every tests/shaders/*.toml
 //! of the source tree) and ends with the line `N passed, M failed`.
 //!
-//! Exit status: 0 every case passed, 1 an error (a file, the device), 3 a
-//! validation-layer message, 4 a case failed.
+//! Exit status: 0 every case passed, 1 an error (a file, the device), 2
+//! `--only` matching no case, 3 a validation-layer message, 4 a case failed.
 
 use std::path::{Path, PathBuf};
 
@@ -27,6 +27,10 @@ pub struct ShaderTestArgs {
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
     validate: bool,
+    /// Only the cases whose function or name holds TEXT (`--only cone`,
+    /// `--only div_rn`); repeatable, a case runs if any matches.
+    #[arg(long, value_name = "TEXT")]
+    only: Vec<String>,
 }
 
 /// Runs the command; Err is (message for stderr, exit status).
@@ -47,9 +51,16 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
         let shown = shown_path(path, &root);
         // File errors already read `file:line: error: …`.
         let cases = file::load(path, &shown, harness.shaders()).map_err(|e| (e, 1u8))?;
-        per_file.push((shown, cases));
+        let wanted = |c: &super::Case| args.only.iter().any(|t| c.function.contains(t.as_str()) || c.display_name().contains(t.as_str()));
+        let cases: Vec<_> = cases.into_iter().filter(|c| args.only.is_empty() || wanted(c)).collect();
+        if !cases.is_empty() {
+            per_file.push((shown, cases));
+        }
     }
     let total: usize = per_file.iter().map(|(_, c)| c.len()).sum();
+    if total == 0 {
+        return Err((format!("raycast: error: no case of {} file(s) matches --only {}", files.len(), args.only.join(", --only ")), 2));
+    }
     let d = harness.device();
     outln!(
         "shader-test: {total} cases from {} file{}; device {} ({}); shaders {}",
