@@ -500,6 +500,59 @@ fn output_paths(
     Ok(outputs)
 }
 
+/// What came of the scenes of a command that takes several (`each_scene`).
+struct Batch<T> {
+    /// Each scene that went through, by name, with what it gave.
+    done: Vec<(String, T)>,
+    /// The scenes that failed (already reported), by name.
+    failed: Vec<String>,
+}
+
+impl<T> Batch<T> {
+    /// `K of N scenes failed: …` (exit 1), with `also` added, where any failed.
+    fn failure(&self, also: &str) -> Option<Failure> {
+        let n = self.done.len() + self.failed.len();
+        (!self.failed.is_empty())
+            .then(|| Failure(format!("raycast: error: {} of {n} scenes failed: {}{also}", self.failed.len(), self.failed.join(", ")), 1))
+    }
+}
+
+/// Each of `scenes` loaded as `o` asks and given to `each` with its output
+/// path, on the backend that `open` makes for the first scene that loads
+/// (kept in `backend`; its failure ends the command). One scene's failure
+/// ends the command as it always did; of several, a scene that fails is
+/// reported and named in the batch, and the others go on.
+fn each_scene<B, T>(
+    scenes: &[Option<&Path>],
+    outputs: &[PathBuf],
+    o: &RenderOptions,
+    backend: &mut Option<B>,
+    open: impl Fn() -> Result<B, Failure>,
+    mut each: impl FnMut(&B, Prepared, &Path) -> Result<T, Failure>,
+) -> Result<Batch<T>, Failure> {
+    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
+    for (scene, output) in scenes.iter().zip(outputs) {
+        let result = match prepare(*scene, o) {
+            Ok(p) => {
+                if backend.is_none() {
+                    *backend = Some(open()?);
+                }
+                each(backend.as_ref().expect("opened above"), p, output)
+            }
+            Err(e) => Err(e),
+        };
+        match result {
+            Ok(t) => batch.done.push((scene_name(*scene), t)),
+            Err(e) if scenes.len() == 1 => return Err(e),
+            Err(Failure(message, _)) => {
+                errln!("{message}");
+                batch.failed.push(scene_name(*scene));
+            }
+        }
+    }
+    Ok(batch)
+}
+
 /// Where `render` runs its scenes: opened once, for the first scene that loads.
 enum RenderBackend {
     Cpu(CpuRenderer),
@@ -527,36 +580,18 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
     let mut backend: Option<RenderBackend> = None;
-    let mut failed: Vec<String> = Vec::new();
-    for (scene, output) in scenes.iter().zip(&outputs) {
-        // The device opens for the first scene that loads; its failure ends the command.
-        let result = match prepare(*scene, &args.render) {
-            Ok(p) => {
-                if backend.is_none() {
-                    backend = Some(open_render_backend(args.backend, &args.render)?);
-                }
-                match backend.as_ref().expect("opened above") {
-                    RenderBackend::Cpu(cpu) => render_on_cpu(cpu, &p, output),
-                    RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, &p, output),
-                }
-            }
-            Err(e) => Err(e),
-        };
-        match result {
-            Ok(()) => {}
-            // A single scene fails as it always did; a batch goes on and fails at the end.
-            Err(e) if scenes.len() == 1 => return finish_render(backend, Err(e)),
-            Err(Failure(message, _)) => {
-                errln!("{message}");
-                failed.push(scene_name(*scene));
-            }
-        }
-    }
-    let result = if failed.is_empty() {
-        Ok(())
-    } else {
-        Err(Failure(format!("raycast: error: {} of {} scenes failed: {}", failed.len(), scenes.len(), failed.join(", ")), 1))
-    };
+    let batch = each_scene(
+        &scenes,
+        &outputs,
+        &args.render,
+        &mut backend,
+        || open_render_backend(args.backend, &args.render),
+        |backend, p, output| match backend {
+            RenderBackend::Cpu(cpu) => render_on_cpu(cpu, &p, output),
+            RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, &p, output),
+        },
+    );
+    let result = batch.and_then(|batch| batch.failure("").map_or(Ok(()), Err));
     finish_render(backend, result)
 }
 
@@ -667,45 +702,33 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
             2,
         ));
     }
+    // Bad --pixel input fails before any work (the frame's size is the options').
+    args.render.settings().validate()?;
+    let (width, height) = (args.render.width, args.render.height);
+    if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
+        return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
+    }
     let diffs = output_paths(&args.output, &args.out_dir, "-check", &scenes)?;
     let mut backends: Option<CheckBackends> = None;
     // The one scene's frame and pictures, for --pixel.
     let mut last = None;
-    let (mut accepted, mut differ, mut failed) = (0, Vec::new(), Vec::new());
-    for (scene, diff) in scenes.iter().zip(&diffs) {
-        let result = match prepare(*scene, &args.render) {
-            Ok(p) => {
-                // Bad --pixel input fails before the renders, not after them.
-                let (width, height) = (p.data.frame.width, p.data.frame.height);
-                if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
-                    return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
-                }
-                // The device opens for the first scene that loads; its failure ends the command.
-                if backends.is_none() {
-                    backends = Some(CheckBackends { gpu: gpu_renderer(&args.render)?, cpu: CpuRenderer::new()? });
-                }
-                check_scene(args, backends.as_ref().expect("opened above"), &p, diff).map(|(checked, gpu, cpu)| {
-                    if !args.pixel.is_empty() {
-                        last = Some((p.data, gpu, cpu));
-                    }
-                    checked
-                })
+    let batch = each_scene(
+        &scenes,
+        &diffs,
+        &args.render,
+        &mut backends,
+        || Ok(CheckBackends { gpu: gpu_renderer(&args.render)?, cpu: CpuRenderer::new()? }),
+        |backends, p, diff| {
+            let (checked, gpu, cpu) = check_scene(args, backends, &p, diff)?;
+            if !args.pixel.is_empty() {
+                last = Some((p.data, gpu, cpu));
             }
-            Err(e) => Err(e),
-        };
-        let name = scene_name(*scene);
-        match result {
-            Ok(Checked::Identical) => {}
-            Ok(Checked::Accepted) => accepted += 1,
-            Ok(Checked::Differ(pixels)) => differ.push((name, pixels)),
-            // A single scene fails as it always did; several go on and fail at the end.
-            Err(e) if scenes.len() == 1 => return Err(e),
-            Err(Failure(message, _)) => {
-                errln!("{message}");
-                failed.push(name);
-            }
-        }
-    }
+            Ok(checked)
+        },
+    )?;
+    let accepted = batch.done.iter().filter(|(_, c)| matches!(c, Checked::Accepted)).count();
+    let differ: Vec<(&str, usize)> =
+        batch.done.iter().filter_map(|(name, c)| if let Checked::Differ(n) = c { Some((name.as_str(), *n)) } else { None }).collect();
     if let Some(b) = backends {
         let messages = b.gpu.context().take_validation_messages();
         drop(b);
@@ -718,10 +741,10 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     if n > 1 {
         outln!(
             "check: {} of {n} scenes identical, {} within --allow-pixels, {} differ, {} failed",
-            n - accepted - differ.len() - failed.len(),
+            n - accepted - differ.len() - batch.failed.len(),
             accepted,
             differ.len(),
-            failed.len()
+            batch.failed.len()
         );
     }
     let differ_text = || match &differ[..] {
@@ -731,13 +754,11 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
             format!("{} of {n} scenes differ between the device and the CPU build: {}", differ.len(), list.join(", "))
         }
     };
-    match (failed.is_empty(), differ.is_empty()) {
-        (true, true) => Ok(()),
-        (true, false) => Err(Failure(format!("raycast: check failed: {}", differ_text()), 4)),
-        (false, _) => {
-            let also = if differ.is_empty() { String::new() } else { format!("; and {}", differ_text()) };
-            Err(Failure(format!("raycast: error: {} of {n} scenes failed: {}{also}", failed.len(), failed.join(", ")), 1))
-        }
+    let also = if differ.is_empty() { String::new() } else { format!("; and {}", differ_text()) };
+    match batch.failure(&also) {
+        Some(failure) => Err(failure),
+        None if differ.is_empty() => Ok(()),
+        None => Err(Failure(format!("raycast: check failed: {}", differ_text()), 4)),
     }
 }
 
