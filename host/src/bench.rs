@@ -11,7 +11,7 @@
 //! median, min and max of their wall times. Every backend runs on the same
 //! FrameData in the same process, so ratios compare like with like.
 
-use crate::cli::{check_validation, open_renderer, scene_failure, Failure, DEFAULT_SCENE};
+use crate::cli::{check_validation, scene_failure, Failure, DEFAULT_SCENE};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
@@ -573,7 +573,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     if let Some(dir) = &args.versus {
         return crate::versus::run(args, dir);
     }
-    crate::cli::cpu_takes_no_shaders(args.backend == BenchBackend::Cpu, &args.render.shaders)?;
+    crate::cli::cpu_takes_no_shaders(args.backend == BenchBackend::Cpu, &args.render.kernel.shaders)?;
     let settings = args.render.settings();
     settings.validate()?;
     let r = &args.render;
@@ -582,7 +582,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         BenchBackend::Cpu => (false, true),
         BenchBackend::Both => (true, true),
     };
-    let gpu = if want_gpu { Some(open_renderer(&r.device, r.validate, r.shaders.as_deref(), r.scene_buffers)?) } else { None };
+    let gpu = if want_gpu { Some(r.kernel.renderer()?) } else { None };
     let cpu = if want_cpu { Some(CpuRenderer::new()?) } else { None };
     let gpu_device = gpu.as_ref().map(|g| {
         let i = g.context().info();

@@ -84,9 +84,6 @@ pub struct RenderOptions {
     /// How textures are sampled: the nearest texel, as the course's renders, or bilinear.
     #[arg(long, value_enum, default_value_t = FilterArg::Nearest)]
     pub texture_filter: FilterArg,
-    /// Vulkan device: an index from `raycast devices` or part of its name.
-    #[arg(long, value_name = "NAME|INDEX")]
-    pub device: Option<String>,
     /// Extra folder to find textures in, after the scene file's folder
     /// (repeatable). Generated scenes (`raycast gen`) name the corpus's
     /// texture: pass the corpus root.
@@ -96,6 +93,17 @@ pub struct RenderOptions {
     /// them as skipped and goes on).
     #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
     pub max_primitives: usize,
+    #[command(flatten)]
+    pub kernel: KernelOptions,
+}
+
+/// The device and the kernel of the commands that render on a device
+/// (`render`, `check`, `bench`, `conformance`).
+#[derive(Args, Debug)]
+pub struct KernelOptions {
+    /// Vulkan device: an index from `raycast devices` or part of its name.
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub device: Option<String>,
     /// Compile the device's kernel from DIR/render.comp at start-up instead of
     /// the one built in (the CPU build is always the built-in code).
     #[arg(long, value_name = "DIR")]
@@ -107,10 +115,22 @@ pub struct RenderOptions {
     #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
     pub scene_buffers: SceneBuffers,
     /// Enable the Khronos validation layer (slow: not for timing); any
-    /// message fails the command (exit 3).
+    /// message fails the command (exit 3; `conformance`: its case).
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
     pub validate: bool,
+}
+
+impl KernelOptions {
+    /// The render kernel on the device these options name (`open_renderer`).
+    pub(crate) fn renderer(&self) -> Result<GpuRenderer, Failure> {
+        open_renderer(&self.device, self.validate, self.shaders.as_deref(), self.scene_buffers)
+    }
+
+    /// Which kernel, for the commands' first line.
+    pub(crate) fn kernel_text(&self) -> &'static str {
+        if self.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" }
+    }
 }
 
 impl RenderOptions {
@@ -212,16 +232,9 @@ struct ConformanceArgs {
     /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
     #[arg(long, value_enum, default_value_t = Backend::Gpu)]
     backend: Backend,
-    /// Vulkan device: an index or part of a name from `raycast devices`.
-    #[arg(long, value_name = "NAME|INDEX")]
-    device: Option<String>,
-    /// Compile the kernel from DIR/render.comp instead of the built-in one:
-    /// see whether a shader change still matches the course's renders.
-    #[arg(long, value_name = "DIR")]
-    shaders: Option<PathBuf>,
-    /// Turn on the Khronos validation layer; any message fails its case.
-    #[arg(long)]
-    validate: bool,
+    /// The device and its kernel (`--shaders DIR`: does a shader change still match the course's renders?).
+    #[command(flatten)]
+    kernel: KernelOptions,
     /// Only the cases whose name holds TEXT (`test_light/`, `Normal`,
     /// `recursiveSpheres4 Color`); repeatable, a case runs if any matches.
     #[arg(long, value_name = "TEXT")]
@@ -384,10 +397,6 @@ fn default_output(scene: Option<&Path>, suffix: &str, dir: Option<&Path>) -> Pat
     let stem = scene.and_then(|s| s.file_stem()).map(|s| s.to_string_lossy().into_owned());
     let name = format!("{}{suffix}.png", stem.as_deref().unwrap_or("default"));
     dir.map_or_else(|| PathBuf::from(&name), |d| d.join(&name))
-}
-
-fn gpu_renderer(o: &RenderOptions) -> Result<GpuRenderer, Failure> {
-    open_renderer(&o.device, o.validate, o.shaders.as_deref(), o.scene_buffers)
 }
 
 /// The render kernel on the device `--device` names (validated where
@@ -576,7 +585,7 @@ pub(crate) fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) ->
 }
 
 fn render(args: &RenderArgs) -> Result<(), Failure> {
-    cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.render.shaders)?;
+    cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.render.kernel.shaders)?;
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
     let mut backend: Option<RenderBackend> = None;
@@ -602,7 +611,7 @@ fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBack
         outln!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
         return Ok(RenderBackend::Cpu(cpu));
     }
-    let renderer = gpu_renderer(o)?;
+    let renderer = o.kernel.renderer()?;
     let info = renderer.context().info();
     outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
     Ok(RenderBackend::Gpu(renderer))
@@ -622,7 +631,7 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
     let info = renderer.context().info();
     print_scene(p);
     let compiled_before = renderer.compile_time();
-    let (mut picture, t) = if o.shaders.is_some() {
+    let (mut picture, t) = if o.kernel.shaders.is_some() {
         // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
         renderer.render(&p.data)?
     } else {
@@ -717,7 +726,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         &diffs,
         &args.render,
         &mut backends,
-        || Ok(CheckBackends { gpu: gpu_renderer(&args.render)?, cpu: CpuRenderer::new()? }),
+        || Ok(CheckBackends { gpu: args.render.kernel.renderer()?, cpu: CpuRenderer::new()? }),
         |backends, p, diff| {
             let (checked, gpu, cpu) = check_scene(args, backends, &p, diff)?;
             if !args.pixel.is_empty() {
@@ -769,7 +778,7 @@ fn check_scene(args: &CheckArgs, b: &CheckBackends, p: &Prepared, diff: &Path) -
     print_scene(p);
     outln!(
         "check: {} on {device} against the CPU build ({} threads), {}x{}, every buffer bit for bit",
-        if args.render.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
+        args.render.kernel.kernel_text(),
         b.cpu.threads,
         p.data.frame.width,
         p.data.frame.height
@@ -803,9 +812,9 @@ fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cp
     use crate::harness::{Case, Harness, HarnessOptions, SceneBuffers};
     let width = data.frame.width;
     let mut harness = Harness::new(&HarnessOptions {
-        shaders: args.render.shaders.clone(),
-        device: parse_device(&args.render.device),
-        validation: validation_wanted(args.render.validate),
+        shaders: args.render.kernel.shaders.clone(),
+        device: parse_device(&args.render.kernel.device),
+        validation: validation_wanted(args.render.kernel.validate),
     })
     .map_err(|e| Failure(format!("raycast: error: --pixel: {e}"), 1))?;
     // The frame's buffers under the names scene_buffers.glsl gives them.
@@ -846,7 +855,7 @@ fn pixel_text(p: &crate::layout::PixelOut) -> String {
 }
 
 fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
-    cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.shaders)?;
+    cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.kernel.shaders)?;
     let from_env = std::env::var_os("RAYCAST_CORPUS").filter(|v| !v.is_empty()).map(PathBuf::from);
     let Some(corpus) = args.corpus.clone().or(from_env) else {
         return Err(Failure(
@@ -872,10 +881,10 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
         outln!("conformance: the CPU build of the shared GLSL ({} threads) against {}, {count} cases", cpu.threads, corpus.display());
         crate::conformance::run(&corpus, &cases, &args.out_dir, |data| cpu.render(data), Vec::new)?
     } else {
-        let renderer = open_renderer(&args.device, args.validate, args.shaders.as_deref(), SceneBuffers::Auto)?;
+        let renderer = args.kernel.renderer()?;
         outln!(
             "conformance: {} on {} against {}, {count} cases",
-            if args.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" },
+            args.kernel.kernel_text(),
             renderer.context().info().name,
             corpus.display()
         );

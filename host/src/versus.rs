@@ -87,11 +87,12 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     }
     let settings = args.render.settings();
     settings.validate()?;
-    let a_name = args.render.shaders.as_ref().map_or("the built-in kernel".to_string(), |d| format!("the kernel from {}", d.display()));
+    let a_name = args.render.kernel.shaders.as_ref().map_or("the built-in kernel".to_string(), |d| format!("the kernel from {}", d.display()));
     let b_name = format!("the kernel from {}", versus.display());
     let r = &args.render;
-    let a = open_renderer(&r.device, r.validate, r.shaders.as_deref(), r.scene_buffers)?;
-    let b = open_renderer(&r.device, r.validate, Some(versus), r.scene_buffers)?;
+    let k = &r.kernel;
+    let a = k.renderer()?;
+    let b = open_renderer(&k.device, k.validate, Some(versus), k.scene_buffers)?;
     if !args.json {
         let info = a.context().info();
         outln!("device: {} ({}), two devices in one process", info.name, info.kind);
