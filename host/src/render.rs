@@ -34,10 +34,10 @@ pub struct Picture {
     pub pixels: Vec<PixelOut>,
 }
 
-/// `n` copies of `value`, or an error naming `what` and the bytes when the
-/// memory cannot be had (an absurd picture size on the CPU), where `vec!`
-/// would abort the process.
-pub(crate) fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, String> {
+/// An empty vector with room for `n` items, or an error naming `what` and
+/// the bytes when the memory cannot be had (an absurd picture size), where
+/// `Vec::with_capacity` would abort the process.
+pub(crate) fn try_with_capacity<T>(n: usize, what: &str) -> Result<Vec<T>, String> {
     let mut v = Vec::new();
     v.try_reserve_exact(n).map_err(|_| {
         let bytes = (n as u128 * std::mem::size_of::<T>() as u128).min(u128::from(u64::MAX)) as u64;
@@ -46,6 +46,12 @@ pub(crate) fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec
             crate::units::fmt_bytes(bytes)
         )
     })?;
+    Ok(v)
+}
+
+/// `n` copies of `value` (`try_with_capacity`'s error where the memory cannot be had).
+pub(crate) fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec<T>, String> {
+    let mut v = try_with_capacity(n, what)?;
     v.resize(n, value);
     Ok(v)
 }
@@ -472,16 +478,9 @@ impl GpuRenderer {
             .map(|(binding, _, bytes)| (binding, if uniform { layout::padded_for_uniform(binding, bytes) } else { bytes.into() }))
             .collect();
         let count = f.width as usize * f.height as usize;
-        let mut pixels: Vec<PixelOut> = Vec::new();
-        pixels.try_reserve_exact(count).map_err(|_| GpuError::BadRun {
-            kernel: "render".into(),
-            message: format!(
-                "cannot hold the {}x{} picture's pixels in host memory ({})",
-                f.width,
-                f.height,
-                crate::units::fmt_bytes((count * std::mem::size_of::<PixelOut>()) as u64)
-            ),
-        })?;
+        let what = format!("the {}x{} picture's pixels read back from the device", f.width, f.height);
+        let mut pixels: Vec<PixelOut> =
+            try_with_capacity(count, &what).map_err(|message| GpuError::BadRun { kernel: "render".into(), message })?;
         let mut timings = GpuTimings::default();
         // Bands of rows where the picture's pixels do not fit one storage buffer.
         let band_rows = self.band_rows(f.width);
