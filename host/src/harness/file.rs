@@ -105,10 +105,7 @@ fn case(t: &toml::Table, info: &ShaderInfo, scenes: &BTreeMap<String, Arc<SceneB
         _ => None,
     };
     let f = info.function_where(function, |f| {
-        inputs.is_some_and(|inputs| {
-            f.params.len() == inputs.len()
-                && f.params.iter().all(|(p, ty)| inputs.get(p).is_some_and(|v| value(v, ty, info, false).is_ok()))
-        })
+        inputs.is_some_and(|inputs| f.takes(inputs.len(), |p, ty| inputs.get(p).is_some_and(|v| value(v, ty, info, false).is_ok())))
     })?;
     let mut case = Case::new(function);
     if let Some(n) = string("name")? {

@@ -38,6 +38,13 @@ impl Function {
         format!("{}__{}", self.name, if types.is_empty() { "void".to_string() } else { types.join("_") })
     }
 
+    /// Whether a case's `count` inputs are exactly this overload's
+    /// parameters: `fits(name, type)` says one is given under the
+    /// parameter's name and its value fits the type.
+    pub fn takes(&self, count: usize, fits: impl Fn(&str, &Type) -> bool) -> bool {
+        self.params.len() == count && self.params.iter().all(|(p, ty)| fits(p, ty))
+    }
+
     /// Words of all inputs, one u32 per scalar.
     pub fn input_words(&self) -> usize {
         self.params.iter().map(|(_, t)| t.words()).sum()

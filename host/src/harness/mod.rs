@@ -417,8 +417,7 @@ impl Harness {
         let f = self
             .info
             .function_where(&case.function, |f| {
-                f.params.len() == case.inputs.len()
-                    && f.params.iter().all(|(p, ty)| case.inputs.iter().any(|(n, v)| n == p && v.encode(ty, false).is_ok()))
+                f.takes(case.inputs.len(), |p, ty| case.inputs.iter().any(|(n, v)| n == p && v.encode(ty, false).is_ok()))
             })?
             .clone();
         for (name, _) in &case.inputs {
