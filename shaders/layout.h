@@ -88,7 +88,8 @@
 #define SPEC_FLAT_LIST 15        // frame.node_count == 0: the walk's primitives in order
 #define SPEC_BOX_RECORDS 16      // an instance record holds a box
 #define SPEC_SPHERE_RECORDS 17   // an instance record holds a sphere (RECORD_SPHERE)
-#define SPEC_COUNT 18
+#define SPEC_AOVS 18             // frame.aov other than AOV_COLOR
+#define SPEC_COUNT 19
 
 // Primitive.shape
 #define SHAPE_CUBE 0u
@@ -101,9 +102,12 @@
 #define LIGHT_DIRECTIONAL 1u
 #define LIGHT_SPOT 2u
 
-// Frame.aov: what PixelOut.rgba holds.
+// Frame.aov: what PixelOut.rgba holds (raycast.glsl aov_color). The
+// others than colour see the first hit only: no shadow or mirror ray.
 #define AOV_COLOR 0u
-#define AOV_NORMAL 1u
+#define AOV_NORMAL 1u // the world normal, (n + 1) / 2; black on a miss
+#define AOV_DEPTH 2u  // grey by distance along the camera ray (Frame.depth_range); black on a miss
+#define AOV_ID 3u     // a colour per primitive id; black on a miss
 
 // Frame.flags
 #define FLAG_SHADOWS 1u
@@ -132,6 +136,9 @@ struct Frame {
     vec4 eye; // w unused
     // Global Phong coefficients k_a, k_d, k_s, k_t.
     vec4 k;
+    // AOV_DEPTH: x the distance from the eye drawn white, y the distance
+    // drawn black (and beyond); zw unused.
+    vec4 depth_range;
     uint width;
     uint height;
     uint primitive_count;

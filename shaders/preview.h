@@ -14,24 +14,13 @@
 #define BINDING_DISPLAY 7 // rgba8 storage image, copied to the window
 #define BINDING_STATUS 14 // PreviewStatus (one), read and written
 
-// PreviewFrame.mode: what the window shows. Colour and normal are
-// Frame.aov (AOV_COLOR, AOV_NORMAL) through sample_pixel; depth and id are
-// drawn from the hit here.
-#define PREVIEW_COLOR 0u
-#define PREVIEW_NORMAL 1u
-#define PREVIEW_DEPTH 2u
-#define PREVIEW_ID 3u
-
 struct PreviewFrame {
     // xy: this sample's offset from the pixel centre, in pixels (0, 0 for
     // sample 0); zw unused.
     vec4 jitter;
-    // PREVIEW_DEPTH: x the distance drawn white, y the distance drawn
-    // black; zw unused.
-    vec4 depth_range;
     uint sample_index; // 0 starts the sum over again
-    uint mode;         // PREVIEW_*
     uint row_offset;   // the dispatch covers rows from this one (a band of a sample)
+    uint pad0;
     uint pad1;
 };
 

@@ -20,29 +20,6 @@ layout(std430, binding = BINDING_STATUS) buffer StatusBlock { PreviewStatus stat
 
 #include "raycast.glsl"
 
-// Grey by distance along the ray: white at depth_range.x, black at .y and beyond.
-vec3 depth_color(Ray r, SceneHit hit) {
-    if (hit.id == NO_HIT) {
-        return vec3(0.0f, 0.0f, 0.0f);
-    }
-    precise float dist = hit.t * sqrt(dot3(r.direction, r.direction));
-    precise float span = max_f(preview.depth_range.y - preview.depth_range.x, 1e-6f);
-    precise float g = 1.0f - clamp01((dist - preview.depth_range.x) / span);
-    return vec3(g, g, g);
-}
-
-// A colour per primitive index: its bits scrambled into three bytes, kept
-// away from black (which is a miss).
-vec3 id_color(SceneHit hit) {
-    if (hit.id == NO_HIT) {
-        return vec3(0.0f, 0.0f, 0.0f);
-    }
-    uint h = (hit.id + 1u) * 2654435761u;
-    h = h ^ (h >> 15u);
-    vec3 c = vec3(float(h & 255u), float((h >> 8u) & 255u), float((h >> 16u) & 255u)) / 255.0f;
-    return c * 0.75f + 0.25f;
-}
-
 void main() {
     uvec2 pixel = tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationIndex);
     uint j = pixel.x;
@@ -53,18 +30,11 @@ void main() {
     uint index = i * frame.width + j;
     vec2 offset = (preview.sample_index == 0u) ? vec2(0.0f, 0.0f) : vec2(preview.jitter.x, preview.jitter.y);
 
-    // Every mode goes through sample_pixel, so the kernel holds one copy of
-    // the walk (lavapipe compiles and runs every copy); for the depth and
-    // id modes the host asks for the first hit only (AOV_NORMAL).
+    // Every mode is a Frame.aov of sample_pixel, as in render.comp.
     PixelSample s = sample_pixel(j, i, offset);
     SceneHit hit = s.hit;
     vec3 color = s.color;
     uint rays = s.rays;
-    if (preview.mode == PREVIEW_DEPTH) {
-        color = depth_color(camera_ray(j, i, offset), hit);
-    } else if (preview.mode == PREVIEW_ID) {
-        color = id_color(hit);
-    }
 
     // Sum the samples; sample 0 divides by exactly 1, so it quantises as render.comp.
     precise vec3 sum = color;

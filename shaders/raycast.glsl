@@ -1069,8 +1069,41 @@ uint pack_rgba8(vec3 c) {
     return (uint(r) | (uint(g) << 8u)) | ((uint(b) << 16u) | (255u << 24u));
 }
 
+// ---------------------------------------------------------------------------
+// The AOVs other than colour (layout.h AOV_*): what the first hit shows.
+
+// Grey by distance: white at `near`, black at `far` and beyond.
+precise float depth_grey(float dist, float near, float far) {
+    precise float span = max_f(far - near, 1e-6f);
+    return 1.0f - clamp01(div_rn(dist - near, span));
+}
+
+// A colour per primitive id: its bits scrambled into three bytes, kept
+// away from black (which is a miss).
+precise vec3 id_color(uint id) {
+    uint h = (id + 1u) * 2654435761u;
+    h = h ^ (h >> 15u);
+    precise vec3 bytes = vec3(float(h & 255u), float((h >> 8u) & 255u), float((h >> 16u) & 255u));
+    precise vec3 c = div_rn(bytes, 255.0f) * 0.75f;
+    return c + 0.25f;
+}
+
+// What AOV `aov` (not AOV_COLOR) shows of hit h of camera ray r.
+precise vec3 aov_color(uint aov, Ray r, SceneHit h) {
+    if (aov == AOV_NORMAL) {
+        precise vec3 c = (h.normal + 1.0f) * 0.5f;
+        return clamp3(c);
+    }
+    if (aov == AOV_DEPTH) {
+        precise float dist = h.t * sqrt_rn(dot3(r.direction, r.direction));
+        precise float g = depth_grey(dist, frame.depth_range.x, frame.depth_range.y);
+        return vec3(g, g, g);
+    }
+    return id_color(h.id);
+}
+
 // One sample of a pixel: the primary ray's nearest hit and the colour it
-// gives (the shaded colour with reflections, or the normal AOV), each
+// gives (the shaded colour with reflections, or an AOV's), each
 // channel in [0, 1], and every ray traced for it, the camera ray included.
 struct PixelSample {
     SceneHit hit;
@@ -1098,8 +1131,8 @@ struct PixelSample {
 // recursiveSpheres4's), and runs a vector's lanes through a copy together:
 // with one, a lane's mirror ray goes beside a neighbour's shadow ray, not
 // after it. (Keeping the lanes in step, one pass per light whether its
-// shadow ray is needed or not, was 4-8% slower.) With the normal AOV, the
-// first hit only: its normal as a colour.
+// shadow ray is needed or not, was 4-8% slower.) With another AOV than
+// colour, the first hit only (aov_color).
 PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     Ray ray = camera_ray(j, i, offset); // the level's ray: the camera's, then the mirror's
     PixelSample s;
@@ -1136,9 +1169,8 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             if (h.id == NO_HIT) {
                 break;
             }
-            if (frame.aov == AOV_NORMAL) {
-                precise vec3 c = (h.normal + 1.0f) * 0.5f;
-                s.color = clamp3(c);
+            if (HAS_AOVS && frame.aov != AOV_COLOR) {
+                s.color = aov_color(frame.aov, ray, h);
                 break;
             }
             surface = surface_at(ray, h);

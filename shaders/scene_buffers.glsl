@@ -107,6 +107,7 @@ layout(constant_id = SPEC_HIERARCHY) const bool HAS_HIERARCHY = true;
 layout(constant_id = SPEC_FLAT_LIST) const bool HAS_FLAT_LIST = true;
 layout(constant_id = SPEC_BOX_RECORDS) const bool HAS_BOX_RECORDS = true;
 layout(constant_id = SPEC_SPHERE_RECORDS) const bool HAS_SPHERE_RECORDS = true;
+layout(constant_id = SPEC_AOVS) const bool HAS_AOVS = true;
 
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };

@@ -129,6 +129,10 @@ fn main() -> ExitCode {
         if supersample {
             variants.push((512, 384, Aov::Color, 4, TextureFilter::Bilinear));
         }
+        // The depth AOV (its default range, from the scene's bounds) with
+        // two samples summed, and the id AOV, small.
+        variants.push((128, 96, Aov::Depth, 2, TextureFilter::Nearest));
+        variants.push((128, 96, Aov::Id, 1, TextureFilter::Nearest));
         {
             // The hierarchy changes nothing: CPU with and without it.
             let label = format!("{name} Color 256x192 --no-bvh");
@@ -193,7 +197,7 @@ fn main() -> ExitCode {
         }
         for (width, height, aov, spp, texture_filter) in variants {
             {
-                let label = format!("{name} {aov:?} {width}x{height}{}", if spp > 1 { " spp 4 bilinear" } else { "" });
+                let label = format!("{name} {aov:?} {width}x{height}{}", if spp > 1 { format!(" spp {spp} {texture_filter:?}") } else { String::new() });
                 let settings = RenderSettings { width, height, aov, spp, texture_filter, ..RenderSettings::default() };
                 let data = match frame::build(&scene, &settings) {
                     Ok(d) => d,

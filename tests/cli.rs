@@ -520,6 +520,10 @@ fn render_settings_out_of_range() {
     assert_fails(&raycast(&["render", "--spp", "0"], &[]), 1, "--spp 0 is out of range");
     assert_fails(&raycast(&["render", "--depth", "17"], &[]), 1, "--depth 17 is out of range");
     assert_fails(&raycast(&["render", "--texture-filter", "cubic"], &[]), 2, "invalid value 'cubic'");
+    assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "3"], &[]), 2, "\"3\" is not NEAR,FAR");
+    assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "5,2"], &[]), 1, "--depth-range 5,2 is out of range");
+    assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "0,NaN"], &[]), 1, "--depth-range 0,NaN is out of range");
+    assert_fails(&raycast(&["render", "--depth-range", "1,2"], &[]), 1, "--depth-range is for --aov depth");
 }
 
 /// Shadows, reflections and supersampling each change the default scene's

@@ -80,11 +80,12 @@ fn screenshot(scene: Option<&Path>, size: [u32; 2], frames: u32, name: &str, ext
     image_io::read_png(&png).unwrap()
 }
 
-/// `raycast render` of the same scene and size.
-fn render(scene: Option<&Path>, size: [u32; 2], name: &str) -> Rgb8 {
+/// `raycast render` of the same scene and size. `extra`: more flags for it.
+fn render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str]) -> Rgb8 {
     let png = out_dir().join(format!("{name}-render.png"));
     let (w, h) = (size[0].to_string(), size[1].to_string());
     let mut args = vec!["render", "--width", &w, "--height", &h, "-o", png.to_str().unwrap()];
+    args.extend_from_slice(extra);
     let scene_arg;
     if let Some(s) = scene {
         scene_arg = s.to_str().unwrap().to_string();
@@ -95,10 +96,11 @@ fn render(scene: Option<&Path>, size: [u32; 2], name: &str) -> Rgb8 {
     image_io::read_png(&png).unwrap()
 }
 
-/// Rule: bit-exact. `extra`: more flags for the preview.
-fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str]) {
-    let actual = screenshot(scene, size, 1, name, extra);
-    let expected = render(scene, size, name);
+/// Rule: bit-exact. `extra`: more flags for the preview; `both`: flags for
+/// the preview and the render.
+fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str], both: &[&str]) {
+    let actual = screenshot(scene, size, 1, name, &[extra, both].concat());
+    let expected = render(scene, size, name, both);
     let diff = image_io::compare(&actual, &expected, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
     if diff.differing > 0 {
         let paths = image_io::write_diff_images(&out_dir(), &format!("{name}-first-frame"), &actual, &expected, &diff)
@@ -114,14 +116,14 @@ fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: 
 
 #[test]
 fn first_frame_of_the_default_scene_is_the_render() {
-    assert_first_frame_is_the_render(None, [512, 384], "default", &[]);
+    assert_first_frame_is_the_render(None, [512, 384], "default", &[], &[]);
 }
 
 /// A size that is not a multiple of the 8x8 work group, and a file path (watched for reloads).
 #[test]
 fn first_frame_at_an_odd_size_is_the_render() {
     let scene = repo().join("scenes/default.xml");
-    assert_first_frame_is_the_render(Some(&scene), [203, 97], "default-203x97", &[]);
+    assert_first_frame_is_the_render(Some(&scene), [203, 97], "default-203x97", &[], &[]);
 }
 
 #[test]
@@ -134,7 +136,17 @@ fn first_frame_of_corpus_scenes_is_the_render() {
         let scene = corpus.join(rel);
         assert!(scene.is_file(), "RAYCAST_CORPUS={} has no {rel}", corpus.display());
         let name = rel.replace('/', "-").trim_end_matches(".xml").to_string();
-        assert_first_frame_is_the_render(Some(&scene), [512, 384], &name, &[]);
+        assert_first_frame_is_the_render(Some(&scene), [512, 384], &name, &[], &[]);
+    }
+}
+
+/// The normal, depth and id AOVs (`--aov`; keys 2, 3 and 4 in the window):
+/// the same pictures as `raycast render --aov`, the depth AOV's range from
+/// the same camera.
+#[test]
+fn first_frame_in_each_aov_is_the_render() {
+    for aov in ["normal", "depth", "id"] {
+        assert_first_frame_is_the_render(None, [96, 64], &format!("default-{aov}"), &[], &["--aov", aov]);
     }
 }
 
@@ -145,7 +157,7 @@ fn first_frame_of_corpus_scenes_is_the_render() {
 fn first_frame_without_the_uniform_kernel_is_the_render() {
     let dir = common::copy_of_shaders(&out_dir().join("no-uniform-shaders"));
     std::fs::remove_file(dir.join("preview_uniform.comp")).unwrap();
-    assert_first_frame_is_the_render(None, [96, 64], "default-no-uniform", &["--shaders", dir.to_str().unwrap()]);
+    assert_first_frame_is_the_render(None, [96, 64], "default-no-uniform", &["--shaders", dir.to_str().unwrap()], &[]);
 }
 
 /// Largest channel difference between two colours.

@@ -89,6 +89,7 @@ const bool HAS_HIERARCHY = true;
 const bool HAS_FLAT_LIST = true;
 const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
+const bool HAS_AOVS = true;
 
 // Internal linkage: each translation unit has its own copy, so GCC may
 // inline a function called once (sphere_hit in walk) without keeping an

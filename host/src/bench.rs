@@ -307,8 +307,8 @@ fn settings_text(s: &RenderSettings) -> String {
         s.width,
         s.height,
         match s.aov {
-            Aov::Color => "colour",
-            Aov::Normal => "normal AOV",
+            Aov::Color => "colour".to_string(),
+            aov => format!("{} AOV", aov.name()),
         },
         on(s.shadows),
         on(s.reflections),

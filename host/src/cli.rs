@@ -59,9 +59,15 @@ pub struct RenderOptions {
     pub width: u32,
     #[arg(long, default_value_t = 384, value_name = "H")]
     pub height: u32,
-    /// What the picture shows.
+    /// What the picture shows: the shaded colour; or, of the first hit only
+    /// (black on a miss), its normal, its distance (grey, white when near:
+    /// `--depth-range`) or its primitive (a colour each)
     #[arg(long, value_enum, default_value_t = AovArg::Color)]
     pub aov: AovArg,
+    /// With `--aov depth`: the distances from the eye drawn white and black
+    /// [default: the scene's bounding sphere, nearest to farthest]
+    #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range)]
+    pub depth_range: Option<[f32; 2]>,
     /// Turn shadow rays off.
     #[arg(long)]
     pub no_shadows: bool,
@@ -139,10 +145,7 @@ impl RenderOptions {
         RenderSettings {
             width: self.width,
             height: self.height,
-            aov: match self.aov {
-                AovArg::Color => Aov::Color,
-                AovArg::Normal => Aov::Normal,
-            },
+            aov: self.aov.into(),
             shadows: !self.no_shadows,
             reflections: !self.no_reflections,
             textures: !self.no_textures,
@@ -153,8 +156,17 @@ impl RenderOptions {
                 FilterArg::Nearest => TextureFilter::Nearest,
                 FilterArg::Bilinear => TextureFilter::Bilinear,
             },
+            depth_range: self.depth_range,
         }
     }
+}
+
+/// `--depth-range NEAR,FAR` (checked by `RenderSettings::validate`).
+fn parse_depth_range(s: &str) -> Result<[f32; 2], String> {
+    let wrong = || format!("{s:?} is not NEAR,FAR (two distances, say 2,12)");
+    let (near, far) = s.split_once(',').ok_or_else(wrong)?;
+    let parse = |t: &str| t.trim().parse::<f32>().map_err(|_| wrong());
+    Ok([parse(near)?, parse(far)?])
 }
 
 #[derive(Args, Debug)]
@@ -274,6 +286,19 @@ enum Backend {
 pub enum AovArg {
     Color,
     Normal,
+    Depth,
+    Id,
+}
+
+impl From<AovArg> for Aov {
+    fn from(a: AovArg) -> Aov {
+        match a {
+            AovArg::Color => Aov::Color,
+            AovArg::Normal => Aov::Normal,
+            AovArg::Depth => Aov::Depth,
+            AovArg::Id => Aov::Id,
+        }
+    }
 }
 
 /// A failure to report: the message and the exit code.

@@ -78,7 +78,7 @@ impl Case {
                 self.height,
                 if self.features { ", shadows, reflections, textures" } else { ", local only" }
             ),
-            Aov::Normal => format!("normal {}x{}", self.width, self.height),
+            aov => format!("{} {}x{}", aov.name(), self.width, self.height),
         }
     }
 
@@ -177,11 +177,7 @@ pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, 
     if diff.fraction() <= allowed && interior_ok {
         return Ok((format!("{diff} ({rule})"), diff.fraction(), allowed));
     }
-    let kind = match case.aov {
-        Aov::Color => "color",
-        Aov::Normal => "normal",
-    };
-    let paths = image_io::write_diff_images(out_dir, &format!("{ref_name}-{kind}"), &actual, &expected, &diff)?;
+    let paths = image_io::write_diff_images(out_dir, &format!("{ref_name}-{}", case.aov.name()), &actual, &expected, &diff)?;
     Err(format!(
         "{diff} ({rule}){interior_report}\n      actual:   {}\n      expected: {}\n      diff:     {}",
         paths[0].display(),

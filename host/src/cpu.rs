@@ -205,4 +205,78 @@ mod tests {
             );
         }
     }
+
+    /// Two spheres in front of the camera: A (id 0, radius 1) at the
+    /// origin, 4 from the eye along the centre pixel's ray; B (id 1) higher
+    /// up, 5 behind it.
+    fn two_spheres() -> crate::scene::Scene {
+        let xml = r#"<scenefile>
+  <cameradata><pos x="0" y="0" z="5"/><look x="0" y="0" z="-1"/><up x="0" y="1" z="0"/><heightangle v="30"/></cameradata>
+  <lightdata><id v="0"/><type v="directional"/><color r="1" g="1" b="1"/><direction x="0" y="0" z="-1"/></lightdata>
+  <object type="tree" name="root">
+    <transblock><scale x="2" y="2" z="2"/><object type="primitive" name="sphere"><diffuse r="1" g="0" b="0"/></object></transblock>
+    <transblock><translate x="0" y="2" z="-5"/><scale x="2" y="2" z="2"/><object type="primitive" name="sphere"><diffuse r="0" g="1" b="0"/></object></transblock>
+  </object>
+</scenefile>"#;
+        let file = crate::scene::parse_str(xml, std::path::Path::new("two.xml"), &Default::default()).unwrap();
+        crate::scene::flatten(&file, &crate::scene::FlattenLimits { max_primitives: 10 }).unwrap()
+    }
+
+    fn rgb(p: &crate::layout::PixelOut) -> [u8; 3] {
+        let b = p.rgba.to_le_bytes();
+        [b[0], b[1], b[2]]
+    }
+
+    /// The AOVs show the first hit (the CPU build runs the kernels' code;
+    /// the check suite holds the device to it bit for bit). Rules, exact:
+    /// misses black; the normal AOV of the centre pixel (normal +z) is
+    /// floor(255 (n + 1) / 2); the depth AOV with --depth-range 3.75,4.75 of
+    /// the centre pixel (distance 4) is floor(255 * 3 / 4), and with the
+    /// default range A is lighter than B; the id AOV of every hit pixel is
+    /// its id's colour as written here (the hash of raycast.glsl id_color),
+    /// and both spheres appear.
+    #[test]
+    fn aovs_show_the_first_hit() {
+        use crate::frame::{build, Aov, RenderSettings};
+        let renderer = CpuRenderer::new().unwrap();
+        let scene = two_spheres();
+        let (w, h) = (33u32, 33u32);
+        let at = |x: u32, y: u32| (y * w + x) as usize;
+        let (centre, corner) = (at(16, 16), at(0, 32));
+        let render = |aov: Aov, depth_range: Option<[f32; 2]>| {
+            let settings = RenderSettings { width: w, height: h, aov, depth_range, ..RenderSettings::default() };
+            settings.validate().unwrap();
+            renderer.render(&build(&scene, &settings).unwrap()).unwrap()
+        };
+        // Where B shows: the pixels whose first hit is id 1.
+        let ids = render(Aov::Id, None);
+        let b_pixel = ids.pixels.iter().position(|p| p.id == 1).expect("sphere B is in the picture");
+        assert_eq!(ids.pixels[centre].id, 0, "the centre pixel sees sphere A");
+
+        let normal = render(Aov::Normal, None);
+        assert_eq!(rgb(&normal.pixels[centre]), [127, 127, 255], "normal AOV, centre pixel");
+        assert_eq!(rgb(&normal.pixels[corner]), [0, 0, 0], "normal AOV, a miss");
+
+        let depth = render(Aov::Depth, Some([3.75, 4.75]));
+        assert_eq!(rgb(&depth.pixels[centre]), [191, 191, 191], "depth AOV 3.75..4.75, distance 4: 1 - 1/4");
+        assert_eq!(rgb(&depth.pixels[corner]), [0, 0, 0], "depth AOV, a miss");
+        let auto = render(Aov::Depth, None);
+        let (a, b) = (rgb(&auto.pixels[centre])[0], rgb(&auto.pixels[b_pixel])[0]);
+        assert!(a > b && b > 0, "default depth range: A ({a}) lighter than B ({b}), B not black");
+
+        let id_color = |id: u32| -> [u8; 3] {
+            let mut hash = id.wrapping_add(1).wrapping_mul(2654435761);
+            hash ^= hash >> 15;
+            [0, 8, 16].map(|s| (((((hash >> s) & 255) as f32 / 255.0) * 0.75 + 0.25) * 255.0).floor() as u8)
+        };
+        let wrong: Vec<(usize, u32, [u8; 3])> = ids
+            .pixels
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| rgb(p) != if p.id == crate::layout::NO_HIT { [0, 0, 0] } else { id_color(p.id) })
+            .map(|(i, p)| (i, p.id, rgb(p)))
+            .collect();
+        assert!(wrong.is_empty(), "id AOV: {} of {} pixels not their id's colour; first (pixel, id, rgb) {:?}", wrong.len(), ids.pixels.len(), wrong.first());
+        assert_ne!(id_color(0), id_color(1), "the two spheres' colours");
+    }
 }

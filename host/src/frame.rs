@@ -5,7 +5,7 @@
 
 use crate::bvh::{self, Aabb};
 use crate::layout::{self, Mat4, Vec4};
-use crate::scene::{LightKind, Scene, Shape, TextureRef};
+use crate::scene::{scene_bounds, Bounds, LightKind, Scene, Shape, TextureRef};
 use glam::{DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -28,6 +28,44 @@ pub enum Aov {
     Color,
     /// floor(255·clamp((n+1)/2)) of the world-space normal, black on a miss.
     Normal,
+    /// Grey by the distance from the eye to the first hit: white at
+    /// `RenderSettings::depth_range`'s near distance, black at its far one
+    /// and beyond, and on a miss.
+    Depth,
+    /// A colour per primitive (its id scrambled), black on a miss.
+    Id,
+}
+
+impl Aov {
+    /// The command line's name for it (`--aov`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Aov::Color => "color",
+            Aov::Normal => "normal",
+            Aov::Depth => "depth",
+            Aov::Id => "id",
+        }
+    }
+
+    /// Its Frame.aov value (layout.h AOV_*).
+    pub fn code(self) -> u32 {
+        match self {
+            Aov::Color => layout::AOV_COLOR,
+            Aov::Normal => layout::AOV_NORMAL,
+            Aov::Depth => layout::AOV_DEPTH,
+            Aov::Id => layout::AOV_ID,
+        }
+    }
+}
+
+/// The depth AOV's range when none is given: white at the nearest point of
+/// the scene's bounding sphere (seen from `eye`), black at its farthest;
+/// 0 to 10 for a scene with nothing in it. Frame.depth_range's layout.
+pub fn depth_range(bounds: Option<Bounds>, eye: DVec3) -> [f32; 4] {
+    let Some(b) = bounds else { return [0.0, 10.0, 0.0, 0.0] };
+    let d = (b.center() - eye).length();
+    let r = b.radius();
+    [(d - r).max(0.0) as f32, (d + r).max(1e-3) as f32, 0.0, 0.0]
 }
 
 /// How textures are sampled.
@@ -57,6 +95,9 @@ pub struct RenderSettings {
     /// Samples per pixel (the fixed pattern of raycast.glsl's sample_offset).
     pub spp: u32,
     pub texture_filter: TextureFilter,
+    /// Aov::Depth: the distances drawn white and black; None for the
+    /// scene's bounding sphere seen from the camera (`depth_range`).
+    pub depth_range: Option<[f32; 2]>,
 }
 
 impl Default for RenderSettings {
@@ -72,6 +113,7 @@ impl Default for RenderSettings {
             bvh: true,
             spp: 1,
             texture_filter: TextureFilter::Nearest,
+            depth_range: None,
         }
     }
 }
@@ -106,6 +148,16 @@ impl RenderSettings {
                 self.max_depth,
                 layout::MAX_DEPTH
             )));
+        }
+        if self.depth_range.is_some() && self.aov != Aov::Depth {
+            return Err(SettingsError("--depth-range is for --aov depth; this render is not one".to_string()));
+        }
+        if let Some([near, far]) = self.depth_range {
+            if !(near.is_finite() && far.is_finite() && near >= 0.0 && far > near) {
+                return Err(SettingsError(format!(
+                    "--depth-range {near},{far} is out of range: two finite distances with 0 <= NEAR < FAR"
+                )));
+            }
         }
         Ok(())
     }
@@ -320,9 +372,12 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         height: settings.height,
         primitive_count: packed.primitives.len() as u32,
         light_count: lights.len() as u32,
-        aov: match settings.aov {
-            Aov::Color => layout::AOV_COLOR,
-            Aov::Normal => layout::AOV_NORMAL,
+        aov: settings.aov.code(),
+        // Only the depth AOV reads it; the bounds are a walk over every group.
+        depth_range: match (settings.aov, settings.depth_range) {
+            (Aov::Depth, Some([near, far])) => [near, far, 0.0, 0.0],
+            (Aov::Depth, None) => depth_range(scene_bounds(scene), scene.camera.pos),
+            _ => [0.0; 4],
         },
         flags,
         max_depth: settings.max_depth,

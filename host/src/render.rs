@@ -185,6 +185,7 @@ const SPEC_NAMES: [(u32, &str); layout::SPEC_COUNT as usize] = [
     (layout::SPEC_FLAT_LIST, "the flat primitive list"),
     (layout::SPEC_BOX_RECORDS, "instance boxes"),
     (layout::SPEC_SPHERE_RECORDS, "instance spheres"),
+    (layout::SPEC_AOVS, "the normal, depth and id AOVs"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -271,6 +272,7 @@ impl SceneFeatures {
             (layout::SPEC_FLAT_LIST, !self.hierarchy),
             (layout::SPEC_BOX_RECORDS, self.box_records),
             (layout::SPEC_SPHERE_RECORDS, self.sphere_records),
+            (layout::SPEC_AOVS, frame.aov != layout::AOV_COLOR),
         ] {
             on[id as usize] = value;
         }
@@ -529,7 +531,7 @@ impl GpuRenderer {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::RenderSettings;
+    use crate::frame::{Aov, RenderSettings};
 
     /// An array past the images' rows is refused by name; a texture (a
     /// storage buffer in every kernel) is not counted.
@@ -607,8 +609,13 @@ mod tests {
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
-             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes"
+             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth and id AOVs"
         );
+        // An AOV other than colour keeps its code.
+        for aov in [Aov::Normal, Aov::Depth, Aov::Id] {
+            let d = data(rich, &RenderSettings { aov, ..RenderSettings::default() });
+            assert!(on(Specialization::of(&d, &d.frame)).contains(&layout::SPEC_AOVS), "{aov:?}");
+        }
         // Each group of `rich` fits one leaf; twenty cubes in a row do not.
         let cubes: String = (0..20)
             .map(|i| format!(r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#))

@@ -11,15 +11,15 @@ use glam::DVec3;
 use glfw::{Action, Key, MouseButton, WindowEvent};
 
 use crate::cli::{check_validation, load_scene, parse_device, scene_failure, validation_wanted, Failure};
-use crate::frame::{self, FrameData, RenderSettings};
+use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gpu::{FrameStatus, GpuContext, GpuOptions, PresentMode};
 use crate::image_io::{self, Rgb8};
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
-use crate::scene::{FlattenLimits, ParseOptions, Scene, Shape};
+use crate::scene::{scene_bounds, Bounds, FlattenLimits, ParseOptions, Scene, Shape};
 
-use super::camera::{scene_bounds, Bounds, CameraControl};
-use super::layout::{PreviewFrame, PREVIEW_COLOR, PREVIEW_DEPTH, PREVIEW_ID, PREVIEW_NORMAL};
+use super::camera::CameraControl;
+use super::layout::PreviewFrame;
 use super::reload::{self, Reload, WatchConfig, Watcher, KERNEL_FILE};
 use super::renderer::{PreviewKernels, PreviewRenderer};
 use super::{PresentArg, PreviewArgs};
@@ -159,6 +159,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
 
     let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
     preview.moving_frames = args.moving;
+    preview.aov = args.aov.into();
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
     preview.textures = !args.no_textures;
@@ -237,7 +238,8 @@ struct Preview {
     device: String,
     /// The picture stays at the size asked for (screenshots): the window is not resizable.
     fixed_size: bool,
-    mode: u32,
+    /// What the window shows (Frame.aov, keys 1 to 4).
+    aov: Aov,
     shadows: bool,
     reflections: bool,
     textures: bool,
@@ -265,15 +267,6 @@ struct Preview {
     mouse: Mouse,
     stats: Stats,
     renderer: PreviewRenderer,
-}
-
-fn mode_name(mode: u32) -> &'static str {
-    match mode {
-        PREVIEW_NORMAL => "normal",
-        PREVIEW_DEPTH => "depth",
-        PREVIEW_ID => "object id",
-        _ => "colour",
-    }
 }
 
 fn shape_name(shape: &Shape) -> &'static str {
@@ -337,7 +330,7 @@ impl Preview {
             camera,
             device,
             fixed_size,
-            mode: PREVIEW_COLOR,
+            aov: Aov::Color,
             shadows: true,
             reflections: true,
             textures: true,
@@ -475,10 +468,9 @@ impl Preview {
             let [jx, jy] = jitter(self.sample);
             let preview = PreviewFrame {
                 jitter: [jx, jy, 0.0, 0.0],
-                depth_range: self.depth_range(),
                 sample_index: self.sample,
-                mode: self.mode,
                 row_offset: band[0],
+                pad0: 0,
                 pad1: 0,
             };
             match self.renderer.render(&frame, &preview, band[1], whole)? {
@@ -538,21 +530,13 @@ impl Preview {
         f.eye = [eye.x as f32, eye.y as f32, eye.z as f32, 1.0];
         f.width = w;
         f.height = h;
-        // The depth and id modes need the first hit only, as the normal AOV (preview_main.glsl).
-        f.aov = if self.mode == PREVIEW_COLOR { layout::AOV_COLOR } else { layout::AOV_NORMAL };
+        f.aov = self.aov.code();
+        // As frame::build's for the scene's camera: the depth AOV's range from this one.
+        f.depth_range = frame::depth_range(self.bounds, eye);
         f.flags = (if self.shadows { layout::FLAG_SHADOWS } else { 0 })
             | (if self.reflections { layout::FLAG_REFLECTIONS } else { 0 })
             | (if self.textures { layout::FLAG_TEXTURES } else { 0 });
         f
-    }
-
-    /// Depth mode: white at the nearest point of the scene's bounding
-    /// sphere, black at the farthest.
-    fn depth_range(&self) -> [f32; 4] {
-        let Some(b) = self.bounds else { return [0.0, 10.0, 0.0, 0.0] };
-        let d = (b.center() - self.camera.camera.pos).length();
-        let r = b.radius();
-        [(d - r).max(0.0) as f32, (d + r).max(1e-3) as f32, 0.0, 0.0]
     }
 
     fn title(&self) -> String {
@@ -565,7 +549,7 @@ impl Preview {
         let mut t = format!(
             "raycast preview | {name} | {} | {:.1} ms/frame, {rate:.2} Mrays/s | {} samples | {} | \
              shadows {}, reflections {}, textures {}",
-            mode_name(self.mode),
+            self.aov.name(),
             self.stats.frame_ms,
             self.sample,
             self.device,
@@ -693,15 +677,15 @@ impl Preview {
     }
 
     fn on_key(&mut self, key: Key, _mods: glfw::Modifiers, window: &mut glfw::PWindow) {
-        let mode = match key {
-            Key::Num1 | Key::Kp1 => Some(PREVIEW_COLOR),
-            Key::Num2 | Key::Kp2 => Some(PREVIEW_NORMAL),
-            Key::Num3 | Key::Kp3 => Some(PREVIEW_DEPTH),
-            Key::Num4 | Key::Kp4 => Some(PREVIEW_ID),
+        let aov = match key {
+            Key::Num1 | Key::Kp1 => Some(Aov::Color),
+            Key::Num2 | Key::Kp2 => Some(Aov::Normal),
+            Key::Num3 | Key::Kp3 => Some(Aov::Depth),
+            Key::Num4 | Key::Kp4 => Some(Aov::Id),
             _ => None,
         };
-        if let Some(m) = mode {
-            self.mode = m;
+        if let Some(a) = aov {
+            self.aov = a;
             self.restart();
             return;
         }

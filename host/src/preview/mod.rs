@@ -21,7 +21,7 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use crate::cli::Failure;
+use crate::cli::{AovArg, Failure};
 use crate::scene::FlattenLimits;
 
 /// `raycast preview` flags.
@@ -59,6 +59,10 @@ pub struct PreviewArgs {
     /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,
+    /// What the window shows at first (1 2 3 4 switch): the shaded colour,
+    /// or the first hit's normal, distance (grey, white when near) or primitive
+    #[arg(long, value_enum, default_value_t = AovArg::Color)]
+    pub aov: AovArg,
     /// Start with shadow rays off (H turns them on and off).
     #[arg(long)]
     pub no_shadows: bool,

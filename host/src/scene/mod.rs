@@ -1,12 +1,14 @@
 //! Scene files: parsing (XML, with file:line:col errors), the scene model,
 //! and flattening trees and masters into drawn primitives.
 
+pub mod bounds;
 pub mod flatten;
 pub mod model;
 #[cfg(test)]
 mod mutation_tests;
 pub mod parse;
 
+pub use bounds::{scene_bounds, Bounds};
 pub use flatten::{flatten, load, FlattenLimits};
 pub use model::*;
 pub use parse::{parse_file, parse_str, ParseOptions};
