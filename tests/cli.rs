@@ -18,6 +18,11 @@ fn out_dir() -> PathBuf {
 fn raycast_in(dir: &Path, args: &[&str]) -> Output {
     let _ = std::fs::remove_dir_all(dir);
     std::fs::create_dir_all(dir).unwrap();
+    raycast_at(dir, args)
+}
+
+/// `raycast ARGS` run in `dir` as it is.
+fn raycast_at(dir: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_raycast"))
         .args(args)
         .current_dir(dir)
@@ -332,7 +337,7 @@ fn check_passes_on_the_default_scene() {
     assert!(diff.exists());
     // Without -o an identical check leaves no diff image behind.
     let cwd = out_dir().join("check-default-cwd");
-    let o = raycast_in(&cwd, &["check", "--width", "64", "--height", "48"]);
+    let o = raycast_at(&cwd, &["check", "--width", "64", "--height", "48"]);
     assert!(o.status.success(), "{:?}", text(&o));
     assert_eq!(files_in(&cwd), Vec::<String>::new(), "an identical check wrote files");
 }
@@ -450,6 +455,10 @@ fn conformance_command() {
     assert!(text(&o).0.contains("FAILED test_unit/"), "{:?}", text(&o));
     let diffs = files_in(&dir).into_iter().filter(|f| f.ends_with("-diff.png")).count();
     assert!(diffs >= 1, "{:?}", files_in(&dir));
+    // Run again with the shaders as they are: the failures' pictures go.
+    let o = raycast(&[&["conformance", &corpus, "--only", "test_unit/"][..], &dir_arg].concat(), &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert_eq!(files_in(&dir), ["table.md"], "pictures of the earlier run's failures are left");
 }
 
 /// A fresh copy of shaders/ in the test output folder, to plant changes in.
@@ -490,6 +499,11 @@ fn check_reports_a_planted_difference() {
     let o = raycast_in(&cwd, &["check", "--shaders", planted.to_str().unwrap(), "--width", "64", "--height", "48"]);
     assert_eq!(o.status.code(), Some(4), "{:?}", text(&o));
     assert_eq!(files_in(&cwd), ["default-check.png"], "{:?}", text(&o));
+    // Checked again and identical, the diff image of that run goes.
+    let o = raycast_at(&cwd, &["check", "--width", "64", "--height", "48"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(text(&o).0.contains("removed default-check.png, the diff image of an earlier run"), "{:?}", text(&o));
+    assert!(files_in(&cwd).is_empty(), "{:?}", files_in(&cwd));
     // --allow-pixels accepts it, and says the check was not exact.
     let o = raycast(&["check", "--shaders", planted.to_str().unwrap(), "--allow-pixels", "1000000", "-o", diff.to_str().unwrap()], &[]);
     let (out, err) = text(&o);

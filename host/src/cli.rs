@@ -816,6 +816,11 @@ fn check_scene(args: &CheckArgs, b: &CheckBackends, p: &Prepared, diff: &Path) -
     if args.output.is_some() || !report.identical() {
         image_io::write_png(diff, &report.diff_image)?;
         outln!("wrote {} (red: pixels that differ)", diff.display());
+    } else {
+        // The scene's diff image of an earlier run would say it still differs.
+        for stale in image_io::remove_stale(&[diff.to_path_buf()])? {
+            outln!("removed {}, the diff image of an earlier run", stale.display());
+        }
     }
     let checked = match report.differing_pixels {
         _ if report.identical() => Checked::Identical,

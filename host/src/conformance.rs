@@ -138,8 +138,9 @@ pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
 }
 
 /// `picture` (the case's render) against its reference. Ok: the report
-/// line, the measured fraction and the fraction allowed. Err: the same with
-/// the paths of the actual / expected / diff images written to `out_dir`.
+/// line, the measured fraction and the fraction allowed (and the case's
+/// failure pictures of an earlier run removed from `out_dir`). Err: the
+/// same with the paths of the actual / expected / diff images written there.
 pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, f64, f64), String> {
     let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
     let expected = image_io::read_png(&case.reference)?;
@@ -174,10 +175,13 @@ pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, 
     } else {
         true
     };
+    let name = format!("{ref_name}-{}", case.aov.name());
     if diff.fraction() <= allowed && interior_ok {
+        // A failure's pictures from an earlier run in the folder would say it still fails.
+        image_io::remove_stale(&image_io::diff_image_paths(out_dir, &name))?;
         return Ok((format!("{diff} ({rule})"), diff.fraction(), allowed));
     }
-    let paths = image_io::write_diff_images(out_dir, &format!("{ref_name}-{}", case.aov.name()), &actual, &expected, &diff)?;
+    let paths = image_io::write_diff_images(out_dir, &name, &actual, &expected, &diff)?;
     Err(format!(
         "{diff} ({rule}){interior_report}\n      actual:   {}\n      expected: {}\n      diff:     {}",
         paths[0].display(),

@@ -130,15 +130,31 @@ pub fn compare(actual: &Rgb8, expected: &Rgb8, tolerance: u8) -> Result<ImageDif
     Ok(diff)
 }
 
+/// Where `write_diff_images` puts the actual, expected and diff pictures of `name`.
+pub fn diff_image_paths(dir: &Path, name: &str) -> [PathBuf; 3] {
+    ["actual", "expected", "diff"].map(|kind| dir.join(format!("{name}-{kind}.png")))
+}
+
+/// Removes those of `paths` that exist (pictures of a failure an earlier
+/// run wrote, which would say it still fails) and returns them; an error
+/// names the file that could not be removed.
+pub fn remove_stale(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+    let mut removed = Vec::new();
+    for path in paths {
+        match std::fs::remove_file(path) {
+            Ok(()) => removed.push(path.clone()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(format!("cannot remove {}, a picture of an earlier run: {e}", path.display())),
+        }
+    }
+    Ok(removed)
+}
+
 /// Writes `<dir>/<name>-actual.png`, `-expected.png` and `-diff.png` and
 /// returns their paths.
 pub fn write_diff_images(dir: &Path, name: &str, actual: &Rgb8, expected: &Rgb8, diff: &ImageDiff) -> Result<[PathBuf; 3], String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let paths = [
-        dir.join(format!("{name}-actual.png")),
-        dir.join(format!("{name}-expected.png")),
-        dir.join(format!("{name}-diff.png")),
-    ];
+    let paths = diff_image_paths(dir, name);
     write_png(&paths[0], actual)?;
     write_png(&paths[1], expected)?;
     write_png(&paths[2], &diff.diff_image)?;
