@@ -138,23 +138,26 @@ pub fn parse_scene(name: Option<&str>, opts: &ParseOptions) -> Result<SceneFile,
 /// Loads, counts, flattens and builds one scene, timing each part. Prints
 /// the scene's warnings and notes to stderr.
 pub fn load_scene(name: Option<&str>, opts: &ParseOptions, limits: &FlattenLimits, settings: &RenderSettings) -> Result<LoadedScene, String> {
-    load_or_skip(name, opts, limits, settings, None)?.ok_or_else(|| "raycast: error: a scene was skipped unasked".to_string())
+    let start = Instant::now();
+    let file = parse_scene(name, opts)?;
+    let counts = count_primitives(&file);
+    load_parsed(name, file, counts, start, limits, settings)
 }
 
-/// `load_scene`; with `args`, None once the scene is listed as skipped
-/// (`skipped`) because it expands to more than `limits.max_primitives`
-/// (without, flattening refuses it).
+/// `load_scene` for `bench`: None once the scene is listed as skipped
+/// (`skipped`, in `args`' format) because it expands to more than
+/// `limits.max_primitives` (where `load_scene`'s flattening refuses it).
 pub(crate) fn load_or_skip(
     name: Option<&str>,
     opts: &ParseOptions,
     limits: &FlattenLimits,
     settings: &RenderSettings,
-    args: Option<&BenchArgs>,
+    args: &BenchArgs,
 ) -> Result<Option<LoadedScene>, String> {
     let start = Instant::now();
     let file = parse_scene(name, opts)?;
     let counts = count_primitives(&file);
-    if let Some(args) = args.filter(|_| counts.expanded > limits.max_primitives as u64) {
+    if counts.expanded > limits.max_primitives as u64 {
         let why = format!("skipped: expands to more than --max-primitives {}", thousands(limits.max_primitives as u64));
         skipped(name.unwrap_or("<default scene>"), None, counts, &why, args);
         return Ok(None);
@@ -617,7 +620,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     let mut all_rows: Vec<Row> = Vec::new();
     for name in names {
         reset_peak_host();
-        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, Some(args)).map_err(scene_failure)? else {
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
             continue;
         };
         let load_peak = peak_host_bytes();

@@ -107,7 +107,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     let names: Vec<Option<&str>> = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
     for name in names {
         // Over --max-primitives: listed as skipped, as `bench` does.
-        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, Some(args)).map_err(scene_failure)? else {
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
             continue;
         };
         // Which kernel each runs: a folder without render_uniform.comp has only the storage one.
