@@ -88,7 +88,7 @@
 #define SPEC_FLAT_LIST 15        // frame.node_count == 0: the walk's primitives in order
 #define SPEC_BOX_RECORDS 16      // an instance record holds a box
 #define SPEC_SPHERE_RECORDS 17   // an instance record holds a sphere (RECORD_SPHERE)
-#define SPEC_AOVS 18             // frame.aov other than AOV_COLOR
+#define SPEC_AOVS 18             // frame.aov other than AOV_COLOR (and the walk's pass count)
 #define SPEC_COUNT 19
 
 // Primitive.shape
@@ -106,8 +106,9 @@
 // others than colour see the first hit only: no shadow or mirror ray.
 #define AOV_COLOR 0u
 #define AOV_NORMAL 1u // the world normal, (n + 1) / 2; black on a miss
-#define AOV_DEPTH 2u  // grey by distance along the camera ray (Frame.depth_range); black on a miss
+#define AOV_DEPTH 2u  // grey by distance along the camera ray (Frame.aov_scale xy); black on a miss
 #define AOV_ID 3u     // a colour per primitive id; black on a miss
+#define AOV_COST 4u   // the camera ray's walk: its passes on a heat scale (Frame.aov_scale z), hit or miss
 
 // Frame.flags
 #define FLAG_SHADOWS 1u
@@ -137,8 +138,9 @@ struct Frame {
     // Global Phong coefficients k_a, k_d, k_s, k_t.
     vec4 k;
     // AOV_DEPTH: x the distance from the eye drawn white, y the distance
-    // drawn black (and beyond); zw unused.
-    vec4 depth_range;
+    // drawn black (and beyond). AOV_COST: z the walk passes drawn at the
+    // hot end of the scale (and beyond). w unused.
+    vec4 aov_scale;
     uint width;
     uint height;
     uint primitive_count;

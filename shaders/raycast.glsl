@@ -307,6 +307,7 @@ struct SceneHit {
     uint material; // the hit primitive's material and shape
     uint shape;
     uint item;     // the hit primitive's index in `primitives`
+    uint passes;   // the walk's passes (AOV_COST; 0 in a kernel without HAS_AOVS)
 };
 
 ShapeHit no_hit() {
@@ -669,6 +670,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     best.material = 0u;
     best.shape = 0u;
     best.item = 0u;
+    best.passes = 0u;
     bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
     vec3 level_origin[MAX_LEVELS];
     vec3 level_direction[MAX_LEVELS];
@@ -693,6 +695,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     // Without a hierarchy: primitive `next` of primitive_count, in order.
     uint next = (frame.node_count > 0u) ? frame.primitive_count : 0u;
     while (top > 0 || next < frame.primitive_count) {
+        if (HAS_AOVS) {
+            best.passes = best.passes + 1u;
+        }
         uint first_item = 0u;
         uint item_count = 0u;
         uint prim_count = 0u; // the leaf's primitives come first
@@ -1088,7 +1093,15 @@ precise vec3 id_color(uint id) {
     return c + 0.25f;
 }
 
-// What AOV `aov` (not AOV_COLOR) shows of hit h of camera ray r.
+// x in [0, 1] (clamped) on a heat scale: dark blue, blue, cyan, green,
+// yellow, red, dark red ("jet").
+precise vec3 heat_color(float x) {
+    precise float s = 4.0f * clamp01(x);
+    return vec3(clamp01(1.5f - abs(s - 3.0f)), clamp01(1.5f - abs(s - 2.0f)), clamp01(1.5f - abs(s - 1.0f)));
+}
+
+// What AOV `aov` (not AOV_COLOR) shows of hit h (a miss only for
+// AOV_COST) of camera ray r.
 precise vec3 aov_color(uint aov, Ray r, SceneHit h) {
     if (aov == AOV_NORMAL) {
         precise vec3 c = (h.normal + 1.0f) * 0.5f;
@@ -1096,8 +1109,11 @@ precise vec3 aov_color(uint aov, Ray r, SceneHit h) {
     }
     if (aov == AOV_DEPTH) {
         precise float dist = h.t * sqrt_rn(dot3(r.direction, r.direction));
-        precise float g = depth_grey(dist, frame.depth_range.x, frame.depth_range.y);
+        precise float g = depth_grey(dist, frame.aov_scale.x, frame.aov_scale.y);
         return vec3(g, g, g);
+    }
+    if (aov == AOV_COST) {
+        return heat_color(div_rn(float(h.passes), frame.aov_scale.z));
     }
     return id_color(h.id);
 }
@@ -1166,11 +1182,13 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             if (level == 0u) {
                 s.hit = h;
             }
-            if (h.id == NO_HIT) {
+            // The AOVs other than colour: the first hit's, black on a miss
+            // but for the cost, which a miss has too.
+            if (HAS_AOVS && frame.aov != AOV_COLOR && (h.id != NO_HIT || frame.aov == AOV_COST)) {
+                s.color = aov_color(frame.aov, ray, h);
                 break;
             }
-            if (HAS_AOVS && frame.aov != AOV_COLOR) {
-                s.color = aov_color(frame.aov, ray, h);
+            if (h.id == NO_HIT) {
                 break;
             }
             surface = surface_at(ray, h);

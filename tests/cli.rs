@@ -337,7 +337,7 @@ fn check_passes_on_the_default_scene() {
     assert!(diff.exists());
     // Without -o an identical check leaves no diff image behind.
     let cwd = out_dir().join("check-default-cwd");
-    let o = raycast_at(&cwd, &["check", "--width", "64", "--height", "48"]);
+    let o = raycast_in(&cwd, &["check", "--width", "64", "--height", "48"]);
     assert!(o.status.success(), "{:?}", text(&o));
     assert_eq!(files_in(&cwd), Vec::<String>::new(), "an identical check wrote files");
 }
@@ -538,6 +538,9 @@ fn render_settings_out_of_range() {
     assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "5,2"], &[]), 1, "--depth-range 5,2 is out of range");
     assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "0,NaN"], &[]), 1, "--depth-range 0,NaN is out of range");
     assert_fails(&raycast(&["render", "--depth-range", "1,2"], &[]), 1, "--depth-range is for --aov depth");
+    assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "0"], &[]), 1, "--cost-max 0 is out of range");
+    assert_fails(&raycast(&["render", "--aov", "depth", "--cost-max", "9"], &[]), 1, "--cost-max is for --aov cost");
+    assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "many"], &[]), 2, "invalid value 'many'");
 }
 
 /// Shadows, reflections and supersampling each change the default scene's

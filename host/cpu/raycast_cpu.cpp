@@ -39,7 +39,7 @@ struct Field {
 #define SIZE(T) {#T, nullptr, int64_t(sizeof(T))}
 #define AT(T, m) {#T, #m, int64_t(offsetof(T, m))}
 const Field fields[] = {
-    SIZE(Frame), AT(Frame, world_from_film), AT(Frame, eye), AT(Frame, k), AT(Frame, depth_range), AT(Frame, width),
+    SIZE(Frame), AT(Frame, world_from_film), AT(Frame, eye), AT(Frame, k), AT(Frame, aov_scale), AT(Frame, width),
     AT(Frame, height), AT(Frame, primitive_count), AT(Frame, light_count), AT(Frame, aov),
     AT(Frame, flags), AT(Frame, max_depth), AT(Frame, spp), AT(Frame, texture_filter),
     AT(Frame, root_node), AT(Frame, node_count), AT(Frame, loop_canary),

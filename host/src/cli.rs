@@ -61,13 +61,18 @@ pub struct RenderOptions {
     pub height: u32,
     /// What the picture shows: the shaded colour; or, of the first hit only
     /// (black on a miss), its normal, its distance (grey, white when near:
-    /// `--depth-range`) or its primitive (a colour each)
+    /// `--depth-range`) or its primitive (a colour each); or what the
+    /// camera ray's walk through the hierarchy cost (its passes, dark blue
+    /// to dark red: `--cost-max`)
     #[arg(long, value_enum, default_value_t = AovArg::Color)]
     pub aov: AovArg,
     /// With `--aov depth`: the distances from the eye drawn white and black
     /// [default: the scene's bounding sphere, nearest to farthest]
     #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range)]
     pub depth_range: Option<[f32; 2]>,
+    /// With `--aov cost`: the passes drawn dark red (and beyond) [default: 64]
+    #[arg(long, value_name = "N")]
+    pub cost_max: Option<u32>,
     /// Turn shadow rays off.
     #[arg(long)]
     pub no_shadows: bool,
@@ -157,6 +162,7 @@ impl RenderOptions {
                 FilterArg::Bilinear => TextureFilter::Bilinear,
             },
             depth_range: self.depth_range,
+            cost_max: self.cost_max,
         }
     }
 }
@@ -288,6 +294,7 @@ pub enum AovArg {
     Normal,
     Depth,
     Id,
+    Cost,
 }
 
 impl From<AovArg> for Aov {
@@ -297,6 +304,7 @@ impl From<AovArg> for Aov {
             AovArg::Normal => Aov::Normal,
             AovArg::Depth => Aov::Depth,
             AovArg::Id => Aov::Id,
+            AovArg::Cost => Aov::Cost,
         }
     }
 }

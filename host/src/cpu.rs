@@ -279,4 +279,61 @@ mod tests {
         assert!(wrong.is_empty(), "id AOV: {} of {} pixels not their id's colour; first (pixel, id, rgb) {:?}", wrong.len(), ids.pixels.len(), wrong.first());
         assert_ne!(id_color(0), id_color(1), "the two spheres' colours");
     }
+
+    /// The cost AOV: every pixel's colour is heat(passes / cost_max) for a
+    /// whole number of passes (the scale of raycast.glsl heat_color, as
+    /// written here), misses included, one for a ray that meets no box;
+    /// without the hierarchy's boxes no
+    /// pixel's walk is shorter and the picture's is longer; with
+    /// --cost-max 1 every walk of a pass or more is dark red. Rules, exact.
+    #[test]
+    fn cost_aov_counts_the_walk() {
+        use crate::frame::{build, Aov, RenderSettings};
+        let cubes: String = (0..20)
+            .map(|i| format!(r#"<transblock><translate x="{}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#, i - 10))
+            .collect();
+        let xml = format!(
+            r#"<scenefile>
+  <cameradata><pos x="0" y="2" z="12"/><look x="0" y="-0.2" z="-1"/><up x="0" y="1" z="0"/><heightangle v="60"/></cameradata>
+  <object type="tree" name="root">{cubes}</object>
+</scenefile>"#
+        );
+        let file = crate::scene::parse_str(&xml, std::path::Path::new("row.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let renderer = CpuRenderer::new().unwrap();
+        let render = |bvh: bool, cost_max: Option<u32>| {
+            let settings = RenderSettings { width: 48, height: 32, aov: Aov::Cost, bvh, cost_max, ..RenderSettings::default() };
+            settings.validate().unwrap();
+            renderer.render(&build(&scene, &settings).unwrap()).unwrap()
+        };
+        let heat = |x: f32| -> [u8; 3] {
+            let s = 4.0 * x.clamp(0.0, 1.0);
+            [3.0f32, 2.0, 1.0].map(|c| ((1.5 - (s - c).abs()).clamp(0.0, 1.0) * 255.0).floor() as u8)
+        };
+        let max = 64u32;
+        let passes = |picture: &crate::render::Picture| -> Vec<u32> {
+            picture
+                .pixels
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    (0..=max)
+                        .find(|&n| heat(n as f32 / max as f32) == rgb(p))
+                        .unwrap_or_else(|| panic!("pixel {i}: {:?} is no whole number of passes on the scale", rgb(p)))
+                })
+                .collect()
+        };
+        let with = passes(&render(true, None));
+        let without = passes(&render(false, None));
+        assert!(with.iter().all(|&n| n >= 1), "every camera ray walks a pass or more");
+        // The top-left pixel looks above the row: its walk pops the root,
+        // meets neither child's box, and ends.
+        assert_eq!(with[0], 1, "a ray that meets no box: the root's pass alone");
+        let shorter: Vec<usize> = (0..with.len()).filter(|&i| without[i] < with[i]).collect();
+        assert!(shorter.is_empty(), "{} pixels walk less without the boxes; first {:?}", shorter.len(), shorter.first());
+        let (a, b) = (with.iter().sum::<u32>(), without.iter().sum::<u32>());
+        assert!(b > a, "without the boxes the walks are longer: {b} passes against {a}");
+        let one = render(true, Some(1));
+        assert!(one.pixels.iter().all(|p| rgb(p) == [127, 0, 0]), "--cost-max 1: every pixel dark red");
+    }
 }

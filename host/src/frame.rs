@@ -17,6 +17,8 @@ pub const INSTANCING: bool = true;
 
 /// Most samples per pixel accepted.
 pub const MAX_SPP: u32 = 4096;
+/// Most passes `--cost-max` takes (its scale is a float: exact to 2^24).
+pub const MAX_COST: u32 = 1 << 24;
 /// Most texels of all textures together (4 bytes each).
 pub const MAX_TEXELS: u64 = 1 << 28;
 
@@ -34,6 +36,10 @@ pub enum Aov {
     Depth,
     /// A colour per primitive (its id scrambled), black on a miss.
     Id,
+    /// What the camera ray's walk cost: its passes through the hierarchy
+    /// on a heat scale, dark blue for none, dark red from
+    /// `RenderSettings::cost_max` on; misses too.
+    Cost,
 }
 
 impl Aov {
@@ -44,6 +50,7 @@ impl Aov {
             Aov::Normal => "normal",
             Aov::Depth => "depth",
             Aov::Id => "id",
+            Aov::Cost => "cost",
         }
     }
 
@@ -54,18 +61,28 @@ impl Aov {
             Aov::Normal => layout::AOV_NORMAL,
             Aov::Depth => layout::AOV_DEPTH,
             Aov::Id => layout::AOV_ID,
+            Aov::Cost => layout::AOV_COST,
         }
     }
 }
 
 /// The depth AOV's range when none is given: white at the nearest point of
 /// the scene's bounding sphere (seen from `eye`), black at its farthest;
-/// 0 to 10 for a scene with nothing in it. Frame.depth_range's layout.
-pub fn depth_range(bounds: Option<Bounds>, eye: DVec3) -> [f32; 4] {
-    let Some(b) = bounds else { return [0.0, 10.0, 0.0, 0.0] };
+/// 0 to 10 for a scene with nothing in it.
+pub fn depth_range(bounds: Option<Bounds>, eye: DVec3) -> [f32; 2] {
+    let Some(b) = bounds else { return [0.0, 10.0] };
     let d = (b.center() - eye).length();
     let r = b.radius();
-    [(d - r).max(0.0) as f32, (d + r).max(1e-3) as f32, 0.0, 0.0]
+    [(d - r).max(0.0) as f32, (d + r).max(1e-3) as f32]
+}
+
+/// The cost AOV's passes drawn hottest when none is given.
+pub const COST_MAX: u32 = 64;
+
+/// Frame.aov_scale: the depth AOV's distances drawn white and black, the
+/// cost AOV's passes drawn hottest.
+pub fn aov_scale(depth_range: [f32; 2], cost_max: u32) -> [f32; 4] {
+    [depth_range[0], depth_range[1], cost_max as f32, 0.0]
 }
 
 /// How textures are sampled.
@@ -98,6 +115,8 @@ pub struct RenderSettings {
     /// Aov::Depth: the distances drawn white and black; None for the
     /// scene's bounding sphere seen from the camera (`depth_range`).
     pub depth_range: Option<[f32; 2]>,
+    /// Aov::Cost: the passes drawn at the hot end; None for `COST_MAX`.
+    pub cost_max: Option<u32>,
 }
 
 impl Default for RenderSettings {
@@ -114,6 +133,7 @@ impl Default for RenderSettings {
             spp: 1,
             texture_filter: TextureFilter::Nearest,
             depth_range: None,
+            cost_max: None,
         }
     }
 }
@@ -151,6 +171,15 @@ impl RenderSettings {
         }
         if self.depth_range.is_some() && self.aov != Aov::Depth {
             return Err(SettingsError("--depth-range is for --aov depth; this render is not one".to_string()));
+        }
+        match self.cost_max {
+            Some(_) if self.aov != Aov::Cost => {
+                return Err(SettingsError("--cost-max is for --aov cost; this render is not one".to_string()))
+            }
+            Some(n) if n == 0 || n > MAX_COST => {
+                return Err(SettingsError(format!("--cost-max {n} is out of range: between 1 and {MAX_COST} passes")))
+            }
+            _ => {}
         }
         if let Some([near, far]) = self.depth_range {
             if !(near.is_finite() && far.is_finite() && near >= 0.0 && far > near) {
@@ -373,12 +402,15 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         primitive_count: packed.primitives.len() as u32,
         light_count: lights.len() as u32,
         aov: settings.aov.code(),
-        // Only the depth AOV reads it; the bounds are a walk over every group.
-        depth_range: match (settings.aov, settings.depth_range) {
-            (Aov::Depth, Some([near, far])) => [near, far, 0.0, 0.0],
-            (Aov::Depth, None) => depth_range(scene_bounds(scene), scene.camera.pos),
-            _ => [0.0; 4],
-        },
+        // The bounds are a walk over every group: only for the depth AOV.
+        aov_scale: aov_scale(
+            match (settings.aov, settings.depth_range) {
+                (Aov::Depth, Some(range)) => range,
+                (Aov::Depth, None) => depth_range(scene_bounds(scene), scene.camera.pos),
+                _ => [0.0; 2],
+            },
+            settings.cost_max.unwrap_or(COST_MAX),
+        ),
         flags,
         max_depth: settings.max_depth,
         spp: settings.spp,

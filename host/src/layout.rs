@@ -21,8 +21,9 @@ pub struct Frame {
     pub world_from_film: Mat4,
     pub eye: Vec4,
     pub k: Vec4,
-    /// AOV_DEPTH: the distances drawn white and black (`frame::depth_range`).
-    pub depth_range: Vec4,
+    /// AOV_DEPTH: the distances drawn white and black; AOV_COST: the
+    /// passes drawn hottest (`frame::aov_scale`).
+    pub aov_scale: Vec4,
     pub width: u32,
     pub height: u32,
     pub primitive_count: u32,
@@ -217,7 +218,7 @@ macro_rules! struct_layout {
 
 impl Frame {
     pub fn layout() -> StructLayout {
-        struct_layout!(Frame, "Frame", [world_from_film, eye, k, depth_range, width, height,
+        struct_layout!(Frame, "Frame", [world_from_film, eye, k, aov_scale, width, height,
             primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, root_node, node_count, loop_canary,
             row_offset, pad0, pad1, pad2])
     }

@@ -185,7 +185,7 @@ const SPEC_NAMES: [(u32, &str); layout::SPEC_COUNT as usize] = [
     (layout::SPEC_FLAT_LIST, "the flat primitive list"),
     (layout::SPEC_BOX_RECORDS, "instance boxes"),
     (layout::SPEC_SPHERE_RECORDS, "instance spheres"),
-    (layout::SPEC_AOVS, "the normal, depth and id AOVs"),
+    (layout::SPEC_AOVS, "the normal, depth, id and cost AOVs"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -609,10 +609,10 @@ mod tests {
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
-             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth and id AOVs"
+             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs"
         );
         // An AOV other than colour keeps its code.
-        for aov in [Aov::Normal, Aov::Depth, Aov::Id] {
+        for aov in [Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost] {
             let d = data(rich, &RenderSettings { aov, ..RenderSettings::default() });
             assert!(on(Specialization::of(&d, &d.frame)).contains(&layout::SPEC_AOVS), "{aov:?}");
         }

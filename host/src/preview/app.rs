@@ -50,7 +50,7 @@ preview controls:
   Q E             fly down, up
   R               back to the scene's camera   F             frame the whole scene
   C               print the camera as a <cameradata> block
-  1 2 3 4         show colour, normal, depth, object id
+  1 2 3 4 5       show colour, normal, depth, object id, walk cost
   H M T           toggle shadows, mirror reflections, textures
   F1              this help                    Esc           quit";
 
@@ -532,7 +532,7 @@ impl Preview {
         f.height = h;
         f.aov = self.aov.code();
         // As frame::build's for the scene's camera: the depth AOV's range from this one.
-        f.depth_range = frame::depth_range(self.bounds, eye);
+        f.aov_scale = frame::aov_scale(frame::depth_range(self.bounds, eye), frame::COST_MAX);
         f.flags = (if self.shadows { layout::FLAG_SHADOWS } else { 0 })
             | (if self.reflections { layout::FLAG_REFLECTIONS } else { 0 })
             | (if self.textures { layout::FLAG_TEXTURES } else { 0 });
@@ -682,6 +682,7 @@ impl Preview {
             Key::Num2 | Key::Kp2 => Some(Aov::Normal),
             Key::Num3 | Key::Kp3 => Some(Aov::Depth),
             Key::Num4 | Key::Kp4 => Some(Aov::Id),
+            Key::Num5 | Key::Kp5 => Some(Aov::Cost),
             _ => None,
         };
         if let Some(a) = aov {
