@@ -734,3 +734,29 @@ fn bench_versus_times_two_kernels_and_compares_their_pictures() {
     let o = run(&["--backend", "cpu"], &same);
     assert_fails(&o, 2, "--versus compares two device kernels");
 }
+
+/// `info` describes scenes without a device: the default scene's counts,
+/// a generated scene's groups and hierarchy as JSON (one object a line),
+/// a missing file reported beside a good scene with exit 1.
+#[test]
+fn info_describes_scenes() {
+    let o = raycast(&["info"], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("primitives: 5 drawn, 5 written in the file (2 cube, 1 cone, 1 cylinder, 1 sphere), in 1 group"), "{out}");
+    assert!(out.contains("hierarchy: none: 5 primitives tested in order"), "{out}");
+    assert!(out.contains("lights: 1 directional, 1 point, 1 spot"), "{out}");
+
+    let o = raycast(&["info", "gen:recursive-spheres:5", "--json"], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert_eq!(out.lines().count(), 1, "{out}");
+    for field in ["\"expanded\":937", "\"unique\":5", "\"name\":\"root\"", "\"tree\":{\"nodes\":1,\"leaves\":1,\"depth\":1,\"items\":7"] {
+        assert!(out.contains(field), "lacks {field}: {out}");
+    }
+
+    let missing = out_dir().join("no-such-scene.xml");
+    let o = raycast(&["info", missing.to_str().unwrap(), repo().join("scenes/default.xml").to_str().unwrap()], &[]);
+    assert_fails(&o, 1, "raycast: info failed: 1 of 2 scenes");
+    assert!(text(&o).0.contains("primitives: 5 drawn"), "the good scene is still described: {:?}", text(&o));
+}

@@ -19,6 +19,7 @@ use crate::gpu::GpuError;
 use crate::layout::{Frame, PixelOut, SampleSum};
 use crate::render::Picture;
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
+use crate::units::{json_str, thousands};
 use clap::{Args, ValueEnum};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -262,34 +263,6 @@ fn mib(bytes: Option<u64>) -> String {
         Some(b) if b < 1 << 20 => format!("{:.1} KiB", b as f64 / 1024.0),
         Some(b) => format!("{:.1} MiB", b as f64 / (1u64 << 20) as f64),
     }
-}
-
-fn thousands(n: u64) -> String {
-    let s = n.to_string();
-    let mut out = String::new();
-    for (i, c) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
-            out.push(',');
-        }
-        out.push(c);
-    }
-    out
-}
-
-pub(crate) fn json_str(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => {
-                let _ = write!(out, "\\u{:04x}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
 }
 
 fn json_num(v: Option<f64>) -> String {

@@ -41,6 +41,8 @@ enum Command {
     Compare(CompareArgs),
     /// Run shader unit tests (tests/shaders/*.toml by default) on the device and the CPU build.
     ShaderTest(crate::harness::cli::ShaderTestArgs),
+    /// Describe scenes without rendering them: camera, primitives, lights, materials, the world box, each group's hierarchy (nodes, leaves, depth, SAH cost) and buffer sizes
+    Info(InfoArgs),
     /// List the Vulkan devices.
     Devices,
     /// Write a scale-test scene: the corpus's recursive spheres, cones or cubes, N levels deep.
@@ -238,6 +240,59 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 }
 
 #[derive(Args, Debug)]
+struct InfoArgs {
+    /// Scene files (XML) or generated scenes (gen:FAMILY:DEPTH). Without any, the embedded default scene.
+    #[arg(value_name = "SCENE")]
+    scenes: Vec<String>,
+    /// Extra folder to find textures in, after the scene file's folder (repeatable).
+    #[arg(long, value_name = "DIR")]
+    assets: Vec<PathBuf>,
+    /// Refuse scenes that expand to more primitives than this.
+    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
+    max_primitives: usize,
+    /// One JSON object a line, a scene each, instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `raycast info`: each scene loaded and packed as a default render packs
+/// it, and described. A scene that fails is reported and the others go on;
+/// the command then fails naming it.
+fn info(args: &InfoArgs) -> Result<(), Failure> {
+    let names: Vec<Option<&str>> =
+        if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    let parse = ParseOptions { assets: args.assets.clone() };
+    let limits = FlattenLimits { max_primitives: args.max_primitives };
+    let mut failed = Vec::new();
+    for name in &names {
+        let label = name.unwrap_or(DEFAULT_SCENE_NAME);
+        // Warnings on stderr as every command prints them; the notes are in the description.
+        let described = crate::bench::parse_scene(*name, &parse)
+            .and_then(|file| scene::flatten(&file, &limits).map_err(|e| e.to_string()))
+            .and_then(|scene| {
+                for w in &scene.warnings {
+                    errln!("{w}");
+                }
+                let data = crate::info::pack(&scene)?;
+                Ok(crate::info::Info::of(label, &scene, &data))
+            });
+        match described {
+            Ok(info) if args.json => outln!("{}", info.json()),
+            Ok(info) => out!("{}", info.text()),
+            Err(e) if names.len() == 1 => return Err(scene_failure(e)),
+            Err(e) => {
+                errln!("{e}");
+                failed.push(label);
+            }
+        }
+    }
+    match failed.len() {
+        0 => Ok(()),
+        n => Err(Failure(format!("raycast: info failed: {n} of {} scenes: {}", names.len(), failed.join(", ")), 1)),
+    }
+}
+
+#[derive(Args, Debug)]
 struct ConformanceArgs {
     /// The cs1230 corpus: its scene folders (test_unit, test_intersect, …)
     /// and bench/ of official renders [default: $RAYCAST_CORPUS]
@@ -338,6 +393,7 @@ pub fn main() -> ExitCode {
         Command::Check(args) => check(&args),
         Command::Compare(args) => compare(&args),
         Command::Preview(args) => crate::preview::run(&args),
+        Command::Info(args) => info(&args),
         Command::Devices => devices(),
         Command::ShaderTest(args) => crate::harness::cli::run(&args).map_err(|(message, code)| Failure(message, code)),
         Command::Gen(args) => crate::gen::run(&args),

@@ -205,6 +205,10 @@ pub struct FrameData {
     pub nodes: Vec<layout::BvhNode>,
     pub leaf_items: Vec<layout::LeafItem>,
     pub instances: Vec<layout::Instance>,
+    /// Each scene group's root node in `nodes` (its nodes follow it, its
+    /// inner nodes' children at `first` and `first + 1`); u32::MAX for a
+    /// group with nothing to draw. Empty without a hierarchy.
+    pub group_roots: Vec<u32>,
     /// Primitives the scene expands to (every instance counted).
     pub expanded: u64,
     /// Time to build the hierarchies and pack the groups.
@@ -433,6 +437,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         nodes: packed.nodes,
         leaf_items: packed.leaf_items,
         instances: packed.instances,
+        group_roots: packed.group_roots,
         expanded: scene.primitive_count(),
         build_time,
         notes,
@@ -449,6 +454,7 @@ struct Packed {
     leaf_items: Vec<layout::LeafItem>,
     instances: Vec<layout::Instance>,
     root_node: u32,
+    group_roots: Vec<u32>,
 }
 
 fn shape_code(shape: &Shape) -> u32 {
@@ -821,14 +827,14 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     }
     if group_root[0] == u32::MAX {
         // Nothing to draw: no hierarchy, no primitives.
-        return Ok(Packed { primitives: vec![], nodes: vec![], leaf_items: vec![], instances: vec![], root_node: 0 });
+        return Ok(Packed { primitives: vec![], nodes: vec![], leaf_items: vec![], instances: vec![], root_node: 0, group_roots: vec![] });
     }
     if n == 1 && p_total as usize <= SMALL_SCENE {
         // A few primitives and no instances: testing them in order is cheaper
         // than walking a hierarchy, and computes exactly the same.
-        return Ok(Packed { primitives, nodes: vec![], leaf_items: vec![], instances: vec![], root_node: 0 });
+        return Ok(Packed { primitives, nodes: vec![], leaf_items: vec![], instances: vec![], root_node: 0, group_roots: vec![] });
     }
-    Ok(Packed { primitives, nodes, leaf_items, instances, root_node: group_root[0] })
+    Ok(Packed { primitives, nodes, leaf_items, instances, root_node: group_root[0], group_roots: group_root })
 }
 
 #[cfg(test)]

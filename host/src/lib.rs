@@ -6,8 +6,9 @@
 //! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
 //! and compares pictures, `bounded` reads text inputs up to a size,
 //! `uint_defines` reads the shaders' `#define`d constants, `units` writes
-//! byte counts for people, `conformance` holds the course's renders'
-//! comparison rule, `cli` is the command line.
+//! byte counts for people, `info` describes a scene and its hierarchy,
+//! `conformance` holds the course's renders' comparison rule, `cli` is the
+//! command line.
 
 /// `println!` that goes on when stdout is closed (`raycast render | head`):
 /// the status lines are for reading, the work (the PNG, the exit status)
@@ -51,6 +52,7 @@ pub mod gen;
 pub mod gpu;
 pub mod harness;
 pub mod image_io;
+pub mod info;
 pub mod layout;
 pub mod preview;
 pub mod render;

@@ -14,7 +14,8 @@
 //!   chance of a split at least that uneven if the kernels were alike);
 //! - whether the two pictures have the same bits (`check::compare`).
 
-use crate::bench::{json_str, load_or_skip, median, skipped, BenchArgs, BenchBackend};
+use crate::bench::{load_or_skip, median, skipped, BenchArgs, BenchBackend};
+use crate::units::json_str;
 use crate::check;
 use crate::cli::{check_validation, open_renderer, scene_failure, Failure};
 use crate::gpu::GpuError;

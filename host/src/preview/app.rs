@@ -16,7 +16,7 @@ use crate::gpu::{FrameStatus, GpuContext, GpuOptions, PresentMode};
 use crate::image_io::{self, Rgb8};
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
-use crate::scene::{scene_bounds, Bounds, FlattenLimits, ParseOptions, Scene, Shape};
+use crate::scene::{scene_bounds, Bounds, FlattenLimits, ParseOptions, Scene};
 
 use super::camera::CameraControl;
 use super::layout::PreviewFrame;
@@ -267,17 +267,6 @@ struct Preview {
     mouse: Mouse,
     stats: Stats,
     renderer: PreviewRenderer,
-}
-
-fn shape_name(shape: &Shape) -> &'static str {
-    match shape {
-        Shape::Cube => "cube",
-        Shape::Cone => "cone",
-        Shape::Cylinder => "cylinder",
-        Shape::Sphere => "sphere",
-        Shape::Torus => "torus",
-        Shape::Mesh { .. } => "mesh",
-    }
 }
 
 /// The divisor of width and height that brings a frame of `pixels` pixels,
@@ -822,7 +811,7 @@ impl Preview {
         let m = &self.scene.materials[prim.material as usize];
         let v3 = |v: DVec3| format!("({:.4}, {:.4}, {:.4})", v.x, v.y, v.z);
         let c3 = |c: [f32; 3]| format!("({}, {}, {})", c[0], c[1], c[2]);
-        outln!("pixel ({j}, {i}): primitive {} ({}) at {}", p.id, shape_name(&prim.shape), prim.loc);
+        outln!("pixel ({j}, {i}): primitive {} ({}) at {}", p.id, prim.shape.name(), prim.loc);
         outln!(
             "  t {} (ray direction not unit; distance {:.4}), position {}, normal {}",
             p.t,

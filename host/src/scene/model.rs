@@ -106,6 +106,18 @@ pub enum LightKind {
     Area,
 }
 
+impl LightKind {
+    /// As `<type v=…>` writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightKind::Point => "point",
+            LightKind::Directional => "directional",
+            LightKind::Spot => "spot",
+            LightKind::Area => "area",
+        }
+    }
+}
+
 /// `<lightdata>`, with the documented defaults filled in.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Light {
@@ -185,6 +197,20 @@ pub enum Shape {
     Torus,
     /// Parsed and kept; not rendered yet. The OBJ path as written.
     Mesh { file: String },
+}
+
+impl Shape {
+    /// As `<object type="primitive" name=…>` writes it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Shape::Cube => "cube",
+            Shape::Cone => "cone",
+            Shape::Cylinder => "cylinder",
+            Shape::Sphere => "sphere",
+            Shape::Torus => "torus",
+            Shape::Mesh { .. } => "mesh",
+        }
+    }
 }
 
 /// One transform of a `<transblock>`, in file order.

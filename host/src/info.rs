@@ -1,0 +1,395 @@
+//! `raycast info`: what a scene holds and how raycast packs it, without a
+//! device or a render: the camera, the primitives drawn and written, the
+//! lights and materials, the world box, each group's hierarchy (nodes,
+//! leaves, depth, items a leaf, its surface-area cost), the buffers'
+//! sizes and what a default render's kernel keeps. For students checking
+//! what their file says, and for anyone comparing hierarchies.
+
+use crate::frame::{FrameData, RenderSettings};
+use crate::layout::BvhNode;
+use crate::render::Specialization;
+use crate::scene::{scene_bounds, Bounds, Camera, Scene};
+use glam::DVec3;
+use crate::units::{fmt_bytes, json_str, thousands};
+
+/// The surface-area heuristic's cost of a pass through an inner node and
+/// of testing one leaf item (a primitive, or an instance's bound), the
+/// usual 1 and 1: a tree's cost is the sum over its nodes of the node's
+/// share of the root's surface times its own cost, the expected work of a
+/// ray that meets the root box.
+pub const SAH_TRAVERSAL: f64 = 1.0;
+pub const SAH_ITEM: f64 = 1.0;
+
+/// One group's hierarchy, from its root node.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TreeStats {
+    pub nodes: u32,
+    pub leaves: u32,
+    /// Levels from the root (1: the root is a leaf).
+    pub depth: u32,
+    /// Items (primitives and instances) in all leaves, and in the fullest.
+    pub items: u64,
+    pub most_items: u32,
+    /// The surface-area cost (SAH_TRAVERSAL, SAH_ITEM), relative to the root box.
+    pub sah: f64,
+}
+
+/// A box's surface area.
+fn area(n: &BvhNode) -> f64 {
+    let d = [0, 1, 2].map(|k| f64::from((n.hi[k] - n.lo[k]).max(0.0)));
+    2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0])
+}
+
+/// The tree of `nodes` (layout.h: an inner node's children at `first` and
+/// `first + 1`) from `root`. A root without surface weighs each node as 1.
+pub fn tree_stats(nodes: &[BvhNode], root: u32) -> TreeStats {
+    let root_area = area(&nodes[root as usize]);
+    let mut s = TreeStats::default();
+    let mut todo = vec![(root, 1u32)];
+    while let Some((i, depth)) = todo.pop() {
+        let n = &nodes[i as usize];
+        s.nodes += 1;
+        s.depth = s.depth.max(depth);
+        let weight = if root_area > 0.0 { area(n) / root_area } else { 1.0 };
+        if n.count == 0 {
+            s.sah += SAH_TRAVERSAL * weight;
+            todo.push((n.first, depth + 1));
+            todo.push((n.first + 1, depth + 1));
+        } else {
+            s.leaves += 1;
+            s.items += u64::from(n.count);
+            s.most_items = s.most_items.max(n.count);
+            s.sah += SAH_ITEM * f64::from(n.count) * weight;
+        }
+    }
+    s
+}
+
+/// One group (the root tree, or a master placed through instances).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroupInfo {
+    pub name: String,
+    pub primitives: usize,
+    pub instances: usize,
+    pub expanded: u64,
+    /// None: nothing to draw, or no hierarchy at all (a few primitives tested in order).
+    pub tree: Option<TreeStats>,
+}
+
+/// What `raycast info` says about a scene.
+#[derive(Clone, Debug)]
+pub struct Info {
+    pub scene: String,
+    pub camera: Camera,
+    pub expanded: u64,
+    pub unique: usize,
+    /// Primitives written in the file, per shape drawn (in the order of the
+    /// shapes, those with none left out).
+    pub shapes: Vec<(&'static str, usize)>,
+    pub groups: Vec<GroupInfo>,
+    pub lights: Vec<(&'static str, usize)>,
+    pub materials: usize,
+    pub textured: usize,
+    pub mirrors: usize,
+    pub bounds: Option<Bounds>,
+    pub build_ms: f64,
+    /// The device's scene buffers (frame::FrameData::scene_buffers): what, bytes.
+    pub buffers: Vec<(&'static str, u64)>,
+    /// What the kernel of a default render (`RenderSettings::default`) keeps.
+    pub kernel: String,
+    pub notes: Vec<String>,
+}
+
+/// `x` to 6 decimals at most, without trailing zeros: `-2.9`, not `-2.9000000000000004`.
+fn number(x: f64) -> String {
+    let s = format!("{x:.6}");
+    let s = if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.') } else { &s };
+    if s == "-0" { "0".to_string() } else { s.to_string() }
+}
+
+fn vector(v: DVec3) -> String {
+    format!("({}, {}, {})", number(v.x), number(v.y), number(v.z))
+}
+
+/// Counts of `names` in first-seen order.
+fn tally(names: impl Iterator<Item = &'static str>) -> Vec<(&'static str, usize)> {
+    let mut out: Vec<(&'static str, usize)> = Vec::new();
+    for n in names {
+        match out.iter_mut().find(|(k, _)| *k == n) {
+            Some((_, c)) => *c += 1,
+            None => out.push((n, 1)),
+        }
+    }
+    out
+}
+
+impl Info {
+    /// `scene` packed as a default render packs it (`data`, from `frame::build`).
+    pub fn of(name: &str, scene: &Scene, data: &FrameData) -> Info {
+        let groups = scene
+            .groups
+            .iter()
+            .enumerate()
+            .map(|(g, group)| GroupInfo {
+                name: group.name.clone(),
+                primitives: group.primitives.len(),
+                instances: group.instances.len(),
+                expanded: group.expanded,
+                tree: data
+                    .group_roots
+                    .get(g)
+                    .filter(|&&root| root != u32::MAX)
+                    .map(|&root| tree_stats(&data.nodes, root)),
+            })
+            .collect();
+        Info {
+            scene: name.to_string(),
+            camera: scene.camera.clone(),
+            expanded: data.expanded,
+            unique: scene.groups.iter().map(|g| g.primitives.len()).sum(),
+            shapes: tally(scene.groups.iter().flat_map(|g| g.primitives.iter().map(|p| p.shape.name()))),
+            groups,
+            lights: tally(scene.lights.iter().map(|l| l.kind.name())),
+            materials: scene.materials.len(),
+            textured: scene.materials.iter().filter(|m| m.texture.is_some()).count(),
+            mirrors: scene.materials.iter().filter(|m| m.reflective.iter().any(|&r| r != 0.0)).count(),
+            bounds: scene_bounds(scene),
+            build_ms: data.build_time.as_secs_f64() * 1e3,
+            buffers: data.scene_buffers().iter().map(|(_, what, bytes)| (*what, bytes.len() as u64)).collect(),
+            kernel: Specialization::of(data, &data.frame).describe(),
+            notes: data.notes.clone(),
+        }
+    }
+
+    /// For people: a block of lines.
+    pub fn text(&self) -> String {
+        let list = |v: &[(&str, usize)]| v.iter().map(|(k, n)| format!("{n} {k}")).collect::<Vec<_>>().join(", ");
+        let mut out = format!("scene: {}\n", self.scene);
+        let c = &self.camera;
+        out += &format!(
+            "  camera: eye {}, look {}, up {}, height angle {}°\n",
+            vector(c.pos),
+            vector(c.look),
+            vector(c.up),
+            number(c.height_angle_deg)
+        );
+        out += &format!(
+            "  primitives: {} drawn, {} written in the file ({}), in {} group{}\n",
+            thousands(self.expanded),
+            thousands(self.unique as u64),
+            if self.shapes.is_empty() { "none".to_string() } else { list(&self.shapes) },
+            self.groups.len(),
+            if self.groups.len() == 1 { "" } else { "s" }
+        );
+        out += &format!(
+            "  lights: {}; materials: {} ({} textured, {} mirror)\n",
+            if self.lights.is_empty() { "none".to_string() } else { list(&self.lights) },
+            self.materials,
+            self.textured,
+            self.mirrors
+        );
+        match &self.bounds {
+            Some(b) => {
+                out += &format!("  world box: {} to {}\n", vector(b.min), vector(b.max));
+            }
+            None => out += "  world box: none (nothing to draw)\n",
+        }
+        if self.groups.iter().all(|g| g.tree.is_none()) {
+            out += &format!(
+                "  hierarchy: none: {} primitive{} tested in order (a single group of at most a few skips it)\n",
+                self.unique,
+                if self.unique == 1 { "" } else { "s" }
+            );
+        } else {
+            out += &format!(
+                "  hierarchy: one per group, built in {:.2} ms; SAH cost with traversal {SAH_TRAVERSAL} and {SAH_ITEM} an item, over the group's root box\n",
+                self.build_ms
+            );
+            out += "    group | primitives | instances | expands to | nodes | leaves | depth | items a leaf (mean, most) | SAH cost\n";
+            for g in &self.groups {
+                let tree = match &g.tree {
+                    Some(t) => format!(
+                        "{} | {} | {} | {:.2}, {} | {:.2}",
+                        t.nodes,
+                        t.leaves,
+                        t.depth,
+                        t.items as f64 / f64::from(t.leaves.max(1)),
+                        t.most_items,
+                        t.sah
+                    ),
+                    None => "- | - | - | - | -".to_string(),
+                };
+                out += &format!(
+                    "    {} | {} | {} | {} | {tree}\n",
+                    g.name,
+                    thousands(g.primitives as u64),
+                    thousands(g.instances as u64),
+                    thousands(g.expanded)
+                );
+            }
+        }
+        let total: u64 = self.buffers.iter().map(|(_, b)| b).sum();
+        let parts: Vec<String> =
+            self.buffers.iter().filter(|(_, b)| *b > 0).map(|(what, b)| format!("{what} {}", fmt_bytes(*b))).collect();
+        out += &format!("  buffers: {} in all: {}\n", fmt_bytes(total), parts.join(", "));
+        out += &format!("  kernel of a default render: {}\n", self.kernel);
+        for n in &self.notes {
+            out += &format!("  note: {n}\n");
+        }
+        out
+    }
+
+    /// For machines: one JSON object.
+    pub fn json(&self) -> String {
+        let counts = |v: &[(&str, usize)]| {
+            format!("{{{}}}", v.iter().map(|(k, n)| format!("{}:{n}", json_str(k))).collect::<Vec<_>>().join(","))
+        };
+        let groups: Vec<String> = self
+            .groups
+            .iter()
+            .map(|g| {
+                let tree = match &g.tree {
+                    Some(t) => format!(
+                        "{{\"nodes\":{},\"leaves\":{},\"depth\":{},\"items\":{},\"most_items\":{},\"sah\":{:.6}}}",
+                        t.nodes, t.leaves, t.depth, t.items, t.most_items, t.sah
+                    ),
+                    None => "null".to_string(),
+                };
+                format!(
+                    "{{\"name\":{},\"primitives\":{},\"instances\":{},\"expanded\":{},\"tree\":{tree}}}",
+                    json_str(&g.name),
+                    g.primitives,
+                    g.instances,
+                    g.expanded
+                )
+            })
+            .collect();
+        let xyz = |d: DVec3| format!("[{},{},{}]", d.x, d.y, d.z);
+        let bounds = match &self.bounds {
+            Some(b) => format!("[{},{}]", xyz(b.min), xyz(b.max)),
+            None => "null".to_string(),
+        };
+        let c = &self.camera;
+        let camera = format!(
+            "{{\"eye\":{},\"look\":{},\"up\":{},\"height_angle_deg\":{}}}",
+            xyz(c.pos),
+            xyz(c.look),
+            xyz(c.up),
+            c.height_angle_deg
+        );
+        let buffers: Vec<String> = self.buffers.iter().map(|(what, b)| format!("{}:{b}", json_str(what))).collect();
+        format!(
+            "{{\"scene\":{},\"camera\":{},\"expanded\":{},\"unique\":{},\"shapes\":{},\"groups\":[{}],\"lights\":{},\
+             \"materials\":{},\"textured\":{},\"mirrors\":{},\"bounds\":{bounds},\"build_ms\":{:.3},\"buffers\":{{{}}},\
+             \"kernel\":{},\"notes\":[{}]}}",
+            json_str(&self.scene),
+            camera,
+            self.expanded,
+            self.unique,
+            counts(&self.shapes),
+            groups.join(","),
+            counts(&self.lights),
+            self.materials,
+            self.textured,
+            self.mirrors,
+            self.build_ms,
+            buffers.join(","),
+            json_str(&self.kernel),
+            self.notes.iter().map(|n| json_str(n)).collect::<Vec<_>>().join(",")
+        )
+    }
+}
+
+/// The settings `info` packs a scene with: a default render's.
+fn settings() -> RenderSettings {
+    RenderSettings::default()
+}
+
+/// `scene` packed as a default render packs it; where that fails (a
+/// texture file not found), packed without textures, with a note saying
+/// why, so that the rest can still be described.
+pub fn pack(scene: &Scene) -> Result<FrameData, String> {
+    crate::frame::build(scene, &settings()).or_else(|e| {
+        let mut data = crate::frame::build(scene, &RenderSettings { textures: false, ..settings() })?;
+        data.notes.push(format!("packed without textures, as a default render fails: {e}"));
+        Ok(data)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layout::Vec4;
+
+    fn node(lo: [f32; 3], hi: [f32; 3], first: u32, count: u32) -> BvhNode {
+        let v = |a: [f32; 3]| -> Vec4 { [a[0], a[1], a[2], 0.0] };
+        BvhNode { lo: v(lo), hi: v(hi), first, count, ..BvhNode::default() }
+    }
+
+    /// A root of surface 6 (the unit cube) over two leaves of surface 4
+    /// (half cubes: 2 (0.5 + 0.5 + 1)), holding 3 and 1 items. Rule,
+    /// exact: SAH = 1 (root) + 3 * 4/6 + 1 * 4/6; 3 nodes, 2 leaves, depth
+    /// 2, 4 items, at most 3.
+    #[test]
+    fn tree_stats_of_a_hand_built_tree() {
+        let nodes = [
+            node([0.0; 3], [1.0; 3], 1, 0),
+            node([0.0; 3], [0.5, 1.0, 1.0], 0, 3),
+            node([0.5, 0.0, 0.0], [1.0; 3], 3, 1),
+        ];
+        let s = tree_stats(&nodes, 0);
+        assert_eq!((s.nodes, s.leaves, s.depth, s.items, s.most_items), (3, 2, 2, 4, 3));
+        let want = 1.0 + 3.0 * 4.0 / 6.0 + 4.0 / 6.0;
+        assert!((s.sah - want).abs() < 1e-12, "SAH {} against {want}", s.sah);
+        // A leaf alone: its items.
+        let s = tree_stats(&nodes, 1);
+        assert_eq!((s.nodes, s.leaves, s.depth), (1, 1, 1));
+        assert!((s.sah - 3.0).abs() < 1e-12);
+    }
+
+    /// Every group's tree reaches each of its items once: the leaves'
+    /// items are its primitives plus its instances (the packed hierarchies
+    /// of the generated recursive spheres, depth 5, a leaf a group, and of a
+    /// row of twenty cubes, a binary tree; the default scene has none).
+    #[test]
+    fn info_of_packed_scenes() {
+        let xml = crate::gen::generate(crate::gen::Family::RecursiveSpheres, 5, &crate::gen::GenOptions { texture: None }).unwrap();
+        let file = crate::scene::parse_str(&xml, std::path::Path::new("gen.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let data = pack(&scene).unwrap();
+        let info = Info::of("gen.xml", &scene, &data);
+        assert_eq!(info.expanded, 937);
+        assert_eq!(info.shapes, [("sphere", info.unique)]);
+        for g in &info.groups {
+            let t = g.tree.as_ref().unwrap_or_else(|| panic!("group {} has a tree", g.name));
+            assert_eq!(t.items, (g.primitives + g.instances) as u64, "group {}", g.name);
+            // Every node's box lies in its root's: each weighs at most 1.
+            let most = f64::from(t.nodes - t.leaves) * SAH_TRAVERSAL + t.items as f64 * SAH_ITEM;
+            assert!(t.sah > 0.0 && t.sah <= most + 1e-9, "group {}: SAH {} beyond {most}", g.name, t.sah);
+        }
+        let text = info.text();
+        assert!(text.contains("primitives: 937 drawn"), "{text}");
+        let json = info.json();
+        assert!(json.starts_with("{\"scene\":\"gen.xml\"") && json.contains("\"expanded\":937"), "{json}");
+
+        // Twenty cubes in a row: inner nodes, a binary tree over the twenty.
+        let cubes: String = (0..20)
+            .map(|i| format!(r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#))
+            .collect();
+        let xml = format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#);
+        let file = crate::scene::parse_str(&xml, std::path::Path::new("row.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let data = pack(&scene).unwrap();
+        let t = Info::of("row.xml", &scene, &data).groups[0].tree.clone().expect("a hierarchy");
+        assert_eq!(t.items, 20);
+        assert_eq!(t.nodes, 2 * t.leaves - 1, "a binary tree");
+        assert!(t.depth >= 2 && t.leaves >= 2 && t.sah < 20.0 + f64::from(t.nodes), "{t:?}");
+
+        let file = crate::scene::parse_str(crate::cli::DEFAULT_SCENE, std::path::Path::new("default.xml"), &Default::default()).unwrap();
+        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let data = pack(&scene).unwrap();
+        let info = Info::of("default", &scene, &data);
+        assert!(info.groups.iter().all(|g| g.tree.is_none()));
+        assert!(info.text().contains("hierarchy: none: 5 primitives tested in order"), "{}", info.text());
+    }
+}
