@@ -760,3 +760,38 @@ fn info_describes_scenes() {
     assert_fails(&o, 1, "raycast: info failed: 1 of 2 scenes");
     assert!(text(&o).0.contains("primitives: 5 drawn"), "the good scene is still described: {:?}", text(&o));
 }
+
+/// `render --orbit N`: N pictures named -000 to -(N-1), the first the
+/// scene's own camera (bit-exact against a plain render), the others turned
+/// (different), the CPU build's the same bits (rule: bit-exact); 0 is a
+/// usage error.
+#[test]
+fn orbit_renders_a_turntable() {
+    let small = ["--width", "64", "--height", "48"];
+    let dir = out_dir().join("orbit");
+    let cpu_dir = out_dir().join("orbit-cpu");
+    for d in [&dir, &cpu_dir] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+    let o = raycast(&[&["render", "--orbit", "3", "--out-dir", dir.to_str().unwrap()][..], &small].concat(), &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let mut files = files_in(&dir);
+    files.sort();
+    assert_eq!(files, ["default-000.png", "default-001.png", "default-002.png"]);
+    let o = raycast(&[&["render", "--orbit", "3", "--backend", "cpu", "--out-dir", cpu_dir.to_str().unwrap()][..], &small].concat(), &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let plain = out_dir().join("orbit-plain.png");
+    let o = raycast(&[&["render", "-o", plain.to_str().unwrap()][..], &small].concat(), &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+
+    let read = |p: &Path| raycast::image_io::read_png(p).unwrap_or_else(|e| panic!("{e}"));
+    let differing = |a: &Path, b: &Path| raycast::image_io::compare(&read(a), &read(b), 0).unwrap().differing;
+    assert_eq!(differing(&dir.join("default-000.png"), &plain), 0, "the first picture is the scene's camera");
+    for f in &files {
+        assert_eq!(differing(&dir.join(f), &cpu_dir.join(f)), 0, "{f}: device against the CPU build");
+    }
+    for f in ["default-001.png", "default-002.png"] {
+        assert!(differing(&dir.join(f), &plain) > 100, "{f} is turned");
+    }
+    assert_fails(&raycast(&["render", "--orbit", "0"], &[]), 2, "--orbit 0 is out of range");
+}

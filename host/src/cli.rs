@@ -195,6 +195,27 @@ struct RenderArgs {
     /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
     #[arg(long, value_enum, default_value_t = Backend::Gpu)]
     backend: Backend,
+    /// A turntable: N pictures of each scene, the camera turned 360/N degrees
+    /// further each time about the scene's up through the point it looks at
+    /// (as the preview's orbit), the first the scene's own camera; each
+    /// named as without --orbit with -000, -001, … before `.png`
+    #[arg(long, value_name = "N")]
+    orbit: Option<u32>,
+}
+
+/// Most pictures `render --orbit` takes.
+const MAX_ORBIT: u32 = 10_000;
+
+/// `path` with `-NNN` (`index`, as many digits as `count - 1` needs, at
+/// least 3) before its extension: `spin.png` → `spin-007.png`.
+fn numbered(path: &Path, index: u32, count: u32) -> PathBuf {
+    let digits = (count.saturating_sub(1)).to_string().len().max(3);
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}-{index:0digits$}.{}", ext.to_string_lossy()),
+        None => format!("{stem}-{index:0digits$}"),
+    };
+    path.with_file_name(name)
 }
 
 #[derive(Args, Debug)]
@@ -675,18 +696,45 @@ pub(crate) fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) ->
 
 fn render(args: &RenderArgs) -> Result<(), Failure> {
     cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.render.kernel.shaders)?;
+    if let Some(n) = args.orbit.filter(|n| !(1..=MAX_ORBIT).contains(n)) {
+        return Err(Failure(format!("raycast: error: --orbit {n} is out of range: 1 to {MAX_ORBIT} pictures"), 2));
+    }
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
     let mut backend: Option<RenderBackend> = None;
+    let render_one = |backend: &RenderBackend, p: &Prepared, output: &Path| match backend {
+        RenderBackend::Cpu(cpu) => render_on_cpu(cpu, p, output),
+        RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, p, output),
+    };
     let batch = each_scene(
         &scenes,
         &outputs,
         &args.render,
         &mut backend,
         || open_render_backend(args.backend, &args.render),
-        |backend, p, output| match backend {
-            RenderBackend::Cpu(cpu) => render_on_cpu(cpu, &p, output),
-            RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, &p, output),
+        |backend, mut p, output| {
+            let Some(n) = args.orbit else { return render_one(backend, &p, output) };
+            // Each picture turned from the scene's camera (not from the one
+            // before, which would drift); the first is that camera itself.
+            let home = crate::preview::camera::CameraControl::new(&p.scene.camera, scene::scene_bounds(&p.scene));
+            for k in 0..n {
+                let degrees = 360.0 * f64::from(k) / f64::from(n);
+                let mut turned = home.clone();
+                if k > 0 {
+                    turned.orbit(degrees, 0.0);
+                }
+                frame::set_camera(&mut p.data.frame, &turned.camera);
+                let c = &turned.camera;
+                outln!(
+                    "orbit: picture {} of {n}, turned {degrees:.1}° about the point looked at: eye ({:.4}, {:.4}, {:.4})",
+                    k + 1,
+                    c.pos.x,
+                    c.pos.y,
+                    c.pos.z
+                );
+                render_one(backend, &p, &numbered(output, k, n))?;
+            }
+            Ok(())
         },
     );
     let result = batch.and_then(|batch| batch.failure("").map_or(Ok(()), Err));

@@ -5,7 +5,7 @@
 
 use crate::bvh::{self, Aabb};
 use crate::layout::{self, Mat4, Vec4};
-use crate::scene::{scene_bounds, Bounds, LightKind, Scene, Shape, TextureRef};
+use crate::scene::{scene_bounds, Bounds, Camera, LightKind, Scene, Shape, TextureRef};
 use glam::{DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -293,8 +293,7 @@ fn mat4(m: &DMat4) -> Mat4 {
 /// handout), where w = -look/|look|, u = (up × w)/|up × w|, v = w × u, and
 /// scale⁻¹ = diag(tan(θw/2), tan(θh/2), 1) with θh the scene's height angle
 /// and tan(θw/2) = tan(θh/2)·width/height.
-pub fn world_from_film(scene: &Scene, width: u32, height: u32) -> DMat4 {
-    let cam = &scene.camera;
+pub fn world_from_film(cam: &Camera, width: u32, height: u32) -> DMat4 {
     let w = -cam.look.normalize();
     let u = cam.up.cross(w).normalize();
     let v = w.cross(u);
@@ -304,6 +303,14 @@ pub fn world_from_film(scene: &Scene, width: u32, height: u32) -> DMat4 {
     let rotate = DMat4::from_cols(u.extend(0.0), v.extend(0.0), w.extend(0.0), DVec4::W);
     let scale_inv = DMat4::from_scale(DVec3::new(tan_w, tan_h, 1.0));
     translate * rotate * scale_inv
+}
+
+/// `frame` seen through `camera`: its world_from_film (for the frame's
+/// width and height) and eye, each element computed in f64 and rounded to
+/// f32, as `build` makes them for a scene with that camera.
+pub fn set_camera(frame: &mut layout::Frame, camera: &Camera) {
+    frame.world_from_film = mat4(&world_from_film(camera, frame.width, frame.height));
+    frame.eye = vec4(camera.pos, 1.0);
 }
 
 /// Packs `scene` for rendering with `settings`. With textures on, loads
@@ -397,9 +404,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
     if settings.textures {
         flags |= layout::FLAG_TEXTURES;
     }
-    let frame = layout::Frame {
-        world_from_film: mat4(&world_from_film(scene, settings.width, settings.height)),
-        eye: vec4(scene.camera.pos, 1.0),
+    let mut frame = layout::Frame {
         k: [g.ka, g.kd, g.ks, g.kt],
         width: settings.width,
         height: settings.height,
@@ -427,6 +432,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         loop_canary: layout::LOOP_CANARY,
         ..layout::Frame::default()
     };
+    set_camera(&mut frame, &scene.camera);
     Ok(FrameData {
         frame,
         primitives: packed.primitives,
@@ -867,7 +873,7 @@ mod tests {
             height_angle_deg: 90.0,
             ..Camera::default()
         };
-        let m = world_from_film(&scene_with_camera(cam), 200, 100);
+        let m = world_from_film(&cam, 200, 100);
         // Looking down -z with y up: u = +x, v = +y, w = +z. V = 2, U = 4.
         let p = m.transform_point3(DVec3::new(1.0, 1.0, -1.0));
         let expect = DVec3::new(1.0 + 2.0, 2.0 + 1.0, 3.0 - 1.0);

@@ -510,15 +510,10 @@ impl Preview {
         let [w, h] = self.renderer.size();
         let [w, h] = [w.div_ceil(scale), h.div_ceil(scale)];
         let mut f = self.data.frame;
-        std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
-        let world_from_film = frame::world_from_film(&self.scene, w, h);
-        std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
-        // As frame::build: f64 to f32 per element.
-        f.world_from_film = world_from_film.to_cols_array_2d().map(|c| c.map(|x| x as f32));
-        let eye = self.camera.camera.pos;
-        f.eye = [eye.x as f32, eye.y as f32, eye.z as f32, 1.0];
         f.width = w;
         f.height = h;
+        frame::set_camera(&mut f, &self.camera.camera);
+        let eye = self.camera.camera.pos;
         f.aov = self.aov.code();
         // As frame::build's for the scene's camera: the depth AOV's range from this one.
         f.aov_scale = frame::aov_scale(frame::depth_range(self.bounds, eye), frame::COST_MAX);
@@ -801,9 +796,7 @@ impl Preview {
             return Ok(());
         };
         // The ray through the pixel centre, as camera_ray in raycast.glsl (in f64, for the report).
-        std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
-        let world_from_film = frame::world_from_film(&self.scene, w, h);
-        std::mem::swap(&mut self.scene.camera, &mut self.camera.camera);
+        let world_from_film = frame::world_from_film(&self.camera.camera, w, h);
         let x = ((f64::from(j) + 0.5) / f64::from(w)) * 2.0 - 1.0;
         let y = 1.0 - ((f64::from(i) + 0.5) / f64::from(h)) * 2.0;
         let dir = world_from_film.transform_vector3(DVec3::new(x, y, -1.0));
