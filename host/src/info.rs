@@ -231,7 +231,11 @@ impl Info {
         let total: u64 = self.buffers.iter().map(|(_, b)| b).sum();
         let parts: Vec<String> =
             self.buffers.iter().filter(|(_, b)| *b > 0).map(|(what, b)| format!("{what} {}", fmt_bytes(*b))).collect();
-        out += &format!("  buffers: {} in all: {}\n", fmt_bytes(total), parts.join(", "));
+        if parts.is_empty() {
+            out += "  buffers: none (nothing to upload)\n";
+        } else {
+            out += &format!("  buffers: {} in all: {}\n", fmt_bytes(total), parts.join(", "));
+        }
         out += &format!("  kernel of a default render: {}\n", self.kernel);
         for n in &self.notes {
             out += &format!("  note: {n}\n");
