@@ -260,7 +260,9 @@ struct Light {
 };
 
 struct PixelOut {
-    vec4 normal; // world-space unit normal; 0 on a miss
+    vec4 normal; // xyz: world-space unit normal, 0 on a miss; w: the camera
+                 // ray's walk passes in an AOV other than colour (kernels
+                 // with HAS_AOVS: raycast.glsl SceneHit.passes), 0 in colour
     float t;     // ray parameter of the nearest hit (ray direction not unit); 0 on a miss
     uint id;     // index of the primitive hit, NO_HIT on a miss
     uint rgba;   // 8-bit RGBA, R in the low byte

@@ -1301,12 +1301,15 @@ PixelOut pixel_out(SceneHit hit, vec3 color, uint rays) {
     PixelOut o;
     o.rays = rays;
     o.rgba = pack_rgba8(color);
+    // w: the walk's passes, hit or miss, in an AOV other than colour (a
+    // colour kernel leaves their count out; the CPU build counts them anyway).
+    precise float passes = (frame.aov != AOV_COLOR) ? float(hit.passes) : 0.0f;
     if (hit.id == NO_HIT) {
-        o.normal = vec4(0.0f, 0.0f, 0.0f, 0.0f);
+        o.normal = vec4(0.0f, 0.0f, 0.0f, passes);
         o.t = 0.0f;
         o.id = NO_HIT;
     } else {
-        o.normal = vec4(hit.normal, 0.0f);
+        o.normal = vec4(hit.normal, passes);
         o.t = hit.t;
         o.id = hit.id;
     }

@@ -539,6 +539,8 @@ fn render_settings_out_of_range() {
     assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "0,NaN"], &[]), 1, "--depth-range 0,NaN is out of range");
     assert_fails(&raycast(&["render", "--depth-range", "1,2"], &[]), 1, "--depth-range is for --aov depth");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "0"], &[]), 1, "--cost-max 0 is out of range");
+    let o = raycast(&["render", "--aov", "cost", "--width", "32", "--height", "24", "-o", out_dir().join("cost.png").to_str().unwrap()], &[]);
+    assert!(text(&o).0.contains("cost: a camera ray's walk takes "), "{:?}", text(&o));
     assert_fails(&raycast(&["render", "--aov", "depth", "--cost-max", "9"], &[]), 1, "--cost-max is for --aov cost");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "many"], &[]), 2, "invalid value 'many'");
 }

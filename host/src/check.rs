@@ -106,10 +106,14 @@ pub fn compare(a: &Picture, a_name: &str, b: &Picture, b_name: &str) -> Result<C
             note(&mut id, x, y, hex_text(pa.id), hex_text(pb.id), None);
             any = true;
         }
-        let n_differs = (0..3).any(|c| pa.normal[c].to_bits() != pb.normal[c].to_bits());
+        // xyz the normal, w the walk's passes (layout.h PixelOut).
+        let n_differs = (0..4).any(|c| pa.normal[c].to_bits() != pb.normal[c].to_bits());
         if n_differs {
-            let worst_c = (0..3).max_by_key(|&c| ulp_distance(pa.normal[c], pb.normal[c])).unwrap_or(0);
-            let fmt = |p: &PixelOut| format!("[{}, {}, {}]", float_text(p.normal[0]), float_text(p.normal[1]), float_text(p.normal[2]));
+            let worst_c = (0..4).max_by_key(|&c| ulp_distance(pa.normal[c], pb.normal[c])).unwrap_or(0);
+            let fmt = |p: &PixelOut| {
+                let [x, y, z, w] = p.normal.map(float_text);
+                if p.normal[3] == 0.0 { format!("[{x}, {y}, {z}]") } else { format!("[{x}, {y}, {z}], passes {w}") }
+            };
             note(&mut normal, x, y, fmt(pa), fmt(pb), Some(ulp_distance(pa.normal[worst_c], pb.normal[worst_c])));
             any = true;
         }

@@ -546,6 +546,14 @@ fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure>
     Ok(())
 }
 
+/// The rate line, and with the cost AOV what the walks took.
+fn print_rates(data: &FrameData, picture: &Picture, time: Duration) {
+    outln!("{}", rate_line(data, picture, time));
+    if data.frame.aov == crate::layout::AOV_COST {
+        outln!("{}", picture.passes_text());
+    }
+}
+
 /// Camera rays (width x height x spp) and every ray the pixels counted, per second of `time`.
 fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> String {
     let f = &data.frame;
@@ -760,7 +768,7 @@ fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<(), F
     let picture = cpu.render(&p.data)?;
     let time = start.elapsed();
     outln!("time: load {}, render {}", ms(p.load), ms(time));
-    outln!("{}", rate_line(&p.data, &picture, time));
+    print_rates(&p.data, &picture, time);
     write_picture(output, &picture)
 }
 
@@ -802,7 +810,7 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
             crate::units::fmt_bytes(renderer.context().max_storage_bytes())
         );
     }
-    outln!("{}", rate_line(&p.data, &picture, t.dispatch));
+    print_rates(&p.data, &picture, t.dispatch);
     print_kernel(renderer, &p.data)?;
     write_picture(output, &picture)
 }

@@ -285,7 +285,8 @@ mod tests {
     /// written here), misses included, one for a ray that meets no box;
     /// without the hierarchy's boxes no
     /// pixel's walk is shorter and the picture's is longer; with
-    /// --cost-max 1 every walk of a pass or more is dark red. Rules, exact.
+    /// --cost-max 1 every walk of a pass or more is dark red; PixelOut.normal's
+    /// w holds the same counts. Rules, exact.
     #[test]
     fn cost_aov_counts_the_walk() {
         use crate::frame::{build, Aov, RenderSettings};
@@ -323,8 +324,13 @@ mod tests {
                 })
                 .collect()
         };
-        let with = passes(&render(true, None));
+        let picture = render(true, None);
+        let with = passes(&picture);
         let without = passes(&render(false, None));
+        // The passes also come back as numbers (PixelOut.normal's w), the same as the colours say.
+        let counted: Vec<u32> = picture.pixels.iter().map(|p| p.normal[3] as u32).collect();
+        assert_eq!(counted, with, "normal.w against the colours");
+        assert!(picture.passes_text().contains(&format!("most {}", with.iter().max().unwrap())), "{}", picture.passes_text());
         assert!(with.iter().all(|&n| n >= 1), "every camera ray walks a pass or more");
         // The top-left pixel looks above the row: its walk pops the root,
         // meets neither child's box, and ends.

@@ -129,6 +129,8 @@ pub struct Light {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct PixelOut {
+    /// xyz the world normal; w the camera ray's walk passes in an AOV other
+    /// than colour, 0 in colour (layout.h).
     pub normal: Vec4,
     pub t: f32,
     pub id: u32,

@@ -67,6 +67,26 @@ impl Picture {
         Ok(out)
     }
 
+    /// The camera rays' walk passes of a render in an AOV other than colour
+    /// (PixelOut.normal's w), for people: their mean, median, 90th and 99th
+    /// percentiles and the most, with its pixel.
+    pub fn passes_text(&self) -> String {
+        let mut passes: Vec<u32> = self.pixels.iter().map(|p| p.normal[3] as u32).collect();
+        let Some((most_at, &most)) = passes.iter().enumerate().max_by_key(|&(i, &n)| (n, std::cmp::Reverse(i))) else {
+            return "cost: no pixels".to_string();
+        };
+        let mean = passes.iter().map(|&n| f64::from(n)).sum::<f64>() / passes.len() as f64;
+        passes.sort_unstable();
+        let at = |q: usize| passes[(passes.len() - 1) * q / 100];
+        let (x, y) = (most_at % self.width as usize, most_at / self.width as usize);
+        format!(
+            "cost: a camera ray's walk takes {mean:.2} passes on average: median {}, 90% at most {}, 99% at most {}, most {most} (pixel ({x}, {y}))",
+            at(50),
+            at(90),
+            at(99)
+        )
+    }
+
     /// Every ray the frame traced (camera, shadow and mirror): the sum of the pixels' counts.
     pub fn rays(&self) -> u64 {
         self.pixels.iter().map(|p| u64::from(p.rays)).sum()
