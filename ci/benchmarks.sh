@@ -23,6 +23,11 @@
 #                                       the preview's frame rate while the camera turns
 #                                       (`raycast preview --frames 12 --moving 11` under
 #                                       xvfb-run): the steering resolution and its rate.
+#   ci/benchmarks.sh passes SCENE...
+#                                       `build/raycast render SCENE --aov cost --backend cpu`:
+#                                       the passes of each camera ray's walk through the
+#                                       hierarchy (mean, median, 90th and 99th percentiles,
+#                                       most), against ln N. Counts, not times: any machine.
 #   ci/benchmarks.sh checks [--device NAME] SCENE...
 #                                       `build/raycast check` per scene: how many pixels
 #                                       differ between the device and the CPU build, per
@@ -117,6 +122,31 @@ preview_rates() {
   rm -rf "$tmp"
 }
 
+passes() {
+  local tmp s file out n first ratio
+  tmp="$(mktemp -d)"
+  echo "\`ci/benchmarks.sh passes $*\`: \`$RAYCAST render SCENE --assets $CORPUS --aov cost --backend cpu\` (512x384, one camera ray a pixel): the passes of each camera ray's walk (a pass: an inner node's two boxes, an instance entered, or a leaf's tests; README, \"--aov cost\"), the same counts on any device."
+  echo
+  echo "| scene | primitives N | ln N / ln N0 | mean passes | mean / first | median | 90% at most | 99% at most | most |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+  first="" n0=""
+  for s in "$@"; do
+    file="$s"
+    if [[ "$s" == gen:* ]]; then
+      IFS=: read -r _ family depth <<<"$s"
+      file="$tmp/$family-$depth.xml"
+      "$RAYCAST" gen "$family" --depth "$depth" -o "$file" >/dev/null 2>&1
+    fi
+    out="$("$RAYCAST" render "$file" --assets "$CORPUS" --aov cost --backend cpu -o "$tmp/cost.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+    n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
+    read -r mean median p90 p99 most <<<"$(sed -n 's/^cost: a camera ray.s walk takes \([0-9.]*\) passes on average: median \([0-9]*\), 90% at most \([0-9]*\), 99% at most \([0-9]*\), most \([0-9]*\).*/\1 \2 \3 \4 \5/p' <<<"$out")"
+    [ -n "$first" ] || { first="$mean"; n0="$n"; }
+    ratio="$(awk -v n="$n" -v n0="$n0" 'BEGIN { printf "%.2f", log(n) / log(n0) }')"
+    echo "| ${s##*/} | $(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n") | $ratio | $mean | $(awk -v m="$mean" -v f="$first" 'BEGIN { printf "%.2f", m / f }') | $median | $p90 | $p99 | $most |"
+  done
+  rm -rf "$tmp"
+}
+
 checks() {
   local dev=() tmp s out any b n cells worst
   if [ "${1:-}" = --device ]; then dev=(--device "$2"); shift 2; fi
@@ -154,6 +184,7 @@ case "${1:-}" in
   machine) machine; exit ;;
   wall) shift; wall "$@"; exit ;;
   checks) shift; checks "$@"; exit ;;
+  passes) shift; passes "$@"; exit ;;
   preview) shift; preview_rates "$@"; exit ;;
 esac
 
