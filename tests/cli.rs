@@ -797,3 +797,17 @@ fn orbit_renders_a_turntable() {
     }
     assert_fails(&raycast(&["render", "--orbit", "0"], &[]), 2, "--orbit 0 is out of range");
 }
+
+/// `render` and `check` take generated scenes by name, as `bench` and
+/// `info` do (`gen:FAMILY:DEPTH`), the picture named after them; a bad
+/// name says what a good one is.
+#[test]
+fn generated_scenes_by_name() {
+    let cwd = out_dir().join("gen-by-name");
+    let o = raycast_in(&cwd, &["render", "gen:recursive-cones:2", "--no-textures", "--width", "32", "--height", "24", "--backend", "cpu"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert_eq!(files_in(&cwd), ["recursive-cones-2.png"]);
+    let o = raycast(&["check", "gen:recursive-spheres:3", "--no-textures", "--width", "32", "--height", "24"], &[]);
+    assert!(o.status.success() && text(&o).0.contains("identical"), "{:?}", text(&o));
+    assert_fails(&raycast(&["render", "gen:recursive-cones:99"], &[]), 1, "a generated scene is gen:FAMILY:DEPTH");
+}

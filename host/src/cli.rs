@@ -465,9 +465,19 @@ fn ms(d: Duration) -> String {
     format!("{:.1} ms", d.as_secs_f64() * 1e3)
 }
 
-/// Loads the scene file, or the embedded default scene when `path` is None.
-/// Prints the scene's warnings to stderr.
+/// Loads the scene file, or the embedded default scene when `path` is None,
+/// or a generated one (`gen:FAMILY:DEPTH`, as `bench` and `info` take it)
+/// where no file has that name. Prints the scene's warnings to stderr.
 pub fn load_scene(path: Option<&Path>, opts: &ParseOptions, limits: &FlattenLimits) -> Result<Scene, String> {
+    let generated = path.filter(|p| !p.exists()).and_then(|p| p.to_str()).filter(|n| crate::gen::parse_scene_name(n).is_some());
+    if let Some(name) = generated {
+        let file = crate::bench::parse_scene(Some(name), opts)?;
+        let scene = scene::flatten(&file, limits).map_err(|e| e.to_string())?;
+        for w in &scene.warnings {
+            errln!("{w}");
+        }
+        return Ok(scene);
+    }
     let scene = match path {
         Some(p) => scene::load(p, opts, limits),
         None => scene::parse_str(DEFAULT_SCENE, Path::new(DEFAULT_SCENE_NAME), opts)
@@ -505,6 +515,8 @@ fn prepare(scene: Option<&Path>, o: &RenderOptions) -> Result<Prepared, Failure>
 /// or in the current folder.
 fn default_output(scene: Option<&Path>, suffix: &str, dir: Option<&Path>) -> PathBuf {
     let stem = scene.and_then(|s| s.file_stem()).map(|s| s.to_string_lossy().into_owned());
+    // gen:recursive-spheres:6 → recursive-spheres-6.
+    let stem = stem.map(|s| s.strip_prefix("gen:").map_or(s.clone(), |g| g.replace(':', "-")));
     let name = format!("{}{suffix}.png", stem.as_deref().unwrap_or("default"));
     dir.map_or_else(|| PathBuf::from(&name), |d| d.join(&name))
 }
