@@ -123,7 +123,7 @@ preview_rates() {
 }
 
 passes() {
-  local tmp s file out n first ratio
+  local tmp s out n first ratio
   tmp="$(mktemp -d)"
   echo "\`ci/benchmarks.sh passes $*\`: \`$RAYCAST render SCENE --assets $CORPUS --aov cost --backend cpu\` (512x384, one camera ray a pixel): the passes of each camera ray's walk (a pass: an inner node's two boxes, an instance entered, or a leaf's tests; README, \"--aov cost\"), the same counts on any device."
   echo
@@ -131,13 +131,8 @@ passes() {
   echo "|---|---|---|---|---|---|---|---|---|"
   first="" n0=""
   for s in "$@"; do
-    file="$s"
-    if [[ "$s" == gen:* ]]; then
-      IFS=: read -r _ family depth <<<"$s"
-      file="$tmp/$family-$depth.xml"
-      "$RAYCAST" gen "$family" --depth "$depth" -o "$file" >/dev/null 2>&1
-    fi
-    out="$("$RAYCAST" render "$file" --assets "$CORPUS" --aov cost --backend cpu -o "$tmp/cost.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+    # render takes gen:FAMILY:DEPTH names itself.
+    out="$("$RAYCAST" render "$s" --assets "$CORPUS" --aov cost --backend cpu -o "$tmp/cost.png" 2>&1)" || { echo "$out" >&2; exit 1; }
     n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
     read -r mean median p90 p99 most <<<"$(sed -n 's/^cost: a camera ray.s walk takes \([0-9.]*\) passes on average: median \([0-9]*\), 90% at most \([0-9]*\), 99% at most \([0-9]*\), most \([0-9]*\).*/\1 \2 \3 \4 \5/p' <<<"$out")"
     [ -n "$first" ] || { first="$mean"; n0="$n"; }
