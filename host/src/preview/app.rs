@@ -238,7 +238,7 @@ struct Preview {
     device: String,
     /// The picture stays at the size asked for (screenshots): the window is not resizable.
     fixed_size: bool,
-    /// What the window shows (Frame.aov, keys 1 to 4).
+    /// What the window shows (Frame.aov, keys 1 to 5).
     aov: Aov,
     shadows: bool,
     reflections: bool,
