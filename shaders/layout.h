@@ -109,6 +109,7 @@
 #define AOV_DEPTH 2u  // grey by distance along the camera ray (Frame.aov_scale xy); black on a miss
 #define AOV_ID 3u     // a colour per primitive id; black on a miss
 #define AOV_COST 4u   // the camera ray's walk: its passes on a heat scale (Frame.aov_scale z), hit or miss
+#define AOV_COST_ALL 5u // every ray of the pixel (camera, shadow, mirror) traced as in colour: their walks' passes summed, on the same scale
 
 // Frame.flags
 #define FLAG_SHADOWS 1u

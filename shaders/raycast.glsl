@@ -1170,9 +1170,13 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     precise vec3 color = vec3(0.0f, 0.0f, 0.0f);
     precise vec3 pending = vec3(0.0f, 0.0f, 0.0f);
     uint li = 0u;
+    uint passes = 0u; // every walk's, for AOV_COST_ALL
     while (true) {
         SceneHit h = walk(next, next_t_max, shadow);
         s.rays = s.rays + 1u;
+        if (HAS_AOVS) {
+            passes = passes + h.passes;
+        }
         if (shadow) {
             if (h.id == NO_HIT) {
                 color = color + pending;
@@ -1183,8 +1187,9 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
                 s.hit = h;
             }
             // The AOVs other than colour: the first hit's, black on a miss
-            // but for the cost, which a miss has too.
-            if (HAS_AOVS && frame.aov != AOV_COLOR && (h.id != NO_HIT || frame.aov == AOV_COST)) {
+            // but for the cost, which a miss has too. AOV_COST_ALL goes on
+            // as colour does, its picture made at the end.
+            if (HAS_AOVS && frame.aov != AOV_COLOR && frame.aov != AOV_COST_ALL && (h.id != NO_HIT || frame.aov == AOV_COST)) {
                 s.color = aov_color(frame.aov, ray, h);
                 break;
             }
@@ -1263,6 +1268,12 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             }
         }
         s.color = c;
+    }
+    if (HAS_AOVS && frame.aov == AOV_COST_ALL) {
+        // Every ray's walk, on the cost's scale; PixelOut.normal's w gets the
+        // same sum (pixel_out writes the hit's passes).
+        s.color = heat_color(div_rn(float(passes), frame.aov_scale.z));
+        s.hit.passes = passes;
     }
     return s;
 }

@@ -130,11 +130,12 @@ fn main() -> ExitCode {
             variants.push((512, 384, Aov::Color, 4, TextureFilter::Bilinear));
         }
         // The depth AOV (its default range, from the scene's bounds) with
-        // two samples summed, and the id and cost AOVs, small (one kernel:
-        // SPEC_AOVS).
+        // two samples summed, and the id and both cost AOVs, small (one
+        // kernel: SPEC_AOVS).
         variants.push((128, 96, Aov::Depth, 2, TextureFilter::Nearest));
         variants.push((128, 96, Aov::Id, 1, TextureFilter::Nearest));
         variants.push((128, 96, Aov::Cost, 1, TextureFilter::Nearest));
+        variants.push((128, 96, Aov::CostAll, 1, TextureFilter::Nearest));
         {
             // The hierarchy changes nothing: CPU with and without it.
             let label = format!("{name} Color 256x192 --no-bvh");

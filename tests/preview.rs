@@ -140,12 +140,12 @@ fn first_frame_of_corpus_scenes_is_the_render() {
     }
 }
 
-/// The normal, depth, id and cost AOVs (`--aov`; keys 2 to 5 in the window):
+/// The normal, depth, id and both cost AOVs (`--aov`; keys 2 to 6 in the window):
 /// the same pictures as `raycast render --aov`, the depth AOV's range from
 /// the same camera.
 #[test]
 fn first_frame_in_each_aov_is_the_render() {
-    for aov in ["normal", "depth", "id", "cost"] {
+    for aov in ["normal", "depth", "id", "cost", "cost-all"] {
         assert_first_frame_is_the_render(None, [96, 64], &format!("default-{aov}"), &[], &["--aov", aov]);
     }
 }

@@ -65,14 +65,15 @@ pub struct RenderOptions {
     /// (black on a miss), its normal, its distance (grey, white when near:
     /// `--depth-range`) or its primitive (a colour each); or what the
     /// camera ray's walk through the hierarchy cost (its passes, dark blue
-    /// to dark red: `--cost-max`)
+    /// to dark red: `--cost-max`), or what all the pixel's rays cost
+    /// (camera, shadow and mirror: cost-all)
     #[arg(long, value_enum, default_value_t = AovArg::Color)]
     pub aov: AovArg,
     /// With `--aov depth`: the distances from the eye drawn white and black
     /// [default: the scene's bounding sphere, nearest to farthest]
     #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range)]
     pub depth_range: Option<[f32; 2]>,
-    /// With `--aov cost`: the passes drawn dark red (and beyond) [default: 64]
+    /// With `--aov cost` or `cost-all`: the passes drawn dark red (and beyond) [default: 64, cost-all 256]
     #[arg(long, value_name = "N")]
     pub cost_max: Option<u32>,
     /// Turn shadow rays off.
@@ -371,6 +372,7 @@ pub enum AovArg {
     Depth,
     Id,
     Cost,
+    CostAll,
 }
 
 impl From<AovArg> for Aov {
@@ -381,6 +383,7 @@ impl From<AovArg> for Aov {
             AovArg::Depth => Aov::Depth,
             AovArg::Id => Aov::Id,
             AovArg::Cost => Aov::Cost,
+            AovArg::CostAll => Aov::CostAll,
         }
     }
 }
@@ -561,8 +564,10 @@ fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure>
 /// The rate line, and with the cost AOV what the walks took.
 fn print_rates(data: &FrameData, picture: &Picture, time: Duration) {
     outln!("{}", rate_line(data, picture, time));
-    if data.frame.aov == crate::layout::AOV_COST {
-        outln!("{}", picture.passes_text());
+    match data.frame.aov {
+        crate::layout::AOV_COST => outln!("{}", picture.passes_text("a camera ray's walk takes")),
+        crate::layout::AOV_COST_ALL => outln!("{}", picture.passes_text("a pixel's rays walk")),
+        _ => {}
     }
 }
 

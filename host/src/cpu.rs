@@ -222,6 +222,12 @@ mod tests {
         crate::scene::flatten(&file, &crate::scene::FlattenLimits { max_primitives: 10 }).unwrap()
     }
 
+    /// raycast.glsl heat_color, quantised as pack_rgba8, as written here.
+    fn heat(x: f32) -> [u8; 3] {
+        let s = 4.0 * x.clamp(0.0, 1.0);
+        [3.0f32, 2.0, 1.0].map(|c| ((1.5 - (s - c).abs()).clamp(0.0, 1.0) * 255.0).floor() as u8)
+    }
+
     fn rgb(p: &crate::layout::PixelOut) -> [u8; 3] {
         let b = p.rgba.to_le_bytes();
         [b[0], b[1], b[2]]
@@ -307,10 +313,6 @@ mod tests {
             settings.validate().unwrap();
             renderer.render(&build(&scene, &settings).unwrap()).unwrap()
         };
-        let heat = |x: f32| -> [u8; 3] {
-            let s = 4.0 * x.clamp(0.0, 1.0);
-            [3.0f32, 2.0, 1.0].map(|c| ((1.5 - (s - c).abs()).clamp(0.0, 1.0) * 255.0).floor() as u8)
-        };
         let max = 64u32;
         let passes = |picture: &crate::render::Picture| -> Vec<u32> {
             picture
@@ -330,7 +332,7 @@ mod tests {
         // The passes also come back as numbers (PixelOut.normal's w), the same as the colours say.
         let counted: Vec<u32> = picture.pixels.iter().map(|p| p.normal[3] as u32).collect();
         assert_eq!(counted, with, "normal.w against the colours");
-        assert!(picture.passes_text().contains(&format!("most {}", with.iter().max().unwrap())), "{}", picture.passes_text());
+        assert!(picture.passes_text("x").contains(&format!("most {}", with.iter().max().unwrap())), "{}", picture.passes_text("x"));
         assert!(with.iter().all(|&n| n >= 1), "every camera ray walks a pass or more");
         // The top-left pixel looks above the row: its walk pops the root,
         // meets neither child's box, and ends.
@@ -341,5 +343,31 @@ mod tests {
         assert!(b > a, "without the boxes the walks are longer: {b} passes against {a}");
         let one = render(true, Some(1));
         assert!(one.pixels.iter().all(|p| rgb(p) == [127, 0, 0]), "--cost-max 1: every pixel dark red");
+    }
+
+    /// The cost of all a pixel's rays (AOV_COST_ALL): without shadows and
+    /// mirrors it is the camera ray's alone, pixel for pixel; with shadows
+    /// never less, and more where a shadow ray is traced; its colour is
+    /// heat(total / 256) of the total in PixelOut.normal's w. Rules, exact.
+    #[test]
+    fn cost_all_sums_every_rays_walk() {
+        use crate::frame::{build, Aov, RenderSettings};
+        let renderer = CpuRenderer::new().unwrap();
+        let scene = two_spheres();
+        let render = |aov: Aov, shadows: bool| {
+            let settings = RenderSettings { width: 33, height: 33, aov, shadows, ..RenderSettings::default() };
+            renderer.render(&build(&scene, &settings).unwrap()).unwrap()
+        };
+        let w = |p: &crate::render::Picture| p.pixels.iter().map(|p| p.normal[3] as u32).collect::<Vec<u32>>();
+        let camera = w(&render(Aov::Cost, true));
+        assert_eq!(w(&render(Aov::CostAll, false)), camera, "no shadow rays, no mirrors: the camera ray's walk alone");
+        let all = render(Aov::CostAll, true);
+        let totals = w(&all);
+        assert!(totals.iter().zip(&camera).all(|(t, c)| t >= c), "a pixel's rays walk no less than its camera ray");
+        let more = totals.iter().zip(&camera).filter(|(t, c)| t > c).count();
+        assert!(more > 0, "shadow rays walk too");
+        for (i, p) in all.pixels.iter().enumerate() {
+            assert_eq!(rgb(p), heat(totals[i] as f32 / 256.0), "pixel {i}: total {}", totals[i]);
+        }
     }
 }

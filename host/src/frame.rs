@@ -40,6 +40,9 @@ pub enum Aov {
     /// on a heat scale, dark blue for none, dark red from
     /// `RenderSettings::cost_max` on; misses too.
     Cost,
+    /// What every ray of the pixel cost (camera, shadow and mirror rays,
+    /// traced as in colour): their walks' passes summed, on the same scale.
+    CostAll,
 }
 
 impl Aov {
@@ -51,6 +54,7 @@ impl Aov {
             Aov::Depth => "depth",
             Aov::Id => "id",
             Aov::Cost => "cost",
+            Aov::CostAll => "cost-all",
         }
     }
 
@@ -62,6 +66,16 @@ impl Aov {
             Aov::Depth => layout::AOV_DEPTH,
             Aov::Id => layout::AOV_ID,
             Aov::Cost => layout::AOV_COST,
+            Aov::CostAll => layout::AOV_COST_ALL,
+        }
+    }
+
+    /// The passes drawn hottest when `--cost-max` is not given: a camera
+    /// ray's walk is a few passes, a pixel's rays in all several times that.
+    pub fn default_cost_max(self) -> u32 {
+        match self {
+            Aov::CostAll => 4 * COST_MAX,
+            _ => COST_MAX,
         }
     }
 }
@@ -76,7 +90,7 @@ pub fn depth_range(bounds: Option<Bounds>, eye: DVec3) -> [f32; 2] {
     [(d - r).max(0.0) as f32, (d + r).max(1e-3) as f32]
 }
 
-/// The cost AOV's passes drawn hottest when none is given.
+/// The cost AOV's passes drawn hottest when none is given (`Aov::default_cost_max`).
 pub const COST_MAX: u32 = 64;
 
 /// Frame.aov_scale: the depth AOV's distances drawn white and black, the
@@ -115,7 +129,8 @@ pub struct RenderSettings {
     /// Aov::Depth: the distances drawn white and black; None for the
     /// scene's bounding sphere seen from the camera (`depth_range`).
     pub depth_range: Option<[f32; 2]>,
-    /// Aov::Cost: the passes drawn at the hot end; None for `COST_MAX`.
+    /// Aov::Cost and CostAll: the passes drawn at the hot end; None for
+    /// `Aov::default_cost_max`.
     pub cost_max: Option<u32>,
 }
 
@@ -173,8 +188,8 @@ impl RenderSettings {
             return Err(SettingsError("--depth-range is for --aov depth; this render is not one".to_string()));
         }
         match self.cost_max {
-            Some(_) if self.aov != Aov::Cost => {
-                return Err(SettingsError("--cost-max is for --aov cost; this render is not one".to_string()))
+            Some(_) if !matches!(self.aov, Aov::Cost | Aov::CostAll) => {
+                return Err(SettingsError("--cost-max is for --aov cost or cost-all; this render is neither".to_string()))
             }
             Some(n) if n == 0 || n > MAX_COST => {
                 return Err(SettingsError(format!("--cost-max {n} is out of range: between 1 and {MAX_COST} passes")))
@@ -418,7 +433,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
                 (Aov::Depth, None) => depth_range(scene_bounds(scene), scene.camera.pos),
                 _ => [0.0; 2],
             },
-            settings.cost_max.unwrap_or(COST_MAX),
+            settings.cost_max.unwrap_or(settings.aov.default_cost_max()),
         ),
         flags,
         max_depth: settings.max_depth,

@@ -67,10 +67,11 @@ impl Picture {
         Ok(out)
     }
 
-    /// The camera rays' walk passes of a render in an AOV other than colour
-    /// (PixelOut.normal's w), for people: their mean, median, 90th and 99th
-    /// percentiles and the most, with its pixel.
-    pub fn passes_text(&self) -> String {
+    /// The walk passes of a render in an AOV other than colour
+    /// (PixelOut.normal's w: the camera ray's, or with AOV_COST_ALL all the
+    /// pixel's rays'), for people, after `what`: their mean, median, 90th
+    /// and 99th percentiles and the most, with its pixel.
+    pub fn passes_text(&self, what: &str) -> String {
         let mut passes: Vec<u32> = self.pixels.iter().map(|p| p.normal[3] as u32).collect();
         let Some((most_at, &most)) = passes.iter().enumerate().max_by_key(|&(i, &n)| (n, std::cmp::Reverse(i))) else {
             return "cost: no pixels".to_string();
@@ -80,7 +81,7 @@ impl Picture {
         let at = |q: usize| passes[(passes.len() - 1) * q / 100];
         let (x, y) = (most_at % self.width as usize, most_at / self.width as usize);
         format!(
-            "cost: a camera ray's walk takes {mean:.2} passes on average: median {}, 90% at most {}, 99% at most {}, most {most} (pixel ({x}, {y}))",
+            "cost: {what} {mean:.2} passes on average: median {}, 90% at most {}, 99% at most {}, most {most} (pixel ({x}, {y}))",
             at(50),
             at(90),
             at(99)
@@ -632,7 +633,7 @@ mod tests {
              mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs"
         );
         // An AOV other than colour keeps its code.
-        for aov in [Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost] {
+        for aov in [Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost, Aov::CostAll] {
             let d = data(rich, &RenderSettings { aov, ..RenderSettings::default() });
             assert!(on(Specialization::of(&d, &d.frame)).contains(&layout::SPEC_AOVS), "{aov:?}");
         }

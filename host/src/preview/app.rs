@@ -50,7 +50,7 @@ preview controls:
   Q E             fly down, up
   R               back to the scene's camera   F             frame the whole scene
   C               print the camera as a <cameradata> block
-  1 2 3 4 5       show colour, normal, depth, object id, walk cost
+  1 to 6          show colour, normal, depth, object id, walk cost (camera ray, all rays)
   H M T           toggle shadows, mirror reflections, textures
   F1              this help                    Esc           quit";
 
@@ -238,7 +238,7 @@ struct Preview {
     device: String,
     /// The picture stays at the size asked for (screenshots): the window is not resizable.
     fixed_size: bool,
-    /// What the window shows (Frame.aov, keys 1 to 5).
+    /// What the window shows (Frame.aov, keys 1 to 6).
     aov: Aov,
     shadows: bool,
     reflections: bool,
@@ -516,7 +516,7 @@ impl Preview {
         let eye = self.camera.camera.pos;
         f.aov = self.aov.code();
         // As frame::build's for the scene's camera: the depth AOV's range from this one.
-        f.aov_scale = frame::aov_scale(frame::depth_range(self.bounds, eye), frame::COST_MAX);
+        f.aov_scale = frame::aov_scale(frame::depth_range(self.bounds, eye), self.aov.default_cost_max());
         f.flags = (if self.shadows { layout::FLAG_SHADOWS } else { 0 })
             | (if self.reflections { layout::FLAG_REFLECTIONS } else { 0 })
             | (if self.textures { layout::FLAG_TEXTURES } else { 0 });
@@ -667,6 +667,7 @@ impl Preview {
             Key::Num3 | Key::Kp3 => Some(Aov::Depth),
             Key::Num4 | Key::Kp4 => Some(Aov::Id),
             Key::Num5 | Key::Kp5 => Some(Aov::Cost),
+            Key::Num6 | Key::Kp6 => Some(Aov::CostAll),
             _ => None,
         };
         if let Some(a) = aov {

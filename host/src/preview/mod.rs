@@ -59,9 +59,10 @@ pub struct PreviewArgs {
     /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,
-    /// What the window shows at first (1 to 5 switch): the shaded colour,
+    /// What the window shows at first (1 to 6 switch): the shaded colour,
     /// or the first hit's normal, distance (grey, white when near) or
-    /// primitive, or the camera ray's walk cost (its passes, blue to red)
+    /// primitive, or the walk cost (passes, blue to red) of the camera ray
+    /// or of all the pixel's rays
     #[arg(long, value_enum, default_value_t = AovArg::Color)]
     pub aov: AovArg,
     /// Start with shadow rays off (H turns them on and off).
