@@ -23,11 +23,12 @@
 #                                       the preview's frame rate while the camera turns
 #                                       (`raycast preview --frames 12 --moving 11` under
 #                                       xvfb-run): the steering resolution and its rate.
-#   ci/benchmarks.sh passes SCENE...
+#   ci/benchmarks.sh passes [--all] SCENE...
 #                                       `build/raycast render SCENE --aov cost --backend cpu`:
 #                                       the passes of each camera ray's walk through the
 #                                       hierarchy (mean, median, 90th and 99th percentiles,
-#                                       most), against ln N. Counts, not times: any machine.
+#                                       most), against ln N; with --all (`--aov cost-all`)
+#                                       every ray's of the pixel summed. Counts, not times.
 #   ci/benchmarks.sh checks [--device NAME] SCENE...
 #                                       `build/raycast check` per scene: how many pixels
 #                                       differ between the device and the CPU build, per
@@ -123,18 +124,19 @@ preview_rates() {
 }
 
 passes() {
-  local tmp s out n first ratio
+  local tmp s out n first ratio aov=cost what="each camera ray's walk" all=""
+  if [ "${1:-}" = --all ]; then aov=cost-all what="all the rays of each pixel (camera, shadow and mirror rays, traced as in colour), their walks summed" all="--all "; shift; fi
   tmp="$(mktemp -d)"
-  echo "\`ci/benchmarks.sh passes $*\`: \`$RAYCAST render SCENE --assets $CORPUS --aov cost --backend cpu\` (512x384, one camera ray a pixel): the passes of each camera ray's walk (a pass: an inner node's two boxes, an instance entered, or a leaf's tests; README, \"--aov cost\"), the same counts on any device."
+  echo "\`ci/benchmarks.sh passes $all$*\`: \`$RAYCAST render SCENE --assets $CORPUS --aov $aov --backend cpu\` (512x384, one sample a pixel): the passes of $what (a pass: an inner node's two boxes, an instance entered, or a leaf's tests; README, \"--aov cost\"), the same counts on any device."
   echo
   echo "| scene | primitives N | ln N / ln N0 | mean passes | mean / first | median | 90% at most | 99% at most | most |"
   echo "|---|---|---|---|---|---|---|---|---|"
   first="" n0=""
   for s in "$@"; do
     # render takes gen:FAMILY:DEPTH names itself.
-    out="$("$RAYCAST" render "$s" --assets "$CORPUS" --aov cost --backend cpu -o "$tmp/cost.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+    out="$("$RAYCAST" render "$s" --assets "$CORPUS" --aov "$aov" --backend cpu -o "$tmp/cost.png" 2>&1)" || { echo "$out" >&2; exit 1; }
     n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
-    read -r mean median p90 p99 most <<<"$(sed -n 's/^cost: a camera ray.s walk takes \([0-9.]*\) passes on average: median \([0-9]*\), 90% at most \([0-9]*\), 99% at most \([0-9]*\), most \([0-9]*\).*/\1 \2 \3 \4 \5/p' <<<"$out")"
+    read -r mean median p90 p99 most <<<"$(sed -n 's/^cost: .* \([0-9.]*\) passes on average: median \([0-9]*\), 90% at most \([0-9]*\), 99% at most \([0-9]*\), most \([0-9]*\).*/\1 \2 \3 \4 \5/p' <<<"$out")"
     [ -n "$first" ] || { first="$mean"; n0="$n"; }
     ratio="$(awk -v n="$n" -v n0="$n0" 'BEGIN { printf "%.2f", log(n) / log(n0) }')"
     echo "| ${s##*/} | $(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n") | $ratio | $mean | $(awk -v m="$mean" -v f="$first" 'BEGIN { printf "%.2f", m / f }') | $median | $p90 | $p99 | $most |"
