@@ -788,6 +788,12 @@ impl Preview {
         }
         let (j, i) = (j as u32, i as u32);
         let p = self.renderer.pixel(j, i)?;
+        // The cost AOVs' passes (PixelOut.normal's w), hit or miss.
+        match self.aov {
+            Aov::Cost => outln!("pixel ({j}, {i}): its camera ray's walk took {} passes", p.normal[3]),
+            Aov::CostAll => outln!("pixel ({j}, {i}): its rays' walks took {} passes in all", p.normal[3]),
+            _ => {}
+        }
         if p.id == NO_HIT {
             outln!("pixel ({j}, {i}): nothing (the ray misses every primitive)");
             return Ok(());
