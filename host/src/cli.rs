@@ -181,7 +181,8 @@ fn parse_depth_range(s: &str) -> Result<[f32; 2], String> {
 #[derive(Args, Debug)]
 struct RenderArgs {
     /// Scene files (XML), rendered one after the other on one device (its
-    /// start-up and each kernel paid once). Without any, the embedded
+    /// start-up and each kernel paid once), or generated scenes
+    /// (gen:recursive-spheres:6; cones, cubes). Without any, the embedded
     /// default scene.
     #[arg(value_name = "SCENE")]
     scenes: Vec<PathBuf>,
@@ -222,8 +223,9 @@ fn numbered(path: &Path, index: u32, count: u32) -> PathBuf {
 #[derive(Args, Debug)]
 struct CheckArgs {
     /// Scene files (XML), checked one after the other on one device and one
-    /// CPU build (their start-up and each kernel paid once). Without any,
-    /// the embedded default scene.
+    /// CPU build (their start-up and each kernel paid once), or generated
+    /// scenes (gen:recursive-spheres:6). Without any, the embedded default
+    /// scene.
     #[arg(value_name = "SCENE")]
     scenes: Vec<PathBuf>,
     #[command(flatten)]

@@ -27,7 +27,8 @@ use crate::scene::FlattenLimits;
 /// `raycast preview` flags.
 #[derive(Args, Debug)]
 pub struct PreviewArgs {
-    /// Scene file (XML), reloaded when it changes. Without one, the embedded default scene.
+    /// Scene file (XML), reloaded when it changes, or a generated scene (gen:recursive-spheres:6).
+    /// Without one, the embedded default scene.
     pub scene: Option<PathBuf>,
     /// Window (and picture) width.
     #[arg(long, default_value_t = 512, value_name = "W")]
