@@ -11,7 +11,7 @@
 //! median, min and max of their wall times. Every backend runs on the same
 //! FrameData in the same process, so ratios compare like with like.
 
-use crate::cli::{check_validation, scene_failure, Failure, DEFAULT_SCENE};
+use crate::cli::{check_validation, scene_failure, Failure, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
@@ -124,7 +124,7 @@ pub struct LoadedScene {
 /// embedded default scene), parsed. Errors read `file:line:col: error: …`.
 pub fn parse_scene(name: Option<&str>, opts: &ParseOptions) -> Result<SceneFile, String> {
     match name {
-        None => scene::parse_str(DEFAULT_SCENE, Path::new("<default scene>"), opts).map_err(|e| e.to_string()),
+        None => scene::parse_str(DEFAULT_SCENE, Path::new(DEFAULT_SCENE_NAME), opts).map_err(|e| e.to_string()),
         Some(n) => match gen::parse_scene_name(n) {
             Some(Ok((family, depth))) => {
                 let xml = gen::generate(family, depth, &GenOptions::default())?;
@@ -160,7 +160,7 @@ pub(crate) fn load_or_skip(
     let counts = count_primitives(&file);
     if counts.expanded > limits.max_primitives as u64 {
         let why = format!("skipped: expands to more than --max-primitives {}", thousands(limits.max_primitives as u64));
-        skipped(name.unwrap_or("<default scene>"), None, counts, &why, args);
+        skipped(name.unwrap_or(DEFAULT_SCENE_NAME), None, counts, &why, args);
         return Ok(None);
     }
     load_parsed(name, file, counts, start, limits, settings).map(Some)
@@ -187,7 +187,7 @@ fn load_parsed(
         errln!("raycast: note: {note}");
     }
     Ok(LoadedScene {
-        name: name.unwrap_or("<default scene>").to_string(),
+        name: name.unwrap_or(DEFAULT_SCENE_NAME).to_string(),
         counts,
         lights: data.lights.len(),
         load,

@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 /// The embedded default scene (scenes/default.xml): all four primitives and
 /// three kinds of light.
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.xml");
-const DEFAULT_SCENE_NAME: &str = "<default scene>";
+pub(crate) const DEFAULT_SCENE_NAME: &str = "<default scene>";
 
 #[derive(Parser, Debug)]
 #[command(name = "raycast", version, about = "A ray caster in a Vulkan compute shader for CS1230/CS123/Comp175 XML scenes")]
@@ -291,15 +291,10 @@ fn info(args: &InfoArgs) -> Result<(), Failure> {
     for name in &names {
         let label = name.unwrap_or(DEFAULT_SCENE_NAME);
         // Warnings on stderr as every command prints them; the notes are in the description.
-        let described = crate::bench::parse_scene(*name, &parse)
-            .and_then(|file| scene::flatten(&file, &limits).map_err(|e| e.to_string()))
-            .and_then(|scene| {
-                for w in &scene.warnings {
-                    errln!("{w}");
-                }
-                let data = crate::info::pack(&scene)?;
-                Ok(crate::info::Info::of(label, &scene, &data))
-            });
+        let described = load_scene(name.map(Path::new), &parse, &limits).and_then(|scene| {
+            let data = crate::info::pack(&scene)?;
+            Ok(crate::info::Info::of(label, &scene, &data))
+        });
         match described {
             Ok(info) if args.json => outln!("{}", info.json()),
             Ok(info) => out!("{}", info.text()),
@@ -474,21 +469,14 @@ fn ms(d: Duration) -> String {
 /// or a generated one (`gen:FAMILY:DEPTH`, as `bench` and `info` take it)
 /// where no file has that name. Prints the scene's warnings to stderr.
 pub fn load_scene(path: Option<&Path>, opts: &ParseOptions, limits: &FlattenLimits) -> Result<Scene, String> {
+    // A file of that name wins over a generated scene's name.
     let generated = path.filter(|p| !p.exists()).and_then(|p| p.to_str()).filter(|n| crate::gen::parse_scene_name(n).is_some());
-    if let Some(name) = generated {
-        let file = crate::bench::parse_scene(Some(name), opts)?;
-        let scene = scene::flatten(&file, limits).map_err(|e| e.to_string())?;
-        for w in &scene.warnings {
-            errln!("{w}");
-        }
-        return Ok(scene);
-    }
-    let scene = match path {
-        Some(p) => scene::load(p, opts, limits),
-        None => scene::parse_str(DEFAULT_SCENE, Path::new(DEFAULT_SCENE_NAME), opts)
-            .and_then(|f| scene::flatten(&f, limits)),
-    }
-    .map_err(|e| e.to_string())?;
+    let file = match (path, generated) {
+        (Some(p), None) => scene::parse_file(p, opts).map_err(|e| e.to_string())?,
+        // The embedded default scene (None) or the generated one.
+        (_, name) => crate::bench::parse_scene(name, opts)?,
+    };
+    let scene = scene::flatten(&file, limits).map_err(|e| e.to_string())?;
     for w in &scene.warnings {
         errln!("{w}");
     }
