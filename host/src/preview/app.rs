@@ -506,7 +506,7 @@ impl Preview {
     /// The Frame of this camera, size, mode and flags. The rest (scene
     /// counts, coefficients) is `frame::build`'s, so the scene's own camera
     /// gives its `raycast render` Frame bit for bit.
-    fn frame(&mut self, scale: u32) -> Frame {
+    fn frame(&self, scale: u32) -> Frame {
         let [w, h] = self.renderer.size();
         let [w, h] = [w.div_ceil(scale), h.div_ceil(scale)];
         let mut f = self.data.frame;
