@@ -524,6 +524,9 @@ fn missing_texture_is_an_error_naming_the_element_unless_textures_are_off() {
     let scene = repo().join("tests/scenes/missing_texture.xml");
     let o = raycast(&["render", scene.to_str().unwrap(), "-o", "/dev/null"], &[]);
     assert_fails(&o, 1, "missing_texture.xml:6:9: error: texture \"no/such/texture.png\" not found");
+    // The parser's warning before it must not promise a picture without the texture.
+    let err = text(&o).1;
+    assert!(err.contains("or render with --no-textures") && !err.contains("rendering without"), "{err}");
     let png = out_dir().join("no-textures.png");
     let o = raycast(&["render", scene.to_str().unwrap(), "--no-textures", "-o", png.to_str().unwrap()], &[]);
     assert!(o.status.success(), "{:?}", text(&o));

@@ -1275,7 +1275,7 @@ impl<'a> Ctx<'a> {
         let repeat_v = self.to_f32(n, "v", v)?;
         let loc = self.nloc(n);
         let resolved = if file.trim().is_empty() {
-            let msg = format!("<{el}> has an empty file=; rendering without it");
+            let msg = format!("<{el}> has an empty file=: name the image, or render with --no-textures");
             self.warn(self.aloc(&fa), msg);
             None
         } else {
@@ -1322,7 +1322,7 @@ impl<'a> Ctx<'a> {
         }
         let tried: Vec<String> = tried.iter().map(|t| format!("\"{}\"", t.display())).collect();
         let msg = format!(
-            "<{el}> file \"{file}\" not found (tried {}); rendering without it — pass the folder that holds it with --assets DIR",
+            "<{el}> file \"{file}\" not found (tried {}): pass the folder that holds it with --assets DIR, or render with --no-textures",
             tried.join(", ")
         );
         self.warn(loc.clone(), msg);
