@@ -70,15 +70,62 @@ float away_from_zero(float x) {
     return intBitsToFloat(floatBitsToInt(x) + 1);
 }
 
+// The residuals below are exact without fma(): the Vulkan specification
+// does not promise that fma() is fused (lavapipe's is not; NVIDIA's is),
+// and an unfused one rounds the product first, which is the error the
+// correction measures. Instead the operands are scaled by powers of two
+// (exact) so that they lie in [1, 2), and the product is split into two
+// floats by Dekker's method, every step of which is exact in IEEE
+// arithmetic without contraction (`precise`, the C++ build's
+// -ffp-contract=off). So the correction gives IEEE's bits on every device
+// whose +, - and * are IEEE's, fused fma or not.
+
+// 2^k as a float, for k in [-126, 127].
+float pow2(int k) {
+    return intBitsToFloat((k + 127) << 23);
+}
+
+// The exponent of a normal float x: x = m 2^e with 1 <= |m| < 2.
+int exponent_of(float x) {
+    return ((floatBitsToInt(x) >> 23) & 0xff) - 127;
+}
+
+// x split into hi + lo, each of at most 12 significant bits (Veltkamp's
+// split, for |x| well inside the float range).
+precise vec2 split(float x) {
+    precise float t = 4097.0f * x;
+    precise float hi = t - (t - x);
+    return vec2(hi, x - hi);
+}
+
+// a - b c rounded once (what a fused fma(-b, c, a) gives), for b and c of
+// moderate size (here within [0.5, 4)) and a within a factor of two of
+// b c: Dekker's product b c = p + e exactly, a - p exact (Sterbenz's
+// lemma), so (a - p) - e is the one rounding.
+precise float residual(float a, float b, float c) {
+    precise float p = b * c;
+    precise vec2 bs = split(b);
+    precise vec2 cs = split(c);
+    precise float e = ((bs.x * cs.x - p) + bs.x * cs.y + bs.y * cs.x) + bs.y * cs.y;
+    return (a - p) - e;
+}
+
 // The float nearest a / b from c at most 1 ULP off it: c or a neighbour,
-// judged by |a - c b| = |b| |a / b - c| (fma; a quotient of floats is
-// never halfway between two, so there is no tie).
+// judged by |a - c b| = |b| |a / b - c| (a quotient of floats is never
+// halfway between two, so there is no tie). a, b and c are scaled by
+// 2^-(ec + eb), 2^-eb and 2^-ec first (correct_quotient's ranges keep
+// them and their neighbours normal), which scales the three residuals
+// alike.
 precise float nearest_quotient(float a, float b, float c) {
+    int ec = exponent_of(c);
+    int eb = exponent_of(b);
+    precise float sa = (a * pow2(-eb)) * pow2(-ec);
+    precise float sb = b * pow2(-eb);
     precise float lo = toward_zero(c);
     precise float hi = away_from_zero(c);
-    precise float rc = abs(fma(-c, b, a));
-    precise float rl = abs(fma(-lo, b, a));
-    precise float rh = abs(fma(-hi, b, a));
+    precise float rc = abs(residual(sa, c * pow2(-ec), sb));
+    precise float rl = abs(residual(sa, lo * pow2(-ec), sb));
+    precise float rh = abs(residual(sa, hi * pow2(-ec), sb));
     if (rl < rc) {
         c = lo;
     } else if (rh < rc) {
@@ -88,27 +135,36 @@ precise float nearest_quotient(float a, float b, float c) {
 }
 
 // The float nearest a / b, from q a few ULP off it (div_rn): a Newton step
-// with the residual a - q b (fma) brings it within 1 ULP, then
-// nearest_quotient. Zero, infinite, NaN, subnormal and huge quotients, and
-// b zero or infinite, come back as given.
+// with the residual a - q b (scaled as in nearest_quotient) brings it
+// within 1 ULP, then nearest_quotient. Zero, infinite, NaN, subnormal and
+// huge quotients, and b zero, subnormal, infinite or from 2^126 up, come
+// back as given.
 precise float correct_quotient(float a, float b, float q) {
-    if (!(abs(q) > 1.17549435e-38f) || abs(q) > 1.0e38f || b == 0.0f || isinf(b)) {
+    if (!(abs(q) > 1.17549435e-38f) || abs(q) > 1.0e38f || !(abs(b) >= 1.17549435e-38f) || abs(b) >= 8.50705917e37f) {
         return q;
     }
-    precise float c = fma(fma(-q, b, a), 1.0f / b, q);
+    int eq = exponent_of(q);
+    int eb = exponent_of(b);
+    precise float sb = b * pow2(-eb);
+    precise float sq = q * pow2(-eq);
+    precise float r = residual((a * pow2(-eb)) * pow2(-eq), sq, sb);
+    precise float c = (sq + r * (1.0f / sb)) * pow2(eq);
     return nearest_quotient(a, b, c);
 }
 
 // The float nearest sqrt(x) from c > 0 at most 1 ULP off it: Tuckerman's
-// test with the exact sign of an fma: c is the nearest unless x <= lo c
-// (below the midpoint with its lower neighbour lo) or x > c hi (above the
-// one with hi).
+// test with the exact sign of a residual: c is the nearest unless
+// x <= lo c (below the midpoint with its lower neighbour lo) or x > c hi
+// (above the one with hi). Scaled by 2^-ec each and x by 2^-2ec.
 precise float nearest_root(float x, float c) {
+    int ec = exponent_of(c);
+    precise float sx = (x * pow2(-ec)) * pow2(-ec);
+    precise float sc = c * pow2(-ec);
     precise float lo = toward_zero(c);
     precise float hi = away_from_zero(c);
-    if (fma(-lo, c, x) <= 0.0f) {
+    if (residual(sx, lo * pow2(-ec), sc) <= 0.0f) {
         c = lo;
-    } else if (fma(-c, hi, x) > 0.0f) {
+    } else if (residual(sx, sc, hi * pow2(-ec)) > 0.0f) {
         c = hi;
     }
     return c;
@@ -121,7 +177,10 @@ precise float correct_root(float x, float s) {
     if (!(x > 1.17549435e-38f) || x > 1.0e38f || !(s > 0.0f)) {
         return s;
     }
-    precise float c = fma(fma(-s, s, x), 0.5f / s, s);
+    int es = exponent_of(s);
+    precise float ss = s * pow2(-es);
+    precise float r = residual((x * pow2(-es)) * pow2(-es), ss, ss);
+    precise float c = (ss + r * (0.5f / ss)) * pow2(es);
     return nearest_root(x, c);
 }
 

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include "shared.hpp"
 
@@ -162,13 +164,14 @@ TEST(PortableMath, AcosWithin3Ulp) {
 }
 
 // The corrections that div_rn and sqrt_rn apply on a GPU (raycast.glsl),
-// run here where fma is fused as on every GPU: from a start up to 3 ULP off
-// either way correct_quotient and correct_root, and from 1 ULP off
-// nearest_quotient and nearest_root (their last step, which the Newton step
-// before it seldom leaves anything to do), must give the correctly rounded
-// quotient and root, which IEEE float division and sqrtf are. Random
-// operands over 2^-20 .. 2^20 and both signs, a fixed seed; rule:
-// bit-exact, every case.
+// which use no fma: from a start up to 3 ULP off either way
+// correct_quotient and correct_root, and from 1 ULP off nearest_quotient
+// and nearest_root (their last step, which the Newton step before it
+// seldom leaves anything to do), must give the correctly rounded quotient
+// and root, which IEEE float division and sqrtf are. Random operands over
+// 2^-60 .. 2^60 and both signs, a fixed seed, then quotients and roots at
+// the edges of a binade and of the ranges corrected; rule: bit-exact,
+// every case.
 TEST(PortableMath, QuotientAndRootCorrectionsAreIeee) {
     uint32_t state = 12345u;
     auto next = [&state]() {
@@ -176,15 +179,31 @@ TEST(PortableMath, QuotientAndRootCorrectionsAreIeee) {
         return state;
     };
     auto random_float = [&]() {
-        uint32_t bits = (next() >> 9) | ((107u + next() % 40u) << 23) | (next() & 0x80000000u);
+        uint32_t bits = (next() >> 9) | ((67u + next() % 120u) << 23) | (next() & 0x80000000u);
         return glm::uintBitsToFloat(bits);
     };
     auto off_by = [](float x, int ulps) { return glm::intBitsToFloat(glm::floatBitsToInt(x) + ulps); };
+    // Operands next to powers of two, where a neighbour of the quotient
+    // or root lies in the next binade, and quotients near the smallest
+    // corrected and divisors near the largest (2^126).
+    std::vector<std::pair<float, float>> edges;
+    for (float p : {1.0f, 0x1p-125f, 0x1p-100f, 0x1p100f, 0x1.fffffep125f, 0x1p125f}) {
+        for (int da = -3; da <= 3; da++) {
+            for (int db = -3; db <= 3; db++) {
+                edges.push_back({off_by(p, da), off_by(1.0f, db)});
+                edges.push_back({off_by(1.0f, da), off_by(p, db)});
+            }
+        }
+    }
     int quotients = 0, roots = 0;
-    for (int i = 0; i < 300000; i++) {
-        float a = random_float();
-        float b = std::fabs(random_float());
-        int ulps = int(next() % 7u) - 3;
+    const int randoms = 300000;
+    for (int i = 0; i < randoms + int(edges.size()); i++) {
+        float a = i < randoms ? random_float() : edges[i - randoms].first;
+        float b = i < randoms ? std::fabs(random_float()) : edges[i - randoms].second;
+        if (i >= randoms && (!(std::fabs(a / b) >= 0x1p-125f) || std::fabs(a / b) > 1.0e38f || b >= 0x1p126f)) {
+            continue; // starts outside what the correction corrects (returned as given, below)
+        }
+        int ulps = i < randoms ? int(next() % 7u) - 3 : (i % 7) - 3;
         int one = ulps % 2; // -1, 0 or 1
         float q = a / b;
         for (float got : {correct_quotient(a, b, off_by(q, ulps)), nearest_quotient(a, b, off_by(q, one))}) {

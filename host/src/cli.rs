@@ -547,7 +547,9 @@ fn print_scene(p: &Prepared) {
 fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure> {
     let kernel = renderer.kernel_for(data)?;
     let spec = crate::render::Specialization::of(data, &data.frame);
-    outln!("kernel: {}, specialised for the scene: {}", kernel.name(), spec.describe());
+    // The device's division and square root corrected (raycast.glsl div_rn).
+    let corrected = if renderer.context().corrects_division() { " with CORRECT_DIVISION" } else { "" };
+    outln!("kernel: {}{corrected}, specialised for the scene: {}", kernel.name(), spec.describe());
     Ok(())
 }
 
