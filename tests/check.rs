@@ -65,7 +65,7 @@ fn main() -> ExitCode {
         None => println!("SKIPPED: the corpus scenes: RAYCAST_CORPUS is not set"),
     }
 
-    let gpu = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
+    let mut gpu = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
         Ok(r) => r,
         Err(e) => {
             println!("FAILED: cannot start the Vulkan device: {e}\n0 passed, 1 failed");
@@ -79,29 +79,15 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    // The same device with the scene always in storage buffers (render.comp):
-    // `gpu` takes uniform buffers (render_uniform.comp) wherever a scene fits.
-    let gpu_storage = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
-        Ok(r) => r.with_scene_buffers(SceneBuffers::Storage),
-        Err(e) => {
-            println!("FAILED: cannot start the Vulkan device: {e}\n0 passed, 1 failed");
-            return ExitCode::FAILURE;
-        }
-    };
     // The same device drawing each picture in bands of BAND_ROWS rows (a
     // dispatch per band, frame.row_offset), as it does pictures whose
     // pixels do not fit one storage buffer: at 131x97 the last band is
     // partial and the tiles overhang the right edge.
     const BAND_ROWS: u32 = 16;
     let band_bytes = u64::from(BAND_WIDTH) * std::mem::size_of::<raycast::layout::PixelOut>() as u64 * u64::from(BAND_ROWS);
-    let gpu_bands = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
-        Ok(r) => r.with_band_bytes(band_bytes),
-        Err(e) => {
-            println!("FAILED: cannot start the Vulkan device: {e}\n0 passed, 1 failed");
-            return ExitCode::FAILURE;
-        }
-    };
-    assert_eq!(gpu_bands.band_rows(BAND_WIDTH), BAND_ROWS, "the bands' size");
+    gpu.set_band_bytes(Some(band_bytes));
+    assert_eq!(gpu.band_rows(BAND_WIDTH), BAND_ROWS, "the bands' size");
+    gpu.set_band_bytes(None);
     println!("bit-exact check: {} against the CPU build ({} threads)", gpu.context().info().name, cpu.threads);
     let out_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("check");
     let (mut passed, mut failed) = (0, 0);
@@ -164,22 +150,36 @@ fn main() -> ExitCode {
         {
             // And the device's own path without it (every primitive tested;
             // small, as it is slow on lavapipe) has the CPU build's bits.
-            // The same with the scene in storage buffers (render.comp), at 128x96.
+            // The same device with the scene always in storage buffers
+            // (render.comp; it takes uniform buffers, render_uniform.comp,
+            // wherever a scene fits), and in bands (above).
             let checks = [
-                ("64x48 --no-bvh", RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() }, &gpu),
-                ("128x96 storage buffers", RenderSettings { width: 128, height: 96, ..RenderSettings::default() }, &gpu_storage),
+                ("64x48 --no-bvh", RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() }, SceneBuffers::Auto, None),
+                ("128x96 storage buffers", RenderSettings { width: 128, height: 96, ..RenderSettings::default() }, SceneBuffers::Storage, None),
                 (
                     "131x97 in bands of 16 rows, 2 samples",
                     RenderSettings { width: BAND_WIDTH, height: 97, spp: 2, ..RenderSettings::default() },
-                    &gpu_bands,
+                    SceneBuffers::Auto,
+                    Some(band_bytes),
                 ),
             ];
-            for (what, settings, renderer) in checks {
+            for (what, settings, buffers, bands) in checks {
+                gpu.set_scene_buffers(buffers);
+                gpu.set_band_bytes(bands);
                 let label = format!("{name} Color {what}, device against cpu");
-                match frame::build(&scene, &settings).map_err(|e| e.to_string()).and_then(|d| {
-                    let (g, _) = renderer.render(&d).map_err(|e| e.to_string())?;
+                let result = frame::build(&scene, &settings).map_err(|e| e.to_string()).and_then(|d| {
+                    let (g, _) = gpu.render(&d).map_err(|e| e.to_string())?;
                     check::compare(&g, "device", &cpu.render(&d).unwrap(), "cpu")
-                }) {
+                });
+                gpu.set_scene_buffers(SceneBuffers::Auto);
+                gpu.set_band_bytes(None);
+                let messages = gpu.context().take_validation_messages();
+                if !messages.is_empty() {
+                    failed += 1;
+                    println!("FAILED {label}: validation: {}", messages.join("; "));
+                    continue;
+                }
+                match result {
                     Ok(report) if report.identical() => {
                         passed += 1;
                         println!("ok     {label}: identical");

@@ -765,7 +765,7 @@ fn info_describes_scenes() {
 
     let missing = out_dir().join("no-such-scene.xml");
     let o = raycast(&["info", missing.to_str().unwrap(), repo().join("scenes/default.xml").to_str().unwrap()], &[]);
-    assert_fails(&o, 1, "raycast: info failed: 1 of 2 scenes");
+    assert_fails(&o, 1, "raycast: error: 1 of 2 scenes failed: ");
     assert!(text(&o).0.contains("primitives: 5 drawn"), "the good scene is still described: {:?}", text(&o));
 }
 

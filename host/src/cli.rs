@@ -287,28 +287,31 @@ fn info(args: &InfoArgs) -> Result<(), Failure> {
         if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
     let parse = ParseOptions { assets: args.assets.clone() };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
-    let mut failed = Vec::new();
+    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
     for name in &names {
-        let label = name.unwrap_or(DEFAULT_SCENE_NAME);
+        let label = name.unwrap_or(DEFAULT_SCENE_NAME).to_string();
         // Warnings on stderr as every command prints them; the notes are in the description.
         let described = load_scene(name.map(Path::new), &parse, &limits).and_then(|scene| {
             let data = crate::info::pack(&scene)?;
-            Ok(crate::info::Info::of(label, &scene, &data))
+            Ok(crate::info::Info::of(&label, &scene, &data))
         });
         match described {
-            Ok(info) if args.json => outln!("{}", info.json()),
-            Ok(info) => out!("{}", info.text()),
+            Ok(info) => {
+                if args.json {
+                    outln!("{}", info.json());
+                } else {
+                    out!("{}", info.text());
+                }
+                batch.done.push((label, ()));
+            }
             Err(e) if names.len() == 1 => return Err(scene_failure(e)),
             Err(e) => {
                 errln!("{e}");
-                failed.push(label);
+                batch.failed.push(label);
             }
         }
     }
-    match failed.len() {
-        0 => Ok(()),
-        n => Err(Failure(format!("raycast: info failed: {n} of {} scenes: {}", names.len(), failed.join(", ")), 1)),
-    }
+    batch.failure("").map_or(Ok(()), Err)
 }
 
 #[derive(Args, Debug)]
@@ -524,11 +527,12 @@ pub(crate) fn open_renderer(
     buffers: SceneBuffers,
 ) -> Result<GpuRenderer, Failure> {
     let options = GpuOptions { device: parse_device(device), validation: validation_wanted(validate), ..GpuOptions::default() };
-    let renderer = match shaders {
+    let mut renderer = match shaders {
         Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
         None => GpuRenderer::new(&options)?,
     };
-    Ok(renderer.with_scene_buffers(buffers))
+    renderer.set_scene_buffers(buffers);
+    Ok(renderer)
 }
 
 fn print_scene(p: &Prepared) {

@@ -327,7 +327,7 @@ pub struct GpuRenderer {
     /// Time to check the SPIR-V and build the pipelines so far.
     compile_time: Mutex<Duration>,
     choice: SceneBuffers,
-    /// The most bytes of a band's buffers (`with_band_bytes`); None: as
+    /// The most bytes of a band's buffers (`set_band_bytes`); None: as
     /// many as the device's storage buffers hold.
     band_bytes: Option<u64>,
 }
@@ -413,22 +413,20 @@ impl GpuRenderer {
     }
 
     /// Where the scene's arrays go from now on (Auto unless told).
-    pub fn with_scene_buffers(mut self, choice: SceneBuffers) -> GpuRenderer {
+    pub fn set_scene_buffers(&mut self, choice: SceneBuffers) {
         self.choice = choice;
-        self
     }
 
     /// Bands of rows whose pixel and sums buffers take at most `bytes` each
     /// (but at least one tile high), where the device's limit would allow
-    /// larger: to test the bands on small pictures.
-    pub fn with_band_bytes(mut self, bytes: u64) -> GpuRenderer {
-        self.band_bytes = Some(bytes);
-        self
+    /// larger: to test the bands on small pictures. None: the device's limit.
+    pub fn set_band_bytes(&mut self, bytes: Option<u64>) {
+        self.band_bytes = bytes;
     }
 
     /// How many rows of a `width`-pixel picture one dispatch draws: as many
     /// as a storage buffer of the device holds in pixel records and running
-    /// sums (or `with_band_bytes`), a whole number of tiles.
+    /// sums (or `set_band_bytes`), a whole number of tiles.
     pub fn band_rows(&self, width: u32) -> u32 {
         let per_row = u64::from(width) * std::mem::size_of::<PixelOut>().max(std::mem::size_of::<layout::SampleSum>()) as u64;
         let limit = self.band_bytes.unwrap_or(u64::MAX).min(self.context.max_storage_bytes());
@@ -441,7 +439,7 @@ impl GpuRenderer {
         *self.compile_time.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// The kernel for `data`, by the choice made (`with_scene_buffers`):
+    /// The kernel for `data`, by the choice made (`set_scene_buffers`):
     /// render_uniform.comp when the scene fits it, else render.comp;
     /// specialised for the scene and its frame flags.
     pub fn kernel_for(&self, data: &FrameData) -> Result<Arc<Kernel>, GpuError> {
