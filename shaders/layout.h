@@ -271,6 +271,33 @@ struct PixelOut {
                  // RAYS_CUT_SHORT added when the device cut its loops short
 };
 
+// One step of a pixel's sample as the CPU build's trace records it
+// (`raycast trace`; raycast.glsl TRACE, which is nothing in a kernel).
+#define TRACE_CAMERA 0u  // the camera ray: origin, direction (w: t_max), hit
+#define TRACE_MIRROR 1u  // a mirror ray of bounce `level`: the same
+#define TRACE_SHADOW 2u  // light `light`'s shadow ray: the same (id: what blocks it)
+#define TRACE_LIGHT 3u   // light `light`'s term at `level`: value; id: TRACE_LIGHT_*
+#define TRACE_LEVEL 4u   // the level's own colour (value) and mirror weight (extra)
+#define TRACE_PIXEL 5u   // the sample's colour (value), the levels folded; id: as 8-bit RGBA
+#define TRACE_SURFACE 6u // a hit's surface: point (origin), ambient + emissive (value), diffuse (extra)
+#define TRACE_LIGHT_ADDED 0u   // added, no shadow ray (shadows off)
+#define TRACE_LIGHT_SHADOW 1u  // a shadow ray decides (the next step)
+#define TRACE_LIGHT_NOTHING 2u // every channel 0 or subnormal: skipped
+struct TraceStep {
+    vec4 origin;    // a ray's origin
+    vec4 direction; // a ray's direction; w: its t_max
+    vec4 value;     // a hit's world normal and (w) t; a term or a colour
+    vec4 extra;     // a level's mirror weight
+    uint kind;      // TRACE_*
+    uint level;     // 0 for the camera ray's hit, n for bounce n
+    uint light;     // the light's index
+    uint id;        // the primitive hit (NO_HIT), or TRACE_LIGHT_*
+    uint passes;    // the ray's walk passes through the hierarchy
+    uint pad0;
+    uint pad1;
+    uint pad2;
+};
+
 // A pixel's samples summed so far, kept by render.comp between its
 // dispatches (one sample of every pixel each; the host zeroes it first).
 struct SampleSum {

@@ -1208,6 +1208,12 @@ struct PixelSample {
 // after it. (Keeping the lanes in step, one pass per light whether its
 // shadow ray is needed or not, was 4-8% slower.) With another AOV than
 // colour, the first hit only (aov_color).
+//
+// Each step is also a TRACE (layout.h TraceStep): the CPU build records
+// them for `raycast trace`; in a kernel TRACE is nothing.
+#ifndef TRACE
+#define TRACE(kind, level, light, id, passes, origin, direction, value, extra)
+#endif
 PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     Ray ray = camera_ray(j, i, offset); // the level's ray: the camera's, then the mirror's
     PixelSample s;
@@ -1233,6 +1239,8 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     while (true) {
         SceneHit h = walk(next, next_t_max, shadow);
         s.rays = s.rays + 1u;
+        TRACE(shadow ? TRACE_SHADOW : (level == 0u ? TRACE_CAMERA : TRACE_MIRROR), level, li, h.id, h.passes,
+              vec4(next.origin, 0.0f), vec4(next.direction, next_t_max), vec4(h.normal, h.t), vec4(0.0f));
         if (HAS_AOVS) {
             passes = passes + h.passes;
         }
@@ -1257,6 +1265,8 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             }
             surface = surface_at(ray, h);
             color = surface.base;
+            TRACE(TRACE_SURFACE, level, 0u, h.id, 0u, vec4(surface.p, 1.0f), vec4(0.0f), vec4(surface.base, 0.0f),
+                  vec4(surface.diffuse, 0.0f));
             li = 0u;
         }
         // The lights from li on: each adds its term, up to the first that
@@ -1273,9 +1283,12 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             }
             precise vec3 lit = light_term(surface, l, to_light, dist);
             if (negligible(lit)) {
+                TRACE(TRACE_LIGHT, level, li, TRACE_LIGHT_NOTHING, 0u, vec4(0.0f), vec4(to_light, dist), vec4(lit, 0.0f), vec4(0.0f));
                 li = li + 1u;
                 continue;
             }
+            TRACE(TRACE_LIGHT, level, li, shadows ? TRACE_LIGHT_SHADOW : TRACE_LIGHT_ADDED, 0u, vec4(0.0f),
+                  vec4(to_light, dist), vec4(lit, 0.0f), vec4(0.0f));
             if (shadows) {
                 // From 0.001 (ray_offset) along L toward the light: blocked
                 // by anything closer than the light (anything at all for a
@@ -1303,6 +1316,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
         levels = level + 1u;
         precise vec3 w = surface.mirror;
         weight_at[level] = w;
+        TRACE(TRACE_LEVEL, level, 0u, 0u, 0u, vec4(0.0f), vec4(0.0f), vec4(color, 0.0f), vec4(w, 0.0f));
         if (!reflections || level == depth || negligible(w)) {
             break;
         }
@@ -1334,6 +1348,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
         s.color = heat_color(div_rn(float(passes), frame.aov_scale.z));
         s.hit.passes = passes;
     }
+    TRACE(TRACE_PIXEL, levels, 0u, pack_rgba8(s.color), passes, vec4(0.0f), vec4(0.0f), vec4(s.color, 0.0f), vec4(0.0f));
     return s;
 }
 

@@ -817,3 +817,36 @@ fn generated_scenes_by_name() {
     assert!(o.status.success() && text(&o).0.contains("identical"), "{:?}", text(&o));
     assert_fails(&raycast(&["render", "gen:recursive-cones:99"], &[]), 1, "a generated scene is gen:FAMILY:DEPTH");
 }
+
+/// `trace` on the embedded default scene's pixel (256, 200): the camera ray
+/// meets the floor cube, light 1's shadow ray is blocked by the tall cube,
+/// the other two lights' are clear, and the trace's colour, rays and first
+/// hit are the render's (the command checks; the unit test
+/// cpu::tests::the_trace_of_every_pixel_is_its_render checks every pixel).
+/// Then its usage errors.
+#[test]
+fn trace_follows_one_pixel() {
+    let o = raycast(&["trace", "--pixel", "256,200"], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    for want in [
+        "pixel (256, 200), sample 0 of 1:",
+        "camera ray from (4.5, 3.2, 6.5) along",
+        "hits primitive 0 (cube, <default scene>:48:7)",
+        "light 1 (point, <default scene>:24:3)",
+        "blocked by primitive 1 (cube, <default scene>:56:7)",
+        "clear, so the term is added",
+        "the render's pixel: the same 8-bit colour, 4 rays and first hit",
+    ] {
+        assert!(out.contains(want), "{want:?} not in:\n{out}");
+    }
+    let o = raycast(&["trace", "--pixel", "3,2", "--spp", "4", "--sample", "3"], &[]);
+    assert!(o.status.success() && text(&o).0.contains("sample 3 of 4:"), "{:?}", text(&o));
+    assert_fails(&raycast(&["trace", "--pixel", "3,2", "--spp", "4", "--sample", "4"], &[]), 1, "sample 4 is not one of the pixel's 4");
+    assert_fails(&raycast(&["trace", "--pixel", "600,10"], &[]), 1, "pixel (600, 10) is outside the 512x384 picture");
+    assert_fails(&raycast(&["trace"], &[]), 2, "--pixel");
+    assert_fails(&raycast(&["trace", "--pixel", "1"], &[]), 2, "\"1\" is not X,Y");
+    assert_fails(&raycast(&["trace", "--pixel", "1,1", "--device", "0"], &[]), 2, "trace runs the CPU build");
+    assert_fails(&raycast(&["trace", "--pixel", "1,1", "--aov", "depth"], &[]), 2, "trace follows the colour's rays");
+    assert_fails(&raycast(&["trace", "no/such.xml", "--pixel", "1,1"], &[]), 1, "no/such.xml");
+}

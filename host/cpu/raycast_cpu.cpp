@@ -8,8 +8,9 @@
 
 using namespace raycast_cpu;
 
-extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
-                                        void* out) {
+namespace {
+// Binds the kernel's buffers (buffers[b] at binding b) for this thread.
+Scene bind_buffers(const void* const* buffers) {
     Scene s;
     std::memcpy(&s.frame, buffers[BINDING_FRAME], sizeof(Frame));
     s.primitives = static_cast<const Primitive*>(buffers[BINDING_PRIMITIVES]);
@@ -21,12 +22,30 @@ extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row
     s.leaf_items = static_cast<const LeafItem*>(buffers[BINDING_LEAF_ITEMS]);
     s.instances = static_cast<const Instance*>(buffers[BINDING_INSTANCES]);
     bind_scene(s);
+    return s;
+}
+} // namespace
+
+extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
+                                        void* out) {
+    Scene s = bind_buffers(buffers);
     PixelOut* pixels = static_cast<PixelOut*>(out);
     for (uint32_t i = row_begin; i < row_end; i++) {
         for (uint32_t j = 0; j < s.frame.width; j++) {
             pixels[size_t(i - row_begin) * s.frame.width + j] = render_pixel(j, i);
         }
     }
+}
+
+extern "C" uint32_t raycast_cpu_trace_sample(const void* const* buffers, uint32_t x, uint32_t y, uint32_t sample,
+                                             void* out, uint32_t capacity) {
+    Scene s = bind_buffers(buffers);
+    trace_steps = static_cast<TraceStep*>(out);
+    trace_capacity = capacity;
+    trace_count = 0;
+    sample_pixel(x, y, sample_offset(sample, max(s.frame.spp, 1u)));
+    trace_steps = nullptr;
+    return trace_count;
 }
 
 namespace {
@@ -62,6 +81,9 @@ const Field fields[] = {
     AT(Light, penumbra_deg), AT(Light, pad0),
     SIZE(PixelOut), AT(PixelOut, normal), AT(PixelOut, t), AT(PixelOut, id), AT(PixelOut, rgba),
     AT(PixelOut, rays),
+    SIZE(TraceStep), AT(TraceStep, origin), AT(TraceStep, direction), AT(TraceStep, value), AT(TraceStep, extra),
+    AT(TraceStep, kind), AT(TraceStep, level), AT(TraceStep, light), AT(TraceStep, id), AT(TraceStep, passes),
+    AT(TraceStep, pad0), AT(TraceStep, pad1), AT(TraceStep, pad2),
 };
 #undef SIZE
 #undef AT

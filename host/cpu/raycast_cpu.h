@@ -17,6 +17,12 @@ extern "C" {
  * pixel binding is unused). Safe to call from many threads at once. */
 void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end, void* out);
 
+/* Traces sample `sample` of pixel (x, y) as raycast_cpu_render_rows renders
+ * it: writes its steps (layout.h TraceStep), up to `capacity`, to out and
+ * returns how many there are. Safe to call from many threads at once. */
+uint32_t raycast_cpu_trace_sample(const void* const* buffers, uint32_t x, uint32_t y, uint32_t sample, void* out,
+                                  uint32_t capacity);
+
 /* The C++ layout of struct `type` (e.g. "Material"): its size when member is
  * NULL, else the member's offset; -1 when unknown. */
 int64_t raycast_cpu_field_offset(const char* type, const char* member);

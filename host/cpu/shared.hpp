@@ -91,6 +91,23 @@ const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
 const bool HAS_AOVS = true;
 
+// The trace of one pixel's sample (raycast.glsl TRACE, layout.h
+// TraceStep; `raycast trace`): while trace_steps is set, each step is
+// written there (up to trace_capacity) and counted; otherwise nothing.
+inline thread_local TraceStep* trace_steps = nullptr;
+inline thread_local uint32_t trace_capacity = 0;
+inline thread_local uint32_t trace_count = 0;
+#define TRACE(kind_, level_, light_, id_, passes_, origin_, direction_, value_, extra_)                              \
+    do {                                                                                                          \
+        if (trace_steps != nullptr) {                                                                             \
+            if (trace_count < trace_capacity) {                                                                   \
+                trace_steps[trace_count] = TraceStep{origin_, direction_, value_, extra_, kind_, level_, light_, id_, \
+                                                     passes_, 0u, 0u, 0u};                                        \
+            }                                                                                                     \
+            trace_count++;                                                                                        \
+        }                                                                                                         \
+    } while (false)
+
 // Internal linkage: each translation unit has its own copy, so GCC may
 // inline a function called once (sphere_hit in walk) without keeping an
 // outside copy's worth of growth against it; each unit uses only some.

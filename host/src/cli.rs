@@ -5,6 +5,7 @@
 //! RAYCAST_VALIDATION=1), 4 `check` found differences.
 
 use crate::check;
+use crate::layout;
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gpu::{self, DeviceSelector, GpuOptions};
@@ -41,6 +42,8 @@ enum Command {
     Compare(CompareArgs),
     /// Run shader unit tests (tests/shaders/*.toml by default) on the device and the CPU build.
     ShaderTest(crate::harness::cli::ShaderTestArgs),
+    /// Follow one sample of one pixel through the shared code (its CPU build), step by step: each ray and what it meets, each light's term and shadow ray, each level's colour and mirror weight.
+    Trace(TraceArgs),
     /// Describe scenes without rendering them: camera, primitives, lights, materials, the world box, each group's hierarchy (nodes, leaves, depth, SAH cost) and buffer sizes
     Info(InfoArgs),
     /// List the Vulkan devices.
@@ -264,6 +267,22 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 }
 
 #[derive(Args, Debug)]
+struct TraceArgs {
+    /// A scene file (XML) or a generated scene (gen:FAMILY:DEPTH). Without one, the embedded default scene.
+    #[arg(value_name = "SCENE")]
+    scene: Option<PathBuf>,
+    /// The pixel: X columns from the left, Y rows from the top.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    pixel: (u32, u32),
+    /// Which of the pixel's `--spp` samples (0 is the pixel centre when there is one).
+    #[arg(long, default_value_t = 0, value_name = "S")]
+    sample: u32,
+    /// The picture's settings, as `render` takes them (the colour only; the CPU build traces).
+    #[command(flatten)]
+    render: RenderOptions,
+}
+
+#[derive(Args, Debug)]
 struct InfoArgs {
     /// Scene files (XML) or generated scenes (gen:FAMILY:DEPTH). Without any, the embedded default scene.
     #[arg(value_name = "SCENE")]
@@ -277,6 +296,63 @@ struct InfoArgs {
     /// One JSON object a line, a scene each, instead of text.
     #[arg(long)]
     json: bool,
+}
+
+/// `raycast trace`: the steps of one sample of one pixel (crate::trace),
+/// from the CPU build; at one sample a pixel, checked against the render of
+/// that pixel (its 8-bit colour, its rays, and its first hit).
+fn trace(args: &TraceArgs) -> Result<(), Failure> {
+    let o = &args.render;
+    let k = &o.kernel;
+    if k.device.is_some() || k.shaders.is_some() || k.validate || k.scene_buffers != SceneBuffers::Auto {
+        return Err(Failure(
+            "raycast: error: trace runs the CPU build of the shared code: --device, --shaders, --scene-buffers and --validate are \
+             for the commands that render on a device (`raycast check --pixel X,Y` runs one pixel on both)"
+                .to_string(),
+            2,
+        ));
+    }
+    if !matches!(o.aov, AovArg::Color) {
+        return Err(Failure("raycast: error: trace follows the colour's rays; --aov is for render and check".to_string(), 2));
+    }
+    let p = prepare(args.scene.as_deref(), o)?;
+    print_scene(&p);
+    let (x, y) = args.pixel;
+    let cpu = CpuRenderer::new()?;
+    let steps = cpu.trace(&p.data, x, y, args.sample).map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
+    let spp = p.data.frame.spp.max(1);
+    outln!("pixel ({x}, {y}), sample {} of {spp}:", args.sample);
+    for line in crate::trace::describe(&p.scene, &steps) {
+        outln!("{line}");
+    }
+    if spp > 1 {
+        outln!("(the pixel is the mean of its {spp} samples: `--sample S` traces another)");
+        return Ok(());
+    }
+    // The render's pixel: the same 8-bit colour, rays and first hit.
+    let pixel = cpu.render_rows(&p.data, &[y])[0][x as usize];
+    let rays = steps.iter().filter(|s| matches!(s.kind, layout::TRACE_CAMERA | layout::TRACE_MIRROR | layout::TRACE_SHADOW)).count();
+    let first = steps.iter().find(|s| s.kind == layout::TRACE_CAMERA);
+    let colour = steps.iter().find(|s| s.kind == layout::TRACE_PIXEL).map(|s| s.id);
+    let same = colour == Some(pixel.rgba)
+        && rays == pixel.rays as usize
+        && first.is_some_and(|c| c.id == pixel.id && (c.id == layout::NO_HIT || c.value[3].to_bits() == pixel.t.to_bits()));
+    if !same {
+        return Err(Failure(
+            format!(
+                "raycast: error: the trace and the render of pixel ({x}, {y}) disagree: render RGBA {:#010x}, {} rays, id {}; \
+                 trace {:?}, {rays} rays, first hit {:?}",
+                pixel.rgba,
+                pixel.rays,
+                pixel.id,
+                colour,
+                first.map(|c| c.id)
+            ),
+            1,
+        ));
+    }
+    outln!("the render's pixel: the same 8-bit colour, {rays} rays and first hit");
+    Ok(())
 }
 
 /// `raycast info`: each scene loaded and packed as a default render packs
@@ -418,6 +494,7 @@ pub fn main() -> ExitCode {
         Command::Compare(args) => compare(&args),
         Command::Preview(args) => crate::preview::run(&args),
         Command::Info(args) => info(&args),
+        Command::Trace(args) => trace(&args),
         Command::Devices => devices(),
         Command::ShaderTest(args) => crate::harness::cli::run(&args).map_err(|(message, code)| Failure(message, code)),
         Command::Gen(args) => crate::gen::run(&args),

@@ -11,6 +11,24 @@ use std::sync::Mutex;
 extern "C" {
     fn raycast_cpu_render_rows(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
     fn raycast_cpu_field_offset(ty: *const std::ffi::c_char, member: *const std::ffi::c_char) -> i64;
+    fn raycast_cpu_trace_sample(
+        buffers: *const *const c_void,
+        x: u32,
+        y: u32,
+        sample: u32,
+        out: *mut c_void,
+        capacity: u32,
+    ) -> u32;
+}
+
+/// The kernel's buffers by binding number, as raycast_cpu.h takes them.
+fn buffer_pointers(data: &FrameData) -> SendPtrs {
+    let mut buffers = [std::ptr::null::<c_void>(); layout::BINDING_COUNT as usize];
+    buffers[layout::BINDING_FRAME as usize] = (&data.frame as *const layout::Frame).cast();
+    for (binding, _, bytes) in data.scene_buffers() {
+        buffers[binding as usize] = bytes.as_ptr().cast();
+    }
+    SendPtrs(buffers)
 }
 
 /// Rows a thread takes at a time: small enough to balance uneven rows.
@@ -30,6 +48,7 @@ pub fn check_layouts() -> Result<(), String> {
         layout::LeafItem::layout(),
         layout::Instance::layout(),
         layout::PixelOut::layout(),
+        layout::TraceStep::layout(),
     ];
     let mut errors = Vec::new();
     for s in &structs {
@@ -100,18 +119,37 @@ impl CpuRenderer {
         out
     }
 
+    /// The steps of sample `sample` of pixel (x, y) as `render` takes it
+    /// (layout.h TraceStep): each ray and what it met, each light's term,
+    /// each level's colour, and the sample's colour last.
+    pub fn trace(&self, data: &FrameData, x: u32, y: u32, sample: u32) -> Result<Vec<layout::TraceStep>, String> {
+        let f = &data.frame;
+        if x >= f.width || y >= f.height {
+            return Err(format!("pixel ({x}, {y}) is outside the {}x{} picture", f.width, f.height));
+        }
+        if sample >= f.spp.max(1) {
+            return Err(format!("sample {sample} is not one of the pixel's {} (0 to {})", f.spp.max(1), f.spp.max(1) - 1));
+        }
+        let buffers = buffer_pointers(data);
+        let mut steps = vec![layout::TraceStep::default(); 64];
+        loop {
+            let capacity = u32::try_from(steps.len()).expect("a trace's steps fit u32");
+            // SAFETY: as in `run`; `steps` holds `capacity` TraceSteps (layout checked).
+            let n = unsafe { raycast_cpu_trace_sample(buffers.0.as_ptr(), x, y, sample, steps.as_mut_ptr().cast(), capacity) };
+            if n <= capacity {
+                steps.truncate(n as usize);
+                return Ok(steps);
+            }
+            steps.resize(n as usize, layout::TraceStep::default());
+        }
+    }
+
     /// Runs the jobs (first row, end row, their pixels) on every thread,
     /// each taken by whichever thread is free; returns the rows rendered.
     fn run<'a>(&self, data: &FrameData, jobs: impl Iterator<Item = (u32, u32, &'a mut [PixelOut])> + Send) -> u32 {
         let jobs = Mutex::new(jobs);
         let done = AtomicU32::new(0);
-        // The kernel's buffers by binding number, as raycast_cpu.h takes them.
-        let mut buffers = [std::ptr::null::<c_void>(); layout::BINDING_COUNT as usize];
-        buffers[layout::BINDING_FRAME as usize] = (&data.frame as *const layout::Frame).cast();
-        for (binding, _, bytes) in data.scene_buffers() {
-            buffers[binding as usize] = bytes.as_ptr().cast();
-        }
-        let buffers = SendPtrs(buffers);
+        let buffers = buffer_pointers(data);
         let buffers = &buffers;
         std::thread::scope(|scope| {
             for _ in 0..self.threads.max(1) {
@@ -204,6 +242,59 @@ mod tests {
                 wrong
             );
         }
+    }
+
+    /// `trace` follows the render: for every pixel of the mirrors (every
+    /// ray bouncing to the depth limit, two shadowed lights) and of the
+    /// embedded default scene (shadows cast, a spot light), at one sample a
+    /// pixel its last step holds the pixel's 8-bit colour, its ray steps are
+    /// the pixel's ray count and its camera ray's hit is the pixel's (id and
+    /// t bits); at two, the samples' rays add up to the pixel's. Each light
+    /// whose shadow ray decides is followed by that shadow ray. Rule: exact,
+    /// every pixel.
+    #[test]
+    fn the_trace_of_every_pixel_is_its_render() {
+        use crate::layout::{TRACE_CAMERA, TRACE_LIGHT, TRACE_LIGHT_SHADOW, TRACE_MIRROR, TRACE_PIXEL, TRACE_SHADOW};
+        let renderer = CpuRenderer::new().unwrap();
+        let point = r#"<lightdata><id v="1"/><type v="point"/><color r="1" g="1" b="1"/><position x="0" y="-2" z="0"/></lightdata>"#;
+        let default_file = crate::bench::parse_scene(None, &Default::default()).unwrap();
+        let default = crate::scene::flatten(&default_file, &crate::scene::FlattenLimits { max_primitives: 100 }).unwrap();
+        for (name, scene) in [("mirrors", mirrors(point)), ("default", default)] {
+            for spp in [1, 2] {
+                let settings = crate::frame::RenderSettings { width: 24, height: 18, spp, ..Default::default() };
+                let data = crate::frame::build(&scene, &settings).unwrap();
+                let picture = renderer.render(&data).unwrap();
+                for (k, pixel) in picture.pixels.iter().enumerate() {
+                    let (x, y) = (k as u32 % 24, k as u32 / 24);
+                    let mut rays = 0;
+                    for sample in 0..spp {
+                        let steps = renderer.trace(&data, x, y, sample).unwrap();
+                        let is_ray = |s: &&layout::TraceStep| matches!(s.kind, TRACE_CAMERA | TRACE_MIRROR | TRACE_SHADOW);
+                        rays += steps.iter().filter(is_ray).count() as u32;
+                        for pair in steps.windows(2) {
+                            if pair[0].kind == TRACE_LIGHT && pair[0].id == TRACE_LIGHT_SHADOW {
+                                assert!(pair[1].kind == TRACE_SHADOW && pair[1].light == pair[0].light, "{name} ({x}, {y}): {steps:?}");
+                            }
+                        }
+                        let last = steps.last().expect("a step");
+                        assert_eq!(last.kind, TRACE_PIXEL, "{name} ({x}, {y})");
+                        if spp == 1 {
+                            assert_eq!(last.id, pixel.rgba, "{name} ({x}, {y}): the 8-bit colour");
+                            let camera = &steps[0];
+                            assert_eq!(camera.kind, TRACE_CAMERA, "{name} ({x}, {y})");
+                            assert_eq!(camera.id, pixel.id, "{name} ({x}, {y})");
+                            if camera.id != layout::NO_HIT {
+                                assert_eq!(camera.value[3].to_bits(), pixel.t.to_bits(), "{name} ({x}, {y}): t");
+                            }
+                        }
+                    }
+                    assert_eq!(rays, pixel.rays, "{name} ({x}, {y}), {spp} samples: the rays");
+                }
+            }
+        }
+        let data = crate::frame::build(&mirrors(point), &Default::default()).unwrap();
+        assert!(renderer.trace(&data, 512, 0, 0).unwrap_err().contains("outside the 512x384 picture"));
+        assert!(renderer.trace(&data, 0, 0, 1).unwrap_err().contains("sample 1 is not one of the pixel's 1"));
     }
 
     /// Two spheres in front of the camera: A (id 0, radius 1) at the

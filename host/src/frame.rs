@@ -861,21 +861,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Camera, Globals};
-    use std::path::PathBuf;
-    use std::sync::Arc;
-
-    fn scene_with_camera(camera: Camera) -> Scene {
-        Scene {
-            path: Arc::new(PathBuf::from("test.xml")),
-            globals: Globals::default(),
-            camera,
-            lights: vec![],
-            groups: vec![],
-            materials: vec![],
-            warnings: vec![],
-        }
-    }
+    use crate::scene::Camera;
 
     /// The film corner (1, 1, -1) must map to the direction of the top-right
     /// pixel edge given by SCENE_FORMAT.md: U/2·u + V/2·v - w.

@@ -276,6 +276,34 @@ impl Light {
     }
 }
 
+/// One step of a pixel's sample in the CPU build's trace (layout.h TraceStep).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TraceStep {
+    pub origin: Vec4,
+    /// w: the ray's t_max.
+    pub direction: Vec4,
+    /// A hit's world normal and (w) t; a term or a colour.
+    pub value: Vec4,
+    /// A level's mirror weight.
+    pub extra: Vec4,
+    pub kind: u32,
+    pub level: u32,
+    pub light: u32,
+    /// The primitive hit (NO_HIT), or TRACE_LIGHT_*.
+    pub id: u32,
+    pub passes: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+impl TraceStep {
+    pub fn layout() -> StructLayout {
+        struct_layout!(TraceStep, "TraceStep", [origin, direction, value, extra, kind, level, light, id, passes, pad0, pad1, pad2])
+    }
+}
+
 impl PixelOut {
     pub fn layout() -> StructLayout {
         struct_layout!(PixelOut, "PixelOut", [normal, t, id, rgba, rays])

@@ -57,6 +57,7 @@ pub mod layout;
 pub mod preview;
 pub mod render;
 pub mod scene;
+pub mod trace;
 pub mod uint_defines;
 pub mod units;
 pub mod versus;

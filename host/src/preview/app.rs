@@ -810,7 +810,6 @@ impl Preview {
         let hit = self.camera.camera.pos + dir * f64::from(p.t);
         let m = &self.scene.materials[prim.material as usize];
         let v3 = |v: DVec3| format!("({:.4}, {:.4}, {:.4})", v.x, v.y, v.z);
-        let c3 = |c: [f32; 3]| format!("({}, {}, {})", c[0], c[1], c[2]);
         outln!("pixel ({j}, {i}): primitive {} ({}) at {}", p.id, prim.shape.name(), prim.loc);
         outln!(
             "  t {} (ray direction not unit; distance {:.4}), position {}, normal {}",
@@ -819,19 +818,7 @@ impl Preview {
             v3(hit),
             v3(DVec3::new(f64::from(p.normal[0]), f64::from(p.normal[1]), f64::from(p.normal[2])))
         );
-        outln!(
-            "  material: diffuse {} ambient {} specular {} shininess {} reflective {} transparent {} emissive {} ior {} blend {}{}",
-            c3(m.diffuse),
-            c3(m.ambient),
-            c3(m.specular),
-            m.shininess,
-            c3(m.reflective),
-            c3(m.transparent),
-            c3(m.emissive),
-            m.ior,
-            m.blend,
-            m.texture.as_ref().map(|t| format!(" texture {} (repeat {} {})", t.file, t.repeat_u, t.repeat_v)).unwrap_or_default()
-        );
+        outln!("  material: {}", m.describe());
         Ok(())
     }
 

@@ -168,6 +168,26 @@ pub struct Material {
     pub bumpmap: Option<TextureRef>,
 }
 
+impl Material {
+    /// Every field on one line, as the preview's pick and `raycast trace` print it.
+    pub fn describe(&self) -> String {
+        let c3 = |c: [f32; 3]| format!("({}, {}, {})", c[0], c[1], c[2]);
+        format!(
+            "diffuse {} ambient {} specular {} shininess {} reflective {} transparent {} emissive {} ior {} blend {}{}",
+            c3(self.diffuse),
+            c3(self.ambient),
+            c3(self.specular),
+            self.shininess,
+            c3(self.reflective),
+            c3(self.transparent),
+            c3(self.emissive),
+            self.ior,
+            self.blend,
+            self.texture.as_ref().map(|t| format!(" texture {} (repeat {} {})", t.file, t.repeat_u, t.repeat_v)).unwrap_or_default()
+        )
+    }
+}
+
 impl Default for Material {
     fn default() -> Self {
         Material {
