@@ -8,24 +8,6 @@
 
 using namespace raycast_cpu;
 
-namespace {
-// Binds the kernel's buffers (buffers[b] at binding b) for this thread.
-Scene bind_buffers(const void* const* buffers) {
-    Scene s;
-    std::memcpy(&s.frame, buffers[BINDING_FRAME], sizeof(Frame));
-    s.primitives = static_cast<const Primitive*>(buffers[BINDING_PRIMITIVES]);
-    s.materials = static_cast<const Material*>(buffers[BINDING_MATERIALS]);
-    s.lights = static_cast<const Light*>(buffers[BINDING_LIGHTS]);
-    s.textures = static_cast<const Texture*>(buffers[BINDING_TEXTURES]);
-    s.texels = static_cast<const Texel*>(buffers[BINDING_TEXELS]);
-    s.nodes = static_cast<const BvhNode*>(buffers[BINDING_NODES]);
-    s.leaf_items = static_cast<const LeafItem*>(buffers[BINDING_LEAF_ITEMS]);
-    s.instances = static_cast<const Instance*>(buffers[BINDING_INSTANCES]);
-    bind_scene(s);
-    return s;
-}
-} // namespace
-
 extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
                                         void* out) {
     Scene s = bind_buffers(buffers);
@@ -35,17 +17,6 @@ extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row
             pixels[size_t(i - row_begin) * s.frame.width + j] = render_pixel(j, i);
         }
     }
-}
-
-extern "C" uint32_t raycast_cpu_trace_sample(const void* const* buffers, uint32_t x, uint32_t y, uint32_t sample,
-                                             void* out, uint32_t capacity) {
-    Scene s = bind_buffers(buffers);
-    trace_steps = static_cast<TraceStep*>(out);
-    trace_capacity = capacity;
-    trace_count = 0;
-    sample_pixel(x, y, sample_offset(sample, max(s.frame.spp, 1u)));
-    trace_steps = nullptr;
-    return trace_count;
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 #include <glm/glm.hpp>
 
 namespace raycast_cpu {
@@ -69,6 +70,23 @@ inline void bind_scene(const Scene& s) {
     instances = s.instances;
 }
 
+// Binds the kernel's buffers (buffers[b] at binding b, layout.h BINDING_*,
+// as raycast_cpu.h takes them) for this thread.
+inline Scene bind_buffers(const void* const* buffers) {
+    Scene s;
+    std::memcpy(&s.frame, buffers[BINDING_FRAME], sizeof(Frame));
+    s.primitives = static_cast<const Primitive*>(buffers[BINDING_PRIMITIVES]);
+    s.materials = static_cast<const Material*>(buffers[BINDING_MATERIALS]);
+    s.lights = static_cast<const Light*>(buffers[BINDING_LIGHTS]);
+    s.textures = static_cast<const Texture*>(buffers[BINDING_TEXTURES]);
+    s.texels = static_cast<const Texel*>(buffers[BINDING_TEXELS]);
+    s.nodes = static_cast<const BvhNode*>(buffers[BINDING_NODES]);
+    s.leaf_items = static_cast<const LeafItem*>(buffers[BINDING_LEAF_ITEMS]);
+    s.instances = static_cast<const Instance*>(buffers[BINDING_INSTANCES]);
+    bind_scene(s);
+    return s;
+}
+
 // The kernels' specialization constants (scene_buffers.glsl): the CPU
 // build is never specialised, so it runs every path the shaders have.
 const bool HAS_CUBES = true;
@@ -90,23 +108,6 @@ const bool HAS_FLAT_LIST = true;
 const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
 const bool HAS_AOVS = true;
-
-// The trace of one pixel's sample (raycast.glsl TRACE, layout.h
-// TraceStep; `raycast trace`): while trace_steps is set, each step is
-// written there (up to trace_capacity) and counted; otherwise nothing.
-inline thread_local TraceStep* trace_steps = nullptr;
-inline thread_local uint32_t trace_capacity = 0;
-inline thread_local uint32_t trace_count = 0;
-#define TRACE(kind_, level_, light_, id_, passes_, origin_, direction_, value_, extra_)                              \
-    do {                                                                                                          \
-        if (trace_steps != nullptr) {                                                                             \
-            if (trace_count < trace_capacity) {                                                                   \
-                trace_steps[trace_count] = TraceStep{origin_, direction_, value_, extra_, kind_, level_, light_, id_, \
-                                                     passes_, 0u, 0u, 0u};                                        \
-            }                                                                                                     \
-            trace_count++;                                                                                        \
-        }                                                                                                         \
-    } while (false)
 
 // Internal linkage: each translation unit has its own copy, so GCC may
 // inline a function called once (sphere_hit in walk) without keeping an
