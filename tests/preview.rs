@@ -299,3 +299,44 @@ fn moving_frames_report_their_rate_and_the_frame_at_rest_is_full_size() {
     let o = raycast(&["preview", "--moving", "3"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
 }
+
+/// A click (scripted: `--click X,Y` after the last frame) prints the
+/// pixel's first hit and, in the colour view, its sample 0's rays as
+/// `raycast trace` follows them, from the preview's camera. Rules: at the
+/// scene's camera the trace lines are `raycast trace --pixel`'s, line for
+/// line; after the camera turned, the trace starts from another eye and its
+/// 8-bit colour is the screenshot's pixel (one sample at rest), exactly.
+#[test]
+fn a_click_prints_the_pixel_and_its_rays() {
+    let o = preview(&["--frames", "1", "--click", "256,200"]);
+    assert_clean(&o, "click");
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(out.contains("pixel (256, 200): primitive 0 (cube) at <default scene>:48:7"), "{}", text(&o));
+    let traced: Vec<&str> =
+        out.lines().skip_while(|l| !l.contains("its rays (`raycast trace`)")).skip(1).map(str::trim).collect();
+    let cli = raycast(&["trace", "--pixel", "256,200"]);
+    assert!(cli.status.success(), "{}", text(&cli));
+    let cli_out = String::from_utf8_lossy(&cli.stdout).into_owned();
+    let want: Vec<&str> = cli_out
+        .lines()
+        .skip_while(|l| !l.starts_with("pixel (256, 200), sample 0 of 1:"))
+        .skip(1)
+        .take_while(|l| !l.starts_with("the render's pixel"))
+        .map(str::trim)
+        .collect();
+    assert!(want.len() > 5, "{cli_out}");
+    assert_eq!(traced, want, "the preview's trace against raycast trace's");
+
+    let png = out_dir().join("click-moved.png");
+    let _ = std::fs::remove_file(&png);
+    let o = preview(&["--frames", "3", "--moving", "2", "--click", "256,200", "--screenshot", png.to_str().unwrap()]);
+    assert_clean(&o, "click after moving");
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    let camera = out.lines().find(|l| l.trim_start().starts_with("camera ray from")).unwrap_or_else(|| panic!("{}", text(&o)));
+    assert!(!camera.contains("from (4.5, 3.2, 6.5)"), "the scene's eye, not the turned camera's: {camera}");
+    let sample = out.lines().find(|l| l.trim_start().starts_with("sample colour")).unwrap_or_else(|| panic!("{}", text(&o)));
+    let shot = image_io::read_png(&png).unwrap();
+    let k = (200 * shot.width as usize + 256) * 3;
+    let rgb = &shot.data[k..k + 3];
+    assert!(sample.contains(&format!("8-bit ({}, {}, {})", rgb[0], rgb[1], rgb[2])), "screenshot pixel {rgb:?}; {sample}");
+}

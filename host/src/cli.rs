@@ -258,7 +258,7 @@ struct CheckArgs {
     pixel: Vec<(u32, u32)>,
 }
 
-fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+pub(crate) fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
     let parse = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{s:?} is not X,Y (two whole numbers, say 29,4)"));
     match s.split_once(',') {
         Some((x, y)) => Ok((parse(x)?, parse(y)?)),
@@ -319,7 +319,7 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
     print_scene(&p);
     let (x, y) = args.pixel;
     let cpu = CpuRenderer::new()?;
-    let steps = cpu.trace(&p.data, x, y, args.sample).map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
+    let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
     let spp = p.data.frame.spp.max(1);
     outln!("pixel ({x}, {y}), sample {} of {spp}:", args.sample);
     for line in crate::trace::describe(&p.scene, &steps) {

@@ -119,18 +119,20 @@ impl CpuRenderer {
         out
     }
 
-    /// The steps of sample `sample` of pixel (x, y) as `render` takes it
-    /// (layout.h TraceStep): each ray and what it met, each light's term,
-    /// each level's colour, and the sample's colour last.
-    pub fn trace(&self, data: &FrameData, x: u32, y: u32, sample: u32) -> Result<Vec<layout::TraceStep>, String> {
-        let f = &data.frame;
+    /// The steps of sample `sample` of pixel (x, y) of `frame` (the scene's
+    /// `data.frame`, or another camera's or size's, as the preview draws)
+    /// as `render` takes it (layout.h TraceStep): each ray and what it met,
+    /// each light's term, each level's colour, and the sample's colour last.
+    pub fn trace(&self, data: &FrameData, frame: &layout::Frame, x: u32, y: u32, sample: u32) -> Result<Vec<layout::TraceStep>, String> {
+        let f = frame;
         if x >= f.width || y >= f.height {
             return Err(format!("pixel ({x}, {y}) is outside the {}x{} picture", f.width, f.height));
         }
         if sample >= f.spp.max(1) {
             return Err(format!("sample {sample} is not one of the pixel's {} (0 to {})", f.spp.max(1), f.spp.max(1) - 1));
         }
-        let buffers = buffer_pointers(data);
+        let mut buffers = buffer_pointers(data);
+        buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
         let mut steps = vec![layout::TraceStep::default(); 64];
         loop {
             let capacity = u32::try_from(steps.len()).expect("a trace's steps fit u32");
@@ -268,7 +270,7 @@ mod tests {
                     let (x, y) = (k as u32 % 24, k as u32 / 24);
                     let mut rays = 0;
                     for sample in 0..spp {
-                        let steps = renderer.trace(&data, x, y, sample).unwrap();
+                        let steps = renderer.trace(&data, &data.frame, x, y, sample).unwrap();
                         let is_ray = |s: &&layout::TraceStep| matches!(s.kind, TRACE_CAMERA | TRACE_MIRROR | TRACE_SHADOW);
                         rays += steps.iter().filter(is_ray).count() as u32;
                         for pair in steps.windows(2) {
@@ -293,8 +295,8 @@ mod tests {
             }
         }
         let data = crate::frame::build(&mirrors(point), &Default::default()).unwrap();
-        assert!(renderer.trace(&data, 512, 0, 0).unwrap_err().contains("outside the 512x384 picture"));
-        assert!(renderer.trace(&data, 0, 0, 1).unwrap_err().contains("sample 1 is not one of the pixel's 1"));
+        assert!(renderer.trace(&data, &data.frame, 512, 0, 0).unwrap_err().contains("outside the 512x384 picture"));
+        assert!(renderer.trace(&data, &data.frame, 0, 0, 1).unwrap_err().contains("sample 1 is not one of the pixel's 1"));
     }
 
     /// Two spheres in front of the camera: A (id 0, radius 1) at the

@@ -159,6 +159,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
 
     let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
     preview.moving_frames = args.moving;
+    preview.click = args.click;
     preview.aov = args.aov.into();
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
@@ -247,6 +248,8 @@ struct Preview {
     sample: u32,
     /// Scripted runs (--moving N): the first N frames turn the camera.
     moving_frames: u32,
+    /// Scripted runs (--click X,Y): the pixel clicked after the last frame.
+    click: Option<(u32, u32)>,
     /// Frames submitted so far.
     rendered: u32,
     /// The size of the frame submitted last.
@@ -325,6 +328,7 @@ impl Preview {
             textures: true,
             sample: 0,
             moving_frames: 0,
+            click: None,
             rendered: 0,
             frame_sizes: (0, 0),
             moving_times: Vec::new(),
@@ -494,6 +498,9 @@ impl Preview {
                     if self.moving_frames > 0 {
                         self.report_moving();
                     }
+                    if let Some((j, i)) = self.click {
+                        self.pick_pixel(j, i)?;
+                    }
                     if let Some(path) = screenshot {
                         self.save(path)?;
                     }
@@ -508,7 +515,11 @@ impl Preview {
     /// gives its `raycast render` Frame bit for bit.
     fn frame(&self, scale: u32) -> Frame {
         let [w, h] = self.renderer.size();
-        let [w, h] = [w.div_ceil(scale), h.div_ceil(scale)];
+        self.frame_at([w.div_ceil(scale), h.div_ceil(scale)])
+    }
+
+    /// `frame`'s Frame at a size of w x h pixels.
+    fn frame_at(&self, [w, h]: [u32; 2]) -> Frame {
         let mut f = self.data.frame;
         f.width = w;
         f.height = h;
@@ -786,7 +797,18 @@ impl Preview {
         if j < 0.0 || i < 0.0 || j >= f64::from(w) || i >= f64::from(h) {
             return Ok(());
         }
-        let (j, i) = (j as u32, i as u32);
+        self.pick_pixel(j as u32, i as u32)
+    }
+
+    /// Prints what pixel (j, i) of the picture sees, and in the colour view
+    /// its sample 0's rays as `raycast trace` follows them (the CPU build,
+    /// which gives the device's bits).
+    fn pick_pixel(&mut self, j: u32, i: u32) -> Result<(), Failure> {
+        let [w, h] = self.renderer.frame_size();
+        if j >= w || i >= h {
+            errln!("raycast: preview: pixel ({j}, {i}) is outside the {w}x{h} picture");
+            return Ok(());
+        }
         let p = self.renderer.pixel(j, i)?;
         // The cost AOVs' passes (PixelOut.normal's w), hit or miss.
         match self.aov {
@@ -819,6 +841,20 @@ impl Preview {
             v3(DVec3::new(f64::from(p.normal[0]), f64::from(p.normal[1]), f64::from(p.normal[2])))
         );
         outln!("  material: {}", m.describe());
+        self.print_trace(j, i)
+    }
+
+    /// The colour view's trace of pixel (j, i) (its sample 0, the centre ray).
+    fn print_trace(&self, j: u32, i: u32) -> Result<(), Failure> {
+        if self.aov != Aov::Color {
+            return Ok(());
+        }
+        let frame = self.frame_at(self.renderer.frame_size());
+        let steps = crate::cpu::CpuRenderer::new()?.trace(&self.data, &frame, j, i, 0)?;
+        outln!("  its rays (`raycast trace`):");
+        for line in crate::trace::describe(&self.scene, &steps) {
+            outln!("    {line}");
+        }
         Ok(())
     }
 

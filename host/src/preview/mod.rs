@@ -66,6 +66,11 @@ pub struct PreviewArgs {
     /// or of all the pixel's rays
     #[arg(long, value_enum, default_value_t = AovArg::Color)]
     pub aov: AovArg,
+    /// With --frames: after the last frame, click pixel (X, Y) of the
+    /// picture, as a left click does (what it sees, then its rays as
+    /// `raycast trace` follows them).
+    #[arg(long, value_name = "X,Y", value_parser = crate::cli::parse_pixel, requires = "frames")]
+    pub click: Option<(u32, u32)>,
     /// Start with shadow rays off (H turns them on and off).
     #[arg(long)]
     pub no_shadows: bool,
