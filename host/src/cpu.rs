@@ -203,8 +203,7 @@ mod tests {
   </object>
 </scenefile>"#
         );
-        let file = crate::scene::parse_str(&xml, std::path::Path::new("mirrors.xml"), &Default::default()).unwrap();
-        crate::scene::flatten(&file, &crate::scene::FlattenLimits { max_primitives: 10 }).unwrap()
+        crate::scene::from_xml(xml, "mirrors.xml")
     }
 
     /// Two point lights between the mirrors light both faces: every pixel
@@ -259,8 +258,7 @@ mod tests {
         use crate::layout::{TRACE_CAMERA, TRACE_LIGHT, TRACE_LIGHT_SHADOW, TRACE_MIRROR, TRACE_PIXEL, TRACE_SHADOW};
         let renderer = CpuRenderer::new().unwrap();
         let point = r#"<lightdata><id v="1"/><type v="point"/><color r="1" g="1" b="1"/><position x="0" y="-2" z="0"/></lightdata>"#;
-        let default_file = crate::bench::parse_scene(None, &Default::default()).unwrap();
-        let default = crate::scene::flatten(&default_file, &crate::scene::FlattenLimits { max_primitives: 100 }).unwrap();
+        let default = crate::scene::from_xml(crate::cli::DEFAULT_SCENE, "default.xml");
         for (name, scene) in [("mirrors", mirrors(point)), ("default", default)] {
             for spp in [1, 2] {
                 let settings = crate::frame::RenderSettings { width: 24, height: 18, spp, ..Default::default() };
@@ -311,8 +309,7 @@ mod tests {
     <transblock><translate x="0" y="2" z="-5"/><scale x="2" y="2" z="2"/><object type="primitive" name="sphere"><diffuse r="0" g="1" b="0"/></object></transblock>
   </object>
 </scenefile>"#;
-        let file = crate::scene::parse_str(xml, std::path::Path::new("two.xml"), &Default::default()).unwrap();
-        crate::scene::flatten(&file, &crate::scene::FlattenLimits { max_primitives: 10 }).unwrap()
+        crate::scene::from_xml(xml, "two.xml")
     }
 
     /// raycast.glsl heat_color, quantised as pack_rgba8, as written here.
@@ -398,8 +395,7 @@ mod tests {
   <object type="tree" name="root">{cubes}</object>
 </scenefile>"#
         );
-        let file = crate::scene::parse_str(&xml, std::path::Path::new("row.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let scene = crate::scene::from_xml(xml, "row.xml");
         let renderer = CpuRenderer::new().unwrap();
         let render = |bvh: bool, cost_max: Option<u32>| {
             let settings = RenderSettings { width: 48, height: 32, aov: Aov::Cost, bvh, cost_max, ..RenderSettings::default() };

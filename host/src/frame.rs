@@ -904,8 +904,7 @@ mod tests {
             <transblock><translate x="-4" y="0" z="0"/><object type="master" name="leaf"/></transblock>
             <transblock><translate x="0" y="-6" z="0"/><scale x="8" y="0.25" z="0.25"/><object type="master" name="leaf"/></transblock>
           </object></scenefile>"#;
-        let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let scene = crate::scene::from_xml(xml, "t.xml");
         assert_eq!(scene.primitive_count(), 2 * 5 + 1 + 2 + 2);
         let mut kinds = check_packed_hierarchy(&scene);
         // The generated families: spheres, upright cones, axis-aligned cubes.
@@ -1060,8 +1059,7 @@ mod tests {
             xml.push_str(&format!("<transblock><translate x=\"{}\" y=\"0\" z=\"0\"/><object type=\"primitive\" name=\"cube\"/></transblock>", 3 * k));
         }
         xml.push_str("</object></scenefile>");
-        let file = crate::scene::parse_str(&xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let scene = crate::scene::from_xml(xml, "t.xml");
         let data = build(&scene, &RenderSettings::default()).unwrap();
         assert!(data.frame.node_count > 1, "20 primitives get a hierarchy");
         assert_eq!(data.leaf_items.len(), 20);
@@ -1089,8 +1087,7 @@ mod tests {
             <transblock><translate x="4" y="0" z="0"/><object type="primitive" name="cone"><diffuse r="1" g="0" b="0"/></object></transblock>
             <transblock><translate x="6" y="0" z="0"/><object type="primitive" name="sphere"><diffuse r="1" g="0" b="0"/><shininess v="3"/></object></transblock>
           </object></scenefile>"#;
-        let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let scene = crate::scene::from_xml(xml, "t.xml");
         assert_eq!(scene.materials.len(), 4, "the file writes four");
         let data = build(&scene, &RenderSettings::default()).unwrap();
         assert_eq!(data.materials.len(), 3, "red, green, red with a highlight");

@@ -358,8 +358,7 @@ mod tests {
     #[test]
     fn info_of_packed_scenes() {
         let xml = crate::gen::generate(crate::gen::Family::RecursiveSpheres, 5, &crate::gen::GenOptions { texture: None }).unwrap();
-        let file = crate::scene::parse_str(&xml, std::path::Path::new("gen.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let scene = crate::scene::from_xml(xml, "gen.xml");
         let data = pack(&scene).unwrap();
         let info = Info::of("gen.xml", &scene, &data);
         assert_eq!(info.expanded, 937);
@@ -381,16 +380,14 @@ mod tests {
             .map(|i| format!(r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#))
             .collect();
         let xml = format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#);
-        let file = crate::scene::parse_str(&xml, std::path::Path::new("row.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let scene = crate::scene::from_xml(xml, "row.xml");
         let data = pack(&scene).unwrap();
         let t = Info::of("row.xml", &scene, &data).groups[0].tree.clone().expect("a hierarchy");
         assert_eq!(t.items, 20);
         assert_eq!(t.nodes, 2 * t.leaves - 1, "a binary tree");
         assert!(t.depth >= 2 && t.leaves >= 2 && t.sah < 20.0 + f64::from(t.nodes), "{t:?}");
 
-        let file = crate::scene::parse_str(crate::cli::DEFAULT_SCENE, std::path::Path::new("default.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let scene = crate::scene::from_xml(crate::cli::DEFAULT_SCENE, "default.xml");
         let data = pack(&scene).unwrap();
         let info = Info::of("default", &scene, &data);
         assert!(info.groups.iter().all(|g| g.tree.is_none()));

@@ -567,8 +567,7 @@ mod tests {
     }
 
     fn data(xml: &str, settings: &RenderSettings) -> FrameData {
-        let file = crate::scene::parse_str(xml, std::path::Path::new("t.xml"), &Default::default()).unwrap();
-        let scene = crate::scene::flatten(&file, &Default::default()).unwrap();
+        let scene = crate::scene::from_xml(xml, "t.xml");
         crate::frame::build(&scene, settings).unwrap()
     }
 

@@ -13,6 +13,14 @@ pub use flatten::{flatten, load, FlattenLimits};
 pub use model::*;
 pub use parse::{parse_file, parse_str, ParseOptions};
 
+/// Tests: the scene of `xml`, named `name` in messages, parsed and
+/// flattened with the default options and limits (panics on an error).
+#[cfg(test)]
+pub fn from_xml(xml: impl AsRef<str>, name: &str) -> Scene {
+    let file = parse_str(xml.as_ref(), std::path::Path::new(name), &ParseOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    flatten(&file, &FlattenLimits::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// Tests: the course corpus from RAYCAST_CORPUS, or None after printing
 /// that the test is skipped.
 #[cfg(test)]
