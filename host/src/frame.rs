@@ -442,7 +442,8 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
             TextureFilter::Nearest => layout::FILTER_NEAREST,
             TextureFilter::Bilinear => layout::FILTER_BILINEAR,
         },
-        root_node: packed.root_node,
+        // The root group's root node (0 without a hierarchy).
+        root_node: packed.group_roots.first().copied().unwrap_or(0),
         node_count: packed.nodes.len() as u32,
         loop_canary: layout::LOOP_CANARY,
         ..layout::Frame::default()
@@ -474,7 +475,7 @@ struct Packed {
     nodes: Vec<layout::BvhNode>,
     leaf_items: Vec<layout::LeafItem>,
     instances: Vec<layout::Instance>,
-    root_node: u32,
+    /// Each group's root node, the scene's root group first; empty without a hierarchy.
     group_roots: Vec<u32>,
 }
 
@@ -848,14 +849,14 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     }
     if group_root[0] == u32::MAX {
         // Nothing to draw: no hierarchy, no primitives.
-        return Ok(Packed { primitives: vec![], nodes: vec![], leaf_items: vec![], instances: vec![], root_node: 0, group_roots: vec![] });
+        return Ok(Packed { primitives: vec![], nodes: vec![], leaf_items: vec![], instances: vec![], group_roots: vec![] });
     }
     if n == 1 && p_total as usize <= SMALL_SCENE {
         // A few primitives and no instances: testing them in order is cheaper
         // than walking a hierarchy, and computes exactly the same.
-        return Ok(Packed { primitives, nodes: vec![], leaf_items: vec![], instances: vec![], root_node: 0, group_roots: vec![] });
+        return Ok(Packed { primitives, nodes: vec![], leaf_items: vec![], instances: vec![], group_roots: vec![] });
     }
-    Ok(Packed { primitives, nodes, leaf_items, instances, root_node: group_root[0], group_roots: group_root })
+    Ok(Packed { primitives, nodes, leaf_items, instances, group_roots: group_root })
 }
 
 #[cfg(test)]
