@@ -557,8 +557,8 @@ pub fn load_scene(path: Option<&Path>, opts: &ParseOptions, limits: &FlattenLimi
         (_, name) => crate::bench::parse_scene(name, opts)?,
     };
     let scene = scene::flatten(&file, limits).map_err(|e| e.to_string())?;
-    for w in &scene.warnings {
-        errln!("{w}");
+    for line in scene::warning_lines(&scene.warnings) {
+        errln!("{line}");
     }
     Ok(scene)
 }

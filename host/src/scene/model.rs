@@ -55,6 +55,35 @@ impl fmt::Display for Warning {
     }
 }
 
+/// The warnings as lines to print, each message once: where the same
+/// message comes from several places (a missing texture named by every
+/// level of a generated scene), its first place's line ends with the
+/// others' (`also at 65:5, 105:5 (same file)`, up to 8 of them, then how many more).
+pub fn warning_lines(warnings: &[Warning]) -> Vec<String> {
+    const LISTED: usize = 8;
+    let mut order: Vec<(&Warning, Vec<&SourceLoc>)> = Vec::new();
+    for w in warnings {
+        match order.iter_mut().find(|(first, _)| first.message == w.message) {
+            Some((_, more)) => more.push(&w.loc),
+            None => order.push((w, Vec::new())),
+        }
+    }
+    order
+        .into_iter()
+        .map(|(first, more)| {
+            if more.is_empty() {
+                return first.to_string();
+            }
+            let place = |l: &SourceLoc| {
+                if l.file == first.loc.file { format!("{}:{}", l.line, l.col) } else { l.to_string() }
+            };
+            let listed: Vec<String> = more.iter().take(LISTED).map(|l| place(l)).collect();
+            let rest = if more.len() > LISTED { format!(" and {} more", more.len() - LISTED) } else { String::new() };
+            format!("{first} (also at {}{rest})", listed.join(", "))
+        })
+        .collect()
+}
+
 /// `<globaldata>`: the global Phong coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Globals {
@@ -421,5 +450,30 @@ impl Scene {
             world_from_group *= i.parent_from_group;
             group = i.group as usize;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn warning(file: &Arc<PathBuf>, line: u32, message: &str) -> Warning {
+        Warning { loc: SourceLoc { file: file.clone(), line, col: 5 }, message: message.to_string() }
+    }
+
+    /// Each message once, at its first place, the others listed after it
+    /// (line:col in the same file, the whole place in another), eight at
+    /// most and then a count; different messages in their first order.
+    #[test]
+    fn a_repeated_warning_is_printed_once_with_its_places() {
+        let (f, g) = (Arc::new(PathBuf::from("a.xml")), Arc::new(PathBuf::from("b.xml")));
+        let ws = [warning(&f, 1, "A"), warning(&f, 2, "B"), warning(&f, 3, "A"), warning(&g, 4, "A")];
+        assert_eq!(warning_lines(&ws), ["a.xml:1:5: warning: A (also at 3:5, b.xml:4:5)", "a.xml:2:5: warning: B"]);
+        let many: Vec<Warning> = (1..=12).map(|l| warning(&f, l, "T")).collect();
+        assert_eq!(
+            warning_lines(&many),
+            ["a.xml:1:5: warning: T (also at 2:5, 3:5, 4:5, 5:5, 6:5, 7:5, 8:5, 9:5 and 3 more)"]
+        );
+        assert!(warning_lines(&[]).is_empty());
     }
 }
