@@ -547,6 +547,10 @@ fn render_settings_out_of_range() {
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "0"], &[]), 1, "--cost-max 0 is out of range");
     let o = raycast(&["render", "--aov", "cost", "--width", "32", "--height", "24", "-o", out_dir().join("cost.png").to_str().unwrap()], &[]);
     assert!(text(&o).0.contains("cost: a camera ray's walk takes "), "{:?}", text(&o));
+    // The default scene's walks (5 passes: no hierarchy) are far under the default scale, 64: a hint.
+    assert!(text(&o).0.contains("cost: drawn dark red at 64 passes (--cost-max), twice the most here or more: --cost-max 5 spreads"), "{:?}", text(&o));
+    let o = raycast(&["render", "--aov", "cost", "--cost-max", "5", "--width", "32", "--height", "24", "-o", out_dir().join("cost.png").to_str().unwrap()], &[]);
+    assert!(o.status.success() && !text(&o).0.contains("spreads"), "{:?}", text(&o));
     assert_fails(&raycast(&["render", "--aov", "depth", "--cost-max", "9"], &[]), 1, "--cost-max is for --aov cost");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "many"], &[]), 2, "invalid value 'many'");
 }

@@ -637,10 +637,17 @@ fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure>
 /// The rate line, and with the cost AOV what the walks took.
 fn print_rates(data: &FrameData, picture: &Picture, time: Duration) {
     outln!("{}", rate_line(data, picture, time));
-    match data.frame.aov {
-        crate::layout::AOV_COST => outln!("{}", picture.passes_text("a camera ray's walk takes")),
-        crate::layout::AOV_COST_ALL => outln!("{}", picture.passes_text("a pixel's rays walk")),
-        _ => {}
+    let what = match data.frame.aov {
+        crate::layout::AOV_COST => "a camera ray's walk takes",
+        crate::layout::AOV_COST_ALL => "a pixel's rays walk",
+        _ => return,
+    };
+    outln!("{}", picture.passes_text(what));
+    // A scale far above the picture's passes leaves it all dark blue: say what would spread it.
+    let scale = data.frame.aov_scale[2];
+    let most = picture.pixels.iter().map(|p| p.normal[3]).fold(0.0f32, f32::max);
+    if most > 0.0 && most * 2.0 <= scale {
+        outln!("cost: drawn dark red at {scale} passes (--cost-max), twice the most here or more: --cost-max {most} spreads the colours over this picture");
     }
 }
 
