@@ -331,7 +331,7 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
     }
     // The render's pixel: the same 8-bit colour, rays and first hit.
     let pixel = cpu.render_rows(&p.data, &[y])[0][x as usize];
-    let rays = steps.iter().filter(|s| matches!(s.kind, layout::TRACE_CAMERA | layout::TRACE_MIRROR | layout::TRACE_SHADOW)).count();
+    let rays = steps.iter().filter(|s| s.is_ray()).count();
     let first = steps.iter().find(|s| s.kind == layout::TRACE_CAMERA);
     let colour = steps.iter().find(|s| s.kind == layout::TRACE_PIXEL).map(|s| s.id);
     let same = colour == Some(pixel.rgba)
@@ -638,14 +638,14 @@ fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure>
 fn print_rates(data: &FrameData, picture: &Picture, time: Duration) {
     outln!("{}", rate_line(data, picture, time));
     let what = match data.frame.aov {
-        crate::layout::AOV_COST => "a camera ray's walk takes",
-        crate::layout::AOV_COST_ALL => "a pixel's rays walk",
+        layout::AOV_COST => "a camera ray's walk takes",
+        layout::AOV_COST_ALL => "a pixel's rays walk",
         _ => return,
     };
     outln!("{}", picture.passes_text(what));
     // A scale far above the picture's passes leaves it all dark blue: say what would spread it.
     let scale = data.frame.aov_scale[2];
-    let most = picture.pixels.iter().map(|p| p.normal[3]).fold(0.0f32, f32::max);
+    let most = picture.most_passes().map_or(0, |(_, n)| n) as f32;
     if most > 0.0 && most * 2.0 <= scale {
         outln!("cost: drawn dark red at {scale} passes (--cost-max), twice the most here or more: --cost-max {most} spreads the colours over this picture");
     }

@@ -124,12 +124,12 @@ impl CpuRenderer {
     /// as `render` takes it (layout.h TraceStep): each ray and what it met,
     /// each light's term, each level's colour, and the sample's colour last.
     pub fn trace(&self, data: &FrameData, frame: &layout::Frame, x: u32, y: u32, sample: u32) -> Result<Vec<layout::TraceStep>, String> {
-        let f = frame;
-        if x >= f.width || y >= f.height {
-            return Err(format!("pixel ({x}, {y}) is outside the {}x{} picture", f.width, f.height));
+        if x >= frame.width || y >= frame.height {
+            return Err(format!("pixel ({x}, {y}) is outside the {}x{} picture", frame.width, frame.height));
         }
-        if sample >= f.spp.max(1) {
-            return Err(format!("sample {sample} is not one of the pixel's {} (0 to {})", f.spp.max(1), f.spp.max(1) - 1));
+        let spp = frame.spp.max(1);
+        if sample >= spp {
+            return Err(format!("sample {sample} is not one of the pixel's {spp} (0 to {})", spp - 1));
         }
         let mut buffers = buffer_pointers(data);
         buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
@@ -255,7 +255,7 @@ mod tests {
     /// every pixel.
     #[test]
     fn the_trace_of_every_pixel_is_its_render() {
-        use crate::layout::{TRACE_CAMERA, TRACE_LIGHT, TRACE_LIGHT_SHADOW, TRACE_MIRROR, TRACE_PIXEL, TRACE_SHADOW};
+        use crate::layout::{TRACE_CAMERA, TRACE_LIGHT, TRACE_LIGHT_SHADOW, TRACE_PIXEL, TRACE_SHADOW};
         let renderer = CpuRenderer::new().unwrap();
         let point = r#"<lightdata><id v="1"/><type v="point"/><color r="1" g="1" b="1"/><position x="0" y="-2" z="0"/></lightdata>"#;
         let default = crate::scene::from_xml(crate::cli::DEFAULT_SCENE, "default.xml");
@@ -269,8 +269,7 @@ mod tests {
                     let mut rays = 0;
                     for sample in 0..spp {
                         let steps = renderer.trace(&data, &data.frame, x, y, sample).unwrap();
-                        let is_ray = |s: &&layout::TraceStep| matches!(s.kind, TRACE_CAMERA | TRACE_MIRROR | TRACE_SHADOW);
-                        rays += steps.iter().filter(is_ray).count() as u32;
+                        rays += steps.iter().filter(|s| s.is_ray()).count() as u32;
                         for pair in steps.windows(2) {
                             if pair[0].kind == TRACE_LIGHT && pair[0].id == TRACE_LIGHT_SHADOW {
                                 assert!(pair[1].kind == TRACE_SHADOW && pair[1].light == pair[0].light, "{name} ({x}, {y}): {steps:?}");

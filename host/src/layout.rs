@@ -299,6 +299,11 @@ pub struct TraceStep {
 }
 
 impl TraceStep {
+    /// A ray's step (camera, mirror or shadow): one of the pixel's traced rays.
+    pub fn is_ray(&self) -> bool {
+        matches!(self.kind, TRACE_CAMERA | TRACE_MIRROR | TRACE_SHADOW)
+    }
+
     pub fn layout() -> StructLayout {
         struct_layout!(TraceStep, "TraceStep", [origin, direction, value, extra, kind, level, light, id, passes, pad0, pad1, pad2])
     }

@@ -72,10 +72,10 @@ impl Picture {
     /// pixel's rays'), for people, after `what`: their mean, median, 90th
     /// and 99th percentiles and the most, with its pixel.
     pub fn passes_text(&self, what: &str) -> String {
-        let mut passes: Vec<u32> = self.pixels.iter().map(|p| p.normal[3] as u32).collect();
-        let Some((most_at, &most)) = passes.iter().enumerate().max_by_key(|&(i, &n)| (n, std::cmp::Reverse(i))) else {
+        let Some((most_at, most)) = self.most_passes() else {
             return "cost: no pixels".to_string();
         };
+        let mut passes: Vec<u32> = self.pixels.iter().map(|p| p.normal[3] as u32).collect();
         let mean = passes.iter().map(|&n| f64::from(n)).sum::<f64>() / passes.len() as f64;
         passes.sort_unstable();
         let at = |q: usize| passes[(passes.len() - 1) * q / 100];
@@ -86,6 +86,13 @@ impl Picture {
             at(90),
             at(99)
         )
+    }
+
+    /// The most walk passes of any pixel (as `passes_text` reads them) and
+    /// the first pixel with them, by index; None without pixels.
+    pub fn most_passes(&self) -> Option<(usize, u32)> {
+        let passes = self.pixels.iter().map(|p| p.normal[3] as u32).enumerate();
+        passes.max_by_key(|&(i, n)| (n, std::cmp::Reverse(i)))
     }
 
     /// Every ray the frame traced (camera, shadow and mirror): the sum of the pixels' counts.
