@@ -821,7 +821,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
             let Some(n) = args.orbit else { return render_one(backend, &p, output) };
             // Each picture turned from the scene's camera (not from the one
             // before, which would drift); the first is that camera itself.
-            let home = crate::preview::camera::CameraControl::new(&p.scene.camera, scene::scene_bounds(&p.scene));
+            let home = scene::CameraControl::new(&p.scene.camera, scene::scene_bounds(&p.scene));
             for k in 0..n {
                 let degrees = 360.0 * f64::from(k) / f64::from(n);
                 let mut turned = home.clone();

@@ -18,7 +18,7 @@ use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
 use crate::scene::{scene_bounds, Bounds, FlattenLimits, ParseOptions, Scene};
 
-use super::camera::CameraControl;
+use crate::scene::CameraControl;
 use super::layout::PreviewFrame;
 use super::reload::{self, Reload, WatchConfig, Watcher, KERNEL_FILE};
 use super::renderer::{PreviewKernels, PreviewRenderer};

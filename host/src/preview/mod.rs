@@ -1,18 +1,18 @@
 //! `raycast preview`: the scene in a window. GLFW opens the window and
 //! reports input; the gpu part renders one jittered sample per frame with
 //! shaders/preview.comp, accumulating while nothing changes, and presents
-//! it. This part owns the window, input, camera control and live reload.
+//! it. This part owns the window, input and live reload; the camera control
+//! it steers with is the scene part's (`scene::CameraControl`, which
+//! `render --orbit` uses too).
 //!
 //! | file | owns |
 //! |---|---|
 //! | `app.rs` | the window, the render loop, keys and mouse, the title, picking |
-//! | `camera.rs` | orbit, pan, dolly, fly, reset, frame, `<cameradata>` |
 //! | `reload.rs` | the watcher thread: scene and shader reloads off the render thread |
 //! | `renderer.rs` | which buffer goes to which binding of preview.comp |
 //! | `layout.rs` | Rust mirrors of shaders/preview.h |
 
 mod app;
-pub mod camera;
 pub mod layout;
 mod reload;
 mod renderer;

@@ -2,6 +2,7 @@
 //! and flattening trees and masters into drawn primitives.
 
 pub mod bounds;
+pub mod camera_control;
 pub mod flatten;
 pub mod model;
 #[cfg(test)]
@@ -9,6 +10,7 @@ mod mutation_tests;
 pub mod parse;
 
 pub use bounds::{scene_bounds, Bounds};
+pub use camera_control::CameraControl;
 pub use flatten::{flatten, load, FlattenLimits};
 pub use model::*;
 pub use parse::{parse_file, parse_str, ParseOptions};

@@ -1,6 +1,6 @@
-//! Camera control of the preview: orbit, pan, dolly, fly, reset, frame the
-//! scene, and the `<cameradata>` block that writes the camera back into a
-//! scene file. Pure geometry in f64 on the scene model's `Camera`, so that
+//! Camera control, for the preview's steering and `render --orbit`: orbit,
+//! pan, dolly, fly, reset, frame the scene, and the `<cameradata>` block that
+//! writes the camera back into a scene file. Pure geometry in f64 on the scene model's `Camera`, so that
 //! after a reset the camera is the scene's, bit for bit.
 //!
 //! ```text
@@ -14,7 +14,7 @@
 
 use glam::{DQuat, DVec3};
 
-use crate::scene::{Bounds, Camera};
+use super::{Bounds, Camera};
 
 /// Smallest angle between the view direction and the up axis while orbiting.
 const POLE_MARGIN_DEG: f64 = 1.0;
@@ -22,7 +22,7 @@ const POLE_MARGIN_DEG: f64 = 1.0;
 const DOLLY_STEP: f64 = 0.85;
 const MIN_DISTANCE: f64 = 1e-4;
 
-/// The preview's camera and what it turns about.
+/// A camera and what it turns about.
 #[derive(Clone, Debug)]
 pub struct CameraControl {
     /// What is drawn. After `new` or `reset` exactly the scene's camera.
