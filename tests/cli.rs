@@ -854,3 +854,43 @@ fn trace_follows_one_pixel() {
     assert_fails(&raycast(&["trace", "--pixel", "1,1", "--aov", "depth"], &[]), 2, "trace follows the colour's rays");
     assert_fails(&raycast(&["trace", "no/such.xml", "--pixel", "1,1"], &[]), 1, "no/such.xml");
 }
+
+/// `trace --json`: the same steps as the text, as one JSON object: each
+/// ray's numbers are the text's (the same shortest digits), the lights'
+/// outcomes and the blocker's file:line:col are there, and the render's
+/// pixel agrees. Nothing else on stdout. At several samples a pixel there
+/// is no render to compare (null).
+#[test]
+fn trace_json_holds_the_text_trace() {
+    let (text_out, _) = text(&raycast(&["trace", "--pixel", "256,200"], &[]));
+    let o = raycast(&["trace", "--pixel", "256,200", "--json"], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert_eq!(out.lines().count(), 1, "one line of JSON:\n{out}");
+    let json = out.trim();
+    assert!(json.starts_with("{\"scene\":\"<default scene>\",\"pixel\":[256,200],\"sample\":0,\"spp\":1,\"rays\":4,"), "{json}");
+    assert!(json.ends_with(",\"render\":{\"rgba8\":[118,134,143,255],\"rays\":4,\"agrees\":true}}"), "{json}");
+    // The camera ray's direction, as the text prints it, in JSON's form.
+    let line = text_out.lines().find(|l| l.starts_with("camera ray from")).expect("a camera ray line");
+    let direction = line.split(" along ").nth(1).expect("along (x, y, z)");
+    let as_json = direction.replace(['(', ')'], "").replace(", ", ",");
+    assert!(json.contains(&format!("\"direction\":[{as_json}]")), "{as_json} not in {json}");
+    for want in [
+        "{\"kind\":\"camera\",\"level\":0,\"origin\":[4.5,3.2,6.5],",
+        "\"hit\":{\"primitive\":0,\"shape\":\"cube\",\"at\":\"<default scene>:48:7\",",
+        "\"blocked_by\":{\"primitive\":1,\"shape\":\"cube\",\"at\":\"<default scene>:56:7\",",
+        "\"light_kind\":\"directional\",",
+        "\"distance\":null,",
+        "\"t_max\":null,\"blocked_by\":null,",
+        "\"outcome\":\"shadow_ray\"",
+        "{\"kind\":\"pixel\",",
+        "\"rgb8\":[118,134,143]",
+    ] {
+        assert!(json.contains(want), "{want} not in {json}");
+    }
+    assert_eq!(json.matches('{').count(), json.matches('}').count(), "{json}");
+    assert_eq!(json.matches('[').count(), json.matches(']').count(), "{json}");
+    let o = raycast(&["trace", "--pixel", "3,2", "--spp", "4", "--sample", "1", "--json"], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success() && out.trim().ends_with(",\"render\":null}") && out.contains("\"sample\":1,\"spp\":4,"), "{out}{err}");
+}

@@ -277,6 +277,10 @@ struct TraceArgs {
     /// Which of the pixel's `--spp` samples (0 is the pixel centre when there is one).
     #[arg(long, default_value_t = 0, value_name = "S")]
     sample: u32,
+    /// One JSON object instead of text: the pixel, the sample, every step with its numbers as computed (floats in
+    /// shortest round-trip digits) and, at one sample a pixel, the render's pixel and whether the trace agrees with it.
+    #[arg(long)]
+    json: bool,
     /// The picture's settings, as `render` takes them (the colour only; the CPU build traces).
     #[command(flatten)]
     render: RenderOptions,
@@ -316,28 +320,49 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
         return Err(Failure("raycast: error: trace follows the colour's rays; --aov is for render and check".to_string(), 2));
     }
     let p = prepare(args.scene.as_deref(), o)?;
-    print_scene(&p);
+    if !args.json {
+        print_scene(&p);
+    }
     let (x, y) = args.pixel;
     let cpu = CpuRenderer::new()?;
     let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
     let spp = p.data.frame.spp.max(1);
-    outln!("pixel ({x}, {y}), sample {} of {spp}:", args.sample);
-    for line in crate::trace::describe(&p.scene, &steps) {
-        outln!("{line}");
-    }
-    if spp > 1 {
-        outln!("(the pixel is the mean of its {spp} samples: `--sample S` traces another)");
-        return Ok(());
-    }
-    // The render's pixel: the same 8-bit colour, rays and first hit.
-    let pixel = cpu.render_rows(&p.data, &[y])[0][x as usize];
+    // At one sample a pixel, the render's pixel: the same 8-bit colour, rays and first hit.
+    let render = (spp == 1).then(|| cpu.render_rows(&p.data, &[y])[0][x as usize]);
     let rays = steps.iter().filter(|s| s.is_ray()).count();
     let first = steps.iter().find(|s| s.kind == layout::TRACE_CAMERA);
     let colour = steps.iter().find(|s| s.kind == layout::TRACE_PIXEL).map(|s| s.id);
-    let same = colour == Some(pixel.rgba)
-        && rays == pixel.rays as usize
-        && first.is_some_and(|c| c.id == pixel.id && (c.id == layout::NO_HIT || c.value[3].to_bits() == pixel.t.to_bits()));
-    if !same {
+    let agrees = |pixel: &layout::PixelOut| {
+        colour == Some(pixel.rgba)
+            && rays == pixel.rays as usize
+            && first.is_some_and(|c| c.id == pixel.id && (c.id == layout::NO_HIT || c.value[3].to_bits() == pixel.t.to_bits()))
+    };
+    if args.json {
+        let render_json = render.map_or("null".to_string(), |pixel| {
+            format!(
+                "{{\"rgba8\":[{}],\"rays\":{},\"agrees\":{}}}",
+                pixel.rgba.to_le_bytes().map(|c| c.to_string()).join(","),
+                pixel.rays,
+                agrees(&pixel)
+            )
+        });
+        outln!(
+            "{{\"scene\":{},\"pixel\":[{x},{y}],\"sample\":{},\"spp\":{spp},\"rays\":{rays},\"steps\":[{}],\"render\":{render_json}}}",
+            crate::units::json_str(&args.scene.as_deref().map_or(DEFAULT_SCENE_NAME.to_string(), |s| s.display().to_string())),
+            args.sample,
+            crate::trace::json(&p.scene, &steps).join(",")
+        );
+    } else {
+        outln!("pixel ({x}, {y}), sample {} of {spp}:", args.sample);
+        for line in crate::trace::describe(&p.scene, &steps) {
+            outln!("{line}");
+        }
+        if spp > 1 {
+            outln!("(the pixel is the mean of its {spp} samples: `--sample S` traces another)");
+        }
+    }
+    let Some(pixel) = render else { return Ok(()) };
+    if !agrees(&pixel) {
         return Err(Failure(
             format!(
                 "raycast: error: the trace and the render of pixel ({x}, {y}) disagree: render RGBA {:#010x}, {} rays, id {}; \
@@ -351,7 +376,9 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
             1,
         ));
     }
-    outln!("the render's pixel: the same 8-bit colour, {rays} rays and first hit");
+    if !args.json {
+        outln!("the render's pixel: the same 8-bit colour, {rays} rays and first hit");
+    }
     Ok(())
 }
 

@@ -5,7 +5,8 @@
 //! colour.
 
 use crate::layout::{self, TraceStep, NO_HIT};
-use crate::scene::Scene;
+use crate::scene::{LightKind, Scene};
+use crate::units::json_str;
 
 fn v3(v: [f32; 4]) -> String {
     format!("({}, {}, {})", v[0], v[1], v[2])
@@ -110,4 +111,113 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
         }
     }
     lines
+}
+
+/// A float in JSON: Rust's shortest digits that read back as the same f32,
+/// or null where it is not finite (JSON has no NaN or infinity).
+fn num(x: f32) -> String {
+    if x.is_finite() { format!("{x}") } else { "null".to_string() }
+}
+
+fn vec3_json(v: [f32; 4]) -> String {
+    format!("[{},{},{}]", num(v[0]), num(v[1]), num(v[2]))
+}
+
+/// What a ray met: null, or the primitive (its id, shape and file:line:col)
+/// and t.
+fn hit_json(scene: &Scene, s: &TraceStep) -> String {
+    if s.id == NO_HIT {
+        return "null".to_string();
+    }
+    let (shape, loc) = match scene.primitive(u64::from(s.id)) {
+        Some(p) => (json_str(p.shape.name()), json_str(&p.loc.to_string())),
+        None => ("null".to_string(), "null".to_string()),
+    };
+    format!("{{\"primitive\":{},\"shape\":{shape},\"at\":{loc},\"t\":{}", s.id, num(s.value[3]))
+}
+
+/// The steps as JSON objects, one a step, in the order `describe` gives
+/// them; every number as the CPU build computed it. `kind` is one of
+/// camera, mirror, shadow, surface, light, level, pixel.
+pub fn json(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
+    steps
+        .iter()
+        .map(|s| match s.kind {
+            layout::TRACE_CAMERA | layout::TRACE_MIRROR => {
+                let kind = if s.kind == layout::TRACE_CAMERA { "camera" } else { "mirror" };
+                let hit = match hit_json(scene, s).as_str() {
+                    "null" => "null".to_string(),
+                    h => format!("{h},\"normal\":{}}}", vec3_json(s.value)),
+                };
+                format!(
+                    "{{\"kind\":\"{kind}\",\"level\":{},\"origin\":{},\"direction\":{},\"hit\":{hit},\"passes\":{}}}",
+                    s.level,
+                    vec3_json(s.origin),
+                    vec3_json(s.direction),
+                    s.passes
+                )
+            }
+            layout::TRACE_SHADOW => {
+                let hit = match hit_json(scene, s).as_str() {
+                    "null" => "null".to_string(),
+                    h => format!("{h}}}"),
+                };
+                // T_FAR, the largest float: a directional light's, any distance (null).
+                let t_max = if s.direction[3] == f32::MAX { "null".to_string() } else { num(s.direction[3]) };
+                format!(
+                    "{{\"kind\":\"shadow\",\"level\":{},\"light\":{},\"origin\":{},\"direction\":{},\"t_max\":{t_max},\"blocked_by\":{hit},\"passes\":{}}}",
+                    s.level,
+                    s.light,
+                    vec3_json(s.origin),
+                    vec3_json(s.direction),
+                    s.passes
+                )
+            }
+            layout::TRACE_SURFACE => format!(
+                "{{\"kind\":\"surface\",\"level\":{},\"primitive\":{},\"point\":{},\"ambient_emissive\":{},\"diffuse\":{}}}",
+                s.level,
+                s.id,
+                vec3_json(s.origin),
+                vec3_json(s.value),
+                vec3_json(s.extra)
+            ),
+            layout::TRACE_LIGHT => {
+                let outcome = match s.id {
+                    layout::TRACE_LIGHT_NOTHING => "nothing",
+                    layout::TRACE_LIGHT_ADDED => "added",
+                    _ => "shadow_ray",
+                };
+                let light = scene.lights.get(s.light as usize);
+                let kind = light.map_or("null".to_string(), |l| json_str(l.kind.name()));
+                // A directional light has no distance (the kernel passes 0).
+                let distance = if light.is_some_and(|l| l.kind == LightKind::Directional) { "null".to_string() } else { num(s.direction[3]) };
+                format!(
+                    "{{\"kind\":\"light\",\"level\":{},\"light\":{},\"light_kind\":{kind},\"toward\":{},\"distance\":{},\"term\":{},\"outcome\":\"{outcome}\"}}",
+                    s.level,
+                    s.light,
+                    vec3_json(s.direction),
+                    distance,
+                    vec3_json(s.value)
+                )
+            }
+            layout::TRACE_LEVEL => format!(
+                "{{\"kind\":\"level\",\"level\":{},\"colour\":{},\"mirror_weight\":{}}}",
+                s.level,
+                vec3_json(s.value),
+                vec3_json(s.extra)
+            ),
+            layout::TRACE_PIXEL => {
+                let rgba = s.id.to_le_bytes();
+                format!(
+                    "{{\"kind\":\"pixel\",\"colour\":{},\"rgb8\":[{},{},{}],\"passes\":{}}}",
+                    vec3_json(s.value),
+                    rgba[0],
+                    rgba[1],
+                    rgba[2],
+                    s.passes
+                )
+            }
+            other => format!("{{\"kind\":\"unknown\",\"code\":{other}}}"),
+        })
+        .collect()
 }
