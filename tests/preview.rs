@@ -249,6 +249,9 @@ fn bad_arguments_are_usage_errors() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let o = raycast(&["preview", "--present-mode", "sometimes"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let o = raycast(&["preview", "--width", "0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--width 0 is out of range"), "{}", text(&o));
     let o = raycast(&["preview", "--shaders", "/nonexistent"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no preview.comp"), "{}", text(&o));

@@ -551,7 +551,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     }
     crate::cli::cpu_takes_no_shaders(args.backend == BenchBackend::Cpu, &args.render.kernel.shaders)?;
     let settings = args.render.settings();
-    settings.validate()?;
+    settings.validate().map_err(crate::cli::usage_error)?;
     let r = &args.render;
     let (want_gpu, want_cpu) = match args.backend {
         BenchBackend::Gpu => (true, false),

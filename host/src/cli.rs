@@ -324,6 +324,12 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
         print_scene(&p);
     }
     let (x, y) = args.pixel;
+    if x >= o.width || y >= o.height {
+        return Err(usage_error(format!("--pixel {x},{y} is outside the {}x{} picture", o.width, o.height)));
+    }
+    if args.sample >= o.spp.max(1) {
+        return Err(usage_error(format!("--sample {} is not one of the pixel's {} (0 to {})", args.sample, o.spp.max(1), o.spp.max(1) - 1)));
+    }
     let cpu = CpuRenderer::new()?;
     let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
     let spp = p.data.frame.spp.max(1);
@@ -500,6 +506,12 @@ impl<E: std::fmt::Display> From<E> for Failure {
     }
 }
 
+/// A flag's value out of range (frame::SettingsError and the like): a usage
+/// error, exit 2, as clap's own.
+pub(crate) fn usage_error(e: impl std::fmt::Display) -> Failure {
+    Failure(format!("raycast: error: {e}"), 2)
+}
+
 /// A scene error: it already reads `file:line:col: error: …`.
 pub(crate) fn scene_failure(e: String) -> Failure {
     Failure(e, 1)
@@ -600,7 +612,7 @@ struct Prepared {
 /// `scene` (None: the embedded default scene) loaded and packed as `o` asks.
 fn prepare(scene: Option<&Path>, o: &RenderOptions) -> Result<Prepared, Failure> {
     let settings = o.settings();
-    settings.validate()?;
+    settings.validate().map_err(usage_error)?;
     let start = Instant::now();
     let parse = ParseOptions { assets: o.assets.clone() };
     let scene = load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives }).map_err(scene_failure)?;
@@ -981,10 +993,10 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         ));
     }
     // Bad --pixel input fails before any work (the frame's size is the options').
-    args.render.settings().validate()?;
+    args.render.settings().validate().map_err(usage_error)?;
     let (width, height) = (args.render.width, args.render.height);
     if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
-        return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 1));
+        return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 2));
     }
     let diffs = output_paths(&args.output, &args.out_dir, "-check", &scenes)?;
     let mut backends: Option<CheckBackends> = None;
@@ -1186,7 +1198,7 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
 
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
     if !(0.0..=100.0).contains(&args.max_percent) {
-        return Err(Failure(format!("raycast: error: --max-percent {} is out of range: 0 to 100", args.max_percent), 1));
+        return Err(Failure(format!("raycast: error: --max-percent {} is out of range: 0 to 100", args.max_percent), 2));
     }
     if let Some(path) = &args.output {
         image_io::check_output_path(path)?;

@@ -87,7 +87,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
         ));
     }
     let settings = args.render.settings();
-    settings.validate()?;
+    settings.validate().map_err(crate::cli::usage_error)?;
     let a_name = args.render.kernel.shaders.as_ref().map_or("the built-in kernel".to_string(), |d| format!("the kernel from {}", d.display()));
     let b_name = format!("the kernel from {}", versus.display());
     let r = &args.render;

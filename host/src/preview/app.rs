@@ -56,7 +56,7 @@ preview controls:
 
 pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let settings = RenderSettings { width: args.width, height: args.height, ..RenderSettings::default() };
-    settings.validate()?;
+    settings.validate().map_err(crate::cli::usage_error)?;
     if let Some(path) = &args.screenshot {
         crate::image_io::check_output_path(path)?;
     }
