@@ -587,6 +587,25 @@ fn compare_reports_and_fails_beyond_the_threshold() {
     assert_fails(&o, 4, "more than --max-percent 0.1");
     assert!(text(&o).0.contains("first at ("), "{:?}", text(&o));
     assert!(diff.exists());
+    // --json: the same numbers as the text, the rule's verdict, the same exit status.
+    let words: Vec<String> = text(&o).0.split_whitespace().map(str::to_string).collect();
+    let (differing, pixels) = (&words[0], &words[2]);
+    let first = text(&o).0.split("first at (").nth(1).and_then(|r| r.split(')').next()).expect("first at (x, y)").replace(' ', "");
+    let j = raycast(&["compare", a.to_str().unwrap(), b.to_str().unwrap(), "--json"], &[]);
+    let (out, err) = text(&j);
+    assert_eq!(j.status.code(), Some(4), "{out}{err}");
+    assert_eq!(out.lines().count(), 1, "{out}");
+    for want in [
+        format!("\"pixels\":{pixels},\"differing\":{differing},"),
+        format!("\"first\":{{\"at\":[{first}],"),
+        "\"tolerance\":2,".to_string(),
+        "\"max_percent\":0.1,\"passes\":false,\"diff_image\":null}".to_string(),
+    ] {
+        assert!(out.contains(&want), "{want} not in {out}");
+    }
+    let j = raycast(&["compare", a.to_str().unwrap(), a.to_str().unwrap(), "--json"], &[]);
+    assert!(j.status.success() && text(&j).0.contains("\"differing\":0,\"percent\":0,") && text(&j).0.contains("\"first\":null,\"worst\":null,"), "{:?}", text(&j));
+    assert!(text(&j).0.contains("\"passes\":true"), "{:?}", text(&j));
 }
 
 /// A generated scene in the test output folder (`raycast gen`).

@@ -74,6 +74,23 @@ impl ImageDiff {
     pub fn fraction(&self) -> f64 {
         self.differing as f64 / self.total.max(1) as f64
     }
+
+    /// The same as its text, as JSON fields (no braces): "pixels",
+    /// "differing", "percent", "tolerance", "first" ({"at", "actual",
+    /// "expected"} or null) and "worst" ({"at", "by"} or null).
+    pub fn json_fields(&self) -> String {
+        let first = self.first.map_or("null".to_string(), |(x, y, a, e)| {
+            format!("{{\"at\":[{x},{y}],\"actual\":[{},{},{}],\"expected\":[{},{},{}]}}", a[0], a[1], a[2], e[0], e[1], e[2])
+        });
+        let worst = self.worst.map_or("null".to_string(), |(x, y, d)| format!("{{\"at\":[{x},{y}],\"by\":{d}}}"));
+        format!(
+            "\"pixels\":{},\"differing\":{},\"percent\":{},\"tolerance\":{},\"first\":{first},\"worst\":{worst}",
+            self.total,
+            self.differing,
+            100.0 * self.fraction(),
+            self.tolerance
+        )
+    }
 }
 
 impl fmt::Display for ImageDiff {
