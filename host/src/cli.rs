@@ -319,16 +319,18 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
     if !matches!(o.aov, AovArg::Color) {
         return Err(Failure("raycast: error: trace follows the colour's rays; --aov is for render and check".to_string(), 2));
     }
-    let p = prepare(args.scene.as_deref(), o)?;
-    if !args.json {
-        print_scene(&p);
-    }
+    // Usage errors before any work (the picture's size and samples are the options').
+    o.settings().validate().map_err(usage_error)?;
     let (x, y) = args.pixel;
     if x >= o.width || y >= o.height {
         return Err(usage_error(format!("--pixel {x},{y} is outside the {}x{} picture", o.width, o.height)));
     }
     if args.sample >= o.spp.max(1) {
         return Err(usage_error(format!("--sample {} is not one of the pixel's {} (0 to {})", args.sample, o.spp.max(1), o.spp.max(1) - 1)));
+    }
+    let p = prepare(args.scene.as_deref(), o)?;
+    if !args.json {
+        print_scene(&p);
     }
     let cpu = CpuRenderer::new()?;
     let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
@@ -1000,7 +1002,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     args.render.settings().validate().map_err(usage_error)?;
     let (width, height) = (args.render.width, args.render.height);
     if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
-        return Err(Failure(format!("raycast: error: --pixel {x},{y} is outside the {width}x{height} frame"), 2));
+        return Err(usage_error(format!("--pixel {x},{y} is outside the {width}x{height} frame")));
     }
     let diffs = output_paths(&args.output, &args.out_dir, "-check", &scenes)?;
     let mut backends: Option<CheckBackends> = None;
@@ -1215,14 +1217,14 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
         image_io::write_png(path, &diff.diff_image)?;
     }
     if args.json {
-        let json_path = |p: &Option<PathBuf>| p.as_ref().map_or("null".to_string(), |p| crate::units::json_str(&p.display().to_string()));
+        let path = |p: &Path| crate::units::json_str(&p.display().to_string());
         outln!(
             "{{\"actual\":{},\"expected\":{},{},\"max_percent\":{},\"passes\":{passes},\"diff_image\":{}}}",
-            json_path(&Some(args.actual.clone())),
-            json_path(&Some(args.expected.clone())),
+            path(&args.actual),
+            path(&args.expected),
             diff.json_fields(),
             args.max_percent,
-            json_path(&args.output)
+            args.output.as_deref().map_or("null".to_string(), path)
         );
     } else {
         outln!("{diff}");
