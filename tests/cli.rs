@@ -327,6 +327,46 @@ fn cpu_backend_writes_the_same_png_as_the_device() {
     assert_eq!(diff.differing, 0, "{diff}");
 }
 
+/// `--backend auto`: on lavapipe (a device of type CPU) the CPU build
+/// renders, says why, and writes the device's picture (rule: bit-exact);
+/// with no Vulkan driver at all it renders on the CPU build after a note;
+/// with `--device` it does not fall back (the device's error, exit 1); with
+/// `--shaders` it is the device. On a GPU machine the first part is skipped
+/// visibly.
+#[test]
+fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
+    let (gpu, auto, none) = (out_dir().join("auto-gpu.png"), out_dir().join("auto-auto.png"), out_dir().join("auto-none.png"));
+    let o = raycast(&["render", "--width", "96", "--height", "72", "-o", gpu.to_str().unwrap()], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    let on_lavapipe = out.contains("llvmpipe");
+    let o = raycast(&["render", "--width", "96", "--height", "72", "--backend", "auto", "-o", auto.to_str().unwrap()], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    if on_lavapipe {
+        assert!(out.contains("device: CPU build of the shared GLSL (") && out.contains("; --backend auto: llvmpipe"), "{out}");
+        assert!(!out.contains("hint:"), "{out}");
+        // Rule: bit-exact.
+        let diff = raycast::image_io::compare(&raycast::image_io::read_png(&auto).unwrap(), &raycast::image_io::read_png(&gpu).unwrap(), 0).unwrap();
+        assert_eq!(diff.differing, 0, "{diff}");
+    } else {
+        println!("skipped: the device is not lavapipe, so --backend auto keeps it: {out}");
+        assert!(!out.contains("device: CPU build"), "{out}");
+    }
+    let no_driver = [("VK_DRIVER_FILES", "/nonexistent/icd.json"), ("RAYCAST_VALIDATION", "0")];
+    let o = raycast(&["render", "--width", "96", "--height", "72", "--backend", "auto", "-o", none.to_str().unwrap()], &no_driver);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(err.contains("raycast: note: no Vulkan device found") && err.contains("--backend auto renders with the CPU build instead"), "{err}");
+    assert!(!err.contains("error"), "{err}");
+    assert!(out.contains("device: CPU build of the shared GLSL (") && out.contains("; --backend auto: no Vulkan device opened)"), "{out}");
+    let diff = raycast::image_io::compare(&raycast::image_io::read_png(&none).unwrap(), &raycast::image_io::read_png(&gpu).unwrap(), 0).unwrap();
+    assert_eq!(diff.differing, 0, "{diff}");
+    assert_fails(&raycast(&["render", "--backend", "auto", "--device", "0", "-o", none.to_str().unwrap()], &no_driver), 1, "no Vulkan device found");
+    let o = raycast(&["render", "--width", "8", "--height", "8", "--backend", "auto", "--shaders", repo().join("shaders").to_str().unwrap(), "-o", none.to_str().unwrap()], &[]);
+    assert!(o.status.success() && !text(&o).0.contains("device: CPU build"), "{:?}", text(&o));
+}
+
 #[test]
 fn check_passes_on_the_default_scene() {
     let diff = out_dir().join("check-default.png");

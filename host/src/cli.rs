@@ -476,8 +476,12 @@ pub enum FilterArg {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Backend {
+    /// A Vulkan device (--device, or the best one).
     Gpu,
+    /// The C++ build of the shared GLSL on every core.
     Cpu,
+    /// The device, unless it runs on the CPU (lavapipe) or, without --device, none opens: then the CPU build.
+    Auto,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -891,17 +895,52 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     finish_render(backend, result)
 }
 
+/// Where `render` and `conformance` run. `--backend auto` takes the device
+/// unless it runs on the CPU (a Vulkan device of type CPU, as lavapipe: the
+/// CPU build of the same code is about twice as fast there, without
+/// Vulkan's start-up or a pipeline to build, and on lavapipe gives the same
+/// bits) or, without `--device`, none opens (no driver, no device): then
+/// the CPU build, and a line says why. With `--shaders` it is the device
+/// (the folder's kernel runs only there). The second value says why the
+/// CPU build was chosen, for the command's first line.
+fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, Option<String>), Failure> {
+    let cpu = |why: Option<String>| Ok((RenderBackend::Cpu(CpuRenderer::new()?), why));
+    match backend {
+        Backend::Cpu => cpu(None),
+        Backend::Gpu => Ok((RenderBackend::Gpu(k.renderer()?), None)),
+        Backend::Auto if k.shaders.is_some() => Ok((RenderBackend::Gpu(k.renderer()?), None)),
+        Backend::Auto => match k.renderer() {
+            Ok(renderer) if renderer.context().info().kind == "cpu" => {
+                let why = format!("--backend auto: {} runs on the CPU", renderer.context().info().name);
+                check_validation(renderer.context().take_validation_messages())?;
+                drop(renderer);
+                cpu(Some(why))
+            }
+            Ok(renderer) => Ok((RenderBackend::Gpu(renderer), None)),
+            Err(Failure(message, _)) if k.device.is_none() => {
+                let message = message.strip_prefix("raycast: error: ").unwrap_or(&message);
+                errln!("raycast: note: {message}; --backend auto renders with the CPU build instead");
+                cpu(Some("--backend auto: no Vulkan device opened".to_string()))
+            }
+            Err(e) => Err(e),
+        },
+    }
+}
+
 /// The backend `render` runs on, announced.
 fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBackend, Failure> {
-    if backend == Backend::Cpu {
-        let cpu = CpuRenderer::new()?;
-        outln!("device: CPU build of the shared GLSL ({} threads)", cpu.threads);
-        return Ok(RenderBackend::Cpu(cpu));
+    let (opened, why) = open_backend(backend, &o.kernel)?;
+    match &opened {
+        RenderBackend::Cpu(cpu) => {
+            let why = why.map_or(String::new(), |w| format!("; {w}"));
+            outln!("device: CPU build of the shared GLSL ({} threads{why})", cpu.threads);
+        }
+        RenderBackend::Gpu(renderer) => {
+            let info = renderer.context().info();
+            outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
+        }
     }
-    let renderer = o.kernel.renderer()?;
-    let info = renderer.context().info();
-    outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
-    Ok(RenderBackend::Gpu(renderer))
+    Ok(opened)
 }
 
 fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<(), Failure> {
@@ -965,7 +1004,8 @@ fn finish_render(backend: Option<RenderBackend>, result: Result<(), Failure>) ->
     if info.kind == "cpu" && result.is_ok() {
         outln!(
             "hint: {} runs on the CPU; `--backend cpu` runs the same code natively, without Vulkan's start-up or a \
-             pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md)",
+             pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md); \
+             `--backend auto` does so wherever the device is a CPU",
             info.name
         );
     }
@@ -1168,25 +1208,27 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
     }
     let count = cases.len();
     std::fs::create_dir_all(&args.out_dir).map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
-    let summary = if args.backend == Backend::Cpu {
-        let cpu = CpuRenderer::new()?;
-        outln!("conformance: the CPU build of the shared GLSL ({} threads) against {}, {count} cases", cpu.threads, corpus.display());
-        crate::conformance::run(&corpus, &cases, &args.out_dir, |data| cpu.render(data), Vec::new)?
-    } else {
-        let renderer = args.kernel.renderer()?;
-        outln!(
-            "conformance: {} on {} against {}, {count} cases",
-            args.kernel.kernel_text(),
-            renderer.context().info().name,
-            corpus.display()
-        );
-        crate::conformance::run(
-            &corpus,
-            &cases,
-            &args.out_dir,
-            |data| renderer.render(data).map(|(picture, _)| picture).map_err(|e| e.to_string()),
-            || renderer.context().take_validation_messages(),
-        )?
+    let summary = match open_backend(args.backend, &args.kernel)? {
+        (RenderBackend::Cpu(cpu), why) => {
+            let why = why.map_or(String::new(), |w| format!("; {w}"));
+            outln!("conformance: the CPU build of the shared GLSL ({} threads{why}) against {}, {count} cases", cpu.threads, corpus.display());
+            crate::conformance::run(&corpus, &cases, &args.out_dir, |data| cpu.render(data), Vec::new)?
+        }
+        (RenderBackend::Gpu(renderer), _) => {
+            outln!(
+                "conformance: {} on {} against {}, {count} cases",
+                args.kernel.kernel_text(),
+                renderer.context().info().name,
+                corpus.display()
+            );
+            crate::conformance::run(
+                &corpus,
+                &cases,
+                &args.out_dir,
+                |data| renderer.render(data).map(|(picture, _)| picture).map_err(|e| e.to_string()),
+                || renderer.context().take_validation_messages(),
+            )?
+        }
     };
     outln!("{} passed, {} failed; the measured fractions: {}", summary.passed, summary.failed, summary.table.display());
     if summary.failed > 0 {
