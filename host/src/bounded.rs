@@ -30,8 +30,12 @@ impl std::fmt::Display for ReadError {
 
 /// The bytes of `path`, at most `max` of them.
 pub fn read(path: &Path, max: u64) -> Result<Vec<u8>, ReadError> {
-    let mut bytes = Vec::new();
-    std::fs::File::open(path).and_then(|f| f.take(max + 1).read_to_end(&mut bytes)).map_err(ReadError::Io)?;
+    let file = std::fs::File::open(path).map_err(ReadError::Io)?;
+    // Room for the whole file at once (a doubling Vec held up to twice it);
+    // the bound still decides, as the size can change under us.
+    let size = file.metadata().map_or(0, |m| m.len()).min(max + 1);
+    let mut bytes = Vec::with_capacity(usize::try_from(size).unwrap_or(0));
+    file.take(max + 1).read_to_end(&mut bytes).map_err(ReadError::Io)?;
     if bytes.len() as u64 > max {
         return Err(ReadError::TooLarge(max));
     }

@@ -289,7 +289,7 @@ pub(crate) fn transform_matrix(t: &Transform) -> DMat4 {
             Some(a) => DMat4::from_axis_angle(a, angle_deg.to_radians()),
             None => DMat4::IDENTITY,
         },
-        Transform::Matrix(m) => *m,
+        Transform::Matrix(m) => **m,
     }
 }
 
@@ -491,23 +491,24 @@ impl<'a> Ctx<'a> {
     }
 
     fn number(&self, n: XNode, a: &Attribute) -> R<f64> {
-        let el = n.tag_name().name();
         let raw = a.value();
         let t = raw.trim();
-        let what = format!("attribute `{}` of <{el}>", a.name());
+        // Formatted only for an error: this runs for every number of the file.
+        let what = || format!("attribute `{}` of <{}>", a.name(), n.tag_name().name());
         if t.is_empty() {
-            return Err(self.err(self.aloc(a), format!("{what} is empty (expected a number)")));
+            return Err(self.err(self.aloc(a), format!("{} is empty (expected a number)", what())));
         }
         match t.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
             Ok(_) => Err(self.err(
                 self.aloc(a),
-                format!("{what} is {} (expected a finite number)", shown(raw)),
+                format!("{} is {} (expected a finite number)", what(), shown(raw)),
             )),
             Err(_) => Err(self.err(
                 self.aloc(a),
                 format!(
-                    "{what} is {}, which is not a number (expected a decimal number such as 0.5); fix the value",
+                    "{} is {}, which is not a number (expected a decimal number such as 0.5); fix the value",
+                    what(),
                     shown(raw)
                 ),
             )),
@@ -1025,8 +1026,12 @@ impl<'a> Ctx<'a> {
 
     /// The transblocks of a tree at nesting `depth`.
     fn blocks(&mut self, n: XNode, depth: usize) -> R<Vec<TransBlock>> {
-        let mut out = Vec::new();
-        for c in self.elements(n) {
+        // Exactly as many as there are: a flat scene's root holds one per
+        // primitive, and a doubling Vec of them was the parse's largest
+        // allocation after the XML tree itself.
+        let children = self.elements(n);
+        let mut out = Vec::with_capacity(children.iter().filter(|c| c.tag_name().name() == "transblock").count());
+        for c in children {
             if c.tag_name().name() == "transblock" {
                 out.push(self.transblock(c, depth + 1)?);
             } else {
@@ -1068,7 +1073,7 @@ impl<'a> Ctx<'a> {
                     }
                     transforms.push(Transform::Rotate { axis, angle_deg });
                 }
-                "matrix" => transforms.push(Transform::Matrix(self.matrix(c)?)),
+                "matrix" => transforms.push(Transform::Matrix(Box::new(self.matrix(c)?))),
                 "object" => {
                     let line = self.nloc(c).line;
                     if let Some((_, first)) = &object {
@@ -1092,6 +1097,8 @@ impl<'a> Ctx<'a> {
             ));
         };
         let matrix = transforms.iter().fold(DMat4::IDENTITY, |m, t| m * transform_matrix(t));
+        // One or two transforms, where a pushed Vec holds room for four (136 bytes each).
+        transforms.shrink_to_fit();
         Ok(TransBlock { transforms, matrix, object, loc: self.nloc(n) })
     }
 
