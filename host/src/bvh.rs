@@ -124,13 +124,21 @@ pub fn build(bounds: &[Aabb], instances_from: usize) -> Bvh {
     }
     let centroids: Vec<DVec3> = bounds.iter().map(Aabb::centroid).collect();
     bvh.nodes.push(Node { bounds: Aabb::EMPTY, first: 0, count: 0, axis: 0, primitives: 0 });
+    // The right side of each partition, reused (`split`).
+    let mut scratch = Vec::with_capacity(bounds.len());
     // Explicit stack of (node index, item range, depth).
     let mut todo = vec![(0usize, 0usize, bounds.len(), 0u32)];
     while let Some((node, begin, end, depth)) = todo.pop() {
         let items = &mut bvh.order[begin..end];
-        let box_ = items.iter().fold(Aabb::EMPTY, |b, &i| b.union(bounds[i as usize]));
+        // One pass: the node's box, its centroids' box, its primitives.
+        let (mut box_, mut c_box, mut primitives) = (Aabb::EMPTY, Aabb::EMPTY, 0usize);
+        for &i in items.iter() {
+            box_ = box_.union(bounds[i as usize]);
+            let c = centroids[i as usize];
+            c_box = c_box.union(Aabb { lo: c, hi: c });
+            primitives += usize::from((i as usize) < instances_from);
+        }
         bvh.depth = bvh.depth.max(depth);
-        let primitives = items.iter().filter(|&&i| (i as usize) < instances_from).count();
         let leaf = Node { bounds: box_, first: begin as u32, count: (end - begin) as u32, axis: 0, primitives: 0 };
         // A leaf's primitives first (the shader tests them in one loop and
         // the instances' boxes in another), each part in index order. SAH's
@@ -144,7 +152,7 @@ pub fn build(bounds: &[Aabb], instances_from: usize) -> Bvh {
             bvh.nodes[node] = make_leaf(items);
             continue;
         }
-        let Some((axis, mid)) = split(items, bounds, &centroids, depth) else {
+        let Some((axis, mid)) = split(items, bounds, &centroids, c_box, depth, &mut scratch) else {
             bvh.nodes[node] = make_leaf(&mut bvh.order[begin..end]);
             continue;
         };
@@ -159,14 +167,11 @@ pub fn build(bounds: &[Aabb], instances_from: usize) -> Bvh {
 }
 
 /// Partitions `items` for a split: (axis, items on the left). Binned SAH on
-/// the axis where the centroids spread most; the median when SAH finds no
-/// useful split or the tree is too deep. None: keep them in one leaf (only
-/// when every centroid is the same point and there are few enough).
-fn split(items: &mut [u32], bounds: &[Aabb], centroids: &[DVec3], depth: u32) -> Option<(u32, usize)> {
-    let c_box = items.iter().fold(Aabb::EMPTY, |b, &i| {
-        let c = centroids[i as usize];
-        b.union(Aabb { lo: c, hi: c })
-    });
+/// the axis where the centroids (their box: `c_box`) spread most; the median
+/// when SAH finds no useful split or the tree is too deep. None: keep them
+/// in one leaf (only when every centroid is the same point and there are
+/// few enough). `scratch` holds the right side while partitioning.
+fn split(items: &mut [u32], bounds: &[Aabb], centroids: &[DVec3], c_box: Aabb, depth: u32, scratch: &mut Vec<u32>) -> Option<(u32, usize)> {
     let extent = c_box.hi - c_box.lo;
     let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
     let n = items.len();
@@ -214,11 +219,20 @@ fn split(items: &mut [u32], bounds: &[Aabb], centroids: &[DVec3], depth: u32) ->
         }
     }
     let Some((_, k)) = best else { return median(items) };
-    // Stable partition: left bins first, each side in its former order.
-    let (mut left, mut right): (Vec<u32>, Vec<u32>) = items.iter().partition(|&&i| bin_of(i) <= k);
-    let mid = left.len();
-    left.append(&mut right);
-    items.copy_from_slice(&left);
+    // Stable partition: left bins first, each side in its former order (the
+    // left side written over the items already read, the right kept aside).
+    scratch.clear();
+    let mut mid = 0;
+    for n in 0..items.len() {
+        let i = items[n];
+        if bin_of(i) <= k {
+            items[mid] = i;
+            mid += 1;
+        } else {
+            scratch.push(i);
+        }
+    }
+    items[mid..].copy_from_slice(scratch);
     Some((axis as u32, mid))
 }
 
