@@ -648,6 +648,28 @@ fn compare_reports_and_fails_beyond_the_threshold() {
     assert!(text(&j).0.contains("\"passes\":true"), "{:?}", text(&j));
 }
 
+/// A scene file the machine cannot hold parsed (about 10 times its size)
+/// is refused before it is read, with the numbers, instead of ending in
+/// the out-of-memory kill; RAYCAST_MEMORY_AVAILABLE stands in for
+/// /proc/meminfo. With enough memory the same file renders.
+#[test]
+fn a_scene_too_large_for_memory_is_refused_with_the_numbers() {
+    let scene = generated("recursive-spheres", 3);
+    let size = std::fs::metadata(&scene).unwrap().len();
+    let png = out_dir().join("memory-refused.png");
+    let args = ["render", scene.to_str().unwrap(), "--backend", "cpu", "--no-textures", "--width", "16", "--height", "12", "-o", png.to_str().unwrap()];
+    let short = (size * 10 - 1).to_string();
+    let o = raycast(&args, &[("RAYCAST_MEMORY_AVAILABLE", short.as_str())]);
+    assert_fails(&o, 1, "which takes about");
+    let (_, err) = text(&o);
+    assert!(err.contains(scene.to_str().unwrap()) && err.contains("(10 times its size); this machine has"), "{err}");
+    assert!(err.contains("masters"), "{err}");
+    assert!(!png.exists(), "a picture was written");
+    let enough = (size * 10).to_string();
+    let o = raycast(&args, &[("RAYCAST_MEMORY_AVAILABLE", enough.as_str())]);
+    assert!(o.status.success(), "{:?}", text(&o));
+}
+
 /// A generated scene in the test output folder (`raycast gen`).
 fn generated(family: &str, depth: u32) -> PathBuf {
     let path = out_dir().join(format!("{family}-{depth}.xml"));

@@ -10,6 +10,27 @@ use std::path::Path;
 /// are kilobytes; a million primitives written out flat are about 300 MB).
 pub const MAX_INPUT_BYTES: u64 = 1 << 30;
 
+/// Memory a scene file's load takes at its peak, per byte of XML: the
+/// text, roxmltree's tree of it and the parsed model together. Measured
+/// 10.7 on a file of 200,000 primitives written out flat (37 MB, peak RSS
+/// 406 MB; BENCHMARKS.md, "A large flat file"); a little under, so that
+/// only a load that would very likely fail is refused.
+pub const LOAD_BYTES_PER_XML_BYTE: u64 = 10;
+
+/// Memory this process may still take: MemAvailable plus SwapFree from
+/// /proc/meminfo, or RAYCAST_MEMORY_AVAILABLE (bytes; for tests). None
+/// where neither says.
+pub fn memory_available() -> Option<u64> {
+    if let Some(v) = std::env::var("RAYCAST_MEMORY_AVAILABLE").ok().and_then(|v| v.trim().parse().ok()) {
+        return Some(v);
+    }
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kib = |key: &str| {
+        info.lines().find_map(|l| l.strip_prefix(key)?.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
+    };
+    Some((kib("MemAvailable:")? + kib("SwapFree:").unwrap_or(0)) * 1024)
+}
+
 /// Why `read` gave no bytes.
 #[derive(Debug)]
 pub enum ReadError {
@@ -51,6 +72,18 @@ pub fn read_text(path: &Path) -> Result<String, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// On Linux /proc/meminfo says how much memory is left: some, and less
+    /// than 2^50 bytes (the parse of its kB lines).
+    #[test]
+    fn memory_available_reads_meminfo() {
+        if std::env::var_os("RAYCAST_MEMORY_AVAILABLE").is_some() {
+            println!("skipped: RAYCAST_MEMORY_AVAILABLE is set");
+            return;
+        }
+        let m = memory_available().expect("MemAvailable in /proc/meminfo");
+        assert!(m > 1 << 20 && m < 1 << 50, "{m}");
+    }
 
     /// /dev/zero ends at the bound; a file at the bound is read whole, one
     /// byte over it is refused.

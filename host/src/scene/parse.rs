@@ -114,6 +114,27 @@ pub struct ParseOptions {
 /// Reads and parses a scene file.
 pub fn parse_file(path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneError> {
     let file = Arc::new(path.to_path_buf());
+    // A file this machine cannot hold parsed is refused before it is read,
+    // with the numbers, rather than ending in the kernel's out-of-memory
+    // kill. (Its size bound, MAX_INPUT_BYTES, is `read`'s.)
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    let need = size.saturating_mul(crate::bounded::LOAD_BYTES_PER_XML_BYTE);
+    let checked = size <= crate::bounded::MAX_INPUT_BYTES; // a larger one is `read`'s error
+    if let Some(available) = crate::bounded::memory_available().filter(|&a| checked && need > a) {
+        return Err(SceneError {
+            loc: None,
+            file: file.clone(),
+            message: format!(
+                "scene file \"{}\" is {} of XML, which takes about {} of memory to load ({} times its size); this machine \
+                 has {} available: write repeated parts once as masters (<object type=\"master\">) or split the scene",
+                path.display(),
+                crate::units::fmt_bytes(size),
+                crate::units::fmt_bytes(need),
+                crate::bounded::LOAD_BYTES_PER_XML_BYTE,
+                crate::units::fmt_bytes(available)
+            ),
+        });
+    }
     let bytes = crate::bounded::read(path, crate::bounded::MAX_INPUT_BYTES).map_err(|e| SceneError {
         loc: None,
         file: file.clone(),
