@@ -657,6 +657,7 @@ fn a_scene_too_large_for_memory_is_refused_with_the_numbers() {
     let scene = generated("recursive-spheres", 3);
     let size = std::fs::metadata(&scene).unwrap().len();
     let png = out_dir().join("memory-refused.png");
+    let _ = std::fs::remove_file(&png); // an earlier run's
     let args = ["render", scene.to_str().unwrap(), "--backend", "cpu", "--no-textures", "--width", "16", "--height", "12", "-o", png.to_str().unwrap()];
     let short = (size * 10 - 1).to_string();
     let o = raycast(&args, &[("RAYCAST_MEMORY_AVAILABLE", short.as_str())]);
