@@ -123,9 +123,9 @@ fn vec3_json(v: [f32; 4]) -> String {
     format!("[{},{},{}]", num(v[0]), num(v[1]), num(v[2]))
 }
 
-/// What a ray met: null, or the primitive (its id, shape and file:line:col)
-/// and t.
-fn hit_json(scene: &Scene, s: &TraceStep) -> String {
+/// What a ray met, as JSON: null, or the primitive (its id, shape and
+/// file:line:col), t and `more` fields.
+fn hit_json(scene: &Scene, s: &TraceStep, more: &str) -> String {
     if s.id == NO_HIT {
         return "null".to_string();
     }
@@ -133,7 +133,7 @@ fn hit_json(scene: &Scene, s: &TraceStep) -> String {
         Some(p) => (json_str(p.shape.name()), json_str(&p.loc.to_string())),
         None => ("null".to_string(), "null".to_string()),
     };
-    format!("{{\"primitive\":{},\"shape\":{shape},\"at\":{loc},\"t\":{}", s.id, num(s.value[3]))
+    format!("{{\"primitive\":{},\"shape\":{shape},\"at\":{loc},\"t\":{}{more}}}", s.id, num(s.value[3]))
 }
 
 /// The steps as JSON objects, one a step, in the order `describe` gives
@@ -145,10 +145,7 @@ pub fn json(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
         .map(|s| match s.kind {
             layout::TRACE_CAMERA | layout::TRACE_MIRROR => {
                 let kind = if s.kind == layout::TRACE_CAMERA { "camera" } else { "mirror" };
-                let hit = match hit_json(scene, s).as_str() {
-                    "null" => "null".to_string(),
-                    h => format!("{h},\"normal\":{}}}", vec3_json(s.value)),
-                };
+                let hit = hit_json(scene, s, &format!(",\"normal\":{}", vec3_json(s.value)));
                 format!(
                     "{{\"kind\":\"{kind}\",\"level\":{},\"origin\":{},\"direction\":{},\"hit\":{hit},\"passes\":{}}}",
                     s.level,
@@ -158,10 +155,7 @@ pub fn json(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
                 )
             }
             layout::TRACE_SHADOW => {
-                let hit = match hit_json(scene, s).as_str() {
-                    "null" => "null".to_string(),
-                    h => format!("{h}}}"),
-                };
+                let hit = hit_json(scene, s, "");
                 // T_FAR, the largest float: a directional light's, any distance (null).
                 let t_max = if s.direction[3] == f32::MAX { "null".to_string() } else { num(s.direction[3]) };
                 format!(
