@@ -9,7 +9,8 @@
 //! few kilobytes of XML expand to millions of primitives.
 
 use crate::cli::Failure;
-use crate::scene::{Node, SceneFile, Shape, TransBlock};
+use crate::scene::{Material, Node, SceneFile, Shape, TransBlock};
+use glam::DMat4;
 use clap::{Args, ValueEnum};
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -18,6 +19,10 @@ use std::path::PathBuf;
 /// Depths `gen` accepts: depth 12 already expands to 73 million primitives.
 pub const MIN_DEPTH: u32 = 1;
 pub const MAX_DEPTH: u32 = 12;
+
+/// Deepest scene `gen --flat` writes: depth 8 is 117,187 primitives, about
+/// 70 MB of XML (about 700 MB to load); depth 9 would be five times that.
+pub const MAX_FLAT_DEPTH: u32 = 8;
 
 /// The texture every generated primitive carries, as the corpus writes it
 /// (relative to the corpus root: render with `--assets <corpus>`).
@@ -119,6 +124,11 @@ pub struct GenArgs {
     /// Write no texture (and no blend) into the materials.
     #[arg(long)]
     pub no_texture: bool,
+    /// Write every instance out: each primitive its own transblock under the root with the matrix the renderer
+    /// composes, no masters (as POV-Ray holds the scene), for comparing a flat file with the instanced one. Depth
+    /// at most 8.
+    #[arg(long)]
+    pub flat: bool,
 }
 
 /// What `generate` writes besides the construction itself.
@@ -136,18 +146,20 @@ impl Default for GenOptions {
 
 pub(crate) fn run(args: &GenArgs) -> Result<(), Failure> {
     let options = GenOptions { texture: (!args.no_texture).then(|| args.texture.clone()) };
-    let xml = generate(args.family, args.depth, &options).map_err(|e| Failure(format!("raycast: error: {e}"), 2))?;
+    let xml = if args.flat { generate_flat(args.family, args.depth, &options) } else { generate(args.family, args.depth, &options) }
+        .map_err(|e| Failure(format!("raycast: error: {e}"), 2))?;
     match &args.output {
         None => std::io::stdout().lock().write_all(xml.as_bytes())?,
         Some(path) => {
             std::fs::write(path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            let expanded = args.family.expanded_count(args.depth);
+            let in_file = if args.flat { expanded } else { args.family.unique_count(args.depth) };
             errln!(
-                "wrote {} ({} --depth {}: {} primitives expanded, {} in the file, {} bytes)",
+                "wrote {} ({} --depth {}{}: {expanded} primitives expanded, {in_file} in the file, {} bytes)",
                 path.display(),
                 args.family.name(),
                 args.depth,
-                args.family.expanded_count(args.depth),
-                args.family.unique_count(args.depth),
+                if args.flat { " --flat" } else { "" },
                 xml.len()
             );
         }
@@ -272,6 +284,88 @@ pub fn generate(family: Family, depth: u32, options: &GenOptions) -> Result<Stri
     }
     xml.push_str("</scenefile>\n");
     Ok(xml)
+}
+
+/// `generate`'s scene with every master written out: each primitive a
+/// transblock of its own under the root, its `<matrix>` the product the
+/// renderer composes (in f64, in shortest round-trip digits, so the file
+/// reads back as exactly that product) and its material as written. The
+/// same primitives in the same order; pictures agree with the instanced
+/// file's up to the rounding of the f32 matrices (one composed matrix where
+/// the instanced walk applies a chain).
+pub fn generate_flat(family: Family, depth: u32, options: &GenOptions) -> Result<String, String> {
+    if depth > MAX_FLAT_DEPTH {
+        return Err(format!(
+            "--depth {depth} --flat would write {} primitives out one by one; --flat goes to depth {MAX_FLAT_DEPTH} ({})",
+            family.expanded_count(depth),
+            family.expanded_count(MAX_FLAT_DEPTH)
+        ));
+    }
+    let instanced = generate(family, depth, options)?;
+    let file = crate::scene::parse_str(&instanced, std::path::Path::new("gen.xml"), &crate::scene::ParseOptions::default())
+        .map_err(|e| e.to_string())?;
+    let mut xml = String::with_capacity(600 * family.expanded_count(depth) as usize);
+    header(&mut xml, family == Family::RecursiveSpheres);
+    xml.push_str("\t<object type=\"tree\" name=\"root\">\n");
+    for (shape, m, material) in expand(&file) {
+        xml.push_str("\t\t<transblock>\n\t\t\t<matrix>\n");
+        for r in 0..4 {
+            let row = m.row(r);
+            let _ = writeln!(xml, "\t\t\t\t<row{r} v1=\"{}\" v2=\"{}\" v3=\"{}\" v4=\"{}\"/>", row.x, row.y, row.z, row.w);
+        }
+        let _ = writeln!(xml, "\t\t\t</matrix>\n\t\t\t<object type=\"primitive\" name=\"{}\">", shape.name());
+        material_xml(&mut xml, &material);
+        xml.push_str("\t\t\t</object>\n\t\t</transblock>\n");
+    }
+    xml.push_str("\t</object>\n</scenefile>\n");
+    Ok(xml)
+}
+
+/// The elements of `m` that differ from the defaults, in shortest
+/// round-trip digits (what `generate` writes, read back).
+fn material_xml(xml: &mut String, m: &Material) {
+    let d = Material::default();
+    for (name, c, default) in [
+        ("diffuse", m.diffuse, d.diffuse),
+        ("ambient", m.ambient, d.ambient),
+        ("specular", m.specular, d.specular),
+        ("reflective", m.reflective, d.reflective),
+        ("transparent", m.transparent, d.transparent),
+        ("emissive", m.emissive, d.emissive),
+    ] {
+        if c != default {
+            let _ = writeln!(xml, "\t\t\t\t<{name} r=\"{}\" g=\"{}\" b=\"{}\"/>", c[0], c[1], c[2]);
+        }
+    }
+    for (name, v, default) in [("shininess", m.shininess, d.shininess), ("ior", m.ior, d.ior), ("blend", m.blend, d.blend)] {
+        if v != default {
+            let _ = writeln!(xml, "\t\t\t\t<{name} v=\"{v}\"/>");
+        }
+    }
+    for (name, t) in [("texture", &m.texture), ("bumpmap", &m.bumpmap)] {
+        if let Some(t) = t {
+            let _ = writeln!(xml, "\t\t\t\t<{name} file=\"{}\" u=\"{}\" v=\"{}\"/>", escape_attr(&t.file), t.repeat_u, t.repeat_v);
+        }
+    }
+}
+
+/// Every drawn primitive of `file` in the renderer's order (depth first,
+/// file order), with its world_from_object in f64 as the flattener
+/// composes it.
+fn expand(file: &SceneFile) -> Vec<(Shape, DMat4, Material)> {
+    fn go(file: &SceneFile, blocks: &[TransBlock], parent: DMat4, out: &mut Vec<(Shape, DMat4, Material)>) {
+        for b in blocks {
+            let ctm = parent * b.matrix;
+            match &b.object {
+                Node::Primitive { shape, material, .. } => out.push((shape.clone(), ctm, material.clone())),
+                Node::Tree { blocks, .. } => go(file, blocks, ctm, out),
+                Node::Master { tree, .. } => go(file, &file.trees[*tree].blocks, ctm, out),
+            }
+        }
+    }
+    let mut out = Vec::new();
+    go(file, &file.trees[file.root].blocks, DMat4::IDENTITY, &mut out);
+    out
 }
 
 /// Globals, camera and lights of the corpus scenes.
@@ -470,8 +564,7 @@ mod tests {
     use crate::frame::{self, RenderSettings};
     use crate::gpu::{DeviceSelector, GpuOptions};
     use crate::render::GpuRenderer;
-    use crate::scene::{self, parse_str, FlattenLimits, Material, ParseOptions};
-    use glam::DMat4;
+    use crate::scene::{self, parse_str, FlattenLimits, ParseOptions};
     use std::path::{Path, PathBuf};
 
     use crate::scene::test_corpus as corpus;
@@ -496,23 +589,37 @@ mod tests {
         parse_str(&xml, &path, &ParseOptions { assets }).unwrap_or_else(|e| panic!("{} --depth {depth}: {e}", family.name()))
     }
 
-    /// Every drawn primitive of `file` in the renderer's order (depth first,
-    /// file order), with its world_from_object in f64 as the flattener
-    /// composes it: for comparing two files' constructions at small depths.
-    fn expand(file: &SceneFile) -> Vec<(Shape, DMat4, Material)> {
-        fn go(file: &SceneFile, blocks: &[TransBlock], parent: DMat4, out: &mut Vec<(Shape, DMat4, Material)>) {
-            for b in blocks {
-                let ctm = parent * b.matrix;
-                match &b.object {
-                    Node::Primitive { shape, material, .. } => out.push((shape.clone(), ctm, material.clone())),
-                    Node::Tree { blocks, .. } => go(file, blocks, ctm, out),
-                    Node::Master { tree, .. } => go(file, &file.trees[*tree].blocks, ctm, out),
+    /// `--flat`: every family at depths 1 to 3 reads back as the instanced
+    /// file's primitives, in order, with the same shapes, the same f64
+    /// matrices bit for bit and the same materials (texture names and
+    /// repeats; where they were found is not compared); no masters, one
+    /// tree. Beyond MAX_FLAT_DEPTH, a clear error.
+    #[test]
+    fn flat_files_hold_the_expanded_primitives() {
+        let texture = |m: &Material| m.texture.as_ref().map(|t| (t.file.clone(), t.repeat_u, t.repeat_v));
+        for family in Family::ALL {
+            for depth in 1..=3 {
+                let options = GenOptions::default();
+                let instanced = expand(&parse_str(&generate(family, depth, &options).unwrap(), Path::new("i.xml"), &ParseOptions::default()).unwrap());
+                let flat_xml = generate_flat(family, depth, &options).unwrap();
+                let flat_file = parse_str(&flat_xml, Path::new("f.xml"), &ParseOptions::default()).unwrap();
+                assert_eq!(flat_file.trees.len(), 1, "{} {depth}: one tree", family.name());
+                assert!(!flat_xml.contains("master"), "{} {depth}", family.name());
+                let flat = expand(&flat_file);
+                assert_eq!(flat.len() as u64, family.expanded_count(depth));
+                assert_eq!(flat.len(), instanced.len());
+                for (k, (a, b)) in flat.iter().zip(&instanced).enumerate() {
+                    assert_eq!(a.0, b.0, "{} {depth}: primitive {k}'s shape", family.name());
+                    let (ma, mb) = (a.1.to_cols_array().map(f64::to_bits), b.1.to_cols_array().map(f64::to_bits));
+                    assert_eq!(ma, mb, "{} {depth}: primitive {k}'s matrix", family.name());
+                    let strip = |m: &Material| Material { texture: None, bumpmap: None, ..m.clone() };
+                    assert_eq!(strip(&a.2), strip(&b.2), "{} {depth}: primitive {k}'s material", family.name());
+                    assert_eq!(texture(&a.2), texture(&b.2), "{} {depth}: primitive {k}'s texture", family.name());
                 }
             }
         }
-        let mut out = Vec::new();
-        go(file, &file.trees[file.root].blocks, DMat4::IDENTITY, &mut out);
-        out
+        let e = generate_flat(Family::RecursiveSpheres, MAX_FLAT_DEPTH + 1, &GenOptions::default()).unwrap_err();
+        assert!(e.contains("--flat goes to depth 8"), "{e}");
     }
 
     #[test]
