@@ -196,6 +196,7 @@ fn parse_text(text: &str, file: Arc<PathBuf>, opts: &ParseOptions) -> Result<Sce
         all_names: HashMap::new(),
         current_tree: None,
         col_cache: std::cell::Cell::new((0, 0, 0)),
+        images: HashMap::new(),
     };
     // roxmltree's tokenizer recurses once per nested element: bound the
     // depth first so a hostile file cannot overflow the stack.
@@ -232,6 +233,9 @@ struct Ctx<'a> {
     /// (byte position, 0-based line, 0-based column) of the last position
     /// asked for.
     col_cache: std::cell::Cell<(usize, usize, usize)>,
+    /// Images looked up so far (`resolve`): (element, file as written) →
+    /// where it is and the warning it gives.
+    images: HashMap<(String, String), (Option<PathBuf>, Option<String>)>,
 }
 
 // ---------------------------------------------------------------------------
@@ -1312,29 +1316,45 @@ impl<'a> Ctx<'a> {
         Ok(TextureRef { file, resolved, repeat_u, repeat_v, loc })
     }
 
-    /// Finds an image: relative paths against the XML file's folder, then
-    /// each assets folder; absolute paths as they are, else their file name
-    /// in those folders.
+    /// Finds an image (`lookup`), once for each element name and file as
+    /// written: a flat scene names the same texture in every primitive, and
+    /// each lookup is a file-system stat or more. Its warning, if any, is
+    /// given at every place that names it.
     fn resolve(&mut self, el: &str, file: &str, loc: &SourceLoc) -> Option<PathBuf> {
+        let key = (el.to_string(), file.to_string());
+        let (found, warning) = match self.images.get(&key) {
+            Some(known) => known.clone(),
+            None => {
+                let looked_up = self.lookup(el, file);
+                self.images.insert(key, looked_up.clone());
+                looked_up
+            }
+        };
+        if let Some(msg) = warning {
+            self.warn(loc.clone(), msg);
+        }
+        found
+    }
+
+    /// Where an image is: relative paths against the XML file's folder, then
+    /// each assets folder; absolute paths as they are, else their file name
+    /// in those folders. With what to warn about, if anything.
+    fn lookup(&self, el: &str, file: &str) -> (Option<PathBuf>, Option<String>) {
         let p = Path::new(file);
         let mut dirs = vec![self.base_dir.clone()];
         dirs.extend(self.opts.assets.iter().cloned());
         let mut tried: Vec<PathBuf> = Vec::new();
         if p.is_absolute() {
             if p.is_file() {
-                return Some(p.to_path_buf());
+                return (Some(p.to_path_buf()), None);
             }
             tried.push(p.to_path_buf());
             if let Some(name) = p.file_name() {
                 for d in &dirs {
                     let c = d.join(name);
                     if c.is_file() {
-                        let msg = format!(
-                            "<{el}> file \"{file}\" does not exist; using \"{}\" instead",
-                            c.display()
-                        );
-                        self.warn(loc.clone(), msg);
-                        return Some(c);
+                        let msg = format!("<{el}> file \"{file}\" does not exist; using \"{}\" instead", c.display());
+                        return (Some(c), Some(msg));
                     }
                     tried.push(c);
                 }
@@ -1343,7 +1363,7 @@ impl<'a> Ctx<'a> {
             for d in &dirs {
                 let c = d.join(p);
                 if c.is_file() {
-                    return Some(c);
+                    return (Some(c), None);
                 }
                 tried.push(c);
             }
@@ -1353,8 +1373,7 @@ impl<'a> Ctx<'a> {
             "<{el}> file \"{file}\" not found (tried {}): pass the folder that holds it with --assets DIR, or render with --no-textures",
             tried.join(", ")
         );
-        self.warn(loc.clone(), msg);
-        None
+        (None, Some(msg))
     }
 }
 
