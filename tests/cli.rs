@@ -88,6 +88,13 @@ fn devices_lists_lavapipe() {
     assert!(out.contains("llvmpipe"), "{out}");
     // lavapipe's division and square root are IEEE's: not corrected, unless asked.
     assert!(out.contains("arithmetic: division and square root as the device gives them"), "{out}");
+    // The default device, and what --backend auto does with it.
+    if out.lines().filter(|l| l.starts_with(|c: char| c.is_ascii_digit())).count() == 1 {
+        assert!(out.contains("default: device 0 (without --device); --backend auto renders with the CPU build instead"), "{out}");
+    } else {
+        println!("several devices: only that a default is named is checked");
+        assert!(out.contains("default: device "), "{out}");
+    }
     let o = raycast(&["devices"], &[("RAYCAST_INEXACT_DIVISION", "1")]);
     let (out, err) = text(&o);
     assert!(o.status.success() && out.contains("arithmetic: division and square root corrected to IEEE's"), "{out}{err}");

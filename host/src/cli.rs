@@ -582,10 +582,15 @@ pub(crate) fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
 }
 
 fn devices() -> Result<(), Failure> {
-    let list = gpu::list_devices()?;
+    let (list, default) = gpu::list_devices_with_default()?;
     for d in &list {
         outln!("{}: {} ({}, Vulkan {}, driver {})", d.index, d.name, d.kind, d.api_version, d.driver);
         outln!("   arithmetic: {}", d.arithmetic);
+    }
+    if let Some(d) = list.get(default) {
+        // As open_backend decides for --backend auto.
+        let auto = if d.runs_on_cpu() { "the CPU build instead, as this device runs on the CPU" } else { "this device" };
+        outln!("default: device {} (without --device); --backend auto renders with {auto}", d.index);
     }
     Ok(())
 }
@@ -910,7 +915,7 @@ fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, O
         Backend::Gpu => Ok((RenderBackend::Gpu(k.renderer()?), None)),
         Backend::Auto if k.shaders.is_some() => Ok((RenderBackend::Gpu(k.renderer()?), None)),
         Backend::Auto => match k.renderer() {
-            Ok(renderer) if renderer.context().info().kind == "cpu" => {
+            Ok(renderer) if renderer.context().info().runs_on_cpu() => {
                 let why = format!("--backend auto: {} runs on the CPU", renderer.context().info().name);
                 check_validation(renderer.context().take_validation_messages())?;
                 drop(renderer);
@@ -1001,7 +1006,7 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
 fn finish_render(backend: Option<RenderBackend>, result: Result<(), Failure>) -> Result<(), Failure> {
     let Some(RenderBackend::Gpu(renderer)) = backend else { return result };
     let info = renderer.context().info();
-    if info.kind == "cpu" && result.is_ok() {
+    if info.runs_on_cpu() && result.is_ok() {
         outln!(
             "hint: {} runs on the CPU; `--backend cpu` runs the same code natively, without Vulkan's start-up or a \
              pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md); \

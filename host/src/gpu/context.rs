@@ -79,6 +79,14 @@ pub struct DeviceInfo {
     pub arithmetic: String,
 }
 
+impl DeviceInfo {
+    /// A device of type CPU (lavapipe): `--backend auto` renders with the
+    /// CPU build instead.
+    pub fn runs_on_cpu(&self) -> bool {
+        self.kind == "cpu"
+    }
+}
+
 /// Wall-clock times of the phases of one `GpuContext::run`.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RunTimings {
@@ -92,9 +100,24 @@ pub struct RunTimings {
 
 /// Lists the Vulkan devices in enumeration order (the `Index` of a selector).
 pub fn list_devices() -> Result<Vec<DeviceInfo>, GpuError> {
+    Ok(list_devices_with_default()?.0)
+}
+
+/// `list_devices`, and the position in it of the device opened without a
+/// selector.
+pub fn list_devices_with_default() -> Result<(Vec<DeviceInfo>, usize), GpuError> {
     let inst = InstanceParts::new(false)?;
     let devices = inst.physical_devices()?;
-    Ok(devices.into_iter().map(|d| d.info).collect())
+    let chosen = default_device(&devices);
+    Ok((devices.into_iter().map(|d| d.info).collect(), chosen))
+}
+
+/// The device opened without a selector: the first of the best kind
+/// (discrete, integrated, virtual GPU, other, CPU) with a compute queue (in
+/// a window: one that can present), else the first.
+fn default_device(devices: &[Physical]) -> usize {
+    // min_by_key keeps the first of equal ranks: enumeration order within a kind.
+    devices.iter().enumerate().filter(|(_, d)| d.compute_family.is_some()).min_by_key(|(_, d)| d.rank).map_or(0, |(i, _)| i)
 }
 
 /// An open Vulkan device with one compute queue. Kernels made from it keep it alive.
@@ -489,14 +512,7 @@ impl GpuContext {
                 let n = n.to_lowercase();
                 devices.iter().position(|d| d.info.name.to_lowercase().contains(&n))
             }
-            // min_by_key keeps the first of equal ranks: enumeration order within a kind.
-            None => devices
-                .iter()
-                .enumerate()
-                .filter(|(_, d)| d.compute_family.is_some())
-                .min_by_key(|(_, d)| d.rank)
-                .map(|(i, _)| i)
-                .or(Some(0)),
+            None => Some(default_device(&devices)),
         };
         let Some(chosen) = chosen else {
             return Err(GpuError::DeviceNotFound {
