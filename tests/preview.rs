@@ -308,7 +308,8 @@ fn moving_frames_report_their_rate_and_the_frame_at_rest_is_full_size() {
 /// `raycast trace` follows them, from the preview's camera. Rules: at the
 /// scene's camera the trace lines are `raycast trace --pixel`'s, line for
 /// line; after the camera turned, the trace starts from another eye and its
-/// 8-bit colour is the screenshot's pixel (one sample at rest), exactly.
+/// 8-bit colour is the screenshot's pixel (one sample at rest), exactly;
+/// after 4 samples at rest the trace says it follows sample 0 of the 4.
 #[test]
 fn a_click_prints_the_pixel_and_its_rays() {
     let o = preview(&["--frames", "1", "--click", "256,200"]);
@@ -342,4 +343,10 @@ fn a_click_prints_the_pixel_and_its_rays() {
     let k = (200 * shot.width as usize + 256) * 3;
     let rgb = &shot.data[k..k + 3];
     assert!(sample.contains(&format!("8-bit ({}, {}, {})", rgb[0], rgb[1], rgb[2])), "screenshot pixel {rgb:?}; {sample}");
+
+    // After several samples at rest the trace says which one it follows.
+    let o = preview(&["--frames", "4", "--click", "256,200"]);
+    assert_clean(&o, "click after 4 samples");
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(out.contains("its rays (`raycast trace`), sample 0 (the pixel centre) of the 4 averaged here:"), "{}", text(&o));
 }

@@ -851,7 +851,12 @@ impl Preview {
         }
         let frame = self.frame_at(self.renderer.frame_size());
         let steps = crate::cpu::CpuRenderer::new()?.trace(&self.data, &frame, j, i, 0)?;
-        outln!("  its rays (`raycast trace`):");
+        if self.sample > 1 {
+            // The window shows the mean of its samples; the trace follows the centre one.
+            outln!("  its rays (`raycast trace`), sample 0 (the pixel centre) of the {} averaged here:", self.sample);
+        } else {
+            outln!("  its rays (`raycast trace`):");
+        }
         for line in crate::trace::describe(&self.scene, &steps) {
             outln!("    {line}");
         }
