@@ -907,13 +907,14 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
 /// bits) or, without `--device`, none opens (no driver, no device): then
 /// the CPU build, and a line says why. With `--shaders` it is the device
 /// (the folder's kernel runs only there). The second value says why the
-/// CPU build was chosen, for the command's first line.
-fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, Option<String>), Failure> {
-    let cpu = |why: Option<String>| Ok((RenderBackend::Cpu(CpuRenderer::new()?), why));
+/// CPU build was chosen (`; --backend auto: …`, or empty), to follow its
+/// thread count on the command's first line.
+fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, String), Failure> {
+    let cpu = |why: Option<String>| Ok((RenderBackend::Cpu(CpuRenderer::new()?), why.map_or(String::new(), |w| format!("; {w}"))));
     match backend {
         Backend::Cpu => cpu(None),
-        Backend::Gpu => Ok((RenderBackend::Gpu(k.renderer()?), None)),
-        Backend::Auto if k.shaders.is_some() => Ok((RenderBackend::Gpu(k.renderer()?), None)),
+        Backend::Gpu => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
+        Backend::Auto if k.shaders.is_some() => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
         Backend::Auto => match k.renderer() {
             Ok(renderer) if renderer.context().info().runs_on_cpu() => {
                 let why = format!("--backend auto: {} runs on the CPU", renderer.context().info().name);
@@ -921,7 +922,7 @@ fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, O
                 drop(renderer);
                 cpu(Some(why))
             }
-            Ok(renderer) => Ok((RenderBackend::Gpu(renderer), None)),
+            Ok(renderer) => Ok((RenderBackend::Gpu(renderer), String::new())),
             Err(Failure(message, _)) if k.device.is_none() => {
                 let message = message.strip_prefix("raycast: error: ").unwrap_or(&message);
                 errln!("raycast: note: {message}; --backend auto renders with the CPU build instead");
@@ -936,10 +937,7 @@ fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, O
 fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBackend, Failure> {
     let (opened, why) = open_backend(backend, &o.kernel)?;
     match &opened {
-        RenderBackend::Cpu(cpu) => {
-            let why = why.map_or(String::new(), |w| format!("; {w}"));
-            outln!("device: CPU build of the shared GLSL ({} threads{why})", cpu.threads);
-        }
+        RenderBackend::Cpu(cpu) => outln!("device: CPU build of the shared GLSL ({} threads{why})", cpu.threads),
         RenderBackend::Gpu(renderer) => {
             let info = renderer.context().info();
             outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
@@ -1215,7 +1213,6 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
     std::fs::create_dir_all(&args.out_dir).map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
     let summary = match open_backend(args.backend, &args.kernel)? {
         (RenderBackend::Cpu(cpu), why) => {
-            let why = why.map_or(String::new(), |w| format!("; {w}"));
             outln!("conformance: the CPU build of the shared GLSL ({} threads{why}) against {}, {count} cases", cpu.threads, corpus.display());
             crate::conformance::run(&corpus, &cases, &args.out_dir, |data| cpu.render(data), Vec::new)?
         }
