@@ -14,6 +14,12 @@
 #define BINDING_DISPLAY 7 // rgba8 storage image, copied to the window
 #define BINDING_STATUS 14 // PreviewStatus (one), read and written
 
+// The preview kernel's specialization constant after layout.h's SPEC_*
+// (SPEC_COUNT): set, the host has drawn the pixels (`raycast preview
+// --backend cpu`: the CPU build, raycast_cpu_preview_rows) and the kernel
+// only shows their colours in the display image.
+#define SPEC_HOST_PIXELS 19
+
 struct PreviewFrame {
     // xy: this sample's offset from the pixel centre, in pixels (0, 0 for
     // sample 0); zw unused.

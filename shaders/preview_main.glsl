@@ -5,20 +5,24 @@
 // Sample 0 is the ray through the pixel centre, so the first frame is
 // byte-identical to render.comp; later samples are jittered (the host picks
 // the offsets), their colours summed in `accum`, and the quantised average
-// written to the pixel buffer and to the display image.
+// written to the pixel buffer and to the display image. With HOST_PIXELS
+// the host has drawn them (the CPU build's raycast_cpu_preview_rows, the
+// same steps in C++) and the kernel shows the pixel buffer's colours.
 #include "layout.h"
 #include "preview.h"
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE, local_size_z = 1) in;
 
 #include "scene_buffers.glsl"
-layout(std430, binding = BINDING_PIXELS) writeonly buffer PixelBlock { PixelOut pixels[]; };
+layout(std430, binding = BINDING_PIXELS) buffer PixelBlock { PixelOut pixels[]; };
 layout(std430, binding = BINDING_PREVIEW) readonly buffer PreviewBlock { PreviewFrame preview; };
 layout(std430, binding = BINDING_ACCUM) buffer AccumBlock { AccumPixel accum[]; };
 layout(binding = BINDING_DISPLAY, rgba8) writeonly uniform image2D display;
 layout(std430, binding = BINDING_STATUS) buffer StatusBlock { PreviewStatus status; };
 
 #include "raycast.glsl"
+
+layout(constant_id = SPEC_HOST_PIXELS) const bool HOST_PIXELS = false;
 
 void main() {
     uvec2 pixel = tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationIndex);
@@ -28,6 +32,10 @@ void main() {
         return;
     }
     uint index = i * frame.width + j;
+    if (HOST_PIXELS) {
+        imageStore(display, ivec2(int(j), int(i)), unpackUnorm4x8(pixels[index].rgba));
+        return;
+    }
     vec2 offset = (preview.sample_index == 0u) ? vec2(0.0f, 0.0f) : vec2(preview.jitter.x, preview.jitter.y);
 
     // Every mode is a Frame.aov of sample_pixel, as in render.comp.
@@ -42,7 +50,7 @@ void main() {
         sum = xyz(accum[index].sum) + color;
     }
     accum[index].sum = vec4(sum, 0.0f);
-    precise vec3 average = sum / float(preview.sample_index + 1u);
+    precise vec3 average = sample_average(sum, preview.sample_index + 1u);
 
     // Sample 0's hit (the pixel centre's) stays in the pixel buffer for picking.
     uint rgba = pack_rgba8(average);

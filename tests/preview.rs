@@ -9,6 +9,8 @@
 //!   PNGs in the test's output folder.
 //! - More frames accumulate jittered samples: frame 8 differs from frame 1
 //!   on silhouettes, and nowhere far from an edge.
+//! - `--backend cpu` (the CPU build draws the samples) shows the device's
+//!   pictures. Rule: bit-exact, as above.
 //! - No display: a clear error, no panic.
 //!
 //! Corpus scenes come from RAYCAST_CORPUS (skipped, saying so, without it);
@@ -101,12 +103,18 @@ fn render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str]) -> R
 fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str], both: &[&str]) {
     let actual = screenshot(scene, size, 1, name, &[extra, both].concat());
     let expected = render(scene, size, name, both);
-    let diff = image_io::compare(&actual, &expected, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert_bit_exact(&actual, &expected, &format!("{name}-first-frame"), "the preview's first frame is not `raycast render`");
+}
+
+/// Rule: bit-exact; on failure the counts, the first and worst pixel, and
+/// actual / expected / diff PNGs named after `name`.
+fn assert_bit_exact(actual: &Rgb8, expected: &Rgb8, name: &str, what: &str) {
+    let diff = image_io::compare(actual, expected, 0).unwrap_or_else(|e| panic!("{name}: {e}"));
     if diff.differing > 0 {
-        let paths = image_io::write_diff_images(&out_dir(), &format!("{name}-first-frame"), &actual, &expected, &diff)
-            .unwrap_or_else(|e| panic!("{e}"));
+        let paths =
+            image_io::write_diff_images(&out_dir(), name, actual, expected, &diff).unwrap_or_else(|e| panic!("{e}"));
         panic!(
-            "{name}: the preview's first frame is not `raycast render` (rule: bit-exact): {diff}\nactual {}\nexpected {}\ndiff {}",
+            "{name}: {what} (rule: bit-exact): {diff}\nactual {}\nexpected {}\ndiff {}",
             paths[0].display(),
             paths[1].display(),
             paths[2].display()
@@ -158,6 +166,42 @@ fn first_frame_without_the_uniform_kernel_is_the_render() {
     let dir = common::copy_of_shaders(&out_dir().join("no-uniform-shaders"));
     std::fs::remove_file(dir.join("preview_uniform.comp")).unwrap();
     assert_first_frame_is_the_render(None, [96, 64], "default-no-uniform", &["--shaders", dir.to_str().unwrap()], &[]);
+}
+
+/// `--backend cpu`: the C++ build of the shared GLSL draws the samples and
+/// the device only shows them. Rule: bit-exact against the device's own
+/// preview (on lavapipe the two builds agree bit for bit) after 1 and 8
+/// frames (jittered samples summed the same way), and after two frames
+/// that steer (smaller frames, which `--moving` times) and two at rest.
+/// `--backend auto` takes the CPU build where the device is of type CPU
+/// (lavapipe) and the device elsewhere; `--backend cpu` with `--shaders`
+/// (which only the device's kernel follows) is a usage error.
+#[test]
+fn the_cpu_build_draws_the_devices_samples() {
+    for (frames, extra) in [(1, &[][..]), (8, &[][..]), (4, &["--moving", "2"][..])] {
+        let name = format!("backend-{frames}{}", extra.join(""));
+        let gpu = screenshot(None, [128, 96], frames, &format!("{name}-gpu"), &[extra, &["--backend", "gpu"]].concat());
+        let cpu = screenshot(None, [128, 96], frames, &format!("{name}-cpu"), &[extra, &["--backend", "cpu"]].concat());
+        assert_bit_exact(&cpu, &gpu, &name, "--backend cpu's preview is not the device's");
+    }
+    let o = preview(&["--width", "32", "--height", "24", "--frames", "1", "--backend", "auto"]);
+    assert_clean(&o, "preview --backend auto");
+    let gpu = preview(&["--width", "32", "--height", "24", "--frames", "1"]);
+    let line = |o: &Output| String::from_utf8_lossy(&o.stdout).lines().find(|l| l.starts_with("device: ")).map(str::to_string);
+    let (auto, device) = (line(&o).unwrap_or_default(), line(&gpu).unwrap_or_default());
+    if device.contains(" (cpu, Vulkan") {
+        let name = device["device: ".len()..].split(" (cpu, Vulkan").next().unwrap();
+        assert!(
+            auto.starts_with("device: CPU build of the shared GLSL (")
+                && auto.contains(&format!("; --backend auto: {name} runs on the CPU); the window through {name}")),
+            "{auto}"
+        );
+    } else {
+        assert_eq!(auto, device, "auto on a device that is not a CPU");
+    }
+    let o = raycast(&["preview", "--backend", "cpu", "--shaders", "shaders"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--backend cpu runs the CPU build"), "{}", text(&o));
 }
 
 /// Largest channel difference between two colours.

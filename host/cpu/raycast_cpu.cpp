@@ -19,6 +19,33 @@ extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row
     }
 }
 
+extern "C" void raycast_cpu_preview_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
+                                         uint32_t sample_index, float jitter_x, float jitter_y, void* accum_out,
+                                         void* out) {
+    Scene s = bind_buffers(buffers);
+    AccumPixel* accum = static_cast<AccumPixel*>(accum_out);
+    PixelOut* pixels = static_cast<PixelOut*>(out);
+    vec2 offset = (sample_index == 0u) ? vec2(0.0f, 0.0f) : vec2(jitter_x, jitter_y);
+    for (uint32_t i = row_begin; i < row_end; i++) {
+        for (uint32_t j = 0; j < s.frame.width; j++) {
+            size_t index = size_t(i - row_begin) * s.frame.width + j;
+            // preview_main.glsl's steps, but the canary (the CPU build has no loop budget).
+            PixelSample x = sample_pixel(j, i, offset);
+            vec3 sum = x.color;
+            if (sample_index > 0u) {
+                sum = xyz(accum[index].sum) + x.color;
+            }
+            accum[index].sum = vec4(sum, 0.0f);
+            vec3 average = sample_average(sum, sample_index + 1u);
+            if (sample_index == 0u) {
+                pixels[index] = pixel_out(x.hit, average, x.rays);
+            } else {
+                pixels[index].rgba = pack_rgba8(average);
+            }
+        }
+    }
+}
+
 namespace {
 struct Field {
     const char* type;
@@ -52,6 +79,7 @@ const Field fields[] = {
     AT(Light, penumbra_deg), AT(Light, pad0),
     SIZE(PixelOut), AT(PixelOut, normal), AT(PixelOut, t), AT(PixelOut, id), AT(PixelOut, rgba),
     AT(PixelOut, rays),
+    SIZE(AccumPixel), AT(AccumPixel, sum),
     SIZE(TraceStep), AT(TraceStep, origin), AT(TraceStep, direction), AT(TraceStep, value), AT(TraceStep, extra),
     AT(TraceStep, kind), AT(TraceStep, level), AT(TraceStep, light), AT(TraceStep, id), AT(TraceStep, passes),
     AT(TraceStep, pad0), AT(TraceStep, pad1), AT(TraceStep, pad2),

@@ -17,6 +17,16 @@ extern "C" {
  * pixel binding is unused). Safe to call from many threads at once. */
 void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end, void* out);
 
+/* One sample of the preview window (shaders/preview_main.glsl, the same
+ * steps): sample `sample_index` of rows [row_begin, row_end), through each
+ * pixel's centre for sample 0, else (jitter_x, jitter_y) pixels off it,
+ * added to accum (preview.h AccumPixel, the sum of the earlier samples);
+ * writes the pixels (sample 0: the whole PixelOut; later samples: the
+ * average's rgba). accum and pixels hold the rows' pixels, accum[0] and
+ * pixels[0] the first of row_begin. Safe to call from many threads at once. */
+void raycast_cpu_preview_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end, uint32_t sample_index,
+                              float jitter_x, float jitter_y, void* accum, void* pixels);
+
 /* Traces sample `sample` of pixel (x, y) as raycast_cpu_render_rows renders
  * it: writes its steps (layout.h TraceStep), up to `capacity`, to out and
  * returns how many there are. Safe to call from many threads at once. */

@@ -16,6 +16,7 @@ using namespace glm;
 #define precise
 
 #include "layout.h"
+#include "preview.h"
 
 struct Scene {
     Frame frame;

@@ -475,7 +475,7 @@ pub enum FilterArg {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Backend {
+pub enum Backend {
     /// A Vulkan device (--device, or the best one).
     Gpu,
     /// The C++ build of the shared GLSL on every core.

@@ -3,6 +3,7 @@
 
 use crate::frame::FrameData;
 use crate::layout::{self, PixelOut};
+use crate::preview::layout::{AccumPixel, PreviewFrame};
 use crate::render::Picture;
 use std::ffi::{c_void, CString};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -10,6 +11,16 @@ use std::sync::Mutex;
 
 extern "C" {
     fn raycast_cpu_render_rows(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
+    fn raycast_cpu_preview_rows(
+        buffers: *const *const c_void,
+        row_begin: u32,
+        row_end: u32,
+        sample_index: u32,
+        jitter_x: f32,
+        jitter_y: f32,
+        accum: *mut c_void,
+        pixels: *mut c_void,
+    );
     fn raycast_cpu_field_offset(ty: *const std::ffi::c_char, member: *const std::ffi::c_char) -> i64;
     fn raycast_cpu_trace_sample(
         buffers: *const *const c_void,
@@ -49,6 +60,7 @@ pub fn check_layouts() -> Result<(), String> {
         layout::Instance::layout(),
         layout::PixelOut::layout(),
         layout::TraceStep::layout(),
+        AccumPixel::layout(),
     ];
     let mut errors = Vec::new();
     for s in &structs {
@@ -78,6 +90,14 @@ struct SendPtrs([*const c_void; layout::BINDING_COUNT as usize]);
 // SAFETY: the pointers are only read, and the data they point to outlives
 // the scoped threads (it is borrowed from `data` for the whole render).
 unsafe impl Sync for SendPtrs {}
+
+impl SendPtrs {
+    /// The array for the C ABI (a method, so that a closure captures the
+    /// whole `SendPtrs`, which is Sync, not its array).
+    fn as_ptr(&self) -> *const *const c_void {
+        self.0.as_ptr()
+    }
+}
 
 /// Renders on the CPU with the shared GLSL built as C++.
 pub struct CpuRenderer {
@@ -149,26 +169,70 @@ impl CpuRenderer {
     /// Runs the jobs (first row, end row, their pixels) on every thread,
     /// each taken by whichever thread is free; returns the rows rendered.
     fn run<'a>(&self, data: &FrameData, jobs: impl Iterator<Item = (u32, u32, &'a mut [PixelOut])> + Send) -> u32 {
+        let buffers = buffer_pointers(data);
+        let width = data.frame.width as usize;
+        self.run_jobs(jobs, |(begin, end, slice)| {
+            assert_eq!(slice.len(), (end - begin) as usize * width, "a job's pixels are its rows");
+            // SAFETY: the buffers outlive the call and hold the structs of
+            // layout.h (checked by check_layouts); `slice` holds exactly
+            // (end - begin) rows (asserted); the C++ code reads only
+            // primitive_count primitives and light_count lights, materials
+            // indexed by primitives, textures indexed by materials and
+            // texels inside each texture's range (frame::build guarantees
+            // all three).
+            unsafe { raycast_cpu_render_rows(buffers.as_ptr(), begin, end, slice.as_mut_ptr().cast()) };
+            end - begin
+        })
+    }
+
+    /// One sample of the preview (`preview` says which, and its rows from
+    /// `preview.row_offset` to `row_end`) of `frame` (the preview's camera
+    /// and size) drawn with `data`'s scene: preview_main.glsl's steps in the
+    /// C++ build (raycast_cpu_preview_rows). `accum` and `pixels` hold the
+    /// frame's pixels, row by row (frame.width a row); the band's are read
+    /// and written.
+    pub fn preview_rows(
+        &self,
+        data: &FrameData,
+        frame: &layout::Frame,
+        preview: &PreviewFrame,
+        row_end: u32,
+        accum: &mut [AccumPixel],
+        pixels: &mut [PixelOut],
+    ) {
+        let width = frame.width as usize;
+        let (begin, end) = (preview.row_offset, row_end);
+        assert!(begin < end && end <= frame.height, "the band is inside the frame");
+        assert!(accum.len() >= end as usize * width && pixels.len() >= end as usize * width, "the buffers hold the frame");
+        let mut buffers = buffer_pointers(data);
+        buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
+        let band = begin as usize * width..end as usize * width;
+        let rows = width * ROWS_PER_JOB as usize;
+        let jobs = accum[band.clone()].chunks_mut(rows).zip(pixels[band].chunks_mut(rows)).enumerate().map(|(k, (a, p))| {
+            let first = begin + k as u32 * ROWS_PER_JOB;
+            (first, (first + ROWS_PER_JOB).min(end), a, p)
+        });
+        let (sample, [jx, jy, ..]) = (preview.sample_index, preview.jitter);
+        self.run_jobs(jobs, |(first, last, a, p)| {
+            assert!(a.len() == p.len() && a.len() == (last - first) as usize * width, "a job's pixels are its rows");
+            // SAFETY: as in `run`; `a` and `p` hold exactly the job's rows (asserted).
+            unsafe {
+                raycast_cpu_preview_rows(buffers.as_ptr(), first, last, sample, jx, jy, a.as_mut_ptr().cast(), p.as_mut_ptr().cast());
+            }
+            last - first
+        });
+    }
+
+    /// Runs `work` on the jobs on every thread, each job taken by whichever
+    /// thread is free; returns the sum of what `work` returned (the rows).
+    fn run_jobs<J: Send>(&self, jobs: impl Iterator<Item = J> + Send, work: impl Fn(J) -> u32 + Sync) -> u32 {
         let jobs = Mutex::new(jobs);
         let done = AtomicU32::new(0);
-        let buffers = buffer_pointers(data);
-        let buffers = &buffers;
         std::thread::scope(|scope| {
             for _ in 0..self.threads.max(1) {
                 scope.spawn(|| loop {
-                    let Some((begin, end, slice)) = jobs.lock().unwrap().next() else { break };
-                    assert_eq!(slice.len(), (end - begin) as usize * data.frame.width as usize, "a job's pixels are its rows");
-                    // SAFETY: the buffers outlive the call and hold the
-                    // structs of layout.h (checked by check_layouts);
-                    // `slice` holds exactly (end - begin) rows (asserted); the C++ code
-                    // reads only primitive_count primitives and light_count
-                    // lights, materials indexed by primitives, textures
-                    // indexed by materials and texels inside each texture's
-                    // range (frame::build guarantees all three).
-                    unsafe {
-                        raycast_cpu_render_rows(buffers.0.as_ptr(), begin, end, slice.as_mut_ptr().cast());
-                    }
-                    done.fetch_add(end - begin, Ordering::Relaxed);
+                    let Some(job) = jobs.lock().unwrap().next() else { break };
+                    done.fetch_add(work(job), Ordering::Relaxed);
                 });
             }
         });

@@ -10,7 +10,8 @@ use ash::vk::{self, Handle};
 use glam::DVec3;
 use glfw::{Action, Key, MouseButton, WindowEvent};
 
-use crate::cli::{check_validation, load_scene, parse_device, scene_failure, validation_wanted, Failure};
+use crate::cli::{check_validation, load_scene, parse_device, scene_failure, validation_wanted, Backend, Failure};
+use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gpu::{FrameStatus, GpuContext, GpuOptions, PresentMode};
 use crate::image_io::{self, Rgb8};
@@ -67,6 +68,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     for note in &data.notes {
         errln!("raycast: note: {note}");
     }
+    crate::cli::cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.shaders)?;
     let (shaders, compile_at_start) = shader_folder(args.shaders.as_deref())?;
 
     // The window. GLFW reports its errors through the callback.
@@ -121,7 +123,22 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
     })?);
     let info = context.info().clone();
-    outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
+    let device_line = format!("{} ({}, Vulkan {})", info.name, info.kind, info.api_version);
+    // Who draws the samples (--backend): the CPU build, and why, or the device.
+    let cpu_why = match args.backend {
+        Backend::Cpu => Some(String::new()),
+        Backend::Auto if !compile_at_start && info.runs_on_cpu() => {
+            Some(format!("; --backend auto: {} runs on the CPU", info.name))
+        }
+        Backend::Gpu | Backend::Auto => None,
+    };
+    let cpu = cpu_why.as_ref().map(|_| CpuRenderer::new()).transpose()?;
+    match (&cpu, &cpu_why) {
+        (Some(c), Some(why)) => {
+            outln!("device: CPU build of the shared GLSL ({} threads{why}); the window through {device_line}", c.threads)
+        }
+        _ => outln!("device: {device_line}"),
+    }
     outln!("scene: {} ({} primitives, {} lights)", scene.path.display(), data.primitives.len(), data.lights.len());
 
     // A --shaders folder's kernel from the first frame on (so --frames and
@@ -142,7 +159,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         PresentArg::Mailbox => PresentMode::Mailbox,
         PresentArg::Immediate => PresentMode::Immediate,
     };
-    let renderer = PreviewRenderer::new(context.clone(), kernel, &data, size, window_size, mode)?;
+    let renderer = PreviewRenderer::new(context.clone(), kernel, &data, size, window_size, mode, cpu)?;
     let sc = renderer.swapchain();
     if sc.mode() != sc.requested_mode() {
         errln!("raycast: note: the window does not offer --present-mode {}; using fifo", sc.requested_mode().name());
@@ -158,6 +175,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     });
 
     let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
+    preview.device_on_shader_edit = args.backend == Backend::Auto;
     preview.moving_frames = args.moving;
     preview.click = args.click;
     preview.aov = args.aov.into();
@@ -236,7 +254,11 @@ struct Preview {
     data: FrameData,
     bounds: Option<Bounds>,
     camera: CameraControl,
+    /// The Vulkan device's name.
     device: String,
+    /// --backend auto: when the CPU build draws, an edited shader hands the
+    /// drawing to the device (the CPU build is the code raycast was built with).
+    device_on_shader_edit: bool,
     /// The picture stays at the size asked for (screenshots): the window is not resizable.
     fixed_size: bool,
     /// What the window shows (Frame.aov, keys 1 to 6).
@@ -256,6 +278,8 @@ struct Preview {
     frame_sizes: (u32, u32),
     /// Submit-to-submit times of the --moving frames, and their sizes.
     moving_times: Vec<(Duration, [u32; 2])>,
+    /// Submit-to-submit times of the frames after them (scripted runs: each a whole sample), and their sizes.
+    rest_times: Vec<(Duration, [u32; 2])>,
     /// The first row of the sample's next band (0: the sample starts).
     band_next: u32,
     /// When the camera last moved (`moved`).
@@ -296,6 +320,22 @@ fn band_rows(ms_per_pixel: Option<f64>, width: u32, height: u32) -> u32 {
     ((rows as u32) / group * group).max(group)
 }
 
+/// "10 frames at 171x128 then 128x96": how many frames, at which sizes in turn.
+fn frames_at(times: &[(Duration, [u32; 2])]) -> String {
+    let mut sizes: Vec<[u32; 2]> = times.iter().map(|t| t.1).collect();
+    sizes.dedup();
+    let sizes: Vec<String> = sizes.iter().map(|[w, h]| format!("{w}x{h}")).collect();
+    format!("{} frames at {}", times.len(), sizes.join(" then "))
+}
+
+/// "median 150.4 ms a frame, 6.6 frames a second" of frame times (at least one).
+fn rate(times: &[(Duration, [u32; 2])]) -> String {
+    let mut t: Vec<Duration> = times.iter().map(|t| t.0).collect();
+    t.sort();
+    let median = t[t.len() / 2].as_secs_f64();
+    format!("median {:.1} ms a frame, {:.1} frames a second", median * 1e3, 1.0 / median.max(1e-9))
+}
+
 /// The i-th point of the Halton (2, 3) sequence, centred on 0: sub-pixel
 /// offsets in [-0.5, 0.5)², deterministic and evenly spread.
 fn jitter(i: u32) -> [f32; 2] {
@@ -321,6 +361,7 @@ impl Preview {
             bounds,
             camera,
             device,
+            device_on_shader_edit: false,
             fixed_size,
             aov: Aov::Color,
             shadows: true,
@@ -332,6 +373,7 @@ impl Preview {
             rendered: 0,
             frame_sizes: (0, 0),
             moving_times: Vec::new(),
+            rest_times: Vec::new(),
             band_next: 0,
             last_move: None,
             ms_per_pixel: None,
@@ -466,7 +508,7 @@ impl Preview {
                 pad0: 0,
                 pad1: 0,
             };
-            match self.renderer.render(&frame, &preview, band[1], whole)? {
+            match self.renderer.render(&self.data, &frame, &preview, band[1], whole)? {
                 FrameStatus::OutOfDate => {
                     recreate = true;
                     continue;
@@ -477,9 +519,12 @@ impl Preview {
             let now = Instant::now();
             if let Some(prev) = self.stats.last_submit.replace(now) {
                 self.stats.frame_ms = Stats::average(self.stats.frame_ms, (now - prev).as_secs_f64() * 1e3);
-                if self.rendered > 0 && self.rendered <= self.moving_frames {
-                    // The frame before this one was a --moving frame: its time is now known.
-                    self.moving_times.push((now - prev, [self.frame_sizes.0, self.frame_sizes.1]));
+                // The frame before this one, a --moving frame or one at rest: its time is now known.
+                let timed = (now - prev, [self.frame_sizes.0, self.frame_sizes.1]);
+                if self.rendered <= self.moving_frames {
+                    self.moving_times.push(timed);
+                } else {
+                    self.rest_times.push(timed);
                 }
             }
             self.frame_sizes = (frame.width, frame.height);
@@ -495,9 +540,7 @@ impl Preview {
             if let Some(n) = frames {
                 if self.rendered >= n {
                     self.renderer.wait()?;
-                    if self.moving_frames > 0 {
-                        self.report_moving();
-                    }
+                    self.report_rates();
                     if let Some((j, i)) = self.click {
                         self.pick_pixel(j, i)?;
                     }
@@ -547,7 +590,7 @@ impl Preview {
             self.aov.name(),
             self.stats.frame_ms,
             self.sample,
-            self.device,
+            self.drawn_by(),
             on(self.shadows),
             on(self.reflections),
             on(self.textures)
@@ -567,35 +610,35 @@ impl Preview {
         t
     }
 
+    /// Who draws the samples, for the title.
+    fn drawn_by(&self) -> String {
+        match self.renderer.cpu_threads() {
+            Some(n) => format!("CPU build ({n} threads)"),
+            None => self.device.clone(),
+        }
+    }
+
     fn restart(&mut self) {
         self.sample = 0;
         self.band_next = 0;
     }
 
-    /// `--moving N`: the frame rate of those frames, the first left out (it
-    /// renders at full size, before any cost is known).
-    fn report_moving(&self) {
-        let mut times: Vec<(Duration, [u32; 2])> = self.moving_times.iter().skip(1).copied().collect();
-        if times.is_empty() {
-            outln!("moving: too few frames to time (--moving 2 or more, with --frames more than that)");
-            return;
+    /// Scripted runs: with `--moving N`, the frame rate of those frames
+    /// (the first left out: it renders at full size, before any cost is
+    /// known); then that of the frames at rest (the last one's time is not
+    /// known: nothing follows it), each a whole sample at the picture's size.
+    fn report_rates(&self) {
+        if self.moving_frames > 0 {
+            let times: Vec<(Duration, [u32; 2])> = self.moving_times.iter().skip(1).copied().collect();
+            if times.is_empty() {
+                outln!("moving: too few frames to time (--moving 2 or more, with --frames more than that)");
+            } else {
+                outln!("moving: {} (the picture {}x{}): {}", frames_at(&times), self.renderer.size()[0], self.renderer.size()[1], rate(&times));
+            }
         }
-        let sizes: Vec<String> = {
-            let mut s: Vec<[u32; 2]> = times.iter().map(|t| t.1).collect();
-            s.dedup();
-            s.iter().map(|[w, h]| format!("{w}x{h}")).collect()
-        };
-        times.sort();
-        let median = times[times.len() / 2].0.as_secs_f64();
-        outln!(
-            "moving: {} frames at {} (the picture {}x{}): median {:.1} ms a frame, {:.1} frames a second",
-            times.len(),
-            sizes.join(" then "),
-            self.renderer.size()[0],
-            self.renderer.size()[1],
-            median * 1e3,
-            1.0 / median.max(1e-9)
-        );
+        if !self.rest_times.is_empty() {
+            outln!("at rest: {}: {}", frames_at(&self.rest_times), rate(&self.rest_times));
+        }
     }
 
     /// The camera moved: start over, at a lower resolution for a moment
@@ -763,6 +806,21 @@ impl Preview {
             Reload::Kernel(kernels) => match self.renderer.set_kernels(kernels, &self.data)? {
                 Ok(()) => {
                     errln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
+                    if self.renderer.cpu_threads().is_some() {
+                        if self.device_on_shader_edit {
+                            self.renderer.draw_on_device()?;
+                            errln!(
+                                "raycast: preview: {} draws from now on (--backend auto): the CPU build is the code \
+                                 raycast was built with and cannot follow a shader edit",
+                                self.device
+                            );
+                        } else {
+                            errln!(
+                                "raycast: preview: note: --backend cpu draws with the CPU build raycast was built \
+                                 with: the edit shows with --backend gpu or auto (or rebuild raycast)"
+                            );
+                        }
+                    }
                     self.error = None;
                     self.restart();
                 }

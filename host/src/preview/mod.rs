@@ -21,7 +21,7 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use crate::cli::{AovArg, Failure};
+use crate::cli::{AovArg, Backend, Failure};
 use crate::scene::FlattenLimits;
 
 /// `raycast preview` flags.
@@ -57,6 +57,14 @@ pub struct PreviewArgs {
     /// how steering feels on a device.
     #[arg(long, value_name = "N", default_value_t = 0, requires = "frames")]
     pub moving: u32,
+    /// Who draws the samples: the Vulkan device, or the C++ build of the
+    /// shared GLSL on every core (the same pixels; the device still shows
+    /// them), or auto: the CPU build where the device runs on the CPU
+    /// (lavapipe, where it is the faster), until a shader is edited (the
+    /// CPU build cannot follow an edit; the device then draws), and the
+    /// device with --shaders.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    pub backend: Backend,
     /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,

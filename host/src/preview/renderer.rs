@@ -3,8 +3,9 @@
 //! this only says which buffer goes to which binding of preview.comp.
 
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
+use crate::cpu::CpuRenderer;
 use crate::frame::FrameData;
 use crate::gpu::{
     Buffer, DataImage, DescriptorSet, FrameLoop, FrameStatus, GpuContext, GpuError, Kernel, PresentMode, Resource,
@@ -15,8 +16,11 @@ use crate::render::{SceneFeatures, Specialization};
 
 use super::layout::{
     preview_bindings, preview_images, preview_uniform_bindings, preview_uniform_images, AccumPixel, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW,
-    BINDING_STATUS,
+    BINDING_STATUS, SPEC_HOST_PIXELS,
 };
+
+// The preview kernel's own constant follows layout.h's (preview.h).
+const _: () = assert!(SPEC_HOST_PIXELS == layout::SPEC_COUNT);
 
 /// The preview kernel's SPIR-V with the scene in storage buffers
 /// (preview.comp) and, where there is one, with its arrays in data images
@@ -47,9 +51,12 @@ impl PreviewKernels {
 
     /// The uniform kernel (data images) when `uniform` (the scene's arrays
     /// are laid out for it: `SceneBuffers`) and there is one, else the
-    /// storage one, built for `spec`.
-    fn build(&self, ctx: &GpuContext, uniform: bool, spec: Specialization) -> Result<Kernel, GpuError> {
-        let constants = spec.constants();
+    /// storage one, built for `key` (with HOST_PIXELS, it only shows the
+    /// pixels the host drew).
+    fn build(&self, ctx: &GpuContext, key: KernelKey) -> Result<Kernel, GpuError> {
+        let KernelKey { uniform, spec, host_pixels } = key;
+        let mut constants = spec.constants().to_vec();
+        constants.push(u32::from(host_pixels));
         match &self.uniform {
             Some(u) if uniform => {
                 Kernel::specialized(ctx, "preview_uniform", u, &preview_uniform_bindings(), &preview_uniform_images(), &constants)
@@ -98,6 +105,37 @@ impl SceneBuffers {
     }
 }
 
+/// What a preview kernel is built for: the scene's arrays as data images
+/// (preview_uniform.comp) or buffers, the scene and frame's
+/// specialization, and whether the host draws the pixels (HOST_PIXELS).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct KernelKey {
+    uniform: bool,
+    spec: Specialization,
+    host_pixels: bool,
+}
+
+/// The samples drawn by the CPU build (`raycast preview --backend cpu`):
+/// preview_main.glsl's steps in C++ (`CpuRenderer::preview_rows`), the
+/// running sums and pixels kept here; each band's pixels go to the pixel
+/// buffer and the kernel, built with HOST_PIXELS, shows them. The device
+/// then only presents.
+struct HostSamples {
+    cpu: CpuRenderer,
+    /// The picture's running sums and pixels, frame.width a row.
+    accum: Vec<AccumPixel>,
+    pixels: Vec<PixelOut>,
+    /// The CPU's time for the frame in flight, until `wait` reports it.
+    drawn_in: Option<Duration>,
+}
+
+impl HostSamples {
+    fn new(cpu: CpuRenderer, [w, h]: [u32; 2]) -> HostSamples {
+        let count = w as usize * h as usize;
+        HostSamples { cpu, accum: vec![AccumPixel::default(); count], pixels: vec![PixelOut::default(); count], drawn_in: None }
+    }
+}
+
 /// Per-pixel buffers and the display image of one picture size.
 struct PictureBuffers {
     size: [u32; 2],
@@ -135,15 +173,18 @@ pub struct PreviewRenderer {
     scene: SceneBuffers,
     picture: PictureBuffers,
     swapchain: Swapchain,
-    /// The kernel the scene and the last frame's flags needed, and its key
-    /// (uniform, specialization); built when they change.
-    kernel: Option<((bool, Specialization), Kernel)>,
+    /// The kernel the scene and the last frame's flags needed, and its
+    /// key; built when they change.
+    kernel: Option<(KernelKey, Kernel)>,
     kernels: PreviewKernels,
+    /// The CPU build draws the samples (None: the kernel does).
+    host: Option<HostSamples>,
     context: Arc<GpuContext>,
 }
 
 impl PreviewRenderer {
-    /// Buffers for `data` and a `size` picture, a swapchain for a window of `window` pixels.
+    /// Buffers for `data` and a `size` picture, a swapchain for a window of
+    /// `window` pixels; with `cpu`, the CPU build draws the samples.
     pub fn new(
         context: Arc<GpuContext>,
         kernels: PreviewKernels,
@@ -151,6 +192,7 @@ impl PreviewRenderer {
         size: [u32; 2],
         window: [u32; 2],
         mode: PresentMode,
+        cpu: Option<CpuRenderer>,
     ) -> Result<PreviewRenderer, GpuError> {
         let ctx = &*context;
         let r = PreviewRenderer {
@@ -165,6 +207,7 @@ impl PreviewRenderer {
             swapchain: Swapchain::new(ctx, window, mode)?,
             kernel: None,
             kernels,
+            host: cpu.map(|c| HostSamples::new(c, size)),
             context: context.clone(),
         };
         Ok(r)
@@ -182,12 +225,16 @@ impl PreviewRenderer {
     /// The kernel for the scene drawn with `frame`, built when the scene
     /// or the frame's flags want another one, and the descriptor set.
     fn prepare(&mut self, frame: &Frame) -> Result<(), GpuError> {
-        let key = (self.scene.uniform, self.scene.features.specialization(frame));
+        let key = KernelKey {
+            uniform: self.scene.uniform,
+            spec: self.scene.features.specialization(frame),
+            host_pixels: self.host.is_some(),
+        };
         if self.kernel.as_ref().map(|(k, _)| *k) != Some(key) {
             self.frames.wait()?;
             self.set = None;
             self.kernel = None;
-            self.kernel = Some((key, self.kernels.build(&self.context, key.0, key.1)?));
+            self.kernel = Some((key, self.kernels.build(&self.context, key)?));
         }
         if self.set.is_none() {
             self.bind()?;
@@ -227,10 +274,13 @@ impl PreviewRenderer {
         let scene = if relayout { Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some())?) } else { None };
         let uniform = scene.as_ref().map_or(self.scene.uniform, |s| s.uniform);
         let built = match &self.kernel {
-            Some(((_, spec), _)) => match kernels.build(&self.context, uniform, *spec) {
-                Ok(kernel) => Some(((uniform, *spec), kernel)),
-                Err(e) => return Ok(Err(e.to_string())),
-            },
+            Some((key, _)) => {
+                let key = KernelKey { uniform, ..*key };
+                match kernels.build(&self.context, key) {
+                    Ok(kernel) => Some((key, kernel)),
+                    Err(e) => return Ok(Err(e.to_string())),
+                }
+            }
             None => None,
         };
         self.set = None;
@@ -259,6 +309,9 @@ impl PreviewRenderer {
         self.set = None;
         self.picture = PictureBuffers::new(&self.context, size)?;
         self.frame_size = size;
+        if let Some(host) = self.host.take() {
+            self.host = Some(HostSamples::new(host.cpu, size));
+        }
         Ok(())
     }
 
@@ -268,17 +321,46 @@ impl PreviewRenderer {
         self.swapchain.recreate(window)
     }
 
+    /// The CPU build's threads when it draws the samples.
+    pub fn cpu_threads(&self) -> Option<usize> {
+        self.host.as_ref().map(|h| h.cpu.threads)
+    }
+
+    /// From now on the kernel draws the samples, not the CPU build (which
+    /// cannot follow an edited shader). The running sums stay with the CPU
+    /// build: start the samples over.
+    pub fn draw_on_device(&mut self) -> Result<(), GpuError> {
+        self.frames.wait()?;
+        self.host = None;
+        Ok(())
+    }
+
     /// Draws one sample, or the band of its rows from `preview.row_offset`
-    /// to `row_end`: writes `frame` (at most the picture's size: a smaller
-    /// frame fills the top-left of the buffers and is scaled up to the
-    /// window) and `preview`, dispatches, and with `present` shows the
-    /// display image (so present only once a sample's last band is drawn).
-    /// Returns at once.
-    pub fn render(&mut self, frame: &Frame, preview: &PreviewFrame, row_end: u32, present: bool) -> Result<FrameStatus, GpuError> {
+    /// to `row_end`, of `data`'s scene: writes `frame` (at most the
+    /// picture's size: a smaller frame fills the top-left of the buffers and
+    /// is scaled up to the window) and `preview`, dispatches, and with
+    /// `present` shows the display image (so present only once a sample's
+    /// last band is drawn). Returns at once when the kernel draws the
+    /// sample; the CPU build draws it (`HostSamples`) before the dispatch.
+    pub fn render(
+        &mut self,
+        data: &FrameData,
+        frame: &Frame,
+        preview: &PreviewFrame,
+        row_end: u32,
+        present: bool,
+    ) -> Result<FrameStatus, GpuError> {
         let [w, h] = self.picture.size;
         assert!(frame.width >= 1 && frame.height >= 1 && frame.width <= w && frame.height <= h, "the frame fits the picture");
         assert!(preview.row_offset < row_end && row_end <= frame.height, "the band is inside the frame");
         self.frames.wait()?;
+        if let Some(host) = &mut self.host {
+            let start = Instant::now();
+            host.cpu.preview_rows(data, frame, preview, row_end, &mut host.accum, &mut host.pixels);
+            let band = preview.row_offset as usize * frame.width as usize..row_end as usize * frame.width as usize;
+            self.picture.pixels.write(band.start * std::mem::size_of::<PixelOut>(), bytemuck::cast_slice(&host.pixels[band]));
+            host.drawn_in = Some(start.elapsed());
+        }
         self.prepare(frame)?;
         self.frame_size = [frame.width, frame.height];
         self.status.write(0, bytemuck::bytes_of(&PreviewStatus::default()));
@@ -292,9 +374,14 @@ impl PreviewRenderer {
         self.frames.submit(kernel, set, groups, &self.picture.display, self.frame_size, swapchain)
     }
 
-    /// Waits for the frame in flight; its dispatch time when the device has timestamps.
+    /// Waits for the frame in flight; its dispatch time when the device has
+    /// timestamps, plus the CPU build's time when it drew the sample.
     pub fn wait(&mut self) -> Result<Option<Duration>, GpuError> {
-        self.frames.wait()
+        let device = self.frames.wait()?;
+        match self.host.as_mut().and_then(|h| h.drawn_in.take()) {
+            Some(cpu) => Ok(Some(cpu + device.unwrap_or_default())),
+            None => Ok(device),
+        }
     }
 
     /// How many pixels of the last frame the device cut short (Mesa's loop
