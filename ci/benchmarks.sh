@@ -19,10 +19,12 @@
 #                                       runs, /usr/bin/time) and peak RSS: the whole command,
 #                                       as the issue's targets and POV-Ray's times are.
 #                                       SCENE is a file or gen:FAMILY:DEPTH.
-#   ci/benchmarks.sh preview [PREVIEW OPTION...] SCENE...
+#   ci/benchmarks.sh preview [--at-rest] [PREVIEW OPTION...] SCENE...  (an option's value after =)
 #                                       the preview's frame rate while the camera turns
 #                                       (`raycast preview --frames 12 --moving 11` under
-#                                       xvfb-run): the steering resolution and its rate.
+#                                       xvfb-run): the steering resolution and its rate;
+#                                       with --at-rest, without --moving: whole samples
+#                                       at the picture's size.
 #   ci/benchmarks.sh passes [--all] SCENE...
 #                                       `build/raycast render SCENE --aov cost --backend cpu`:
 #                                       the passes of each camera ray's walk through the
@@ -97,12 +99,18 @@ wall() {
 }
 
 preview_rates() {
-  local opts=() tmp s file out line lines
+  local opts=() tmp s file out line lines kind=moving scripted=(--frames 12 --moving 11) rest=""
+  if [ "${1:-}" = --at-rest ]; then kind="at rest"; scripted=(--frames 12); rest="--at-rest "; shift; fi
+  # Options with a value as --name=value (--backend=cpu).
   while [[ "${1:-}" == --* ]]; do opts+=("$1"); shift; done
   tmp="$(mktemp -d)"
-  echo "\`ci/benchmarks.sh preview ${opts[*]}${opts:+ }$*\`: \`xvfb-run -a $RAYCAST preview SCENE --assets $CORPUS${opts:+ }${opts[*]} --frames 12 --moving 11\` (a 512x384 window), 3 runs: the camera turns 2 degrees before each of frames 1 to 11, which render at the size the preview picks while you steer; the median of frames 2 to 11, of the run with the middle median."
+  if [ "$kind" = moving ]; then
+    echo "\`ci/benchmarks.sh preview ${opts[*]}${opts:+ }$*\`: \`xvfb-run -a $RAYCAST preview SCENE --assets $CORPUS${opts:+ }${opts[*]} ${scripted[*]}\` (a 512x384 window), 3 runs: the camera turns 2 degrees before each of frames 1 to 11, which render at the size the preview picks while you steer; the median of frames 2 to 11, of the run with the middle median."
+  else
+    echo "\`ci/benchmarks.sh preview $rest${opts[*]}${opts:+ }$*\`: \`xvfb-run -a $RAYCAST preview SCENE --assets $CORPUS${opts:+ }${opts[*]} ${scripted[*]}\` (a 512x384 window), 3 runs: every frame a whole sample at 512x384, as at rest; the median of frames 1 to 11 (the 12th is not timed), of the run with the middle median."
+  fi
   echo
-  echo "| scene | frame size while steering | median frame | frames a second |"
+  if [ "$kind" = moving ]; then echo "| scene | frame size while steering | median frame | frames a second |"; else echo "| scene | frame size | median frame | frames a second |"; fi
   echo "|---|---|---|---|"
   for s in "$@"; do
     file="$s"
@@ -114,11 +122,11 @@ preview_rates() {
     # Three runs; the one with the middle median (this machine's noise).
     lines=()
     for _ in 1 2 3; do
-      out="$(xvfb-run -a -s '-screen 0 1280x1024x24' "$RAYCAST" preview "$file" --assets "$CORPUS" "${opts[@]}" --frames 12 --moving 11 2>&1)" || { echo "$out" >&2; exit 1; }
-      lines+=("$(grep '^moving: ' <<<"$out")")
+      out="$(xvfb-run -a -s '-screen 0 1280x1024x24' "$RAYCAST" preview "$file" --assets "$CORPUS" "${opts[@]}" "${scripted[@]}" 2>&1)" || { echo "$out" >&2; exit 1; }
+      lines+=("$(grep "^$kind: " <<<"$out")")
     done
     line="$(printf '%s\n' "${lines[@]}" | awk '{ m = $0; sub(/.*median /, "", m); sub(/ ms.*/, "", m); print m "\t" $0 }' | sort -g | sed -n 2p | cut -f2-)"
-    sed -n 's/^moving: [0-9]* frames at \(.*\) (the picture .*): median \(.*\) a frame, \(.*\) frames a second$/| '"${s##*/}"' | \1 | \2 | \3 |/p' <<<"$line"
+    sed -n 's/^'"$kind"': [0-9]* frames\{0,1\} at \([0-9x][0-9x then]*[0-9]\)[^:]*: median \(.*\) a frame, \(.*\) frames a second$/| '"${s##*/}"' | \1 | \2 | \3 |/p' <<<"$line"
   done
   rm -rf "$tmp"
 }

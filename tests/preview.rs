@@ -330,16 +330,20 @@ fn pixels_cut_short_are_reported_and_not_saved() {
 /// `--moving N` turns the camera before each of the first N frames, as a
 /// drag does: those render at the motion resolution (smaller than the
 /// picture when a full frame would take more than 125 ms) and their frame
-/// rate is printed; the frame after them, at rest, is the full picture.
+/// rate is printed; the frames after them, at rest, are the full picture,
+/// and their rate is printed too.
 #[test]
 fn moving_frames_report_their_rate_and_the_frame_at_rest_is_full_size() {
     let png = out_dir().join("moving.png");
     let _ = std::fs::remove_file(&png);
-    let o = preview(&["--width", "96", "--height", "64", "--frames", "5", "--moving", "4", "--screenshot", png.to_str().unwrap()]);
+    let o = preview(&["--width", "96", "--height", "64", "--frames", "7", "--moving", "4", "--screenshot", png.to_str().unwrap()]);
     assert_clean(&o, "preview --moving");
     let out = String::from_utf8_lossy(&o.stdout);
     let line = out.lines().find(|l| l.starts_with("moving: 3 frames at ")).unwrap_or_else(|| panic!("no moving line:\n{}", text(&o)));
     assert!(line.contains("(the picture 96x64): median ") && line.ends_with(" frames a second"), "{line}");
+    // Frames 5 and 6 at rest are timed (the 7th, the last, is not).
+    let line = out.lines().find(|l| l.starts_with("at rest: ")).unwrap_or_else(|| panic!("no at-rest line:\n{}", text(&o)));
+    assert!(line.starts_with("at rest: 2 frames at 96x64: median ") && line.ends_with(" frames a second"), "{line}");
     let shot = image_io::read_png(&png).unwrap();
     assert_eq!((shot.width, shot.height), (96, 64), "the frame at rest is the full picture");
     // --moving needs --frames.

@@ -325,7 +325,8 @@ fn frames_at(times: &[(Duration, [u32; 2])]) -> String {
     let mut sizes: Vec<[u32; 2]> = times.iter().map(|t| t.1).collect();
     sizes.dedup();
     let sizes: Vec<String> = sizes.iter().map(|[w, h]| format!("{w}x{h}")).collect();
-    format!("{} frames at {}", times.len(), sizes.join(" then "))
+    let n = times.len();
+    format!("{n} frame{} at {}", if n == 1 { "" } else { "s" }, sizes.join(" then "))
 }
 
 /// "median 150.4 ms a frame, 6.6 frames a second" of frame times (at least one).
