@@ -115,6 +115,51 @@ struct KernelKey {
     host_pixels: bool,
 }
 
+/// How many kernels the renderer keeps beside the one it draws with: a
+/// view (keys 1 to 6) or flag (H, M, T) switched back finds its kernel
+/// built (each build takes 50 ms or more on lavapipe, seconds cold).
+const SPARE_KERNELS: usize = 3;
+
+/// The kernel drawn with, by its key, and up to SPARE_KERNELS built
+/// before for other keys, the latest first.
+struct Built<K, T> {
+    current: Option<(K, T)>,
+    spare: Vec<(K, T)>,
+}
+
+impl<K: Copy + PartialEq, T> Built<K, T> {
+    /// `current` alone (new shaders: what was built from the old ones goes).
+    fn only(current: Option<(K, T)>) -> Built<K, T> {
+        Built { current, spare: Vec::new() }
+    }
+
+    fn current_key(&self) -> Option<K> {
+        self.current.as_ref().map(|(k, _)| *k)
+    }
+
+    fn current(&self) -> Option<&T> {
+        self.current.as_ref().map(|(_, t)| t)
+    }
+
+    /// Makes `key`'s the current one: already current, a spare, or else
+    /// `build`'s (on an error the current one stays).
+    fn select<E>(&mut self, key: K, build: impl FnOnce() -> Result<T, E>) -> Result<(), E> {
+        if self.current_key() == Some(key) {
+            return Ok(());
+        }
+        let found = self.spare.iter().position(|(k, _)| *k == key).map(|i| self.spare.remove(i).1);
+        let t = match found {
+            Some(t) => t,
+            None => build()?,
+        };
+        if let Some(old) = self.current.replace((key, t)) {
+            self.spare.insert(0, old);
+            self.spare.truncate(SPARE_KERNELS);
+        }
+        Ok(())
+    }
+}
+
 /// The samples drawn by the CPU build (`raycast preview --backend cpu`):
 /// preview_main.glsl's steps in C++ (`CpuRenderer::preview_rows`), the
 /// running sums and pixels kept here; each band's pixels go to the pixel
@@ -175,7 +220,7 @@ pub struct PreviewRenderer {
     swapchain: Swapchain,
     /// The kernel the scene and the last frame's flags needed, and its
     /// key; built when they change.
-    kernel: Option<(KernelKey, Kernel)>,
+    kernel: Built<KernelKey, Kernel>,
     kernels: PreviewKernels,
     /// The CPU build draws the samples (None: the kernel does).
     host: Option<HostSamples>,
@@ -205,7 +250,7 @@ impl PreviewRenderer {
             scene: SceneBuffers::new(ctx, data, kernels.uniform.is_some())?,
             picture: PictureBuffers::new(ctx, size)?,
             swapchain: Swapchain::new(ctx, window, mode)?,
-            kernel: None,
+            kernel: Built::only(None),
             kernels,
             host: cpu.map(|c| HostSamples::new(c, size)),
             context: context.clone(),
@@ -225,16 +270,16 @@ impl PreviewRenderer {
     /// The kernel for the scene drawn with `frame`, built when the scene
     /// or the frame's flags want another one, and the descriptor set.
     fn prepare(&mut self, frame: &Frame) -> Result<(), GpuError> {
-        let key = KernelKey {
-            uniform: self.scene.uniform,
-            spec: self.scene.features.specialization(frame),
-            host_pixels: self.host.is_some(),
-        };
-        if self.kernel.as_ref().map(|(k, _)| *k) != Some(key) {
+        // A kernel that shows the host's pixels is the same for every frame
+        // (HOST_PIXELS leaves the rest out): switching a view or a flag
+        // does not build another.
+        let spec = if self.host.is_some() { Specialization::ALL } else { self.scene.features.specialization(frame) };
+        let key = KernelKey { uniform: self.scene.uniform, spec, host_pixels: self.host.is_some() };
+        if self.kernel.current_key() != Some(key) {
             self.frames.wait()?;
             self.set = None;
-            self.kernel = None;
-            self.kernel = Some((key, self.kernels.build(&self.context, key)?));
+            let (kernels, context) = (&self.kernels, &self.context);
+            self.kernel.select(key, || kernels.build(context, key))?;
         }
         if self.set.is_none() {
             self.bind()?;
@@ -246,7 +291,7 @@ impl PreviewRenderer {
         self.set = None;
         let p = &self.picture;
         let s = &self.scene;
-        let (_, kernel) = self.kernel.as_ref().expect("prepare builds the kernel first");
+        let kernel = self.kernel.current().expect("prepare builds the kernel first");
         let mut resources = vec![(layout::BINDING_FRAME, Resource::Buffer(&self.frame))];
         resources.extend(s.buffers.iter().map(|(binding, buffer)| (*binding, Resource::Buffer(buffer))));
         resources.extend(s.images.iter().map(|(binding, image)| (*binding, Resource::Data(image))));
@@ -273,9 +318,9 @@ impl PreviewRenderer {
         let relayout = kernels.uniform.is_some() != self.kernels.uniform.is_some();
         let scene = if relayout { Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some())?) } else { None };
         let uniform = scene.as_ref().map_or(self.scene.uniform, |s| s.uniform);
-        let built = match &self.kernel {
-            Some((key, _)) => {
-                let key = KernelKey { uniform, ..*key };
+        let built = match self.kernel.current_key() {
+            Some(key) => {
+                let key = KernelKey { uniform, ..key };
                 match kernels.build(&self.context, key) {
                     Ok(kernel) => Some((key, kernel)),
                     Err(e) => return Ok(Err(e.to_string())),
@@ -284,7 +329,7 @@ impl PreviewRenderer {
             None => None,
         };
         self.set = None;
-        self.kernel = built;
+        self.kernel = Built::only(built);
         self.kernels = kernels;
         if let Some(scene) = scene {
             self.scene = scene;
@@ -366,7 +411,7 @@ impl PreviewRenderer {
         self.status.write(0, bytemuck::bytes_of(&PreviewStatus::default()));
         self.frame.write(0, bytemuck::bytes_of(frame));
         self.preview.write(0, bytemuck::bytes_of(preview));
-        let (_, kernel) = self.kernel.as_ref().expect("prepared");
+        let kernel = self.kernel.current().expect("prepared");
         let wg = kernel.workgroup_size();
         let groups = [frame.width.div_ceil(wg[0]), (row_end - preview.row_offset).div_ceil(wg[1]), 1];
         let set = self.set.as_ref().expect("bound");
@@ -417,5 +462,35 @@ impl Drop for PreviewRenderer {
     fn drop(&mut self) {
         // Nothing may be destroyed while the last frame runs.
         let _ = self.frames.wait();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A key switched back finds its kernel without a build; beyond
+    /// SPARE_KERNELS others, the oldest is built again; a failed build
+    /// leaves the current one.
+    #[test]
+    fn kernels_built_before_are_kept() {
+        let mut built: Built<u32, String> = Built::only(None);
+        let mut builds = Vec::new();
+        let mut select = |b: &mut Built<u32, String>, key: u32| {
+            b.select(key, || -> Result<String, ()> {
+                builds.push(key);
+                Ok(format!("kernel {key}"))
+            })
+            .unwrap();
+            assert_eq!(b.current(), Some(&format!("kernel {key}")));
+        };
+        for key in [1, 2, 1, 2, 2, 3, 4, 5, 1] {
+            select(&mut built, key);
+        }
+        drop(select);
+        // 1 and 2 once each, then 3, 4, 5; 5 pushed 1, the oldest, out of the three spares.
+        assert_eq!(builds, [1, 2, 3, 4, 5, 1]);
+        assert_eq!(built.select(9, || Err("refused")), Err("refused"));
+        assert_eq!(built.current_key(), Some(1));
     }
 }
