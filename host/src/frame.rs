@@ -731,7 +731,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                 for &k in items.iter().filter(|&&k| (k as usize) < np) {
                     leaf_items.push(layout::LeafItem { item: prim_base[g] + k });
                 }
-                while node.primitives < node.count && leaf_items.len() % 4 != 0 {
+                while node.primitives < node.count && !leaf_items.len().is_multiple_of(4) {
                     leaf_items.push(layout::LeafItem::default());
                 }
                 for &k in items.iter().filter(|&&k| (k as usize) >= np) {
@@ -1068,8 +1068,7 @@ mod tests {
 
     #[test]
     fn settings_reject_zero_and_absurd_sizes() {
-        let mut s = RenderSettings::default();
-        s.width = 0;
+        let mut s = RenderSettings { width: 0, ..RenderSettings::default() };
         assert!(s.validate().unwrap_err().0.contains("--width 0"));
         s.width = 10;
         s.height = MAX_IMAGE_SIDE + 1;

@@ -318,13 +318,17 @@ fn record_kind(data: &FrameData, bit: u32) -> bool {
     })
 }
 
+/// A render kernel built for a scene: whether it is render_uniform.comp,
+/// the specialization, and the kernel.
+type BuiltKernel = ((bool, Specialization), Arc<Kernel>);
+
 /// A Vulkan device with the render kernels, each built and checked on
 /// first use for the scenes that need it (so a command compiles only the
 /// one its scene needs), specialised for the scene (`Specialization`).
 pub struct GpuRenderer {
     // Field order is drop order: the kernels go before their device.
     /// Built so far: (uniform, specialization) and the kernel.
-    kernels: Mutex<Vec<((bool, Specialization), Arc<Kernel>)>>,
+    kernels: Mutex<Vec<BuiltKernel>>,
     /// render.comp's SPIR-V.
     storage: Vec<u8>,
     /// render_uniform.comp's; None when there is none (a --shaders folder

@@ -946,12 +946,12 @@ impl Inner {
     pub(crate) fn check_data_image(&self, kernel: &str, what: &str, len: usize) -> Result<(), GpuError> {
         let bad = |message: String| GpuError::BadRun { kernel: kernel.to_string(), message: format!("{what}: {message}") };
         let max = u64::from(self.limits.max_image_dimension2_d);
-        if len == 0 || len % 16 != 0 {
+        if len == 0 || !len.is_multiple_of(16) {
             return Err(bad(format!("{len} bytes are not whole 16-byte texels")));
         }
         let texels = (len / 16) as u64;
         let width = u64::from(IMAGE_WIDTH);
-        if texels > width && texels % width != 0 {
+        if texels > width && !texels.is_multiple_of(width) {
             return Err(bad(format!("{texels} texels are more than one row and not whole rows of {width}")));
         }
         let [w, rows] = data_image_size(texels);

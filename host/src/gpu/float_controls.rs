@@ -89,7 +89,7 @@ pub(crate) fn add_modes(words: &[u32], modes: Modes) -> Result<Vec<u32>, String>
     let name = string_words(EXTENSION);
     let has_extension = instructions.iter().any(|&(at, op, count)| op == OP_EXTENSION && words[at + 1..at + count] == name[..]);
     // Capabilities come first, then extensions; entry points before execution modes.
-    let last_capability = instructions.iter().filter(|i| i.1 == OP_CAPABILITY).next_back().map(|i| i.0 + i.2);
+    let last_capability = instructions.iter().rfind(|i| i.1 == OP_CAPABILITY).map(|i| i.0 + i.2);
     let entry_points: Vec<(usize, u32)> = instructions
         .iter()
         .filter(|i| i.1 == OP_ENTRY_POINT && i.2 >= 3)

@@ -204,7 +204,7 @@ fn run_uploads_data_images_texel_for_texel() {
         BindingLayout { binding: 2, shape: BufferShape::RuntimeArray(quad), writable: true },
     ];
     let image = ImageBinding { binding: 1, writable: false, format: ImageFormat::Rgba32Uint };
-    let kernel = Kernel::with_images(&ctx, "data_image", &spv, &buffers, &[image.clone()]).unwrap_or_else(|e| panic!("{e}"));
+    let kernel = Kernel::with_images(&ctx, "data_image", &spv, &buffers, std::slice::from_ref(&image)).unwrap_or_else(|e| panic!("{e}"));
     // One partial row (300 texels) and three whole rows (12,288), distinct
     // words with NaN and infinity patterns among them: bits, not values.
     for n in [300usize, 3 * 4096] {

@@ -487,7 +487,6 @@ mod tests {
         for key in [1, 2, 1, 2, 2, 3, 4, 5, 1] {
             select(&mut built, key);
         }
-        drop(select);
         // 1 and 2 once each, then 3, 4, 5; 5 pushed 1, the oldest, out of the three spares.
         assert_eq!(builds, [1, 2, 3, 4, 5, 1]);
         assert_eq!(built.select(9, || Err("refused")), Err("refused"));

@@ -204,7 +204,7 @@ mod tests {
             assert!((d - d0).abs() <= 1e-9 * d0, "step {k} (yaw {yaw}, pitch {pitch}): distance {d}, started at {d0}");
             assert!((c.focus() - focus).length() <= 1e-9 * d0, "step {k}: focus moved to {}", c.focus());
             let polar = (c.camera.pos - focus).angle_between(DVec3::Y).to_degrees();
-            assert!(polar >= POLE_MARGIN_DEG - 1e-6 && polar <= 180.0 - POLE_MARGIN_DEG + 1e-6, "step {k}: polar {polar}");
+            assert!((POLE_MARGIN_DEG - 1e-6..=180.0 - POLE_MARGIN_DEG + 1e-6).contains(&polar), "step {k}: polar {polar}");
         }
     }
 

@@ -275,6 +275,10 @@ pub enum Transform {
 }
 
 /// A node of an object tree.
+// Primitive is the large variant (its material inline) and most nodes are
+// one (every leaf of a flat file): boxing it would add an allocation to
+// each and save nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Node {
     Primitive { shape: Shape, material: Material, loc: SourceLoc },
