@@ -520,12 +520,14 @@ impl Preview {
             let now = Instant::now();
             if let Some(prev) = self.stats.last_submit.replace(now) {
                 self.stats.frame_ms = Stats::average(self.stats.frame_ms, (now - prev).as_secs_f64() * 1e3);
-                // The frame before this one, a --moving frame or one at rest: its time is now known.
-                let timed = (now - prev, [self.frame_sizes.0, self.frame_sizes.1]);
-                if self.rendered <= self.moving_frames {
-                    self.moving_times.push(timed);
-                } else {
-                    self.rest_times.push(timed);
+                if frames.is_some() {
+                    // Scripted: the frame before this one, a --moving frame or one at rest: its time is now known.
+                    let timed = (now - prev, [self.frame_sizes.0, self.frame_sizes.1]);
+                    if self.rendered <= self.moving_frames {
+                        self.moving_times.push(timed);
+                    } else {
+                        self.rest_times.push(timed);
+                    }
                 }
             }
             self.frame_sizes = (frame.width, frame.height);

@@ -219,7 +219,7 @@ pub struct PreviewRenderer {
     picture: PictureBuffers,
     swapchain: Swapchain,
     /// The kernel the scene and the last frame's flags needed, and its
-    /// key; built when they change.
+    /// key, built when they change; beside it the last few it replaced.
     kernel: Built<KernelKey, Kernel>,
     kernels: PreviewKernels,
     /// The CPU build draws the samples (None: the kernel does).
