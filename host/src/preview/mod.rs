@@ -1,7 +1,8 @@
 //! `raycast preview`: the scene in a window. GLFW opens the window and
 //! reports input; the gpu part renders one jittered sample per frame with
-//! shaders/preview.comp, accumulating while nothing changes, and presents
-//! it. This part owns the window, input and live reload; the camera control
+//! shaders/preview.comp (or, with `--backend cpu`, the CPU build draws it
+//! and the kernel only shows it), accumulating while nothing changes, and
+//! presents it. This part owns the window, input and live reload; the camera control
 //! it steers with is the scene part's (`scene::CameraControl`, which
 //! `render --orbit` uses too).
 //!
@@ -9,7 +10,7 @@
 //! |---|---|
 //! | `app.rs` | the window, the render loop, keys and mouse, the title, picking |
 //! | `reload.rs` | the watcher thread: scene and shader reloads off the render thread |
-//! | `renderer.rs` | which buffer goes to which binding of preview.comp |
+//! | `renderer.rs` | which buffer goes to which binding of preview.comp; the CPU build's samples (`--backend cpu`) |
 //! | `layout.rs` | Rust mirrors of shaders/preview.h |
 
 mod app;

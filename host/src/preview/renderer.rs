@@ -1,6 +1,8 @@
 //! The preview kernel on a device: its buffers and display image, a
 //! swapchain, and one frame at a time. Everything Vulkan is the gpu part's;
-//! this only says which buffer goes to which binding of preview.comp.
+//! this only says which buffer goes to which binding of preview.comp, and,
+//! when the CPU build draws the samples (`HostSamples`), hands their pixels
+//! to the kernel that shows them.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
