@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # Regenerates BENCHMARKS.md in one command:
 #
-#   ci/benchmarks.sh [--no-build] [FILE]     (FILE: BENCHMARKS.md by default)
+#   ci/benchmarks.sh [--no-build] [--only TEXT] [FILE]     (FILE: BENCHMARKS.md by default)
 #
 # Every block of FILE that opens with `<!-- bench: COMMAND -->` and closes
 # with `<!-- /bench -->` is replaced by what COMMAND prints, run from the
 # repository root; the prose around the blocks is kept. COMMAND may use
 # $CORPUS (RAYCAST_CORPUS, else ../shared/corpus/cs1230). Builds
-# build/raycast first unless --no-build.
+# build/raycast first unless --no-build. With --only TEXT, only the blocks
+# whose COMMAND contains TEXT are run again; the others stay as they are.
 #
 # RAYCAST_COMMIT names the commit in the machine block where the tree's .git
 # is not its own (a copy sent to a GPU machine).
@@ -193,8 +194,9 @@ case "${1:-}" in
   preview) shift; preview_rates "$@"; exit ;;
 esac
 
-build=1
+build=1 only=""
 if [ "${1:-}" = --no-build ]; then build=0; shift; fi
+if [ "${1:-}" = --only ]; then only="$2"; shift 2; fi
 FILE="${1:-BENCHMARKS.md}"
 [ "$build" = 1 ] && build_raycast
 [ -x "$RAYCAST" ] || { echo "benchmarks: $RAYCAST is missing: run without --no-build" >&2; exit 1; }
@@ -205,13 +207,19 @@ in_block=0
 while IFS= read -r line || [ -n "$line" ]; do
   if [ "$in_block" = 0 ] && [[ "$line" =~ ^'<!-- bench: '(.*)' -->'$ ]]; then
     printf '%s\n' "$line" >>"$out"
-    echo "benchmarks: ${BASH_REMATCH[1]}" >&2
-    eval "${BASH_REMATCH[1]}" >>"$out" </dev/null
-    in_block=1
-  elif [ "$in_block" = 1 ]; then
+    if [[ "${BASH_REMATCH[1]}" == *"$only"* ]]; then
+      echo "benchmarks: ${BASH_REMATCH[1]}" >&2
+      eval "${BASH_REMATCH[1]}" >>"$out" </dev/null
+      in_block=1
+    else
+      in_block=2 # kept as it is
+    fi
+  elif [ "$in_block" != 0 ]; then
     if [ "$line" = '<!-- /bench -->' ]; then
       printf '%s\n' "$line" >>"$out"
       in_block=0
+    elif [ "$in_block" = 2 ]; then
+      printf '%s\n' "$line" >>"$out"
     fi
   else
     printf '%s\n' "$line" >>"$out"

@@ -36,8 +36,8 @@ const TITLE_INTERVAL: Duration = Duration::from_millis(250);
 const MOTION_HOLD: Duration = Duration::from_millis(300);
 /// While the camera moves, a frame should take at most this long (8 a second).
 const MOTION_FRAME_MS: f64 = 125.0;
-/// The most the motion resolution divides the width and height by.
-const MAX_MOTION_SCALE: u32 = 8;
+/// The most the motion resolution divides the width and height by: 2^(MAX_MOTION_STEPS / 4) = 8.
+const MAX_MOTION_STEPS: u32 = 12;
 /// Frames smaller than this do not update the cost per pixel.
 const COST_MIN_PIXELS: u64 = 16384;
 /// `--moving`: how far the camera orbits before each frame.
@@ -284,9 +284,9 @@ struct Preview {
     band_next: u32,
     /// When the camera last moved (`moved`).
     last_move: Option<Instant>,
-    /// Device (or frame) milliseconds per pixel, averaged over frames.
-    ms_per_pixel: Option<f64>,
-    /// Pixels of the frame in flight, for `ms_per_pixel`.
+    /// Device (or frame) milliseconds per pixel of the last frames.
+    pixel_cost: PixelCost,
+    /// Pixels of the frame in flight, for `pixel_cost`.
     pixels_in_flight: u64,
     /// Pixels of the last frame the device cut short (wrong; lavapipe's loop budget).
     cut_short: u32,
@@ -296,15 +296,48 @@ struct Preview {
     renderer: PreviewRenderer,
 }
 
+/// Milliseconds per pixel of the last COST_FRAMES frames measured.
+#[derive(Default)]
+struct PixelCost {
+    last: std::collections::VecDeque<f64>,
+}
+
+/// Frames `PixelCost` keeps.
+const COST_FRAMES: usize = 5;
+
+impl PixelCost {
+    fn push(&mut self, ms_per_pixel: f64) {
+        if !ms_per_pixel.is_finite() || ms_per_pixel <= 0.0 {
+            return;
+        }
+        if self.last.len() == COST_FRAMES {
+            self.last.pop_front();
+        }
+        self.last.push_back(ms_per_pixel);
+    }
+
+    /// Their median (None before the first): one slow frame (a pipeline
+    /// built, another process on the cores) does not shrink the steering
+    /// size, as it did in an average; a lasting change moves it within
+    /// three frames.
+    fn estimate(&self) -> Option<f64> {
+        let mut v: Vec<f64> = self.last.iter().copied().collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied()
+    }
+}
+
 /// The divisor of width and height that brings a frame of `pixels` pixels,
-/// at `ms_per_pixel`, within MOTION_FRAME_MS: the smallest whole number
-/// (1 when the cost is not known yet), at most MAX_MOTION_SCALE.
-fn motion_scale(ms_per_pixel: Option<f64>, pixels: u64) -> u32 {
-    let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return 1 };
+/// at `ms_per_pixel`, within MOTION_FRAME_MS: the smallest of 1, 2^(1/4),
+/// 2^(2/4), … (each step a fifth fewer pixels; whole numbers halved the
+/// pixels or more, 512x384 to 256x192 where 362x272 fits), 1 when the cost
+/// is not known yet, at most 2^(MAX_MOTION_STEPS / 4).
+fn motion_scale(ms_per_pixel: Option<f64>, pixels: u64) -> f64 {
+    let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return 1.0 };
     let full_ms = cost * pixels as f64;
-    // Dividing both sides by s divides the pixels by s².
-    let s = (full_ms / MOTION_FRAME_MS).sqrt().ceil();
-    (s as u32).clamp(1, MAX_MOTION_SCALE)
+    // Dividing both sides by s = 2^(k/4) divides the pixels by s² = 2^(k/2).
+    let steps = (2.0 * (full_ms / MOTION_FRAME_MS).log2()).ceil();
+    2f64.powf(steps.clamp(0.0, f64::from(MAX_MOTION_STEPS)) / 4.0)
 }
 
 /// Rows of a `width`-pixel frame that one frame draws at `ms_per_pixel`
@@ -377,7 +410,7 @@ impl Preview {
             rest_times: Vec::new(),
             band_next: 0,
             last_move: None,
-            ms_per_pixel: None,
+            pixel_cost: PixelCost::default(),
             pixels_in_flight: 0,
             cut_short: 0,
             error: None,
@@ -465,8 +498,7 @@ impl Preview {
                     self.stats.last_submit.map(|s| (waited.max(s) - s).as_secs_f64() * 1e3)
                 });
                 if let Some(ms) = ms {
-                    let per_pixel = ms / self.pixels_in_flight as f64;
-                    self.ms_per_pixel = Some(self.ms_per_pixel.map_or(per_pixel, |old| Stats::average(old, per_pixel)));
+                    self.pixel_cost.push(ms / self.pixels_in_flight as f64);
                 }
             }
             let cut = self.renderer.cut_short()?;
@@ -484,7 +516,7 @@ impl Preview {
                 self.moved();
             }
             let scale = self.motion_scale(frames.is_some() && !steering);
-            if scale > 1 || self.renderer.frame_size() != self.renderer.size() {
+            if scale > 1.0 || self.renderer.frame_size() != self.renderer.size() {
                 // Moving, or the first frame at rest after moving: no samples to add to.
                 self.sample = 0;
                 self.band_next = 0;
@@ -493,10 +525,10 @@ impl Preview {
             // At full size on a slow device, a sample is drawn a band of rows per frame (each
             // within MOTION_FRAME_MS) and shown once whole, so input is never kept waiting
             // for a long frame. Scripted runs and fast devices draw it whole.
-            let rows = if scale > 1 || frames.is_some() {
+            let rows = if scale > 1.0 || frames.is_some() {
                 frame.height
             } else {
-                band_rows(self.ms_per_pixel, frame.width, frame.height)
+                band_rows(self.pixel_cost.estimate(), frame.width, frame.height)
             };
             let band = [self.band_next, (self.band_next + rows).min(frame.height)];
             let whole = band[1] == frame.height;
@@ -559,9 +591,10 @@ impl Preview {
     /// The Frame of this camera, size, mode and flags. The rest (scene
     /// counts, coefficients) is `frame::build`'s, so the scene's own camera
     /// gives its `raycast render` Frame bit for bit.
-    fn frame(&self, scale: u32) -> Frame {
+    fn frame(&self, scale: f64) -> Frame {
         let [w, h] = self.renderer.size();
-        self.frame_at([w.div_ceil(scale), h.div_ceil(scale)])
+        let side = |n: u32| ((f64::from(n) / scale).ceil() as u32).clamp(1, n);
+        self.frame_at([side(w), side(h)])
     }
 
     /// `frame`'s Frame at a size of w x h pixels.
@@ -654,16 +687,16 @@ impl Preview {
     /// The divisor of the picture's width and height for the next frame:
     /// 1 at rest and in scripted runs (but for --moving); while the camera moves (and for
     /// MOTION_HOLD after), the smallest that keeps a frame within
-    /// MOTION_FRAME_MS at the cost per pixel measured so far, at most
-    /// MAX_MOTION_SCALE. A slow device (lavapipe) stays interactive while
+    /// MOTION_FRAME_MS at the cost per pixel measured so far, at most 8
+    /// (`motion_scale`). A slow device (lavapipe) stays interactive while
     /// you steer; the picture sharpens once you stop.
-    fn motion_scale(&self, at_rest: bool) -> u32 {
+    fn motion_scale(&self, at_rest: bool) -> f64 {
         let moving = self.last_move.is_some_and(|t| t.elapsed() < MOTION_HOLD);
         if at_rest || !moving {
-            return 1;
+            return 1.0;
         }
         let [w, h] = self.renderer.size();
-        motion_scale(self.ms_per_pixel, u64::from(w) * u64::from(h))
+        motion_scale(self.pixel_cost.estimate(), u64::from(w) * u64::from(h))
     }
 
     fn on_event(&mut self, event: WindowEvent, window: &mut glfw::PWindow) -> Result<(), Failure> {
@@ -943,7 +976,26 @@ impl Preview {
 
 #[cfg(test)]
 mod tests {
-    use super::{band_rows, jitter, motion_scale, MAX_MOTION_SCALE};
+    use super::{band_rows, jitter, motion_scale, PixelCost};
+
+    /// The median of the last five: a spike leaves it, a lasting change moves it on the third frame.
+    #[test]
+    fn one_slow_frame_does_not_move_the_pixel_cost() {
+        let mut c = PixelCost::default();
+        assert_eq!(c.estimate(), None);
+        c.push(f64::NAN);
+        c.push(0.0);
+        assert_eq!(c.estimate(), None);
+        for v in [10.0, 1.0, 1.1, 0.9, 1.0] {
+            c.push(v);
+        }
+        assert_eq!(c.estimate(), Some(1.0), "one slow frame among five");
+        c.push(3.0);
+        c.push(3.0);
+        assert_eq!(c.estimate(), Some(1.1), "two of five at 3");
+        c.push(3.0);
+        assert_eq!(c.estimate(), Some(3.0), "three of five at 3");
+    }
 
     #[test]
     fn bands_keep_a_frame_within_its_budget() {
@@ -960,17 +1012,19 @@ mod tests {
     fn motion_scale_keeps_a_moving_frame_within_its_budget() {
         let pixels = 512 * 384;
         // Unknown cost, or a fast device: full resolution.
-        assert_eq!(motion_scale(None, pixels), 1);
-        assert_eq!(motion_scale(Some(f64::NAN), pixels), 1);
-        assert_eq!(motion_scale(Some(10.0 / pixels as f64), pixels), 1);
-        // 2.69 s a frame (depth 6 on lavapipe): 2690 / 125 = 21.5, sqrt 4.6 -> 5,
-        // 103x77 pixels, about 107 ms.
-        assert_eq!(motion_scale(Some(2690.0 / pixels as f64), pixels), 5);
-        // Exactly at the budget stays; just over takes the next divisor.
-        assert_eq!(motion_scale(Some(125.0 * 4.0 / pixels as f64), pixels), 2);
-        assert_eq!(motion_scale(Some(125.0 * 4.01 / pixels as f64), pixels), 3);
+        assert_eq!(motion_scale(None, pixels), 1.0);
+        assert_eq!(motion_scale(Some(f64::NAN), pixels), 1.0);
+        assert_eq!(motion_scale(Some(10.0 / pixels as f64), pixels), 1.0);
+        // 2.69 s a frame: 2690 / 125 = 21.5 times the budget, s >= 4.64: 2^(9/4) = 4.76,
+        // 108x81 pixels, about 120 ms.
+        assert_eq!(motion_scale(Some(2690.0 / pixels as f64), pixels), 2f64.powf(9.0 / 4.0));
+        // 0.24 s (depth 6 without shadows on lavapipe): 2^(2/4), 363x272, about 120 ms.
+        assert_eq!(motion_scale(Some(240.0 / pixels as f64), pixels), 2f64.sqrt());
+        // Exactly at the budget stays; just over takes the next step.
+        assert_eq!(motion_scale(Some(125.0 * 4.0 / pixels as f64), pixels), 2.0);
+        assert_eq!(motion_scale(Some(125.0 * 4.01 / pixels as f64), pixels), 2f64.powf(5.0 / 4.0));
         // Never beyond the cap.
-        assert_eq!(motion_scale(Some(1.0), pixels), MAX_MOTION_SCALE);
+        assert_eq!(motion_scale(Some(1.0), pixels), 8.0);
     }
 
     #[test]
