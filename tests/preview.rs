@@ -10,7 +10,9 @@
 //! - More frames accumulate jittered samples: frame 8 differs from frame 1
 //!   on silhouettes, and nowhere far from an edge.
 //! - `--backend cpu` (the CPU build draws the samples) shows the device's
-//!   pictures. Rule: bit-exact, as above.
+//!   pictures, and `--keys` (scripted key presses: views, flags, B to
+//!   switch who draws) the pictures of the same settings given at start.
+//!   Rule: bit-exact, as above.
 //! - No display: a clear error, no panic.
 //!
 //! Corpus scenes come from RAYCAST_CORPUS (skipped, saying so, without it);
@@ -202,6 +204,37 @@ fn the_cpu_build_draws_the_devices_samples() {
     let o = raycast(&["preview", "--backend", "cpu", "--shaders", "shaders"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--backend cpu runs the CPU build"), "{}", text(&o));
+}
+
+/// `--keys` presses the window's keys before given frames. Rules (bit-exact
+/// screenshots; each switch starts the samples over): 2, 1, 2 (normal,
+/// colour, normal: the last finds its kernel kept) ends as `--aov normal`'s
+/// first frame; H twice as the plain first frame; B before frame 2 of 3
+/// (the CPU build draws samples 0 and 1 after the device drew one, or the
+/// device after the CPU build) as two frames drawn by the device alone,
+/// and stderr says who draws. A frame 0, an unknown key, or no --frames is
+/// a usage error.
+#[test]
+fn scripted_keys_switch_the_view_the_flags_and_who_draws() {
+    let size = [64, 48];
+    let cases: [(&str, u32, &[&str], u32, &[&str]); 4] = [
+        ("keys-aov", 3, &["--keys", "1:2,2:1,3:2"], 1, &["--aov", "normal"]),
+        ("keys-shadows", 2, &["--keys", "1:H,2:h"], 1, &[]),
+        ("keys-to-cpu", 3, &["--keys", "2:B"], 2, &[]),
+        ("keys-to-device", 3, &["--backend", "cpu", "--keys", "2:B"], 2, &[]),
+    ];
+    for (name, frames, keys, expected_frames, expected_flags) in cases {
+        let actual = screenshot(None, size, frames, name, keys);
+        let expected = screenshot(None, size, expected_frames, &format!("{name}-expected"), expected_flags);
+        assert_bit_exact(&actual, &expected, name, "the keys' picture");
+    }
+    let o = preview(&["--width", "32", "--height", "24", "--frames", "2", "--keys", "2:B"]);
+    assert_clean(&o, "B");
+    assert!(String::from_utf8_lossy(&o.stderr).contains("raycast: preview: CPU build ("), "{}", text(&o));
+    for bad in [&["--frames", "2", "--keys", "0:H"][..], &["--frames", "2", "--keys", "1:Q"], &["--frames", "2", "--keys", "1"], &["--keys", "1:H"]] {
+        let o = raycast(&[&["preview"][..], bad].concat());
+        assert_eq!(o.status.code(), Some(2), "{bad:?}: {}", text(&o));
+    }
 }
 
 /// Largest channel difference between two colours.

@@ -23,7 +23,7 @@ use crate::scene::CameraControl;
 use super::layout::PreviewFrame;
 use super::reload::{self, Reload, WatchConfig, Watcher, KERNEL_FILE};
 use super::renderer::{PreviewKernels, PreviewRenderer};
-use super::{PresentArg, PreviewArgs};
+use super::{PresentArg, PreviewArgs, SCRIPTED_KEYS};
 
 /// Samples per pixel after which an interactive preview stops drawing until something changes.
 const MAX_SAMPLES: u32 = 1024;
@@ -53,6 +53,7 @@ preview controls:
   C               print the camera as a <cameradata> block
   1 to 6          show colour, normal, depth, object id, walk cost (camera ray, all rays)
   H M T           toggle shadows, mirror reflections, textures
+  B               switch who draws: the device or the CPU build (the same pixels)
   F1              this help                    Esc           quit";
 
 pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
@@ -175,9 +176,9 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     });
 
     let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
-    preview.device_on_shader_edit = args.backend == Backend::Auto;
     preview.moving_frames = args.moving;
     preview.click = args.click;
+    preview.keys = args.keys.clone().map(|k| k.0).unwrap_or_default();
     preview.aov = args.aov.into();
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
@@ -256,9 +257,10 @@ struct Preview {
     camera: CameraControl,
     /// The Vulkan device's name.
     device: String,
-    /// --backend auto: when the CPU build draws, an edited shader hands the
-    /// drawing to the device (the CPU build is the code raycast was built with).
-    device_on_shader_edit: bool,
+    /// A shader was reloaded: the device's kernel is no longer the code the
+    /// CPU build was built from (so an edit hands the drawing to the device,
+    /// and B back to the CPU build says so).
+    shader_edited: bool,
     /// The picture stays at the size asked for (screenshots): the window is not resizable.
     fixed_size: bool,
     /// What the window shows (Frame.aov, keys 1 to 6).
@@ -272,6 +274,8 @@ struct Preview {
     moving_frames: u32,
     /// Scripted runs (--click X,Y): the pixel clicked after the last frame.
     click: Option<(u32, u32)>,
+    /// Scripted runs (--keys): keys pressed just before frame N (from 1).
+    keys: Vec<(u32, char)>,
     /// Frames submitted so far.
     rendered: u32,
     /// The size of the frame submitted last.
@@ -353,6 +357,26 @@ fn band_rows(ms_per_pixel: Option<f64>, width: u32, height: u32) -> u32 {
     ((rows as u32) / group * group).max(group)
 }
 
+/// The window's key for a `--keys` character (one of `SCRIPTED_KEYS`).
+fn scripted_key(c: char) -> Key {
+    match c {
+        '1' => Key::Num1,
+        '2' => Key::Num2,
+        '3' => Key::Num3,
+        '4' => Key::Num4,
+        '5' => Key::Num5,
+        '6' => Key::Num6,
+        'H' => Key::H,
+        'M' => Key::M,
+        'T' => Key::T,
+        'R' => Key::R,
+        'F' => Key::F,
+        'C' => Key::C,
+        'B' => Key::B,
+        other => unreachable!("--keys accepts only {SCRIPTED_KEYS}, not {other:?}"),
+    }
+}
+
 /// "10 frames at 171x128 then 128x96": how many frames, at which sizes in turn.
 fn frames_at(times: &[(Duration, [u32; 2])]) -> String {
     let mut sizes: Vec<[u32; 2]> = times.iter().map(|t| t.1).collect();
@@ -395,7 +419,7 @@ impl Preview {
             bounds,
             camera,
             device,
-            device_on_shader_edit: false,
+            shader_edited: false,
             fixed_size,
             aov: Aov::Color,
             shadows: true,
@@ -404,6 +428,7 @@ impl Preview {
             sample: 0,
             moving_frames: 0,
             click: None,
+            keys: Vec::new(),
             rendered: 0,
             frame_sizes: (0, 0),
             moving_times: Vec::new(),
@@ -514,6 +539,11 @@ impl Preview {
             if steering {
                 self.camera.orbit(MOVING_DEG_PER_FRAME, 0.0);
                 self.moved();
+            }
+            // --keys: those pressed before this frame (the first is frame 1).
+            let pressed: Vec<char> = self.keys.iter().filter(|(n, _)| *n == self.rendered + 1).map(|k| k.1).collect();
+            for c in pressed {
+                self.on_key(scripted_key(c), glfw::Modifiers::empty(), window);
             }
             let scale = self.motion_scale(frames.is_some() && !steering);
             if scale > 1.0 || self.renderer.frame_size() != self.renderer.size() {
@@ -644,6 +674,29 @@ impl Preview {
             t.push_str(e);
         }
         t
+    }
+
+    /// B: the device draws the samples from now on if the CPU build did,
+    /// else the CPU build (the same pixels; on lavapipe the faster); the
+    /// samples start over. A failure keeps who drew and shows in the title.
+    fn switch_drawing(&mut self) {
+        let switched = if self.renderer.cpu_threads().is_some() {
+            self.renderer.draw_on_device().map_err(|e| e.to_string())
+        } else {
+            CpuRenderer::new().and_then(|cpu| self.renderer.draw_on_cpu(cpu).map_err(|e| e.to_string()))
+        };
+        match switched {
+            Ok(()) if self.shader_edited && self.renderer.cpu_threads().is_some() => errln!(
+                "raycast: preview: {} draws: the code raycast was built with, not the edited shader",
+                self.drawn_by()
+            ),
+            Ok(()) => errln!("raycast: preview: {} draws", self.drawn_by()),
+            Err(e) => {
+                errln!("raycast: preview: error: cannot switch who draws: {e}");
+                self.error = Some(format!("cannot switch who draws: {e}"));
+            }
+        }
+        self.restart();
     }
 
     /// Who draws the samples, for the title.
@@ -791,6 +844,7 @@ impl Preview {
                 self.textures = !self.textures;
                 self.restart();
             }
+            Key::B => self.switch_drawing(),
             Key::F1 => outln!("{HELP}"),
             _ => {}
         }
@@ -842,20 +896,14 @@ impl Preview {
             Reload::Kernel(kernels) => match self.renderer.set_kernels(kernels, &self.data)? {
                 Ok(()) => {
                     errln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
+                    self.shader_edited = true;
                     if self.renderer.cpu_threads().is_some() {
-                        if self.device_on_shader_edit {
-                            self.renderer.draw_on_device()?;
-                            errln!(
-                                "raycast: preview: {} draws from now on (--backend auto): the CPU build is the code \
-                                 raycast was built with and cannot follow a shader edit",
-                                self.device
-                            );
-                        } else {
-                            errln!(
-                                "raycast: preview: note: --backend cpu draws with the CPU build raycast was built \
-                                 with: the edit shows with --backend gpu or auto (or rebuild raycast)"
-                            );
-                        }
+                        self.renderer.draw_on_device()?;
+                        errln!(
+                            "raycast: preview: {} draws from now on: the CPU build is the code raycast was built with \
+                             and cannot follow a shader edit (B switches back to it)",
+                            self.device
+                        );
                     }
                     self.error = None;
                     self.restart();
@@ -969,7 +1017,8 @@ impl Preview {
         )?;
         let picture = Picture { width, height, pixels };
         image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8()? })?;
-        outln!("wrote {} ({width}x{height}, {} samples per pixel)", path.display(), self.sample);
+        let n = self.sample;
+        outln!("wrote {} ({width}x{height}, {n} sample{} per pixel)", path.display(), if n == 1 { "" } else { "s" });
         Ok(())
     }
 }

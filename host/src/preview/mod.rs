@@ -80,6 +80,11 @@ pub struct PreviewArgs {
     /// `raycast trace` follows them).
     #[arg(long, value_name = "X,Y", value_parser = crate::cli::parse_pixel, requires = "frames")]
     pub click: Option<(u32, u32)>,
+    /// With --frames: press keys as in the window, each just before frame N
+    /// (counted from 1): N:KEY,… with KEY one of 1 to 6, H, M, T, R, F, C
+    /// and B (say 2:H,3:B).
+    #[arg(long, value_name = "N:KEY,...", value_parser = parse_key_presses, requires = "frames")]
+    pub keys: Option<KeyPresses>,
     /// Start with shadow rays off (H turns them on and off).
     #[arg(long)]
     pub no_shadows: bool,
@@ -96,6 +101,29 @@ pub struct PreviewArgs {
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
     pub validate: bool,
+}
+
+/// The keys `--keys` may press (the window's controls that print or switch something).
+pub const SCRIPTED_KEYS: &str = "123456HMTRFCB";
+
+/// `--keys`: (frame counted from 1, key) in the order given.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct KeyPresses(pub Vec<(u32, char)>);
+
+fn parse_key_presses(s: &str) -> Result<KeyPresses, String> {
+    let bad = || format!("{s:?} is not N:KEY,… (frames from 1; keys {SCRIPTED_KEYS}; say 2:H,3:B)");
+    let mut presses = Vec::new();
+    for part in s.split(',') {
+        let (n, key) = part.trim().split_once(':').ok_or_else(bad)?;
+        let n: u32 = n.trim().parse().map_err(|_| bad())?;
+        let mut chars = key.trim().chars();
+        let (Some(c), None) = (chars.next().map(|c| c.to_ascii_uppercase()), chars.next()) else { return Err(bad()) };
+        if n == 0 || !SCRIPTED_KEYS.contains(c) {
+            return Err(bad());
+        }
+        presses.push((n, c));
+    }
+    Ok(KeyPresses(presses))
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]

@@ -382,6 +382,14 @@ impl PreviewRenderer {
         Ok(())
     }
 
+    /// From now on `cpu` draws the samples and the kernel only shows them;
+    /// they start over.
+    pub fn draw_on_cpu(&mut self, cpu: CpuRenderer) -> Result<(), GpuError> {
+        self.frames.wait()?;
+        self.host = Some(HostSamples::new(cpu, self.picture.size));
+        Ok(())
+    }
+
     /// Draws one sample, or the band of its rows from `preview.row_offset`
     /// to `row_end`, of `data`'s scene: writes `frame` (at most the
     /// picture's size: a smaller frame fills the top-left of the buffers and
