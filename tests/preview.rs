@@ -217,7 +217,9 @@ fn the_cpu_build_draws_the_devices_samples() {
 #[test]
 fn scripted_keys_switch_the_view_the_flags_and_who_draws() {
     let size = [64, 48];
-    let cases: [(&str, u32, &[&str], u32, &[&str]); 4] = [
+    // (name, frames, flags, the expected picture's frames and flags)
+    type Case<'a> = (&'a str, u32, &'a [&'a str], u32, &'a [&'a str]);
+    let cases: [Case; 4] = [
         ("keys-aov", 3, &["--keys", "1:2,2:1,3:2"], 1, &["--aov", "normal"]),
         ("keys-shadows", 2, &["--keys", "1:H,2:h"], 1, &[]),
         ("keys-to-cpu", 3, &["--keys", "2:B"], 2, &[]),
