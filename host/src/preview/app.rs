@@ -333,9 +333,9 @@ impl PixelCost {
 
 /// The divisor of width and height that brings a frame of `pixels` pixels,
 /// at `ms_per_pixel`, within MOTION_FRAME_MS: the smallest of 1, 2^(1/4),
-/// 2^(2/4), … (each step a fifth fewer pixels; whole numbers halved the
-/// pixels or more, 512x384 to 256x192 where 362x272 fits), 1 when the cost
-/// is not known yet, at most 2^(MAX_MOTION_STEPS / 4).
+/// 2^(2/4), … (each step 29% fewer pixels; whole divisors went from 512x384
+/// straight to 256x192, a quarter, where 363x272 fits), 1 when the cost is
+/// not known yet, at most 2^(MAX_MOTION_STEPS / 4).
 fn motion_scale(ms_per_pixel: Option<f64>, pixels: u64) -> f64 {
     let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return 1.0 };
     let full_ms = cost * pixels as f64;
