@@ -937,11 +937,8 @@ fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, S
 fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBackend, Failure> {
     let (opened, why) = open_backend(backend, &o.kernel)?;
     match &opened {
-        RenderBackend::Cpu(cpu) => outln!("device: CPU build of the shared GLSL ({} threads{why})", cpu.threads),
-        RenderBackend::Gpu(renderer) => {
-            let info = renderer.context().info();
-            outln!("device: {} ({}, Vulkan {})", info.name, info.kind, info.api_version);
-        }
+        RenderBackend::Cpu(cpu) => outln!("device: {}", cpu.summary(&why)),
+        RenderBackend::Gpu(renderer) => outln!("device: {}", renderer.context().info().summary()),
     }
     Ok(opened)
 }
@@ -1213,7 +1210,7 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
     std::fs::create_dir_all(&args.out_dir).map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
     let summary = match open_backend(args.backend, &args.kernel)? {
         (RenderBackend::Cpu(cpu), why) => {
-            outln!("conformance: the CPU build of the shared GLSL ({} threads{why}) against {}, {count} cases", cpu.threads, corpus.display());
+            outln!("conformance: the {} against {}, {count} cases", cpu.summary(&why), corpus.display());
             crate::conformance::run(&corpus, &cases, &args.out_dir, |data| cpu.render(data), Vec::new)?
         }
         (RenderBackend::Gpu(renderer), _) => {

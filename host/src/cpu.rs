@@ -112,6 +112,12 @@ impl CpuRenderer {
         Ok(CpuRenderer { threads })
     }
 
+    /// "CPU build of the shared GLSL (2 threads`why`)": the `device:` lines'
+    /// words for it (`why`: "; --backend auto: …" or empty).
+    pub fn summary(&self, why: &str) -> String {
+        format!("CPU build of the shared GLSL ({} threads{why})", self.threads)
+    }
+
     /// The frame on every core; an error when its pixels' memory cannot be had.
     pub fn render(&self, data: &FrameData) -> Result<Picture, String> {
         let (width, height) = (data.frame.width, data.frame.height);

@@ -85,6 +85,12 @@ impl DeviceInfo {
     pub fn runs_on_cpu(&self) -> bool {
         self.kind == "cpu"
     }
+
+    /// "llvmpipe (LLVM 15.0.6, 256 bits) (cpu, Vulkan 1.3.230)": the
+    /// `device:` lines' words for it.
+    pub fn summary(&self) -> String {
+        format!("{} ({}, Vulkan {})", self.name, self.kind, self.api_version)
+    }
 }
 
 /// Wall-clock times of the phases of one `GpuContext::run`.

@@ -23,7 +23,7 @@ use crate::scene::CameraControl;
 use super::layout::PreviewFrame;
 use super::reload::{self, Reload, WatchConfig, Watcher, KERNEL_FILE};
 use super::renderer::{PreviewKernels, PreviewRenderer};
-use super::{PresentArg, PreviewArgs, SCRIPTED_KEYS};
+use super::{PresentArg, PreviewArgs};
 
 /// Samples per pixel after which an interactive preview stops drawing until something changes.
 const MAX_SAMPLES: u32 = 1024;
@@ -124,7 +124,6 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
     })?);
     let info = context.info().clone();
-    let device_line = format!("{} ({}, Vulkan {})", info.name, info.kind, info.api_version);
     // Who draws the samples (--backend): the CPU build, and why, or the device.
     let cpu_why = match args.backend {
         Backend::Cpu => Some(String::new()),
@@ -135,10 +134,8 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     };
     let cpu = cpu_why.as_ref().map(|_| CpuRenderer::new()).transpose()?;
     match (&cpu, &cpu_why) {
-        (Some(c), Some(why)) => {
-            outln!("device: CPU build of the shared GLSL ({} threads{why}); the window through {device_line}", c.threads)
-        }
-        _ => outln!("device: {device_line}"),
+        (Some(c), Some(why)) => outln!("device: {}; the window through {}", c.summary(why), info.summary()),
+        _ => outln!("device: {}", info.summary()),
     }
     outln!("scene: {} ({} primitives, {} lights)", scene.path.display(), data.primitives.len(), data.lights.len());
 
@@ -275,7 +272,7 @@ struct Preview {
     /// Scripted runs (--click X,Y): the pixel clicked after the last frame.
     click: Option<(u32, u32)>,
     /// Scripted runs (--keys): keys pressed just before frame N (from 1).
-    keys: Vec<(u32, char)>,
+    keys: Vec<(u32, Key)>,
     /// Frames submitted so far.
     rendered: u32,
     /// The size of the frame submitted last.
@@ -355,26 +352,6 @@ fn band_rows(ms_per_pixel: Option<f64>, width: u32, height: u32) -> u32 {
     }
     let group = layout::WORKGROUP_SIZE;
     ((rows as u32) / group * group).max(group)
-}
-
-/// The window's key for a `--keys` character (one of `SCRIPTED_KEYS`).
-fn scripted_key(c: char) -> Key {
-    match c {
-        '1' => Key::Num1,
-        '2' => Key::Num2,
-        '3' => Key::Num3,
-        '4' => Key::Num4,
-        '5' => Key::Num5,
-        '6' => Key::Num6,
-        'H' => Key::H,
-        'M' => Key::M,
-        'T' => Key::T,
-        'R' => Key::R,
-        'F' => Key::F,
-        'C' => Key::C,
-        'B' => Key::B,
-        other => unreachable!("--keys accepts only {SCRIPTED_KEYS}, not {other:?}"),
-    }
 }
 
 /// "10 frames at 171x128 then 128x96": how many frames, at which sizes in turn.
@@ -541,9 +518,9 @@ impl Preview {
                 self.moved();
             }
             // --keys: those pressed before this frame (the first is frame 1).
-            let pressed: Vec<char> = self.keys.iter().filter(|(n, _)| *n == self.rendered + 1).map(|k| k.1).collect();
-            for c in pressed {
-                self.on_key(scripted_key(c), glfw::Modifiers::empty(), window);
+            let pressed: Vec<Key> = self.keys.iter().filter(|(n, _)| *n == self.rendered + 1).map(|k| k.1).collect();
+            for key in pressed {
+                self.on_key(key, glfw::Modifiers::empty(), window);
             }
             let scale = self.motion_scale(frames.is_some() && !steering);
             if scale > 1.0 || self.renderer.frame_size() != self.renderer.size() {

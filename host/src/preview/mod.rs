@@ -61,9 +61,9 @@ pub struct PreviewArgs {
     /// Who draws the samples: the Vulkan device, or the C++ build of the
     /// shared GLSL on every core (the same pixels; the device still shows
     /// them), or auto: the CPU build where the device runs on the CPU
-    /// (lavapipe, where it is the faster), until a shader is edited (the
-    /// CPU build cannot follow an edit; the device then draws), and the
-    /// device with --shaders.
+    /// (lavapipe, where it is the faster), the device with --shaders. An
+    /// edited shader hands the drawing to the device (the CPU build cannot
+    /// follow it); B in the window switches who draws.
     #[arg(long, value_enum, default_value_t = Backend::Gpu)]
     pub backend: Backend,
     /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
@@ -103,25 +103,42 @@ pub struct PreviewArgs {
     pub validate: bool,
 }
 
-/// The keys `--keys` may press (the window's controls that print or switch something).
-pub const SCRIPTED_KEYS: &str = "123456HMTRFCB";
+/// The keys `--keys` may press (the window's controls that print or
+/// switch something), by the character that names them.
+const SCRIPTED_KEYS: [(char, glfw::Key); 13] = [
+    ('1', glfw::Key::Num1),
+    ('2', glfw::Key::Num2),
+    ('3', glfw::Key::Num3),
+    ('4', glfw::Key::Num4),
+    ('5', glfw::Key::Num5),
+    ('6', glfw::Key::Num6),
+    ('H', glfw::Key::H),
+    ('M', glfw::Key::M),
+    ('T', glfw::Key::T),
+    ('R', glfw::Key::R),
+    ('F', glfw::Key::F),
+    ('C', glfw::Key::C),
+    ('B', glfw::Key::B),
+];
 
 /// `--keys`: (frame counted from 1, key) in the order given.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct KeyPresses(pub Vec<(u32, char)>);
+pub struct KeyPresses(pub Vec<(u32, glfw::Key)>);
 
 fn parse_key_presses(s: &str) -> Result<KeyPresses, String> {
-    let bad = || format!("{s:?} is not N:KEY,… (frames from 1; keys {SCRIPTED_KEYS}; say 2:H,3:B)");
+    let names: String = SCRIPTED_KEYS.iter().map(|k| k.0).collect();
+    let bad = || format!("{s:?} is not N:KEY,… (frames from 1; keys {names}; say 2:H,3:B)");
     let mut presses = Vec::new();
     for part in s.split(',') {
         let (n, key) = part.trim().split_once(':').ok_or_else(bad)?;
         let n: u32 = n.trim().parse().map_err(|_| bad())?;
         let mut chars = key.trim().chars();
         let (Some(c), None) = (chars.next().map(|c| c.to_ascii_uppercase()), chars.next()) else { return Err(bad()) };
-        if n == 0 || !SCRIPTED_KEYS.contains(c) {
-            return Err(bad());
+        let key = SCRIPTED_KEYS.iter().find(|k| k.0 == c).map(|k| k.1);
+        match key {
+            Some(key) if n > 0 => presses.push((n, key)),
+            _ => return Err(bad()),
         }
-        presses.push((n, c));
     }
     Ok(KeyPresses(presses))
 }
