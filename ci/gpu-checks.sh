@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# The correctness checks of BENCHMARKS-GPU.md, on a GPU (or any Vulkan device), in one command:
+#
+#   ci/gpu-checks.sh [--device NAME] [LOGDIR]        (NAME: NVIDIA by default; LOGDIR: gpu-checks)
+#
+# From the repository root, with build/raycast built and the corpus at $RAYCAST_CORPUS
+# (else ../shared/corpus/cs1230). Each step's output goes to LOGDIR/STEP.log and its
+# last lines to stdout; the summary at the end names every step that failed. Runs, in order
+# of what a short lease most needs:
+#   shader-test  every tests/shaders/*.toml case on the device, validation layer on
+#   check        the device against the CPU build, every buffer bit for bit, on every corpus
+#                scene and gen:recursive-spheres:8, for each AOV (color, depth, id, cost,
+#                cost-all, normal), validation layer on
+#   check-spp2   two samples a pixel on generated deep scenes
+#   orbit        `render --orbit 6` of recursiveSpheres4 on the device and the CPU build: the
+#                same PNG files byte for byte
+#   conformance  the course's reference renders, under each case's stated rule
+# Exit status: the number of failed steps (0 when all pass).
+set -u
+device=NVIDIA
+if [ "${1:-}" = --device ]; then device="$2"; shift 2; fi
+logs="${1:-gpu-checks}"
+corpus="${RAYCAST_CORPUS:-../shared/corpus/cs1230}"
+raycast=build/raycast
+[ -x "$raycast" ] || { echo "gpu-checks: $raycast is missing: build first (cmake --build build)" >&2; exit 100; }
+[ -d "$corpus/test_efficiency" ] || { echo "gpu-checks: no corpus at $corpus: set RAYCAST_CORPUS" >&2; exit 100; }
+mkdir -p "$logs"
+failed=()
+
+step() { # NAME COMMAND...: runs COMMAND, its output to $logs/NAME.log; notes a failure
+  local name="$1"; shift
+  local start=$SECONDS
+  echo "== $name: ${*:1:7}${8:+ …}"
+  if "$@" >"$logs/$name.log" 2>&1; then
+    echo "   passed in $((SECONDS - start)) s"
+  else
+    echo "   FAILED (exit $?) in $((SECONDS - start)) s; the end of $logs/$name.log:"
+    failed+=("$name")
+  fi
+  tail -n 4 "$logs/$name.log" | sed 's/^/   | /'
+}
+
+scenes=("$corpus"/test_*/*.xml gen:recursive-spheres:8)
+step devices "$raycast" devices
+step shader-test "$raycast" shader-test --device "$device" --validate
+for aov in color depth id cost cost-all normal; do
+  step "check-$aov" "$raycast" check --device "$device" --validate --aov "$aov" --assets "$corpus" "${scenes[@]}"
+done
+step check-spp2 "$raycast" check --device "$device" --spp 2 --assets "$corpus" \
+  gen:recursive-spheres:10 gen:recursive-cones:6 gen:recursive-cones:8 gen:recursive-cubes:6
+orbit() {
+  local dir; dir="$(mktemp -d)"
+  "$raycast" render "$corpus/test_efficiency/recursiveSpheres4.xml" --assets "$corpus" --device "$device" \
+    --orbit 6 -o "$dir/gpu.png" &&
+  "$raycast" render "$corpus/test_efficiency/recursiveSpheres4.xml" --assets "$corpus" --backend cpu \
+    --orbit 6 -o "$dir/cpu.png" || return 1
+  local i differ=0
+  for i in 000 001 002 003 004 005; do
+    if cmp "$dir/gpu-$i.png" "$dir/cpu-$i.png"; then echo "orbit $i: the same bytes"; else differ=$((differ + 1)); fi
+  done
+  rm -rf "$dir"
+  echo "orbit: $differ of 6 pictures differ"
+  [ "$differ" = 0 ]
+}
+step orbit orbit
+step conformance "$raycast" conformance "$corpus" --device "$device" --validate --out-dir "$logs/conformance"
+
+if [ ${#failed[@]} = 0 ]; then
+  echo "gpu-checks: every step passed on $device"
+else
+  echo "gpu-checks: ${#failed[@]} failed on $device: ${failed[*]}"
+fi
+exit ${#failed[@]}
