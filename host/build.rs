@@ -35,9 +35,9 @@ fn main() {
             continue;
         }
         let stem = path.file_stem().unwrap().to_str().unwrap().to_string();
-        // As it is, and with CORRECT_DIVISION for GPUs (STEM_gpu).
-        for correct_division in [false, true] {
-            let name = if correct_division { format!("{stem}{GPU_KERNEL_SUFFIX}") } else { stem.clone() };
+        // As it is, and corrected for GPUs (STEM_gpu, STEM_gpu_fma): Division.
+        for division in Division::ALL {
+            let name = format!("{stem}{}", division.suffix());
             let spv = out.join(format!("{name}.spv"));
             match &prebuilt {
                 Some(dir) => {
@@ -49,7 +49,7 @@ fn main() {
                     // CMake ran glslang alone.
                     optimize_spirv(&spv).unwrap_or_else(|e| panic!("{e}"));
                 }
-                None => glsl_to_spirv(&path, &shaders, &spv, correct_division).unwrap_or_else(|e| panic!("{e}")),
+                None => glsl_to_spirv(&path, &shaders, &spv, division).unwrap_or_else(|e| panic!("{e}")),
             }
             kernels.push(name);
         }

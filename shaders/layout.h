@@ -308,4 +308,16 @@ struct SampleSum {
     uint pad1;
 };
 
+// shaders/fma_probe.comp: fma(a, b, c) as the device computes it, case by
+// case, so that the host can see whether its fma() rounds once
+// (host/src/gpu/fma_probe.rs; raycast.glsl FUSED_FMA).
+#define BINDING_FMA_CASES 0   // FmaCase[], read
+#define BINDING_FMA_RESULTS 1 // FmaCase[], written: each case with r = fma(a, b, c)
+struct FmaCase {
+    float a;
+    float b;
+    float c;
+    float r;
+};
+
 #endif

@@ -78,7 +78,10 @@ float away_from_zero(float x) {
 // floats by Dekker's method, every step of which is exact in IEEE
 // arithmetic without contraction (`precise`, the C++ build's
 // -ffp-contract=off). So the correction gives IEEE's bits on every device
-// whose +, - and * are IEEE's, fused fma or not.
+// whose +, - and * are IEEE's, fused fma or not. Where the host has seen
+// the device's fma() round once (shaders/fma_probe.comp), it runs kernels
+// compiled with FUSED_FMA as well, whose residual is that one fma: the
+// same value, where Dekker's product takes seventeen operations.
 
 // 2^k as a float, for k in [-126, 127].
 float pow2(int k) {
@@ -103,11 +106,15 @@ precise vec2 split(float x) {
 // b c: Dekker's product b c = p + e exactly, a - p exact (Sterbenz's
 // lemma), so (a - p) - e is the one rounding.
 precise float residual(float a, float b, float c) {
+#ifdef FUSED_FMA
+    return fma(-b, c, a);
+#else
     precise float p = b * c;
     precise vec2 bs = split(b);
     precise vec2 cs = split(c);
     precise float e = ((bs.x * cs.x - p) + bs.x * cs.y + bs.y * cs.x) + bs.y * cs.y;
     return (a - p) - e;
+#endif
 }
 
 // The float nearest a / b from c at most 1 ULP off it: c or a neighbour,

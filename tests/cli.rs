@@ -121,6 +121,23 @@ fn the_gpu_division_correction_is_exact_on_lavapipe() {
     assert!(!err.contains("validation"), "{err}");
 }
 
+/// The GPU kernels with residuals by fma() (FUSED_FMA), forced on lavapipe,
+/// whose fma() is not fused: the pictures differ from the CPU build's, so
+/// the choice the fma probe makes matters, and the forced kernels are the
+/// ones that ran (the test above, without the override, gets the probe's
+/// choice: Dekker's residuals, every bit the CPU build's). Rule: at least
+/// one pixel differs.
+#[test]
+fn fma_residuals_where_fma_is_not_fused_change_the_picture() {
+    let o = raycast(
+        &["check", "--width", "128", "--height", "96", "--out-dir", out_dir().to_str().unwrap()],
+        &[("RAYCAST_INEXACT_DIVISION", "1"), ("RAYCAST_FMA_RESIDUALS", "1")],
+    );
+    let (stdout, err) = text(&o);
+    assert!(stdout.contains("kernel: render_uniform with CORRECT_DIVISION and FUSED_FMA,"), "{stdout}");
+    assert!(!o.status.success() && err.contains("pixels differ between the device and the CPU build"), "{stdout}{err}");
+}
+
 #[test]
 fn missing_scene_file() {
     let o = raycast(&["render", "no/such/scene.xml", "-o", "/dev/null"], &[]);

@@ -474,10 +474,10 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
     kernels.sort();
     assert!(!kernels.is_empty());
     let mut errors = Vec::new();
-    // Each as it is and with CORRECT_DIVISION (a GPU's kernels).
-    for (path, correct) in kernels.iter().flat_map(|p| [(p, false), (p, true)]) {
+    // Each as it is and corrected (a GPU's kernels): every Division.
+    for (path, division) in kernels.iter().flat_map(|p| gpu::Division::ALL.map(|d| (p, d))) {
         let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
-        let spirv = match gpu::compile_kernel(path, correct) {
+        let spirv = match gpu::compile_kernel(path, division) {
             Ok(s) => s,
             Err(e) => {
                 errors.push(e);
@@ -489,6 +489,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
             "render" => Some((layout::render_bindings(), Vec::new())),
             "render_uniform" => Some((layout::render_uniform_bindings(), layout::uniform_kernel_images())),
             "preview" => Some((raycast::preview::layout::preview_bindings(), raycast::preview::layout::preview_images())),
+            "fma_probe" => Some((layout::fma_probe_bindings(), Vec::new())),
             "preview_uniform" => {
                 Some((raycast::preview::layout::preview_uniform_bindings(), raycast::preview::layout::preview_uniform_images()))
             }
@@ -506,7 +507,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         }
     }
     // The embedded render kernels too (what the binary runs), both variants.
-    for suffix in ["", gpu::GPU_KERNEL_SUFFIX] {
+    for suffix in gpu::Division::ALL.map(gpu::Division::suffix) {
         let storage = raycast::render::kernel_spirv(&format!("render{suffix}")).expect("embedded");
         if let Err(e) = reflect::check_layouts(&format!("render{suffix} (embedded)"), storage, &layout::render_bindings()) {
             errors.push(e.to_string());

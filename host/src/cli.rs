@@ -683,7 +683,7 @@ fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure>
     let kernel = renderer.kernel_for(data)?;
     let spec = crate::render::Specialization::of(data, &data.frame);
     // The device's division and square root corrected (raycast.glsl div_rn).
-    let corrected = if renderer.context().corrects_division() { " with CORRECT_DIVISION" } else { "" };
+    let corrected = renderer.context().division().describe();
     outln!("kernel: {}{corrected}, specialised for the scene: {}", kernel.name(), spec.describe());
     Ok(())
 }

@@ -149,6 +149,15 @@ pub struct SampleSum {
     pub pad1: u32,
 }
 
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct FmaCase {
+    pub a: f32,
+    pub b: f32,
+    pub c: f32,
+    pub r: f32,
+}
+
 /// One member of a struct as the host lays it out.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FieldLayout {
@@ -326,6 +335,20 @@ impl SampleSum {
     pub fn layout() -> StructLayout {
         struct_layout!(SampleSum, "SampleSum", [color, samples, rays, pad0, pad1])
     }
+}
+
+impl FmaCase {
+    pub fn layout() -> StructLayout {
+        struct_layout!(FmaCase, "FmaCase", [a, b, c, r])
+    }
+}
+
+/// fma_probe.comp's bindings: its cases, and the same cases with r filled in.
+pub fn fma_probe_bindings() -> Vec<BindingLayout> {
+    vec![
+        BindingLayout { binding: BINDING_FMA_CASES, shape: BufferShape::RuntimeArray(FmaCase::layout()), writable: false },
+        BindingLayout { binding: BINDING_FMA_RESULTS, shape: BufferShape::RuntimeArray(FmaCase::layout()), writable: true },
+    ]
 }
 
 /// The scene's read-only bindings, as shaders/scene_buffers.glsl declares them

@@ -8,21 +8,12 @@ use crate::layout::{self, PixelOut};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
+pub use crate::gpu::kernel_spirv;
 
-/// A kernel of shaders/*.comp by file stem, as embedded at build time.
-pub fn kernel_spirv(stem: &str) -> Option<&'static [u8]> {
-    EMBEDDED_KERNELS.iter().find(|(name, _)| *name == stem).map(|(_, spv)| *spv)
-}
-
-/// The embedded kernel `stem` for `ctx`'s device: compiled with
-/// CORRECT_DIVISION (`STEM_gpu`) where the device `corrects_division`.
+/// The embedded kernel `stem` for `ctx`'s device, compiled as its
+/// `division` says (`STEM`, `STEM_gpu` or `STEM_gpu_fma`).
 pub fn kernel_spirv_for(ctx: &GpuContext, stem: &str) -> Option<&'static [u8]> {
-    if ctx.corrects_division() {
-        kernel_spirv(&format!("{stem}{}", crate::gpu::GPU_KERNEL_SUFFIX))
-    } else {
-        kernel_spirv(stem)
-    }
+    kernel_spirv(&format!("{stem}{}", ctx.division().suffix()))
 }
 
 /// Every pixel's output: colour (or AOV), t, hit id and normal.
@@ -390,8 +381,8 @@ pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str, advice: &
 }
 
 impl GpuRenderer {
-    /// The device of `options` with the embedded render kernels (the
-    /// `_gpu` ones where the device `corrects_division`).
+    /// The device of `options` with the embedded render kernels (compiled
+    /// as the device's `division` says).
     pub fn new(options: &GpuOptions) -> Result<GpuRenderer, GpuError> {
         let context = GpuContext::new(options)?;
         let storage = kernel_spirv_for(&context, "render").expect("build.rs embeds shaders/render.comp");
@@ -419,7 +410,7 @@ impl GpuRenderer {
     /// when it has one.
     pub fn from_shaders(options: &GpuOptions, dir: &std::path::Path) -> Result<GpuRenderer, String> {
         let context = GpuContext::new(options).map_err(|e| e.to_string())?;
-        let (spirv, uniform) = crate::gpu::compile_kernel_pair(dir, "render", context.corrects_division())?;
+        let (spirv, uniform) = crate::gpu::compile_kernel_pair(dir, "render", context.division())?;
         Ok(GpuRenderer::with_context(context, &spirv, uniform.as_deref()))
     }
 

@@ -2,7 +2,7 @@
 //! upload, dispatch, wait, readback.
 
 use std::ffi::{c_char, c_void, CStr};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use ash::vk;
@@ -10,7 +10,7 @@ use ash::vk;
 use super::float_controls;
 use super::present::Surface;
 use super::image::layout_barrier;
-use super::{GpuError, ImageFormat, Kernel};
+use super::{fma_probe, Division, GpuError, ImageFormat, Kernel};
 use crate::layout::IMAGE_WIDTH;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -169,8 +169,10 @@ pub(crate) struct Inner {
     pub(crate) timeout: Duration,
     /// The float-controls execution modes every kernel gets (float_controls.rs).
     pub(crate) float_modes: float_controls::Modes,
-    /// Kernels for this device are the `_gpu` ones (`corrects_division`).
+    /// Kernels for this device correct its division (`division`).
     pub(crate) inexact_division: bool,
+    /// `division`, once decided (its probe runs on the first call).
+    division: OnceLock<Division>,
     pub(crate) physical: vk::PhysicalDevice,
     /// The window surface of `GpuContext::with_surface`; destroyed after the
     /// device, before the instance (field order).
@@ -588,6 +590,7 @@ impl GpuContext {
                 timeout: opts.timeout,
                 float_modes: physical.float_modes,
                 inexact_division: physical.inexact_division,
+                division: OnceLock::new(),
                 physical: physical.handle,
                 surface,
                 parts,
@@ -602,11 +605,26 @@ impl GpuContext {
         l.max_per_stage_descriptor_storage_images.min(l.max_descriptor_set_storage_images)
     }
 
-    /// Whether kernels for this device must be compiled with
-    /// `CORRECT_DIVISION` (glslang_args.rs; the embedded `_gpu` kernels):
-    /// every device but a CPU one, unless RAYCAST_INEXACT_DIVISION says.
-    pub fn corrects_division(&self) -> bool {
-        self.inner.inexact_division
+    /// How kernels for this device compile division and square root
+    /// (glslang_args.rs): as given on a CPU device, corrected on every other
+    /// (unless RAYCAST_INEXACT_DIVISION says), and there with residuals by
+    /// fma() where the device's fma was seen to round once (fma_probe.rs,
+    /// run on the first call; a probe that cannot run leaves Dekker's
+    /// residuals, exact on any device). RAYCAST_FMA_RESIDUALS=0 or 1
+    /// overrides the probe, to measure the difference or to show what an
+    /// unfused fma does to the pictures.
+    pub fn division(&self) -> Division {
+        if !self.inner.inexact_division {
+            return Division::AsGiven;
+        }
+        *self.inner.division.get_or_init(|| match std::env::var("RAYCAST_FMA_RESIDUALS").as_deref() {
+            Ok("1") => Division::CorrectedFma,
+            Ok("0") => Division::Corrected,
+            _ => match fma_probe::fma_rounds_once(self) {
+                Ok(true) => Division::CorrectedFma,
+                Ok(false) | Err(_) => Division::Corrected,
+            },
+        })
     }
 
     pub fn info(&self) -> &DeviceInfo {

@@ -305,7 +305,7 @@ impl Drop for FrameLoop {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::{compile_kernel, Buffer, DataImage, DeviceSelector, GpuOptions, ImageBinding, ImageFormat, Resource};
+    use crate::gpu::{compile_kernel, Buffer, Division, DataImage, DeviceSelector, GpuOptions, ImageBinding, ImageFormat, Resource};
     use crate::layout::{BindingLayout, BufferShape, FieldLayout, StructLayout};
 
     /// out[i] = 3 i + sample for i < 64, and the pixel (i, 0) of the image.
@@ -338,7 +338,7 @@ void main() {
         std::fs::create_dir_all(&dir).unwrap();
         let src = dir.join("frames.comp");
         std::fs::write(&src, SRC).unwrap();
-        let spv = compile_kernel(&src, false).unwrap_or_else(|e| panic!("{e}"));
+        let spv = compile_kernel(&src, Division::AsGiven).unwrap_or_else(|e| panic!("{e}"));
         let _ = std::fs::remove_dir_all(&dir);
 
         let opts = GpuOptions { device: Some(DeviceSelector::Name("llvmpipe".into())), validation: true, ..Default::default() };

@@ -6,23 +6,63 @@
 /// The glslang compiler (Debian package glslang-tools).
 pub const GLSLANG: &str = "glslangValidator";
 
-/// The macro that makes raycast.glsl's div_rn and sqrt_rn correct a GPU's
-/// division and square root (`GpuContext::corrects_division`).
-pub const CORRECT_DIVISION: &str = "CORRECT_DIVISION";
+/// How a kernel's divisions and square roots are compiled (raycast.glsl
+/// div_rn, sqrt_rn), chosen per device (`GpuContext::division`): each
+/// embedded kernel exists in every one, named with its `suffix`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Division {
+    /// As the device gives them: a CPU device (lavapipe), whose are IEEE's.
+    AsGiven,
+    /// Corrected to IEEE's, the residuals by Dekker's split product (IEEE
+    /// +, - and * alone): exact on any device.
+    Corrected,
+    /// Corrected, the residuals by `fma()`: for a device whose `fma` was
+    /// seen to round once (shaders/fma_probe.comp), where it is cheaper.
+    CorrectedFma,
+}
 
-/// The file stem suffix of an embedded kernel compiled with it
-/// (`render_uniform_gpu` beside `render_uniform`).
-pub const GPU_KERNEL_SUFFIX: &str = "_gpu";
+impl Division {
+    pub const ALL: [Division; 3] = [Division::AsGiven, Division::Corrected, Division::CorrectedFma];
+
+    /// The macros the kernels are compiled with: CORRECT_DIVISION for a
+    /// correction, FUSED_FMA for its residuals by fma().
+    pub fn defines(self) -> &'static [&'static str] {
+        match self {
+            Division::AsGiven => &[],
+            Division::Corrected => &["CORRECT_DIVISION"],
+            Division::CorrectedFma => &["CORRECT_DIVISION", "FUSED_FMA"],
+        }
+    }
+
+    /// The file stem suffix of an embedded kernel compiled this way
+    /// (`render_uniform_gpu` beside `render_uniform`).
+    pub fn suffix(self) -> &'static str {
+        match self {
+            Division::AsGiven => "",
+            Division::Corrected => "_gpu",
+            Division::CorrectedFma => "_gpu_fma",
+        }
+    }
+
+    /// How `render`'s and `check`'s `kernel:` line says it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Division::AsGiven => "",
+            Division::Corrected => " with CORRECT_DIVISION",
+            Division::CorrectedFma => " with CORRECT_DIVISION and FUSED_FMA",
+        }
+    }
+}
 
 /// Arguments for compiling `src` (a `.comp` kernel) to the SPIR-V file `spv`,
 /// with `include` on the include path: Vulkan 1.1 semantics, debug names
-/// kept (naga reads struct and member names from them); with
-/// `correct_division`, CORRECT_DIVISION defined.
+/// kept (naga reads struct and member names from them); `division`'s
+/// macros defined.
 pub fn glslang_args(
     src: &std::path::Path,
     include: &std::path::Path,
     spv: &std::path::Path,
-    correct_division: bool,
+    division: Division,
 ) -> Vec<std::ffi::OsString> {
     let mut args: Vec<std::ffi::OsString> = vec![
         "-V".into(),
@@ -31,8 +71,8 @@ pub fn glslang_args(
         "--quiet".into(),
         format!("-I{}", include.display()).into(),
     ];
-    if correct_division {
-        args.push(format!("-D{CORRECT_DIVISION}").into());
+    for define in division.defines() {
+        args.push(format!("-D{define}").into());
     }
     args.extend(["-o".into(), spv.as_os_str().to_owned(), src.as_os_str().to_owned()]);
     args
@@ -101,17 +141,17 @@ fn tool_result(tool: &str, path: &std::path::Path, output: &std::process::Output
 }
 
 /// Compiles the kernel `src` to the SPIR-V file `spv` (glslang with
-/// `include` on the include path, CORRECT_DIVISION defined with
-/// `correct_division`, then `optimize_spirv`); the error carries the tools'
-/// messages (file:line: … for GLSL errors).
+/// `include` on the include path and `division`'s macros, then
+/// `optimize_spirv`); the error carries the tools' messages (file:line: …
+/// for GLSL errors).
 pub fn glsl_to_spirv(
     src: &std::path::Path,
     include: &std::path::Path,
     spv: &std::path::Path,
-    correct_division: bool,
+    division: Division,
 ) -> Result<(), String> {
     let output = std::process::Command::new(GLSLANG)
-        .args(glslang_args(src, include, spv, correct_division))
+        .args(glslang_args(src, include, spv, division))
         .output()
         .map_err(|e| format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"))?;
     tool_result(GLSLANG, src, &output)?;

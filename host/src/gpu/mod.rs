@@ -9,6 +9,13 @@
 //! `layout::BindingLayout`s and raw buffer bytes.
 
 include!("glslang_args.rs");
+include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
+
+/// A kernel of shaders/*.comp by file stem (with its `Division` suffix), as
+/// embedded at build time.
+pub fn kernel_spirv(stem: &str) -> Option<&'static [u8]> {
+    EMBEDDED_KERNELS.iter().find(|(name, _)| *name == stem).map(|(_, spv)| *spv)
+}
 
 mod compile;
 mod buffer;
@@ -16,6 +23,7 @@ mod context;
 mod environment;
 mod error;
 mod float_controls;
+mod fma_probe;
 mod frames;
 mod image;
 mod kernel;
@@ -29,6 +37,7 @@ pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
 pub use context::{list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
 pub use error::GpuError;
+pub use fma_probe::fma_rounds_once;
 pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};

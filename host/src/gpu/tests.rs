@@ -32,7 +32,7 @@ fn compile(name: &str, src: &str) -> Vec<u8> {
     let (comp, spv) = (dir.join(format!("{name}.comp")), dir.join(format!("{name}.spv")));
     std::fs::write(&comp, src).unwrap();
     let include = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shaders");
-    glsl_to_spirv(&comp, &include, &spv, false).unwrap_or_else(|e| panic!("{name}: {e}"));
+    glsl_to_spirv(&comp, &include, &spv, Division::AsGiven).unwrap_or_else(|e| panic!("{name}: {e}"));
     let bytes = std::fs::read(&spv).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     bytes
@@ -153,6 +153,23 @@ fn doubles_u32_and_f32_on_lavapipe_with_no_validation_messages() {
 /// on lavapipe the allocator hands that memory back, and without the clear
 /// the doubled words read 0xfffffffe), in device-only memory; and it
 /// is a binding like any other: given twice, or as an image, it is refused.
+/// The fma probe (fma_probe.rs) on lavapipe, whose fma() rounds the
+/// product first: not fused, so kernels forced to correct its division
+/// keep Dekker's residuals; a CPU device corrects nothing and runs no
+/// probe. And the probe's cases tell the two apart: a once-rounded fma and
+/// the rounded product plus c differ in most of them, so an unfused fma
+/// cannot pass it by chance. Rule: exact.
+#[test]
+fn the_fma_probe_sees_that_lavapipes_fma_is_not_fused() {
+    let ctx = validated_context();
+    assert_eq!(ctx.division(), Division::AsGiven);
+    assert!(!fma_rounds_once(&ctx).unwrap_or_else(|e| panic!("{e}")), "lavapipe's fma() taken for a fused one");
+    assert_no_messages(&ctx.message_sink(), "running the fma probe");
+    let cases = fma_probe::cases();
+    let telling = cases.iter().filter(|c| c.a.mul_add(c.b, c.c).to_bits() != (c.a * c.b + c.c).to_bits()).count();
+    assert!(telling * 4 >= cases.len() * 3, "only {telling} of {} cases tell a fused fma from an unfused one", cases.len());
+}
+
 #[test]
 fn cleared_buffers_read_as_zero() {
     let spv = compile("double_cleared", &double_src());

@@ -471,7 +471,7 @@ impl Harness {
     }
 
     fn build_kernel(&self, f: &Function) -> Result<Kernel, String> {
-        let spirv = compile_in(&self.work, &self.info.dir, f, self.ctx.corrects_division())?;
+        let spirv = compile_in(&self.work, &self.info.dir, f, self.ctx.division())?;
         Kernel::new(&self.ctx, &kernel_name(f), &spirv, &kernel_bindings()).map_err(|e| e.to_string())
     }
 
@@ -515,10 +515,10 @@ fn copy_shaders(from: &Path, to: &Path) -> Result<(), String> {
 
 /// Generates the kernel of `f` in `work` (a copy of `real_dir`) and compiles
 /// it with glslang. Messages name the files of `real_dir`.
-fn compile_in(work: &Path, real_dir: &Path, f: &Function, correct_division: bool) -> Result<Vec<u8>, String> {
+fn compile_in(work: &Path, real_dir: &Path, f: &Function, division: gpu::Division) -> Result<Vec<u8>, String> {
     let src = work.join(format!("{}.comp", kernel_name(f)));
     std::fs::write(&src, codegen::kernel_source(f)).map_err(|e| format!("cannot write {}: {e}", src.display()))?;
-    gpu::compile_kernel(&src, correct_division).map_err(|e| {
+    gpu::compile_kernel(&src, division).map_err(|e| {
         let mut msg = e;
         for file in [glsl::LAYOUT, glsl::SCENE_BUFFERS, glsl::SHARED] {
             msg = msg.replace(&work.join(file).display().to_string(), &real_dir.join(file).display().to_string());
@@ -537,7 +537,7 @@ pub fn kernel_spirv(shaders: &Path, f: &Function) -> Result<Vec<u8>, String> {
         std::process::id(),
         COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
     ));
-    let result = copy_shaders(shaders, &work).and_then(|()| compile_in(&work, shaders, f, false));
+    let result = copy_shaders(shaders, &work).and_then(|()| compile_in(&work, shaders, f, gpu::Division::AsGiven));
     let _ = std::fs::remove_dir_all(&work);
     result
 }

@@ -142,7 +142,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     // A --shaders folder's kernel from the first frame on (so --frames and
     // --screenshot see it); a compile error ends the command.
     let kernel = match (&shaders, compile_at_start) {
-        (Some(dir), true) => match reload::compile(dir, context.corrects_division()) {
+        (Some(dir), true) => match reload::compile(dir, context.division()) {
             Reload::Kernel(kernel) => kernel,
             Reload::Failed(e) => return Err(Failure::from(format!("--shaders {}: {e}", dir.display()))),
             Reload::Scene(_) => unreachable!("compile gives a kernel or a failure"),
@@ -169,7 +169,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         limits,
         settings: settings.clone(),
         shaders,
-        correct_division: context.corrects_division(),
+        division: context.division(),
     });
 
     let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);

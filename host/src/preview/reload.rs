@@ -41,8 +41,8 @@ pub struct WatchConfig {
     pub settings: RenderSettings,
     /// The folder with preview.comp and what it includes; None: no shader reload.
     pub shaders: Option<PathBuf>,
-    /// Compile it for a device that `corrects_division` (GpuContext).
-    pub correct_division: bool,
+    /// Compile it as the device's `division` says (GpuContext).
+    pub division: crate::gpu::Division,
 }
 
 /// The watcher thread; stopped and joined on drop.
@@ -125,7 +125,7 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
             let now = Some(shader_stamps(dir));
             if now != shader_stamp {
                 shader_stamp = now;
-                if tx.send(compile(dir, config.correct_division)).is_err() {
+                if tx.send(compile(dir, config.division)).is_err() {
                     return;
                 }
             }
@@ -135,11 +135,11 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
 
 /// `dir/preview.comp` and, when there is one, `dir/preview_uniform.comp`
 /// compiled as every runtime kernel is (`gpu::compile_kernel_pair`: glslang
-/// with `dir` on the include path and CORRECT_DIVISION defined with
-/// `correct_division`, then spirv-opt), checked (PreviewKernels::new; the
-/// renderer builds their pipelines).
-pub fn compile(dir: &Path, correct_division: bool) -> Reload {
-    let (storage, uniform) = match crate::gpu::compile_kernel_pair(dir, KERNEL_STEM, correct_division) {
+/// with `dir` on the include path and `division`'s macros, then
+/// spirv-opt), checked (PreviewKernels::new; the renderer builds their
+/// pipelines).
+pub fn compile(dir: &Path, division: crate::gpu::Division) -> Reload {
+    let (storage, uniform) = match crate::gpu::compile_kernel_pair(dir, KERNEL_STEM, division) {
         Ok(pair) => pair,
         Err(e) => return Reload::Failed(e),
     };
