@@ -32,6 +32,10 @@
 #                                       hierarchy (mean, median, 90th and 99th percentiles,
 #                                       most), against ln N; with --all (`--aov cost-all`)
 #                                       every ray's of the pixel summed. Counts, not times.
+#   ci/benchmarks.sh division [--device NAME] [--spp N] [--rounds N] SCENE...
+#                                       `build/raycast render` dispatch medians of the GPU's
+#                                       division correction: residuals as the fma probe
+#                                       chose, Dekker's, and no correction, in turn.
 #   ci/benchmarks.sh checks [--device NAME] SCENE...
 #                                       `build/raycast check` per scene: how many pixels
 #                                       differ between the device and the CPU build, per
@@ -186,8 +190,46 @@ checks() {
   rm -rf "$tmp"
 }
 
+division() {
+  local opts=() rounds=6 s v r out line kernel
+  while [[ "${1:-}" == --* ]]; do
+    if [ "$1" = --rounds ]; then rounds="$2"; else opts+=("$1" "$2"); fi
+    shift 2
+  done
+  echo "\`ci/benchmarks.sh division ${opts[*]}${opts:+ }--rounds $rounds SCENE...\`: \`$RAYCAST render SCENE --assets $CORPUS${opts:+ }${opts[*]}\` under three settings in turn, $rounds rounds after one untimed: the GPU kernels' division correction with the residuals the fma probe chose (by \`fma\` where the device's rounds once, README \"On a GPU too\"), with Dekker's residuals (\`RAYCAST_FMA_RESIDUALS=0\`), and without the correction (\`RAYCAST_INEXACT_DIVISION=0\`, which gives up the CPU build's bits); the median of \`render\`'s dispatch time, and each against the last."
+  echo
+  echo "| scene | the probe's kernel | dispatch: the probe's | Dekker's | no correction | the probe's ÷ none | Dekker's ÷ none |"
+  echo "|---|---|---|---|---|---|---|"
+  for s in "$@"; do
+    local -A times=()
+    kernel=""
+    # Round -1 is not timed: each kernel built once (Mesa and the drivers cache them).
+    for ((r = -1; r < rounds; r++)); do
+      for v in probe dekker none; do
+        case $v in
+          probe) out="$("$RAYCAST" render "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" ;;
+          dekker) out="$(RAYCAST_FMA_RESIDUALS=0 "$RAYCAST" render "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" ;;
+          none) out="$(RAYCAST_INEXACT_DIVISION=0 "$RAYCAST" render "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" ;;
+        esac || { echo "$out" >&2; exit 1; }
+        line="$(sed -n 's/^time: .*dispatch \([0-9.]*\) ms.*/\1/p' <<<"$out")"
+        [ "$r" -lt 0 ] || times[$v]+="$line "
+        if [ $v = probe ] && [ -z "$kernel" ]; then
+          kernel="$(sed -n 's/^kernel: [a-z_]*\( with [A-Z_ a-z]*\),.*/\1/p' <<<"$out")"
+          kernel="${kernel# with }"
+        fi
+      done
+    done
+    local median=() v2
+    for v2 in probe dekker none; do
+      median+=("$(tr ' ' '\n' <<<"${times[$v2]}" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }')")
+    done
+    echo "| ${s##*/} | ${kernel:-as given (no correction)} | ${median[0]} ms | ${median[1]} ms | ${median[2]} ms | $(awk -v a="${median[0]}" -v b="${median[2]}" 'BEGIN { printf "%.2f", a / b }') | $(awk -v a="${median[1]}" -v b="${median[2]}" 'BEGIN { printf "%.2f", a / b }') |"
+  done
+}
+
 case "${1:-}" in
   machine) machine; exit ;;
+  division) shift; division "$@"; exit ;;
   wall) shift; wall "$@"; exit ;;
   checks) shift; checks "$@"; exit ;;
   passes) shift; passes "$@"; exit ;;
