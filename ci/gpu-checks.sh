@@ -11,6 +11,9 @@
 #   check        the device against the CPU build, every buffer bit for bit, on every corpus
 #                scene and gen:recursive-spheres:8, for each AOV (color, depth, id, cost,
 #                cost-all, normal), validation layer on
+#   check-dekker, shader-test-dekker
+#                the colour check and the harness again with the correction's residuals by
+#                Dekker's product (RAYCAST_FMA_RESIDUALS=0), where the fma probe chose fma
 #   check-spp2   two samples a pixel on generated deep scenes
 #   orbit        `render --orbit 6` of recursiveSpheres4 on the device and the CPU build: the
 #                same PNG files byte for byte
@@ -46,6 +49,9 @@ step shader-test "$raycast" shader-test --device "$device" --validate
 for aov in color depth id cost cost-all normal; do
   step "check-$aov" "$raycast" check --device "$device" --validate --aov "$aov" --assets "$corpus" "${scenes[@]}"
 done
+# Where the probe gave the kernels fma residuals (FUSED_FMA), Dekker's too, which any other GPU gets.
+step check-dekker env RAYCAST_FMA_RESIDUALS=0 "$raycast" check --device "$device" --validate --assets "$corpus" "${scenes[@]}"
+step shader-test-dekker env RAYCAST_FMA_RESIDUALS=0 "$raycast" shader-test --device "$device" --validate
 step check-spp2 "$raycast" check --device "$device" --spp 2 --assets "$corpus" \
   gen:recursive-spheres:10 gen:recursive-cones:6 gen:recursive-cones:8 gen:recursive-cubes:6
 orbit() {
