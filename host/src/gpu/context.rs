@@ -610,7 +610,7 @@ impl GpuContext {
     /// (unless RAYCAST_INEXACT_DIVISION says), and there with residuals by
     /// fma() where the device's fma was seen to round once (fma_probe.rs,
     /// run on the first call; a probe that cannot run leaves Dekker's
-    /// residuals, exact on any device). RAYCAST_FMA_RESIDUALS=0 or 1
+    /// residuals, exact on any device, and says so on stderr). RAYCAST_FMA_RESIDUALS=0 or 1
     /// overrides the probe, to measure the difference or to show what an
     /// unfused fma does to the pictures.
     pub fn division(&self) -> Division {
@@ -622,7 +622,11 @@ impl GpuContext {
             Ok("0") => Division::Corrected,
             _ => match fma_probe::fma_rounds_once(self) {
                 Ok(true) => Division::CorrectedFma,
-                Ok(false) | Err(_) => Division::Corrected,
+                Ok(false) => Division::Corrected,
+                Err(e) => {
+                    eprintln!("raycast: the fma probe could not run on {} ({e}); the division correction takes Dekker's residuals, exact but slower", self.inner.info.name);
+                    Division::Corrected
+                }
             },
         })
     }
