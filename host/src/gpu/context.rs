@@ -75,7 +75,7 @@ pub struct DeviceInfo {
     pub api_version: String,
     pub driver: String,
     /// How the kernels' arithmetic is made the CPU build's on this device
-    /// (float_controls.rs, `GpuContext::corrects_division`), for people.
+    /// (float_controls.rs, `GpuContext::division`), for people.
     pub arithmetic: String,
 }
 

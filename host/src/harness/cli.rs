@@ -62,12 +62,18 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
         return Err((format!("raycast: error: no case of {} file(s) matches --only {}", files.len(), args.only.join(", --only ")), 2));
     }
     let d = harness.device();
+    // On a GPU the kernels correct division (raycast.glsl div_rn): say how.
+    let kernels = match harness.division().describe() {
+        "" => String::new(),
+        how => format!(", kernels{how}"),
+    };
     outln!(
-        "shader-test: {total} cases from {} file{}; device {} ({}); shaders {}",
+        "shader-test: {total} cases from {} file{}; device {} ({}){}; shaders {}",
         per_file.len(),
         if per_file.len() == 1 { "" } else { "s" },
         d.name,
         d.kind,
+        kernels,
         harness.shaders().dir.display()
     );
 

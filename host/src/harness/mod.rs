@@ -309,6 +309,11 @@ impl Harness {
         &self.info
     }
 
+    /// How the kernels compile division and square root on this device.
+    pub fn division(&self) -> gpu::Division {
+        self.ctx.division()
+    }
+
     pub fn device(&self) -> &gpu::DeviceInfo {
         self.ctx.info()
     }
