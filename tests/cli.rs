@@ -95,9 +95,12 @@ fn devices_lists_lavapipe() {
         println!("several devices: only that a default is named is checked");
         assert!(out.contains("default: device "), "{out}");
     }
+    assert!(!out.contains("division correction:"), "{out}");
     let o = raycast(&["devices"], &[("RAYCAST_INEXACT_DIVISION", "1")]);
     let (out, err) = text(&o);
     assert!(o.status.success() && out.contains("arithmetic: division and square root corrected to IEEE's"), "{out}{err}");
+    // Corrected, lavapipe's unfused fma() seen by the probe (gpu::fma_probe).
+    assert!(out.contains("division correction: residuals by Dekker's exact product (the fma probe saw this device's fma() round more than once)"), "{out}");
 }
 
 /// The GPU kernels of div_rn and sqrt_rn (CORRECT_DIVISION), forced on

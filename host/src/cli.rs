@@ -586,6 +586,9 @@ fn devices() -> Result<(), Failure> {
     for d in &list {
         outln!("{}: {} ({}, Vulkan {}, driver {})", d.index, d.name, d.kind, d.api_version, d.driver);
         outln!("   arithmetic: {}", d.arithmetic);
+        if d.corrects_division {
+            outln!("   {}", division_line(d.index));
+        }
     }
     if let Some(d) = list.get(default) {
         // As open_backend decides for --backend auto.
@@ -593,6 +596,24 @@ fn devices() -> Result<(), Failure> {
         outln!("default: device {} (without --device); --backend auto renders with {auto}", d.index);
     }
     Ok(())
+}
+
+/// How device `index`'s kernels take the residuals of their division
+/// correction, which the fma probe decides once the device is open
+/// (`GpuContext::division`).
+fn division_line(index: usize) -> String {
+    let ctx = match gpu::GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Index(index)), ..Default::default() }) {
+        Ok(ctx) => ctx,
+        Err(e) => return format!("division correction: residuals not known, the device does not open ({e})"),
+    };
+    let why = |probe: &str| match std::env::var("RAYCAST_FMA_RESIDUALS").as_deref() {
+        Ok("0" | "1") => "as RAYCAST_FMA_RESIDUALS says".to_string(),
+        _ => format!("the fma probe saw this device's fma() {probe}"),
+    };
+    match ctx.division() {
+        gpu::Division::CorrectedFma => format!("division correction: residuals by fma() ({})", why("round once")),
+        _ => format!("division correction: residuals by Dekker's exact product ({})", why("round more than once")),
+    }
 }
 
 fn ms(d: Duration) -> String {

@@ -77,6 +77,10 @@ pub struct DeviceInfo {
     /// How the kernels' arithmetic is made the CPU build's on this device
     /// (float_controls.rs, `GpuContext::division`), for people.
     pub arithmetic: String,
+    /// Whether its kernels correct division and square root (every device
+    /// but a CPU one, unless RAYCAST_INEXACT_DIVISION says); how, the open
+    /// device's `GpuContext::division` says.
+    pub corrects_division: bool,
 }
 
 impl DeviceInfo {
@@ -429,6 +433,7 @@ impl InstanceParts {
                     api_version: version_string(props.api_version),
                     driver,
                     arithmetic,
+                    corrects_division: inexact_division,
                 },
                 rank,
                 compute_family,
