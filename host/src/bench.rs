@@ -568,16 +568,18 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     let peaks_per_scene = reset_peak_host();
 
     let plural = |n: u32, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    // The device's name, and how its kernels divide (a GPU's correct it).
+    let gpu_header = gpu.as_ref().zip(gpu_device.as_ref()).map(|(g, d)| format!("{d}{}", g.context().division().kernels_clause()));
     let frames_text = format!("median of {} after {}", plural(args.frames, "frame"), plural(args.warmup, "warm-up frame"));
     if args.markdown {
         outln!("`{}`", command_line());
         outln!();
-        let devices: Vec<&str> = [gpu_device.as_deref(), cpu_device.as_deref()].into_iter().flatten().collect();
+        let devices: Vec<&str> = [gpu_header.as_deref(), cpu_device.as_deref()].into_iter().flatten().collect();
         outln!("{}; {frames_text}; {}.", settings_text(&settings), devices.join("; "));
         outln!();
         outln!("{MARKDOWN_HEADER}");
     } else if !args.json {
-        for d in [&gpu_device, &cpu_device].into_iter().flatten() {
+        for d in [&gpu_header, &cpu_device].into_iter().flatten() {
             outln!("device: {d}");
         }
         outln!("settings: {}; {frames_text}", settings_text(&settings));

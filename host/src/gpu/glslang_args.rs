@@ -52,6 +52,15 @@ impl Division {
             Division::CorrectedFma => " with CORRECT_DIVISION and FUSED_FMA",
         }
     }
+
+    /// After a device's name in `shader-test`'s and `bench`'s header:
+    /// ", kernels with CORRECT_DIVISION …", or nothing where it divides as given.
+    pub fn kernels_clause(self) -> String {
+        match self.describe() {
+            "" => String::new(),
+            how => format!(", kernels{how}"),
+        }
+    }
 }
 
 /// Arguments for compiling `src` (a `.comp` kernel) to the SPIR-V file `spv`,

@@ -63,10 +63,7 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
     }
     let d = harness.device();
     // On a GPU the kernels correct division (raycast.glsl div_rn): say how.
-    let kernels = match harness.division().describe() {
-        "" => String::new(),
-        how => format!(", kernels{how}"),
-    };
+    let kernels = harness.division().kernels_clause();
     outln!(
         "shader-test: {total} cases from {} file{}; device {} ({}){}; shaders {}",
         per_file.len(),
