@@ -220,7 +220,8 @@ struct Row {
 }
 
 /// The median of `values` (the mean of the middle two for an even count);
-/// NaN when there are none.
+/// NaN when there are none. The one median of bench's frames, versus's
+/// ratios and the preview's frame rates and pixel cost.
 pub(crate) fn median(values: impl IntoIterator<Item = f64>) -> f64 {
     let mut v: Vec<f64> = values.into_iter().collect();
     v.sort_by(f64::total_cmp);

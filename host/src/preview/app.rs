@@ -322,9 +322,7 @@ impl PixelCost {
     /// size, as it did in an average; a lasting change moves it within
     /// three frames.
     fn estimate(&self) -> Option<f64> {
-        let mut v: Vec<f64> = self.last.iter().copied().collect();
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied()
+        Some(crate::bench::median(self.last.iter().copied())).filter(|m| !m.is_nan())
     }
 }
 
@@ -365,9 +363,7 @@ fn frames_at(times: &[(Duration, [u32; 2])]) -> String {
 
 /// "median 150.4 ms a frame, 6.6 frames a second" of frame times (at least one).
 fn rate(times: &[(Duration, [u32; 2])]) -> String {
-    let mut t: Vec<Duration> = times.iter().map(|t| t.0).collect();
-    t.sort();
-    let median = t[t.len() / 2].as_secs_f64();
+    let median = crate::bench::median(times.iter().map(|t| t.0.as_secs_f64()));
     format!("median {:.1} ms a frame, {:.1} frames a second", median * 1e3, 1.0 / median.max(1e-9))
 }
 
