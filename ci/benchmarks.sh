@@ -109,13 +109,13 @@ preview_rates() {
   # Options with a value as --name=value (--backend=cpu).
   while [[ "${1:-}" == --* ]]; do opts+=("$1"); shift; done
   tmp="$(mktemp -d)"
-  if [ "$kind" = moving ]; then
-    echo "\`ci/benchmarks.sh preview ${opts[*]}${opts:+ }$*\`: \`xvfb-run -a $RAYCAST preview SCENE --assets $CORPUS${opts:+ }${opts[*]} ${scripted[*]}\` (a 512x384 window), 3 runs: the camera turns 2 degrees before each of frames 1 to 11, which render at the size the preview picks while you steer; the median of frames 2 to 11, of the run with the middle median."
-  else
-    echo "\`ci/benchmarks.sh preview $rest${opts[*]}${opts:+ }$*\`: \`xvfb-run -a $RAYCAST preview SCENE --assets $CORPUS${opts:+ }${opts[*]} ${scripted[*]}\` (a 512x384 window), 3 runs: every frame a whole sample at 512x384, as at rest; the median of frames 1 to 11 (the 12th is not timed), of the run with the middle median."
+  local what="the camera turns 2 degrees before each of frames 1 to 11, which render at the size the preview picks while you steer; the median of frames 2 to 11" size="frame size while steering"
+  if [ "$kind" != moving ]; then
+    what="every frame a whole sample at 512x384, as at rest; the median of frames 1 to 11 (the 12th is not timed)" size="frame size"
   fi
+  echo "\`ci/benchmarks.sh preview $rest${opts[*]}${opts:+ }$*\`: \`xvfb-run -a $RAYCAST preview SCENE --assets $CORPUS${opts:+ }${opts[*]} ${scripted[*]}\` (a 512x384 window), 3 runs: $what, of the run with the middle median."
   echo
-  if [ "$kind" = moving ]; then echo "| scene | frame size while steering | median frame | frames a second |"; else echo "| scene | frame size | median frame | frames a second |"; fi
+  echo "| scene | $size | median frame | frames a second |"
   echo "|---|---|---|---|"
   for s in "$@"; do
     file="$s"
