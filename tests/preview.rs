@@ -212,18 +212,22 @@ fn the_cpu_build_draws_the_devices_samples() {
 /// first frame; H twice as the plain first frame; B before frame 2 of 3
 /// (the CPU build draws samples 0 and 1 after the device drew one, or the
 /// device after the CPU build) as two frames drawn by the device alone,
-/// and stderr says who draws. A frame 0, an unknown key, or no --frames is
-/// a usage error.
+/// and stderr says who draws; K before frame 2 of 3 with the CPU build
+/// drawing (the source tree's shaders recompiled, as an edit: the device
+/// draws from then on, the samples start over) as two frames of the
+/// device alone, and stderr says so. A frame 0, an unknown key, or no
+/// --frames is a usage error.
 #[test]
 fn scripted_keys_switch_the_view_the_flags_and_who_draws() {
     let size = [64, 48];
     // (name, frames, flags, the expected picture's frames and flags)
     type Case<'a> = (&'a str, u32, &'a [&'a str], u32, &'a [&'a str]);
-    let cases: [Case; 4] = [
+    let cases: [Case; 5] = [
         ("keys-aov", 3, &["--keys", "1:2,2:1,3:2"], 1, &["--aov", "normal"]),
         ("keys-shadows", 2, &["--keys", "1:H,2:h"], 1, &[]),
         ("keys-to-cpu", 3, &["--keys", "2:B"], 2, &[]),
         ("keys-to-device", 3, &["--backend", "cpu", "--keys", "2:B"], 2, &[]),
+        ("keys-recompile", 3, &["--backend", "cpu", "--keys", "2:K"], 2, &[]),
     ];
     for (name, frames, keys, expected_frames, expected_flags) in cases {
         let actual = screenshot(None, size, frames, name, keys);
@@ -233,6 +237,20 @@ fn scripted_keys_switch_the_view_the_flags_and_who_draws() {
     let o = preview(&["--width", "32", "--height", "24", "--frames", "2", "--keys", "2:B"]);
     assert_clean(&o, "B");
     assert!(String::from_utf8_lossy(&o.stderr).contains("raycast: preview: CPU build ("), "{}", text(&o));
+    // The hand-over an edit makes, through K: recompiled, reloaded, the device
+    // draws; so B after it goes back to the CPU build, which says it is not the edit.
+    let o = preview(&["--width", "32", "--height", "24", "--frames", "3", "--backend", "cpu", "--keys", "2:K,3:B"]);
+    assert_clean(&o, "K then B");
+    let err = String::from_utf8_lossy(&o.stderr);
+    for said in [
+        "recompiling the shaders of ",
+        "reloaded the kernel (preview.comp)",
+        "draws from now on: the CPU build is the code",
+        "CPU build (",
+        "draws: the code raycast was built with, not the edited shader",
+    ] {
+        assert!(err.contains(said), "{said:?} missing: {}", text(&o));
+    }
     for bad in [&["--frames", "2", "--keys", "0:H"][..], &["--frames", "2", "--keys", "1:Q"], &["--frames", "2", "--keys", "1"], &["--keys", "1:H"]] {
         let o = raycast(&[&["preview"][..], bad].concat());
         assert_eq!(o.status.code(), Some(2), "{bad:?}: {}", text(&o));

@@ -54,6 +54,7 @@ preview controls:
   1 to 6          show colour, normal, depth, object id, walk cost (camera ray, all rays)
   H M T           toggle shadows, mirror reflections, textures
   B               switch who draws: the device or the CPU build (the same pixels)
+  K               recompile the shaders now, as an edit does (the device draws after)
   F1              this help                    Esc           quit";
 
 pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
@@ -168,7 +169,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         parse,
         limits,
         settings: settings.clone(),
-        shaders,
+        shaders: shaders.clone(),
         division: context.division(),
     });
 
@@ -176,6 +177,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     preview.moving_frames = args.moving;
     preview.click = args.click;
     preview.keys = args.keys.clone().map(|k| k.0).unwrap_or_default();
+    preview.shaders = shaders.map(|dir| (dir, context.division()));
     preview.aov = args.aov.into();
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
@@ -273,6 +275,11 @@ struct Preview {
     click: Option<(u32, u32)>,
     /// Scripted runs (--keys): keys pressed just before frame N (from 1).
     keys: Vec<(u32, Key)>,
+    /// The shader folder the watcher follows (None: reload is off), and how
+    /// its kernels are compiled for the device: K recompiles it at once.
+    shaders: Option<(PathBuf, crate::gpu::Division)>,
+    /// K was pressed: recompile before the next frame.
+    recompile: bool,
     /// Frames submitted so far.
     rendered: u32,
     /// The size of the frame submitted last.
@@ -402,6 +409,8 @@ impl Preview {
             moving_frames: 0,
             click: None,
             keys: Vec::new(),
+            shaders: None,
+            recompile: false,
             rendered: 0,
             frame_sizes: (0, 0),
             moving_times: Vec::new(),
@@ -517,6 +526,10 @@ impl Preview {
             let pressed: Vec<Key> = self.keys.iter().filter(|(n, _)| *n == self.rendered + 1).map(|k| k.1).collect();
             for key in pressed {
                 self.on_key(key, glfw::Modifiers::empty(), window);
+            }
+            // K, from the window or --keys: the kernel this frame draws with.
+            if std::mem::take(&mut self.recompile) {
+                self.recompile_shaders()?;
             }
             let scale = self.motion_scale(frames.is_some() && !steering);
             if scale > 1.0 || self.renderer.frame_size() != self.renderer.size() {
@@ -818,6 +831,7 @@ impl Preview {
                 self.restart();
             }
             Key::B => self.switch_drawing(),
+            Key::K => self.recompile = true,
             Key::F1 => outln!("{HELP}"),
             _ => {}
         }
@@ -888,6 +902,19 @@ impl Preview {
             Reload::Failed(message) => self.reload_failed(&message),
         }
         Ok(())
+    }
+
+    /// K: the watched shader folder compiled now and taken as an edit is
+    /// (`on_reload`: the device draws from then on), whether or not a file
+    /// changed: after an edit the watcher has not seen, or to hand the
+    /// drawing to the device's kernel of the folder's code.
+    fn recompile_shaders(&mut self) -> Result<(), Failure> {
+        let Some((dir, division)) = self.shaders.clone() else {
+            errln!("raycast: preview: K: no shader folder to recompile (the source tree's shaders/ is not here; use --shaders DIR)");
+            return Ok(());
+        };
+        errln!("raycast: preview: recompiling the shaders of {}", dir.display());
+        self.on_reload(reload::compile(&dir, division))
     }
 
     /// A reload that did not take: says why, keeps the last good picture

@@ -81,8 +81,8 @@ pub struct PreviewArgs {
     #[arg(long, value_name = "X,Y", value_parser = crate::cli::parse_pixel, requires = "frames")]
     pub click: Option<(u32, u32)>,
     /// With --frames: press keys as in the window, each just before frame N
-    /// (counted from 1): N:KEY,… with KEY one of 1 to 6, H, M, T, R, F, C
-    /// and B (say 2:H,3:B).
+    /// (counted from 1): N:KEY,… with KEY one of 1 to 6, H, M, T, R, F, C,
+    /// B and K (say 2:H,3:B).
     #[arg(long, value_name = "N:KEY,...", value_parser = parse_key_presses, requires = "frames")]
     pub keys: Option<KeyPresses>,
     /// Start with shadow rays off (H turns them on and off).
@@ -105,7 +105,7 @@ pub struct PreviewArgs {
 
 /// The keys `--keys` may press (the window's controls that print or
 /// switch something), by the character that names them.
-const SCRIPTED_KEYS: [(char, glfw::Key); 13] = [
+const SCRIPTED_KEYS: [(char, glfw::Key); 14] = [
     ('1', glfw::Key::Num1),
     ('2', glfw::Key::Num2),
     ('3', glfw::Key::Num3),
@@ -119,6 +119,7 @@ const SCRIPTED_KEYS: [(char, glfw::Key); 13] = [
     ('F', glfw::Key::F),
     ('C', glfw::Key::C),
     ('B', glfw::Key::B),
+    ('K', glfw::Key::K),
 ];
 
 /// `--keys`: (frame counted from 1, key) in the order given.
