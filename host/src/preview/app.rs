@@ -184,6 +184,13 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     preview.textures = !args.no_textures;
     if args.screenshot.is_none() && args.frames.is_none() {
         errln!("raycast: preview: F1 prints the controls, Esc quits");
+        if info.runs_on_cpu() && cpu_why.is_none() && !compile_at_start {
+            errln!(
+                "raycast: preview: hint: {} runs on the CPU; B (or --backend auto) lets the CPU build draw the samples \
+                 natively: the same pixels, more frames a second (BENCHMARKS.md, \"The preview\")",
+                info.name
+            );
+        }
     }
     let result = preview.run(&mut glfw, &mut window, &events, &watcher, args.frames.or(args.screenshot.as_ref().map(|_| 1)), args.screenshot.as_deref());
 
