@@ -206,11 +206,12 @@ division() {
     # Round -1 is not timed: each kernel built once (Mesa and the drivers cache them).
     for ((r = -1; r < rounds; r++)); do
       for v in probe dekker none; do
+        local setting=()
         case $v in
-          probe) out="$("$RAYCAST" render "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" ;;
-          dekker) out="$(RAYCAST_FMA_RESIDUALS=0 "$RAYCAST" render "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" ;;
-          none) out="$(RAYCAST_INEXACT_DIVISION=0 "$RAYCAST" render "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" ;;
-        esac || { echo "$out" >&2; exit 1; }
+          dekker) setting=(RAYCAST_FMA_RESIDUALS=0) ;;
+          none) setting=(RAYCAST_INEXACT_DIVISION=0) ;;
+        esac
+        out="$(env "${setting[@]}" "$RAYCAST" render "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" || { echo "$out" >&2; exit 1; }
         line="$(sed -n 's/^time: .*dispatch \([0-9.]*\) ms.*/\1/p' <<<"$out")"
         [ "$r" -lt 0 ] || times[$v]+="$line "
         if [ $v = probe ] && [ -z "$kernel" ]; then

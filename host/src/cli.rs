@@ -606,9 +606,9 @@ fn division_line(index: usize) -> String {
         Ok(ctx) => ctx,
         Err(e) => return format!("division correction: residuals not known, the device does not open ({e})"),
     };
-    let why = |probe: &str| match std::env::var("RAYCAST_FMA_RESIDUALS").as_deref() {
-        Ok("0" | "1") => "as RAYCAST_FMA_RESIDUALS says".to_string(),
-        _ => format!("the fma probe saw this device's fma() {probe}"),
+    let why = |probe: &str| match gpu::forced_residuals() {
+        Some(_) => "as RAYCAST_FMA_RESIDUALS says".to_string(),
+        None => format!("the fma probe saw this device's fma() {probe}"),
     };
     match ctx.division() {
         gpu::Division::CorrectedFma => format!("division correction: residuals by fma() ({})", why("round once")),

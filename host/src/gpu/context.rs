@@ -472,6 +472,16 @@ impl Drop for InstanceParts {
     }
 }
 
+/// The residuals RAYCAST_FMA_RESIDUALS forces past the fma probe: 1 fma's,
+/// 0 Dekker's (`GpuContext::division`); None when it is unset or another value.
+pub fn forced_residuals() -> Option<Division> {
+    match std::env::var("RAYCAST_FMA_RESIDUALS").as_deref() {
+        Ok("1") => Some(Division::CorrectedFma),
+        Ok("0") => Some(Division::Corrected),
+        _ => None,
+    }
+}
+
 impl GpuContext {
     /// Opens the selected (or best) device with one compute queue.
     pub fn new(opts: &GpuOptions) -> Result<GpuContext, GpuError> {
@@ -622,10 +632,9 @@ impl GpuContext {
         if !self.inner.inexact_division {
             return Division::AsGiven;
         }
-        *self.inner.division.get_or_init(|| match std::env::var("RAYCAST_FMA_RESIDUALS").as_deref() {
-            Ok("1") => Division::CorrectedFma,
-            Ok("0") => Division::Corrected,
-            _ => match fma_probe::fma_rounds_once(self) {
+        *self.inner.division.get_or_init(|| match forced_residuals() {
+            Some(division) => division,
+            None => match fma_probe::fma_rounds_once(self) {
                 Ok(true) => Division::CorrectedFma,
                 Ok(false) => Division::Corrected,
                 Err(e) => {

@@ -35,7 +35,7 @@ mod tests;
 pub use compile::{compile_kernel, compile_kernel_pair};
 pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
-pub use context::{list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
+pub use context::{forced_residuals, list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
 pub use error::GpuError;
 pub use fma_probe::fma_rounds_once;
 pub use buffer::{Buffer, DescriptorSet, Resource};
