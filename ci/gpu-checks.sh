@@ -44,13 +44,14 @@ step() { # NAME COMMAND...: runs COMMAND, its output to $logs/NAME.log; notes a 
 }
 
 scenes=("$corpus"/test_*/*.xml gen:recursive-spheres:8)
+check=("$raycast" check --device "$device" --validate --assets "$corpus")
 step devices "$raycast" devices
 step shader-test "$raycast" shader-test --device "$device" --validate
 for aov in color depth id cost cost-all normal; do
-  step "check-$aov" "$raycast" check --device "$device" --validate --aov "$aov" --assets "$corpus" "${scenes[@]}"
+  step "check-$aov" "${check[@]}" --aov "$aov" "${scenes[@]}"
 done
 # Where the probe gave the kernels fma residuals (FUSED_FMA), Dekker's too, which any other GPU gets.
-step check-dekker env RAYCAST_FMA_RESIDUALS=0 "$raycast" check --device "$device" --validate --assets "$corpus" "${scenes[@]}"
+step check-dekker env RAYCAST_FMA_RESIDUALS=0 "${check[@]}" "${scenes[@]}"
 step shader-test-dekker env RAYCAST_FMA_RESIDUALS=0 "$raycast" shader-test --device "$device" --validate
 step check-spp2 "$raycast" check --device "$device" --spp 2 --assets "$corpus" \
   gen:recursive-spheres:10 gen:recursive-cones:6 gen:recursive-cones:8 gen:recursive-cubes:6

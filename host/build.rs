@@ -43,9 +43,8 @@ fn main() {
                 Some(dir) => {
                     let from = dir.join(format!("{name}.spv"));
                     println!("cargo:rerun-if-changed={}", from.display());
-                    std::fs::copy(&from, &spv).unwrap_or_else(|e| {
-                        panic!("RAYCAST_SPIRV_DIR: cannot copy {}: {e}", from.display())
-                    });
+                    std::fs::copy(&from, &spv)
+                        .unwrap_or_else(|e| panic!("RAYCAST_SPIRV_DIR: cannot copy {}: {e}", from.display()));
                     // CMake ran glslang alone.
                     optimize_spirv(&spv).unwrap_or_else(|e| panic!("{e}"));
                 }
@@ -76,8 +75,12 @@ fn link_cpu_library(manifest: &Path, out: &Path) {
             }
             let build = out.join("cpu-build");
             run(Command::new("cmake")
-                .arg("-S").arg(&src).arg("-B").arg(&build)
-                .arg("-DRAYCAST_CPU_TESTS=OFF").arg("-DCMAKE_BUILD_TYPE=Release"));
+                .arg("-S")
+                .arg(&src)
+                .arg("-B")
+                .arg(&build)
+                .arg("-DRAYCAST_CPU_TESTS=OFF")
+                .arg("-DCMAKE_BUILD_TYPE=Release"));
             run(Command::new("cmake").arg("--build").arg(&build).args(["--target", "raycast_cpu"]));
             build
         }

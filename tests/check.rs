@@ -84,7 +84,8 @@ fn main() -> ExitCode {
     // pixels do not fit one storage buffer: at 131x97 the last band is
     // partial and the tiles overhang the right edge.
     const BAND_ROWS: u32 = 16;
-    let band_bytes = u64::from(BAND_WIDTH) * std::mem::size_of::<raycast::layout::PixelOut>() as u64 * u64::from(BAND_ROWS);
+    let band_bytes =
+        u64::from(BAND_WIDTH) * std::mem::size_of::<raycast::layout::PixelOut>() as u64 * u64::from(BAND_ROWS);
     gpu.set_band_bytes(Some(band_bytes));
     assert_eq!(gpu.band_rows(BAND_WIDTH), BAND_ROWS, "the bands' size");
     gpu.set_band_bytes(None);
@@ -92,7 +93,8 @@ fn main() -> ExitCode {
     let out_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("check");
     let (mut passed, mut failed) = (0, 0);
     for (path, sizes) in &scenes {
-        let name = path.strip_prefix(corpus.as_deref().unwrap_or(Path::new("/nonexistent")))
+        let name = path
+            .strip_prefix(corpus.as_deref().unwrap_or(Path::new("/nonexistent")))
             .or_else(|_| path.strip_prefix(&repo))
             .unwrap_or(path)
             .display()
@@ -129,7 +131,8 @@ fn main() -> ExitCode {
             let without = RenderSettings { bvh: false, ..with.clone() };
             match (frame::build(&scene, &with), frame::build(&scene, &without)) {
                 (Ok(a), Ok(b)) => {
-                    let report = check::compare(&cpu.render(&a).unwrap(), "bvh", &cpu.render(&b).unwrap(), "no-bvh").expect("same size");
+                    let report = check::compare(&cpu.render(&a).unwrap(), "bvh", &cpu.render(&b).unwrap(), "no-bvh")
+                        .expect("same size");
                     if report.identical() {
                         passed += 1;
                         println!("ok     {label}: identical");
@@ -154,8 +157,18 @@ fn main() -> ExitCode {
             // (render.comp; it takes uniform buffers, render_uniform.comp,
             // wherever a scene fits), and in bands (above).
             let checks = [
-                ("64x48 --no-bvh", RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() }, SceneBuffers::Auto, None),
-                ("128x96 storage buffers", RenderSettings { width: 128, height: 96, ..RenderSettings::default() }, SceneBuffers::Storage, None),
+                (
+                    "64x48 --no-bvh",
+                    RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() },
+                    SceneBuffers::Auto,
+                    None,
+                ),
+                (
+                    "128x96 storage buffers",
+                    RenderSettings { width: 128, height: 96, ..RenderSettings::default() },
+                    SceneBuffers::Storage,
+                    None,
+                ),
                 (
                     "131x97 in bands of 16 rows, 2 samples",
                     RenderSettings { width: BAND_WIDTH, height: 97, spp: 2, ..RenderSettings::default() },
@@ -200,7 +213,10 @@ fn main() -> ExitCode {
         }
         for (width, height, aov, spp, texture_filter) in variants {
             {
-                let label = format!("{name} {aov:?} {width}x{height}{}", if spp > 1 { format!(" spp {spp} {texture_filter:?}") } else { String::new() });
+                let label = format!(
+                    "{name} {aov:?} {width}x{height}{}",
+                    if spp > 1 { format!(" spp {spp} {texture_filter:?}") } else { String::new() }
+                );
                 let settings = RenderSettings { width, height, aov, spp, texture_filter, ..RenderSettings::default() };
                 let data = match frame::build(&scene, &settings) {
                     Ok(d) => d,
@@ -234,7 +250,10 @@ fn main() -> ExitCode {
                 for m in messages {
                     println!("       validation: {m}");
                 }
-                let file = out_dir.join(format!("{}-{aov:?}-{width}x{height}-diff.png", label.split(' ').next().unwrap().replace('/', "_")));
+                let file = out_dir.join(format!(
+                    "{}-{aov:?}-{width}x{height}-diff.png",
+                    label.split(' ').next().unwrap().replace('/', "_")
+                ));
                 let _ = std::fs::create_dir_all(&out_dir);
                 match image_io::write_png(&file, &report.diff_image) {
                     Ok(()) => println!("       diff image: {}", file.display()),
@@ -244,5 +263,9 @@ fn main() -> ExitCode {
         }
     }
     println!("{passed} passed, {failed} failed");
-    if failed == 0 { ExitCode::SUCCESS } else { ExitCode::FAILURE }
+    if failed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
 }

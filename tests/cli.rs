@@ -51,7 +51,9 @@ fn default_scene_renders_to_png() {
     let o = raycast(&["render", "-o", png.to_str().unwrap()], &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "stdout:\n{out}\nstderr:\n{err}");
-    for needle in ["device: ", "time: load ", "upload ", "compile ", "dispatch ", "readback ", "M primary rays/s", "wrote "] {
+    for needle in
+        ["device: ", "time: load ", "upload ", "compile ", "dispatch ", "readback ", "M primary rays/s", "wrote "]
+    {
         assert!(out.contains(needle), "stdout lacks {needle:?}:\n{out}");
     }
     // On a CPU device (the tests run on lavapipe) it points to the CPU backend.
@@ -72,7 +74,8 @@ fn default_scene_renders_to_png() {
 #[test]
 fn normal_aov_at_another_size() {
     let png = out_dir().join("default-normal.png");
-    let o = raycast(&["render", "--aov", "normal", "--width", "100", "--height", "60", "-o", png.to_str().unwrap()], &[]);
+    let o =
+        raycast(&["render", "--aov", "normal", "--width", "100", "--height", "60", "-o", png.to_str().unwrap()], &[]);
     assert!(o.status.success(), "{:?}", text(&o));
     let img = raycast::image_io::read_png(&png).unwrap();
     assert_eq!((img.width, img.height), (100, 60));
@@ -90,7 +93,10 @@ fn devices_lists_lavapipe() {
     assert!(out.contains("arithmetic: division and square root as the device gives them"), "{out}");
     // The default device, and what --backend auto does with it.
     if out.lines().filter(|l| l.starts_with(|c: char| c.is_ascii_digit())).count() == 1 {
-        assert!(out.contains("default: device 0 (without --device); --backend auto renders with the CPU build instead"), "{out}");
+        assert!(
+            out.contains("default: device 0 (without --device); --backend auto renders with the CPU build instead"),
+            "{out}"
+        );
     } else {
         println!("several devices: only that a default is named is checked");
         assert!(out.contains("default: device "), "{out}");
@@ -98,7 +104,10 @@ fn devices_lists_lavapipe() {
     assert!(!out.contains("division correction:"), "{out}");
     let o = raycast(&["devices"], &[("RAYCAST_INEXACT_DIVISION", "1")]);
     let (out, err) = text(&o);
-    assert!(o.status.success() && out.contains("arithmetic: division and square root corrected to IEEE's"), "{out}{err}");
+    assert!(
+        o.status.success() && out.contains("arithmetic: division and square root corrected to IEEE's"),
+        "{out}{err}"
+    );
     // Corrected, lavapipe's unfused fma() seen by the probe (gpu::fma_probe).
     assert!(out.contains("division correction: residuals by Dekker's exact product (the fma probe saw this device's fma() round more than once)"), "{out}");
 }
@@ -190,7 +199,13 @@ fn cpu_picture_beyond_memory_is_an_error() {
     let exe = env!("CARGO_BIN_EXE_raycast");
     let png = out_dir().join("huge-cpu.png");
     let o = Command::new("sh")
-        .args(["-c", &format!("ulimit -v 2000000 && exec '{exe}' render --backend cpu --width 16384 --height 16384 -o '{}'", png.display())])
+        .args([
+            "-c",
+            &format!(
+                "ulimit -v 2000000 && exec '{exe}' render --backend cpu --width 16384 --height 16384 -o '{}'",
+                png.display()
+            ),
+        ])
         .output()
         .expect("run raycast under sh");
     assert_fails(&o, 1, "raycast: error: cannot allocate 8 GiB (8589934592 bytes) for the 16384x16384 picture's pixels (32 bytes each); render a smaller image");
@@ -226,7 +241,11 @@ fn unwritable_output() {
         let o = raycast(&args, &[]);
         assert_fails(&o, 1, "cannot write /nonexistent-dir/");
     }
-    for args in [vec!["check", "-o", "d.bmp"], vec!["compare", "a.png", "b.png", "-o", "d.jpeg"], vec!["preview", "--screenshot", "s.tiff"]] {
+    for args in [
+        vec!["check", "-o", "d.bmp"],
+        vec!["compare", "a.png", "b.png", "-o", "d.jpeg"],
+        vec!["preview", "--screenshot", "s.tiff"],
+    ] {
         let o = raycast(&args, &[]);
         assert_fails(&o, 1, "raycast writes PNG pictures");
     }
@@ -283,7 +302,8 @@ fn several_scenes_render_on_one_device() {
         let alone = out_dir().join(format!("alone-{name}"));
         let o = raycast(&["render", scene.to_str().unwrap(), "-o", alone.to_str().unwrap()], &[]);
         assert!(o.status.success(), "{:?}", text(&o));
-        let (a, b) = (raycast::image_io::read_png(&dir.join(name)).unwrap(), raycast::image_io::read_png(&alone).unwrap());
+        let (a, b) =
+            (raycast::image_io::read_png(&dir.join(name)).unwrap(), raycast::image_io::read_png(&alone).unwrap());
         let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
         assert_eq!(diff.differing, 0, "{name}: {diff}");
     }
@@ -362,35 +382,80 @@ fn cpu_backend_writes_the_same_png_as_the_device() {
 /// visibly.
 #[test]
 fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
-    let (gpu, auto, none) = (out_dir().join("auto-gpu.png"), out_dir().join("auto-auto.png"), out_dir().join("auto-none.png"));
+    let (gpu, auto, none) =
+        (out_dir().join("auto-gpu.png"), out_dir().join("auto-auto.png"), out_dir().join("auto-none.png"));
     let o = raycast(&["render", "--width", "96", "--height", "72", "-o", gpu.to_str().unwrap()], &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
     let on_lavapipe = out.contains("llvmpipe");
-    let o = raycast(&["render", "--width", "96", "--height", "72", "--backend", "auto", "-o", auto.to_str().unwrap()], &[]);
+    let o =
+        raycast(&["render", "--width", "96", "--height", "72", "--backend", "auto", "-o", auto.to_str().unwrap()], &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
     if on_lavapipe {
-        assert!(out.contains("device: CPU build of the shared GLSL (") && out.contains("; --backend auto: llvmpipe"), "{out}");
+        assert!(
+            out.contains("device: CPU build of the shared GLSL (") && out.contains("; --backend auto: llvmpipe"),
+            "{out}"
+        );
         assert!(!out.contains("hint:"), "{out}");
         // Rule: bit-exact.
-        let diff = raycast::image_io::compare(&raycast::image_io::read_png(&auto).unwrap(), &raycast::image_io::read_png(&gpu).unwrap(), 0).unwrap();
+        let diff = raycast::image_io::compare(
+            &raycast::image_io::read_png(&auto).unwrap(),
+            &raycast::image_io::read_png(&gpu).unwrap(),
+            0,
+        )
+        .unwrap();
         assert_eq!(diff.differing, 0, "{diff}");
     } else {
         println!("skipped: the device is not lavapipe, so --backend auto keeps it: {out}");
         assert!(!out.contains("device: CPU build"), "{out}");
     }
     let no_driver = [("VK_DRIVER_FILES", "/nonexistent/icd.json"), ("RAYCAST_VALIDATION", "0")];
-    let o = raycast(&["render", "--width", "96", "--height", "72", "--backend", "auto", "-o", none.to_str().unwrap()], &no_driver);
+    let o = raycast(
+        &["render", "--width", "96", "--height", "72", "--backend", "auto", "-o", none.to_str().unwrap()],
+        &no_driver,
+    );
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
-    assert!(err.contains("raycast: note: no Vulkan device found") && err.contains("--backend auto renders with the CPU build instead"), "{err}");
+    assert!(
+        err.contains("raycast: note: no Vulkan device found")
+            && err.contains("--backend auto renders with the CPU build instead"),
+        "{err}"
+    );
     assert!(!err.contains("error"), "{err}");
-    assert!(out.contains("device: CPU build of the shared GLSL (") && out.contains("; --backend auto: no Vulkan device opened)"), "{out}");
-    let diff = raycast::image_io::compare(&raycast::image_io::read_png(&none).unwrap(), &raycast::image_io::read_png(&gpu).unwrap(), 0).unwrap();
+    assert!(
+        out.contains("device: CPU build of the shared GLSL (")
+            && out.contains("; --backend auto: no Vulkan device opened)"),
+        "{out}"
+    );
+    let diff = raycast::image_io::compare(
+        &raycast::image_io::read_png(&none).unwrap(),
+        &raycast::image_io::read_png(&gpu).unwrap(),
+        0,
+    )
+    .unwrap();
     assert_eq!(diff.differing, 0, "{diff}");
-    assert_fails(&raycast(&["render", "--backend", "auto", "--device", "0", "-o", none.to_str().unwrap()], &no_driver), 1, "no Vulkan device found");
-    let o = raycast(&["render", "--width", "8", "--height", "8", "--backend", "auto", "--shaders", repo().join("shaders").to_str().unwrap(), "-o", none.to_str().unwrap()], &[]);
+    assert_fails(
+        &raycast(&["render", "--backend", "auto", "--device", "0", "-o", none.to_str().unwrap()], &no_driver),
+        1,
+        "no Vulkan device found",
+    );
+    let o = raycast(
+        &[
+            "render",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--backend",
+            "auto",
+            "--shaders",
+            repo().join("shaders").to_str().unwrap(),
+            "-o",
+            none.to_str().unwrap(),
+        ],
+        &[],
+    );
     assert!(o.status.success() && !text(&o).0.contains("device: CPU build"), "{:?}", text(&o));
 }
 
@@ -437,18 +502,31 @@ fn several_scenes_check_on_one_device() {
     let shaders = ["--shaders", planted.to_str().unwrap()];
     let o = raycast(&[&["check"], &batch[..], &small, &dir_arg, &shaders].concat(), &[]);
     assert_fails(&o, 4, "check failed: 2 of 2 scenes differ between the device and the CPU build: ");
-    assert!(text(&o).0.contains("check: 0 of 2 scenes identical, 0 within --allow-pixels, 2 differ, 0 failed"), "{:?}", text(&o));
+    assert!(
+        text(&o).0.contains("check: 0 of 2 scenes identical, 0 within --allow-pixels, 2 differ, 0 failed"),
+        "{:?}",
+        text(&o)
+    );
     assert_eq!(files_in(&dir), ["default-check.png", "scales-check.png"], "{:?}", text(&o));
-    let o = raycast(&[&["check"], &batch[..], &small, &dir_arg, &shaders, &["--allow-pixels", "1000000"]].concat(), &[]);
+    let o =
+        raycast(&[&["check"], &batch[..], &small, &dir_arg, &shaders, &["--allow-pixels", "1000000"]].concat(), &[]);
     assert!(o.status.success(), "{:?}", text(&o));
-    assert!(text(&o).0.contains("0 of 2 scenes identical, 2 within --allow-pixels, 0 differ, 0 failed"), "{:?}", text(&o));
+    assert!(
+        text(&o).0.contains("0 of 2 scenes identical, 2 within --allow-pixels, 0 differ, 0 failed"),
+        "{:?}",
+        text(&o)
+    );
 
     // A bad scene among good ones: reported, the others checked, the command fails naming it.
     let bad = repo().join("tests/scenes/bad/malformed.xml");
     let o = raycast(&[&["check", batch[0], bad.to_str().unwrap(), batch[1]][..], &small, &dir_arg].concat(), &[]);
     assert_fails(&o, 1, "malformed.xml:");
     assert_fails(&o, 1, "1 of 3 scenes failed: ");
-    assert!(text(&o).0.contains("check: 2 of 3 scenes identical, 0 within --allow-pixels, 0 differ, 1 failed"), "{:?}", text(&o));
+    assert!(
+        text(&o).0.contains("check: 2 of 3 scenes identical, 0 within --allow-pixels, 0 differ, 1 failed"),
+        "{:?}",
+        text(&o)
+    );
 
     // Without a device the command ends at once, not once a scene.
     let o = raycast(
@@ -461,8 +539,14 @@ fn several_scenes_check_on_one_device() {
     // Usage mistakes fail before any work: -o or --pixel with several scenes, two diff images of one name.
     let one = out_dir().join("one.png");
     let mistakes = [
-        (vec!["check", batch[0], batch[1], "-o", one.to_str().unwrap()], "-o names one picture, but 2 scenes were given: use --out-dir DIR (each picture <scene name>-check.png)"),
-        (vec!["check", batch[0], batch[1], "--pixel", "1,1"], "--pixel looks at one scene's pixel, but 2 scenes were given"),
+        (
+            vec!["check", batch[0], batch[1], "-o", one.to_str().unwrap()],
+            "-o names one picture, but 2 scenes were given: use --out-dir DIR (each picture <scene name>-check.png)",
+        ),
+        (
+            vec!["check", batch[0], batch[1], "--pixel", "1,1"],
+            "--pixel looks at one scene's pixel, but 2 scenes were given",
+        ),
         (vec!["check", batch[0], batch[0]], "would both be written to default-check.png"),
     ];
     for (args, message) in mistakes {
@@ -575,7 +659,10 @@ fn check_reports_a_planted_difference() {
     assert!(text(&o).0.contains("removed default-check.png, the diff image of an earlier run"), "{:?}", text(&o));
     assert!(files_in(&cwd).is_empty(), "{:?}", files_in(&cwd));
     // --allow-pixels accepts it, and says the check was not exact.
-    let o = raycast(&["check", "--shaders", planted.to_str().unwrap(), "--allow-pixels", "1000000", "-o", diff.to_str().unwrap()], &[]);
+    let o = raycast(
+        &["check", "--shaders", planted.to_str().unwrap(), "--allow-pixels", "1000000", "-o", diff.to_str().unwrap()],
+        &[],
+    );
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
     assert!(out.contains("NOT EXACT"), "{out}");
@@ -608,15 +695,57 @@ fn render_settings_out_of_range() {
     assert_fails(&raycast(&["render", "--depth", "17"], &[]), 2, "--depth 17 is out of range");
     assert_fails(&raycast(&["render", "--texture-filter", "cubic"], &[]), 2, "invalid value 'cubic'");
     assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "3"], &[]), 2, "\"3\" is not NEAR,FAR");
-    assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "5,2"], &[]), 2, "--depth-range 5,2 is out of range");
-    assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", "0,NaN"], &[]), 2, "--depth-range 0,NaN is out of range");
+    assert_fails(
+        &raycast(&["render", "--aov", "depth", "--depth-range", "5,2"], &[]),
+        2,
+        "--depth-range 5,2 is out of range",
+    );
+    assert_fails(
+        &raycast(&["render", "--aov", "depth", "--depth-range", "0,NaN"], &[]),
+        2,
+        "--depth-range 0,NaN is out of range",
+    );
     assert_fails(&raycast(&["render", "--depth-range", "1,2"], &[]), 2, "--depth-range is for --aov depth");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "0"], &[]), 2, "--cost-max 0 is out of range");
-    let o = raycast(&["render", "--aov", "cost", "--width", "32", "--height", "24", "-o", out_dir().join("cost.png").to_str().unwrap()], &[]);
+    let o = raycast(
+        &[
+            "render",
+            "--aov",
+            "cost",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "-o",
+            out_dir().join("cost.png").to_str().unwrap(),
+        ],
+        &[],
+    );
     assert!(text(&o).0.contains("cost: a camera ray's walk takes "), "{:?}", text(&o));
     // The default scene's walks (5 passes: no hierarchy) are far under the default scale, 64: a hint.
-    assert!(text(&o).0.contains("cost: drawn dark red at 64 passes (--cost-max), twice the most here or more: --cost-max 5 spreads"), "{:?}", text(&o));
-    let o = raycast(&["render", "--aov", "cost", "--cost-max", "5", "--width", "32", "--height", "24", "-o", out_dir().join("cost.png").to_str().unwrap()], &[]);
+    assert!(
+        text(&o).0.contains(
+            "cost: drawn dark red at 64 passes (--cost-max), twice the most here or more: --cost-max 5 spreads"
+        ),
+        "{:?}",
+        text(&o)
+    );
+    let o = raycast(
+        &[
+            "render",
+            "--aov",
+            "cost",
+            "--cost-max",
+            "5",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "-o",
+            out_dir().join("cost.png").to_str().unwrap(),
+        ],
+        &[],
+    );
     assert!(o.status.success() && !text(&o).0.contains("spreads"), "{:?}", text(&o));
     assert_fails(&raycast(&["render", "--aov", "depth", "--cost-max", "9"], &[]), 2, "--cost-max is for --aov cost");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "many"], &[]), 2, "invalid value 'many'");
@@ -645,7 +774,9 @@ fn feature_flags_change_the_picture() {
 fn compare_reports_and_fails_beyond_the_threshold() {
     let (a, b) = (out_dir().join("cmp-a.png"), out_dir().join("cmp-b.png"));
     assert!(raycast(&["render", "--width", "64", "--height", "48", "-o", a.to_str().unwrap()], &[]).status.success());
-    assert!(raycast(&["render", "--width", "64", "--height", "48", "--no-shadows", "-o", b.to_str().unwrap()], &[]).status.success());
+    assert!(raycast(&["render", "--width", "64", "--height", "48", "--no-shadows", "-o", b.to_str().unwrap()], &[])
+        .status
+        .success());
     let same = raycast(&["compare", a.to_str().unwrap(), a.to_str().unwrap()], &[]);
     assert!(same.status.success(), "{:?}", text(&same));
     assert!(text(&same).0.starts_with("0 of 3072 pixels (0.0000%) differ by more than 2/255"), "{:?}", text(&same));
@@ -657,7 +788,13 @@ fn compare_reports_and_fails_beyond_the_threshold() {
     // --json: the same numbers as the text, the rule's verdict, the same exit status.
     let words: Vec<String> = text(&o).0.split_whitespace().map(str::to_string).collect();
     let (differing, pixels) = (&words[0], &words[2]);
-    let first = text(&o).0.split("first at (").nth(1).and_then(|r| r.split(')').next()).expect("first at (x, y)").replace(' ', "");
+    let first = text(&o)
+        .0
+        .split("first at (")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .expect("first at (x, y)")
+        .replace(' ', "");
     let j = raycast(&["compare", a.to_str().unwrap(), b.to_str().unwrap(), "--json"], &[]);
     let (out, err) = text(&j);
     assert_eq!(j.status.code(), Some(4), "{out}{err}");
@@ -671,7 +808,13 @@ fn compare_reports_and_fails_beyond_the_threshold() {
         assert!(out.contains(&want), "{want} not in {out}");
     }
     let j = raycast(&["compare", a.to_str().unwrap(), a.to_str().unwrap(), "--json"], &[]);
-    assert!(j.status.success() && text(&j).0.contains("\"differing\":0,\"percent\":0,") && text(&j).0.contains("\"first\":null,\"worst\":null,"), "{:?}", text(&j));
+    assert!(
+        j.status.success()
+            && text(&j).0.contains("\"differing\":0,\"percent\":0,")
+            && text(&j).0.contains("\"first\":null,\"worst\":null,"),
+        "{:?}",
+        text(&j)
+    );
     assert!(text(&j).0.contains("\"passes\":true"), "{:?}", text(&j));
 }
 
@@ -685,7 +828,19 @@ fn a_scene_too_large_for_memory_is_refused_with_the_numbers() {
     let size = std::fs::metadata(&scene).unwrap().len();
     let png = out_dir().join("memory-refused.png");
     let _ = std::fs::remove_file(&png); // an earlier run's
-    let args = ["render", scene.to_str().unwrap(), "--backend", "cpu", "--no-textures", "--width", "16", "--height", "12", "-o", png.to_str().unwrap()];
+    let args = [
+        "render",
+        scene.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--no-textures",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "-o",
+        png.to_str().unwrap(),
+    ];
     let short = (size * 10 - 1).to_string();
     let o = raycast(&args, &[("RAYCAST_MEMORY_AVAILABLE", short.as_str())]);
     assert_fails(&o, 1, "which takes about");
@@ -720,12 +875,22 @@ fn pixels_beyond_lavapipes_loop_budget_are_finished_on_the_cpu_or_refused() {
     let (device_png, cpu_png) = (out_dir().join("loop-budget-device.png"), out_dir().join("loop-budget-cpu.png"));
     let _ = std::fs::remove_file(&device_png);
     let args = ["--no-textures", "--width", "32", "--height", "24", "--depth", "1"];
-    let o = raycast(&[&["render", scene.to_str().unwrap(), "--no-bvh", "-o", device_png.to_str().unwrap()][..], &args].concat(), &[]);
+    let o = raycast(
+        &[&["render", scene.to_str().unwrap(), "--no-bvh", "-o", device_png.to_str().unwrap()][..], &args].concat(),
+        &[],
+    );
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
     assert!(err.contains("pixels short (Mesa's lavapipe gives each shader invocation 65535 loop iterations"), "{err}");
     assert!(err.contains("the CPU build of the same code computed those pixels"), "{err}");
-    let o = raycast(&[&["render", scene.to_str().unwrap(), "--no-bvh", "--backend", "cpu", "-o", cpu_png.to_str().unwrap()][..], &args].concat(), &[]);
+    let o = raycast(
+        &[
+            &["render", scene.to_str().unwrap(), "--no-bvh", "--backend", "cpu", "-o", cpu_png.to_str().unwrap()][..],
+            &args,
+        ]
+        .concat(),
+        &[],
+    );
     assert!(o.status.success(), "{:?}", text(&o));
     // Rule: bit-exact, the finished picture against the CPU build's.
     let (a, b) = (raycast::image_io::read_png(&device_png).unwrap(), raycast::image_io::read_png(&cpu_png).unwrap());
@@ -733,10 +898,15 @@ fn pixels_beyond_lavapipes_loop_budget_are_finished_on_the_cpu_or_refused() {
     assert_eq!(diff.differing, 0, "{diff}");
 
     let diff_png = out_dir().join("loop-budget-check.png");
-    let o = raycast(&[&["check", scene.to_str().unwrap(), "--no-bvh", "-o", diff_png.to_str().unwrap()][..], &args].concat(), &[]);
+    let o = raycast(
+        &[&["check", scene.to_str().unwrap(), "--no-bvh", "-o", diff_png.to_str().unwrap()][..], &args].concat(),
+        &[],
+    );
     assert_fails(&o, 1, "pixels short (the first at (");
     let (_, err) = text(&o);
-    for needle in ["65535 loop iterations", "nothing was written", "drop --no-bvh", "`raycast render` finishes such pixels"] {
+    for needle in
+        ["65535 loop iterations", "nothing was written", "drop --no-bvh", "`raycast render` finishes such pixels"]
+    {
         assert!(err.contains(needle), "stderr lacks {needle:?}:\n{err}");
     }
     // Rule: bit-exact, device against the CPU build.
@@ -754,8 +924,21 @@ fn many_samples_of_a_deep_scene_match_the_cpu_build() {
     let scene = generated("recursive-spheres", 8);
     let diff = out_dir().join("spp-check.png");
     let o = raycast(
-        &["check", scene.to_str().unwrap(), "--no-textures", "--spp", "4", "--width", "64", "--height", "48",
-          "--pixel", "20,20", "-o", diff.to_str().unwrap()],
+        &[
+            "check",
+            scene.to_str().unwrap(),
+            "--no-textures",
+            "--spp",
+            "4",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--pixel",
+            "20,20",
+            "-o",
+            diff.to_str().unwrap(),
+        ],
         &[],
     );
     let (out, err) = text(&o);
@@ -764,7 +947,10 @@ fn many_samples_of_a_deep_scene_match_the_cpu_build() {
     assert!(out.contains("identical: every pixel of every buffer has the same bits"), "{out}");
     assert!(out.contains("pixel (20, 20) in the frame:  device {"), "{out}");
     assert!(out.contains("alone (harness, identical): device {"), "{out}");
-    let o = raycast(&["check", scene.to_str().unwrap(), "--no-textures", "--width", "64", "--height", "48", "--pixel", "64,0"], &[]);
+    let o = raycast(
+        &["check", scene.to_str().unwrap(), "--no-textures", "--width", "64", "--height", "48", "--pixel", "64,0"],
+        &[],
+    );
     assert_fails(&o, 2, "--pixel 64,0 is outside the 64x48 frame");
 }
 
@@ -778,7 +964,20 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
     let png = |n: &str| out_dir().join(format!("scene-buffers-{n}.png"));
     // `images` is the same choice as `uniform`, by its other name.
     for choice in ["uniform", "images", "storage"] {
-        let o = raycast(&["render", "--width", "96", "--height", "64", "--scene-buffers", choice, "-o", png(choice).to_str().unwrap()], &[]);
+        let o = raycast(
+            &[
+                "render",
+                "--width",
+                "96",
+                "--height",
+                "64",
+                "--scene-buffers",
+                choice,
+                "-o",
+                png(choice).to_str().unwrap(),
+            ],
+            &[],
+        );
         assert!(o.status.success(), "{:?}", text(&o));
         let kernel = if choice == "storage" { "kernel: render," } else { "kernel: render_uniform," };
         assert!(text(&o).0.contains(kernel), "--scene-buffers {choice}: {:?}", text(&o));
@@ -804,12 +1003,29 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
     std::fs::write(&scene, xml).unwrap();
     for choice in ["uniform", "storage"] {
         let out = png(&format!("flat-{choice}"));
-        let o = raycast(&["render", scene.to_str().unwrap(), "--width", "64", "--height", "48", "--scene-buffers", choice, "-o", out.to_str().unwrap()], &[]);
+        let o = raycast(
+            &[
+                "render",
+                scene.to_str().unwrap(),
+                "--width",
+                "64",
+                "--height",
+                "48",
+                "--scene-buffers",
+                choice,
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            &[],
+        );
         assert!(o.status.success(), "{:?}", text(&o));
         let kernel = if choice == "uniform" { "kernel: render_uniform," } else { "kernel: render," };
         assert!(text(&o).0.contains(kernel), "{:?}", text(&o));
     }
-    let (a, b) = (raycast::image_io::read_png(&png("flat-uniform")).unwrap(), raycast::image_io::read_png(&png("flat-storage")).unwrap());
+    let (a, b) = (
+        raycast::image_io::read_png(&png("flat-uniform")).unwrap(),
+        raycast::image_io::read_png(&png("flat-storage")).unwrap(),
+    );
     let d = raycast::image_io::compare(&a, &b, 0).unwrap();
     assert_eq!(d.differing, 0, "rule: bit-exact; {d:?}");
 }
@@ -822,10 +1038,22 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
 fn bench_versus_times_two_kernels_and_compares_their_pictures() {
     let same = copy_of_shaders("versus-same");
     let args = |dir: &Path| -> Vec<String> {
-        ["bench", "--versus", dir.to_str().unwrap(), "--frames", "3", "--warmup", "0", "--width", "48", "--height", "32"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect()
+        [
+            "bench",
+            "--versus",
+            dir.to_str().unwrap(),
+            "--frames",
+            "3",
+            "--warmup",
+            "0",
+            "--width",
+            "48",
+            "--height",
+            "32",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect()
     };
     let run = |extra: &[&str], dir: &Path| {
         let mut a = args(dir);
@@ -864,7 +1092,10 @@ fn info_describes_scenes() {
     let o = raycast(&["info"], &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
-    assert!(out.contains("primitives: 5 drawn, 5 written in the file (2 cube, 1 cone, 1 cylinder, 1 sphere), in 1 group"), "{out}");
+    assert!(
+        out.contains("primitives: 5 drawn, 5 written in the file (2 cube, 1 cone, 1 cylinder, 1 sphere), in 1 group"),
+        "{out}"
+    );
     assert!(out.contains("hierarchy: none: 5 primitives tested in order"), "{out}");
     assert!(out.contains("lights: 1 directional, 1 point, 1 spot"), "{out}");
 
@@ -872,7 +1103,12 @@ fn info_describes_scenes() {
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
     assert_eq!(out.lines().count(), 1, "{out}");
-    for field in ["\"expanded\":937", "\"unique\":5", "\"name\":\"root\"", "\"tree\":{\"nodes\":1,\"leaves\":1,\"depth\":1,\"items\":7"] {
+    for field in [
+        "\"expanded\":937",
+        "\"unique\":5",
+        "\"name\":\"root\"",
+        "\"tree\":{\"nodes\":1,\"leaves\":1,\"depth\":1,\"items\":7",
+    ] {
         assert!(out.contains(field), "lacks {field}: {out}");
     }
 
@@ -899,7 +1135,10 @@ fn orbit_renders_a_turntable() {
     let mut files = files_in(&dir);
     files.sort();
     assert_eq!(files, ["default-000.png", "default-001.png", "default-002.png"]);
-    let o = raycast(&[&["render", "--orbit", "3", "--backend", "cpu", "--out-dir", cpu_dir.to_str().unwrap()][..], &small].concat(), &[]);
+    let o = raycast(
+        &[&["render", "--orbit", "3", "--backend", "cpu", "--out-dir", cpu_dir.to_str().unwrap()][..], &small].concat(),
+        &[],
+    );
     assert!(o.status.success(), "{:?}", text(&o));
     let plain = out_dir().join("orbit-plain.png");
     let o = raycast(&[&["render", "-o", plain.to_str().unwrap()][..], &small].concat(), &[]);
@@ -923,7 +1162,10 @@ fn orbit_renders_a_turntable() {
 #[test]
 fn generated_scenes_by_name() {
     let cwd = out_dir().join("gen-by-name");
-    let o = raycast_in(&cwd, &["render", "gen:recursive-cones:2", "--no-textures", "--width", "32", "--height", "24", "--backend", "cpu"]);
+    let o = raycast_in(
+        &cwd,
+        &["render", "gen:recursive-cones:2", "--no-textures", "--width", "32", "--height", "24", "--backend", "cpu"],
+    );
     assert!(o.status.success(), "{:?}", text(&o));
     assert_eq!(files_in(&cwd), ["recursive-cones-2.png"]);
     let o = raycast(&["check", "gen:recursive-spheres:3", "--no-textures", "--width", "32", "--height", "24"], &[]);
@@ -940,7 +1182,10 @@ fn generated_scenes_by_name() {
 #[test]
 fn gen_flat_writes_every_instance_out() {
     let flat = out_dir().join("flat-3.xml");
-    let o = raycast(&["gen", "recursive-spheres", "--depth", "3", "--flat", "--no-texture", "-o", flat.to_str().unwrap()], &[]);
+    let o = raycast(
+        &["gen", "recursive-spheres", "--depth", "3", "--flat", "--no-texture", "-o", flat.to_str().unwrap()],
+        &[],
+    );
     let (_, err) = text(&o);
     assert!(o.status.success() && err.contains("--depth 3 --flat: 37 primitives expanded, 37 in the file"), "{err}");
     let xml = std::fs::read_to_string(&flat).unwrap();
@@ -948,7 +1193,11 @@ fn gen_flat_writes_every_instance_out() {
     assert!(!xml.contains("master"));
     let (a, b, c) = (out_dir().join("flat-3-gpu.png"), out_dir().join("flat-3-cpu.png"), out_dir().join("inst-3.png"));
     let size = ["--width", "64", "--height", "48"];
-    for (args, png) in [(vec![flat.to_str().unwrap()], &a), (vec![flat.to_str().unwrap(), "--backend", "cpu"], &b), (vec!["gen:recursive-spheres:3", "--no-textures"], &c)] {
+    for (args, png) in [
+        (vec![flat.to_str().unwrap()], &a),
+        (vec![flat.to_str().unwrap(), "--backend", "cpu"], &b),
+        (vec!["gen:recursive-spheres:3", "--no-textures"], &c),
+    ] {
         let o = raycast(&[&["render"][..], &args, &size, &["-o", png.to_str().unwrap()]].concat(), &[]);
         assert!(o.status.success(), "{:?}", text(&o));
     }
@@ -984,7 +1233,11 @@ fn trace_follows_one_pixel() {
     }
     let o = raycast(&["trace", "--pixel", "3,2", "--spp", "4", "--sample", "3"], &[]);
     assert!(o.status.success() && text(&o).0.contains("sample 3 of 4:"), "{:?}", text(&o));
-    assert_fails(&raycast(&["trace", "--pixel", "3,2", "--spp", "4", "--sample", "4"], &[]), 2, "--sample 4 is not one of the pixel's 4");
+    assert_fails(
+        &raycast(&["trace", "--pixel", "3,2", "--spp", "4", "--sample", "4"], &[]),
+        2,
+        "--sample 4 is not one of the pixel's 4",
+    );
     assert_fails(&raycast(&["trace", "--pixel", "600,10"], &[]), 2, "--pixel 600,10 is outside the 512x384 picture");
     assert_fails(&raycast(&["trace"], &[]), 2, "--pixel");
     assert_fails(&raycast(&["trace", "--pixel", "1"], &[]), 2, "\"1\" is not X,Y");
@@ -1006,7 +1259,10 @@ fn trace_json_holds_the_text_trace() {
     assert!(o.status.success(), "{out}{err}");
     assert_eq!(out.lines().count(), 1, "one line of JSON:\n{out}");
     let json = out.trim();
-    assert!(json.starts_with("{\"scene\":\"<default scene>\",\"pixel\":[256,200],\"sample\":0,\"spp\":1,\"rays\":4,"), "{json}");
+    assert!(
+        json.starts_with("{\"scene\":\"<default scene>\",\"pixel\":[256,200],\"sample\":0,\"spp\":1,\"rays\":4,"),
+        "{json}"
+    );
     assert!(json.ends_with(",\"render\":{\"rgba8\":[118,134,143,255],\"rays\":4,\"agrees\":true}}"), "{json}");
     // The camera ray's direction, as the text prints it, in JSON's form.
     let line = text_out.lines().find(|l| l.starts_with("camera ray from")).expect("a camera ray line");
@@ -1030,5 +1286,8 @@ fn trace_json_holds_the_text_trace() {
     assert_eq!(json.matches('[').count(), json.matches(']').count(), "{json}");
     let o = raycast(&["trace", "--pixel", "3,2", "--spp", "4", "--sample", "1", "--json"], &[]);
     let (out, err) = text(&o);
-    assert!(o.status.success() && out.trim().ends_with(",\"render\":null}") && out.contains("\"sample\":1,\"spp\":4,"), "{out}{err}");
+    assert!(
+        o.status.success() && out.trim().ends_with(",\"render\":null}") && out.contains("\"sample\":1,\"spp\":4,"),
+        "{out}{err}"
+    );
 }

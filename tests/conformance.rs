@@ -43,7 +43,11 @@ fn main() -> ExitCode {
         Ok(s) => {
             println!("table of measured fractions: {}", s.table.display());
             println!("{} passed, {} failed", s.passed, s.failed);
-            if s.failed == 0 { ExitCode::SUCCESS } else { ExitCode::FAILURE }
+            if s.failed == 0 {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            }
         }
         Err(e) => {
             println!("FAILED: {e}");

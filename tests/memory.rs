@@ -75,7 +75,8 @@ fn deep_recursive_spheres_fit_in_bounded_memory() -> bool {
     assert!(messages.is_empty(), "validation layer: {messages:#?}");
 
     let host = peak_host_bytes().expect("VmHWM in /proc/self/status");
-    let uniform = renderer.kernel_for(&data).unwrap_or_else(|e| panic!("{e}")).name() == raycast::render::UNIFORM_KERNEL;
+    let uniform =
+        renderer.kernel_for(&data).unwrap_or_else(|e| panic!("{e}")).name() == raycast::render::UNIFORM_KERNEL;
     let device = device_bytes(&data, uniform, renderer.band_rows(data.frame.width));
     println!(
         "{name}: {} spheres expanded, {} in the file ({} bytes); load and build {:.1} ms, dispatch {:.1} ms at {}x{}; \

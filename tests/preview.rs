@@ -105,7 +105,12 @@ fn render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str]) -> R
 fn assert_first_frame_is_the_render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str], both: &[&str]) {
     let actual = screenshot(scene, size, 1, name, &[extra, both].concat());
     let expected = render(scene, size, name, both);
-    assert_bit_exact(&actual, &expected, &format!("{name}-first-frame"), "the preview's first frame is not `raycast render`");
+    assert_bit_exact(
+        &actual,
+        &expected,
+        &format!("{name}-first-frame"),
+        "the preview's first frame is not `raycast render`",
+    );
 }
 
 /// Rule: bit-exact; on failure the counts, the first and worst pixel, and
@@ -189,7 +194,8 @@ fn the_cpu_build_draws_the_devices_samples() {
     let o = preview(&["--width", "32", "--height", "24", "--frames", "1", "--backend", "auto"]);
     assert_clean(&o, "preview --backend auto");
     let gpu = preview(&["--width", "32", "--height", "24", "--frames", "1"]);
-    let line = |o: &Output| String::from_utf8_lossy(&o.stdout).lines().find(|l| l.starts_with("device: ")).map(str::to_string);
+    let line =
+        |o: &Output| String::from_utf8_lossy(&o.stdout).lines().find(|l| l.starts_with("device: ")).map(str::to_string);
     let (auto, device) = (line(&o).unwrap_or_default(), line(&gpu).unwrap_or_default());
     if device.contains(" (cpu, Vulkan") {
         let name = device["device: ".len()..].split(" (cpu, Vulkan").next().unwrap();
@@ -251,7 +257,12 @@ fn scripted_keys_switch_the_view_the_flags_and_who_draws() {
     ] {
         assert!(err.contains(said), "{said:?} missing: {}", text(&o));
     }
-    for bad in [&["--frames", "2", "--keys", "0:H"][..], &["--frames", "2", "--keys", "1:Q"], &["--frames", "2", "--keys", "1"], &["--keys", "1:H"]] {
+    for bad in [
+        &["--frames", "2", "--keys", "0:H"][..],
+        &["--frames", "2", "--keys", "1:Q"],
+        &["--frames", "2", "--keys", "1"],
+        &["--keys", "1:H"],
+    ] {
         let o = raycast(&[&["preview"][..], bad].concat());
         assert_eq!(o.status.code(), Some(2), "{bad:?}: {}", text(&o));
     }
@@ -328,7 +339,16 @@ fn no_display_is_a_clear_error() {
 /// message says where larger pictures go.
 #[test]
 fn a_window_beyond_one_storage_buffer_is_a_clear_error() {
-    let o = preview(&["--width", "4096", "--height", "3072", "--frames", "1", "--screenshot", out_dir().join("huge.png").to_str().unwrap()]);
+    let o = preview(&[
+        "--width",
+        "4096",
+        "--height",
+        "3072",
+        "--frames",
+        "1",
+        "--screenshot",
+        out_dir().join("huge.png").to_str().unwrap(),
+    ]);
     let err = String::from_utf8_lossy(&o.stderr);
     if !text(&o).contains("llvmpipe") {
         println!("skipped: the device is not lavapipe, whose buffer limit this test knows: {}", text(&o));
@@ -336,7 +356,11 @@ fn a_window_beyond_one_storage_buffer_is_a_clear_error() {
     }
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(err.contains("the preview's pixel buffer") && err.contains("maxStorageBufferRange"), "{}", text(&o));
-    assert!(err.contains("`raycast render` draws larger pictures in bands") && !err.contains("panicked"), "{}", text(&o));
+    assert!(
+        err.contains("`raycast render` draws larger pictures in bands") && !err.contains("panicked"),
+        "{}",
+        text(&o)
+    );
     assert!(!out_dir().join("huge.png").exists(), "a screenshot was written");
 }
 
@@ -370,7 +394,18 @@ fn pixels_cut_short_are_reported_and_not_saved() {
 
     let png = out_dir().join("planted-loop.png");
     let _ = std::fs::remove_file(&png);
-    let o = preview(&["--shaders", dir.to_str().unwrap(), "--width", "24", "--height", "16", "--frames", "2", "--screenshot", png.to_str().unwrap()]);
+    let o = preview(&[
+        "--shaders",
+        dir.to_str().unwrap(),
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--frames",
+        "2",
+        "--screenshot",
+        png.to_str().unwrap(),
+    ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(err.contains("the picture is WRONG: the device cut 384 pixels short"), "{}", text(&o));
@@ -389,13 +424,28 @@ fn pixels_cut_short_are_reported_and_not_saved() {
 fn moving_frames_report_their_rate_and_the_frame_at_rest_is_full_size() {
     let png = out_dir().join("moving.png");
     let _ = std::fs::remove_file(&png);
-    let o = preview(&["--width", "96", "--height", "64", "--frames", "7", "--moving", "4", "--screenshot", png.to_str().unwrap()]);
+    let o = preview(&[
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--frames",
+        "7",
+        "--moving",
+        "4",
+        "--screenshot",
+        png.to_str().unwrap(),
+    ]);
     assert_clean(&o, "preview --moving");
     let out = String::from_utf8_lossy(&o.stdout);
-    let line = out.lines().find(|l| l.starts_with("moving: 3 frames at ")).unwrap_or_else(|| panic!("no moving line:\n{}", text(&o)));
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("moving: 3 frames at "))
+        .unwrap_or_else(|| panic!("no moving line:\n{}", text(&o)));
     assert!(line.contains("(the picture 96x64): median ") && line.ends_with(" frames a second"), "{line}");
     // Frames 5 and 6 at rest are timed (the 7th, the last, is not).
-    let line = out.lines().find(|l| l.starts_with("at rest: ")).unwrap_or_else(|| panic!("no at-rest line:\n{}", text(&o)));
+    let line =
+        out.lines().find(|l| l.starts_with("at rest: ")).unwrap_or_else(|| panic!("no at-rest line:\n{}", text(&o)));
     assert!(line.starts_with("at rest: 2 frames at 96x64: median ") && line.ends_with(" frames a second"), "{line}");
     let shot = image_io::read_png(&png).unwrap();
     assert_eq!((shot.width, shot.height), (96, 64), "the frame at rest is the full picture");
@@ -437,17 +487,26 @@ fn a_click_prints_the_pixel_and_its_rays() {
     let o = preview(&["--frames", "3", "--moving", "2", "--click", "256,200", "--screenshot", png.to_str().unwrap()]);
     assert_clean(&o, "click after moving");
     let out = String::from_utf8_lossy(&o.stdout).into_owned();
-    let camera = out.lines().find(|l| l.trim_start().starts_with("camera ray from")).unwrap_or_else(|| panic!("{}", text(&o)));
+    let camera =
+        out.lines().find(|l| l.trim_start().starts_with("camera ray from")).unwrap_or_else(|| panic!("{}", text(&o)));
     assert!(!camera.contains("from (4.5, 3.2, 6.5)"), "the scene's eye, not the turned camera's: {camera}");
-    let sample = out.lines().find(|l| l.trim_start().starts_with("sample colour")).unwrap_or_else(|| panic!("{}", text(&o)));
+    let sample =
+        out.lines().find(|l| l.trim_start().starts_with("sample colour")).unwrap_or_else(|| panic!("{}", text(&o)));
     let shot = image_io::read_png(&png).unwrap();
     let k = (200 * shot.width as usize + 256) * 3;
     let rgb = &shot.data[k..k + 3];
-    assert!(sample.contains(&format!("8-bit ({}, {}, {})", rgb[0], rgb[1], rgb[2])), "screenshot pixel {rgb:?}; {sample}");
+    assert!(
+        sample.contains(&format!("8-bit ({}, {}, {})", rgb[0], rgb[1], rgb[2])),
+        "screenshot pixel {rgb:?}; {sample}"
+    );
 
     // After several samples at rest the trace says which one it follows.
     let o = preview(&["--frames", "4", "--click", "256,200"]);
     assert_clean(&o, "click after 4 samples");
     let out = String::from_utf8_lossy(&o.stdout).into_owned();
-    assert!(out.contains("its rays (`raycast trace`), sample 0 (the pixel centre) of the 4 averaged here:"), "{}", text(&o));
+    assert!(
+        out.contains("its rays (`raycast trace`), sample 0 (the pixel centre) of the 4 averaged here:"),
+        "{}",
+        text(&o)
+    );
 }

@@ -74,7 +74,8 @@ fn raycast(args: &[&str]) -> Output {
 }
 
 fn harness_on_lavapipe() -> Harness {
-    let opts = HarnessOptions { shaders: None, device: Some(gpu::DeviceSelector::Name("llvmpipe".into())), validation: true };
+    let opts =
+        HarnessOptions { shaders: None, device: Some(gpu::DeviceSelector::Name("llvmpipe".into())), validation: true };
     Harness::new(&opts).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -186,7 +187,10 @@ impl Shape {
             Shape::Cone => {
                 // Body: r - (0.5 - y) / 2, gradient (radial, 1/2), length sqrt(5/4).
                 let k = 1.25f64.sqrt();
-                vec![((r - (0.5 - p.y) / 2.0) / k, (radial + DVec3::new(0.0, 0.5, 0.0)) / k), (-p.y - 0.5, DVec3::NEG_Y)]
+                vec![
+                    ((r - (0.5 - p.y) / 2.0) / k, (radial + DVec3::new(0.0, 0.5, 0.0)) / k),
+                    (-p.y - 0.5, DVec3::NEG_Y),
+                ]
             }
         };
         candidates.into_iter().fold((f64::NEG_INFINITY, DVec3::ZERO), |a, b| if b.0 > a.0 { b } else { a })
@@ -220,7 +224,11 @@ fn scene_of(shape: Shape, object_from_world: [[f32; 4]; 4]) -> Arc<SceneBuffers>
 fn generate(shape: Shape, rng: &mut Rng) -> Setup {
     // Scale: one magnitude in [1e-4, 1e4] and per-axis factors in [1/2, 2].
     let s0 = rng.log_uniform(1e-4, 1e4);
-    let scale = DVec3::new(s0 * 2f64.powf(rng.range(-1.0, 1.0)), s0 * 2f64.powf(rng.range(-1.0, 1.0)), s0 * 2f64.powf(rng.range(-1.0, 1.0)));
+    let scale = DVec3::new(
+        s0 * 2f64.powf(rng.range(-1.0, 1.0)),
+        s0 * 2f64.powf(rng.range(-1.0, 1.0)),
+        s0 * 2f64.powf(rng.range(-1.0, 1.0)),
+    );
     // Rotation: a quarter of the cases an exact signed axis permutation (axis-parallel rays, 0/0 in the slab tests), else uniform.
     let rotation = if rng.uniform() < 0.25 {
         let perms = [[0, 1, 2], [1, 2, 0], [2, 0, 1], [0, 2, 1], [2, 1, 0], [1, 0, 2]];
@@ -359,11 +367,17 @@ fn property_test(shape: Shape) {
         let unit_error = (nn.length() - 1.0).abs();
         worst.normal = worst.normal.max(unit_error);
         if !(unit_error <= NORMAL_BOUND) {
-            failures.push(fail(format!("the normal {n:?} has length 1 {:+.3e} (bound {NORMAL_BOUND:.3e})", nn.length() - 1.0)));
+            failures.push(fail(format!(
+                "the normal {n:?} has length 1 {:+.3e} (bound {NORMAL_BOUND:.3e})",
+                nn.length() - 1.0
+            )));
         }
         let d = f64x3(s.direction);
         if !(nn.dot(d) < 0.0) {
-            failures.push(fail(format!("the normal {n:?} does not face out: n . d = {:e} for a hit from outside", nn.dot(d))));
+            failures.push(fail(format!(
+                "the normal {n:?} does not face out: n . d = {:e} for a hit from outside",
+                nn.dot(d)
+            )));
             continue;
         }
         // Leave: the mirror direction, or a random one well off the tangent plane.
@@ -395,7 +409,10 @@ fn property_test(shape: Shape) {
             failures.push(fail(format!("device and CPU differ on the leaving ray:\n{}", r.report)));
         } else if let Some((t, id, _)) = hit_of(r) {
             if id != layout::NO_HIT {
-                failures.push(fail(format!("the leaving ray {} hits the primitive again at t {t:?}", case.inputs[0].1.text())));
+                failures.push(fail(format!(
+                    "the leaving ray {} hits the primitive again at t {t:?}",
+                    case.inputs[0].1.text()
+                )));
             }
         }
     }
@@ -488,11 +505,14 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         let expected = match stem.as_str() {
             "render" => Some((layout::render_bindings(), Vec::new())),
             "render_uniform" => Some((layout::render_uniform_bindings(), layout::uniform_kernel_images())),
-            "preview" => Some((raycast::preview::layout::preview_bindings(), raycast::preview::layout::preview_images())),
-            "fma_probe" => Some((layout::fma_probe_bindings(), Vec::new())),
-            "preview_uniform" => {
-                Some((raycast::preview::layout::preview_uniform_bindings(), raycast::preview::layout::preview_uniform_images()))
+            "preview" => {
+                Some((raycast::preview::layout::preview_bindings(), raycast::preview::layout::preview_images()))
             }
+            "fma_probe" => Some((layout::fma_probe_bindings(), Vec::new())),
+            "preview_uniform" => Some((
+                raycast::preview::layout::preview_uniform_bindings(),
+                raycast::preview::layout::preview_uniform_images(),
+            )),
             _ => None,
         };
         match expected {
@@ -509,12 +529,19 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
     // The embedded render kernels too (what the binary runs), both variants.
     for suffix in gpu::Division::ALL.map(gpu::Division::suffix) {
         let storage = raycast::render::kernel_spirv(&format!("render{suffix}")).expect("embedded");
-        if let Err(e) = reflect::check_layouts(&format!("render{suffix} (embedded)"), storage, &layout::render_bindings()) {
+        if let Err(e) =
+            reflect::check_layouts(&format!("render{suffix} (embedded)"), storage, &layout::render_bindings())
+        {
             errors.push(e.to_string());
         }
         let uniform = raycast::render::kernel_spirv(&format!("render_uniform{suffix}")).expect("embedded");
         let (buffers, images) = (layout::render_uniform_bindings(), layout::uniform_kernel_images());
-        if let Err(e) = reflect::check_layouts_with_images(&format!("render_uniform{suffix} (embedded)"), uniform, &buffers, &images) {
+        if let Err(e) = reflect::check_layouts_with_images(
+            &format!("render_uniform{suffix} (embedded)"),
+            uniform,
+            &buffers,
+            &images,
+        ) {
             errors.push(e.to_string());
         }
     }
@@ -524,7 +551,8 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         Ok(()) => errors.push("render_uniform.comp passed as a storage-buffer kernel".into()),
         Err(e) => {
             let text = e.to_string();
-            if !text.contains("binding 0 (FrameBlock) is a uniform buffer in the shader, a storage buffer on the host") {
+            if !text.contains("binding 0 (FrameBlock) is a uniform buffer in the shader, a storage buffer on the host")
+            {
                 errors.push(format!("the storage / uniform mismatch is not named: {text}"));
             }
         }
@@ -578,11 +606,22 @@ fn a_planted_cone_bug_is_caught_readably() {
     let glsl = planted.join("raycast.glsl");
     let source = std::fs::read_to_string(&glsl).unwrap();
     let right = "0.25f * (r.direction.y * r.direction.y)";
-    assert_eq!(source.matches(right).count(), 1, "cone_quadratic's a no longer reads `{right}`: update this test's planted bug");
+    assert_eq!(
+        source.matches(right).count(),
+        1,
+        "cone_quadratic's a no longer reads `{right}`: update this test's planted bug"
+    );
     std::fs::write(&glsl, source.replace(right, "0.5f * (r.direction.y * r.direction.y)")).unwrap();
 
     let cone = repo().join("tests/shaders/cone.toml");
-    let o = raycast(&["shader-test", cone.to_str().unwrap(), "--shaders", planted.to_str().unwrap(), "--device", "llvmpipe"]);
+    let o = raycast(&[
+        "shader-test",
+        cone.to_str().unwrap(),
+        "--shaders",
+        planted.to_str().unwrap(),
+        "--device",
+        "llvmpipe",
+    ]);
     let (out, err) = text(&o);
     assert_eq!(o.status.code(), Some(4), "exit status\nstdout:\n{out}\nstderr:\n{err}");
     assert!(!err.contains("panicked"), "{err}");

@@ -138,7 +138,12 @@ pub fn parse_scene(name: Option<&str>, opts: &ParseOptions) -> Result<SceneFile,
 
 /// Loads, counts, flattens and builds one scene, timing each part. Prints
 /// the scene's warnings and notes to stderr.
-pub fn load_scene(name: Option<&str>, opts: &ParseOptions, limits: &FlattenLimits, settings: &RenderSettings) -> Result<LoadedScene, String> {
+pub fn load_scene(
+    name: Option<&str>,
+    opts: &ParseOptions,
+    limits: &FlattenLimits,
+    settings: &RenderSettings,
+) -> Result<LoadedScene, String> {
     let start = Instant::now();
     let file = parse_scene(name, opts)?;
     let counts = count_primitives(&file);
@@ -254,7 +259,13 @@ impl Row {
 /// Milliseconds with three significant digits (at least one decimal).
 fn ms(d: Duration) -> String {
     let v = d.as_secs_f64() * 1e3;
-    let decimals = if v >= 10.0 { 1 } else if v >= 1.0 { 2 } else { 3 };
+    let decimals = if v >= 10.0 {
+        1
+    } else if v >= 1.0 {
+        2
+    } else {
+        3
+    };
     format!("{v:.decimals$} ms")
 }
 
@@ -570,8 +581,10 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     let plural = |n: u32, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
     // The device's name, and how its kernels divide (a GPU's correct it).
-    let gpu_header = gpu.as_ref().zip(gpu_device.as_ref()).map(|(g, d)| format!("{d}{}", g.context().division().kernels_clause()));
-    let frames_text = format!("median of {} after {}", plural(args.frames, "frame"), plural(args.warmup, "warm-up frame"));
+    let gpu_header =
+        gpu.as_ref().zip(gpu_device.as_ref()).map(|(g, d)| format!("{d}{}", g.context().division().kernels_clause()));
+    let frames_text =
+        format!("median of {} after {}", plural(args.frames, "frame"), plural(args.warmup, "warm-up frame"));
     if args.markdown {
         outln!("`{}`", command_line());
         outln!();
@@ -585,13 +598,16 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         }
         outln!("settings: {}; {frames_text}", settings_text(&settings));
         if !peaks_per_scene {
-            outln!("note: cannot reset the peak resident set (/proc/self/clear_refs): host peaks are the process's so far");
+            outln!(
+                "note: cannot reset the peak resident set (/proc/self/clear_refs): host peaks are the process's so far"
+            );
         }
     }
 
     let opts = ParseOptions { assets: r.assets.clone() };
     let limits = FlattenLimits { max_primitives: r.max_primitives };
-    let names: Vec<Option<&str>> = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    let names: Vec<Option<&str>> =
+        if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
     let primary_rays = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
     let mut all_rows: Vec<Row> = Vec::new();
     for name in names {
@@ -678,7 +694,9 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             if let (Some(g), Some(p)) = (rows.first(), &gpu_picture) {
                 row.frames.sort();
                 row.cpu_over_gpu = Some(median_time(&row.frames).as_secs_f64() / g.median().as_secs_f64().max(1e-12));
-                row.identical = last.map(|c| bytemuck::cast_slice::<PixelOut, u8>(&c.pixels) == bytemuck::cast_slice::<PixelOut, u8>(&p.pixels));
+                row.identical = last.map(|c| {
+                    bytemuck::cast_slice::<PixelOut, u8>(&c.pixels) == bytemuck::cast_slice::<PixelOut, u8>(&p.pixels)
+                });
             }
             rows.push(row);
         }
@@ -756,7 +774,9 @@ mod tests {
     #[test]
     fn device_bytes_counts_every_buffer() {
         let settings = RenderSettings { width: 10, height: 4, textures: false, ..RenderSettings::default() };
-        let loaded = load_scene(Some("gen:recursive-spheres:2"), &ParseOptions::default(), &FlattenLimits::default(), &settings).unwrap();
+        let loaded =
+            load_scene(Some("gen:recursive-spheres:2"), &ParseOptions::default(), &FlattenLimits::default(), &settings)
+                .unwrap();
         assert_eq!(loaded.counts, PrimitiveCounts { expanded: 7, unique: 2 });
         let scene: u64 = loaded.data.scene_buffers().iter().map(|b| b.2.len() as u64).sum();
         assert!(scene > 0);
@@ -811,7 +831,12 @@ mod tests {
             cpu_over_gpu: None,
             identical: None,
         };
-        let rows = [row("a", "gpu uniform", 100, 10), row("a", "cpu", 100, 4), row("b", "gpu storage", 10_000, 25), row("b", "cpu", 10_000, 6)];
+        let rows = [
+            row("a", "gpu uniform", 100, 10),
+            row("a", "cpu", 100, 4),
+            row("b", "gpu storage", 10_000, 25),
+            row("b", "cpu", 10_000, 6),
+        ];
         let g = growth(&rows);
         assert_eq!(g.len(), 2);
         assert_eq!((g[0].gpu, g[0].cpu, g[0].log_ratio), (Some(1.0), Some(1.0), Some(1.0)));
@@ -855,7 +880,10 @@ mod tests {
         }
         assert!(!j.contains('\n'));
         let m = row.markdown();
-        assert!(m.contains("| 2,929,687 / 10 |") && m.contains("| 20.0 ms |") && m.contains("| 3.0 MiB | 2.0 KiB |"), "{m}");
+        assert!(
+            m.contains("| 2,929,687 / 10 |") && m.contains("| 20.0 ms |") && m.contains("| 3.0 MiB | 2.0 KiB |"),
+            "{m}"
+        );
         assert_eq!(m.matches('|').count(), MARKDOWN_HEADER.lines().next().unwrap().matches('|').count());
     }
 }

@@ -82,11 +82,19 @@ impl Aabb {
         let pad = (size + magnitude) * (1.0 / 65536.0) + f64::from(f32::MIN_POSITIVE);
         let down = |x: f64| {
             let f = (x - pad) as f32;
-            if f64::from(f) > x - pad { f.next_down() } else { f }
+            if f64::from(f) > x - pad {
+                f.next_down()
+            } else {
+                f
+            }
         };
         let up = |x: f64| {
             let f = (x + pad) as f32;
-            if f64::from(f) < x + pad { f.next_up() } else { f }
+            if f64::from(f) < x + pad {
+                f.next_up()
+            } else {
+                f
+            }
         };
         ([down(self.lo.x), down(self.lo.y), down(self.lo.z), 0.0], [up(self.hi.x), up(self.hi.y), up(self.hi.z), 0.0])
     }
@@ -171,14 +179,25 @@ pub fn build(bounds: &[Aabb], instances_from: usize) -> Bvh {
 /// when SAH finds no useful split or the tree is too deep. None: keep them
 /// in one leaf (only when every centroid is the same point and there are
 /// few enough). `scratch` holds the right side while partitioning.
-fn split(items: &mut [u32], bounds: &[Aabb], centroids: &[DVec3], c_box: Aabb, depth: u32, scratch: &mut Vec<u32>) -> Option<(u32, usize)> {
+fn split(
+    items: &mut [u32],
+    bounds: &[Aabb],
+    centroids: &[DVec3],
+    c_box: Aabb,
+    depth: u32,
+    scratch: &mut Vec<u32>,
+) -> Option<(u32, usize)> {
     let extent = c_box.hi - c_box.lo;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
     let n = items.len();
     let median = |items: &mut [u32]| {
-        items.sort_by(|&a, &b| {
-            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b))
-        });
+        items.sort_by(|&a, &b| centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b)));
         Some((axis as u32, n / 2))
     };
     if extent[axis] <= 0.0 {
@@ -261,7 +280,11 @@ mod tests {
             } else {
                 for &i in &bvh.order[node.first as usize..(node.first + node.count) as usize] {
                     seen[i as usize] += 1;
-                    assert_eq!(node.bounds.union(bounds[i as usize]), node.bounds, "leaf {n} does not contain item {i}");
+                    assert_eq!(
+                        node.bounds.union(bounds[i as usize]),
+                        node.bounds,
+                        "leaf {n} does not contain item {i}"
+                    );
                 }
             }
         }
@@ -286,10 +309,22 @@ mod tests {
         // Two primitives beyond nine instances on a line: the leaf at the
         // far end holds both kinds and lists its primitives first.
         let line: Vec<Aabb> =
-            (0..11).map(|i| if i < 2 { unit_at(10.0 + i as f64, 0.0, 0.0, 0.4) } else { unit_at((i - 2) as f64, 0.0, 0.0, 0.4) }).collect();
+            (0..11)
+                .map(|i| {
+                    if i < 2 {
+                        unit_at(10.0 + i as f64, 0.0, 0.0, 0.4)
+                    } else {
+                        unit_at((i - 2) as f64, 0.0, 0.0, 0.4)
+                    }
+                })
+                .collect();
         let far = build(&line, 2);
         check(&line, &far);
-        let mixed_leaf = far.nodes.iter().find(|n| n.count > 0 && n.primitives > 0 && n.primitives < n.count).expect("a leaf of both kinds");
+        let mixed_leaf = far
+            .nodes
+            .iter()
+            .find(|n| n.count > 0 && n.primitives > 0 && n.primitives < n.count)
+            .expect("a leaf of both kinds");
         let items = &far.order[mixed_leaf.first as usize..(mixed_leaf.first + mixed_leaf.count) as usize];
         assert_eq!(&items[..2], [0, 1], "leaf items {items:?}");
         // A grid whose first half are primitives: every leaf lists its own first.
@@ -305,8 +340,16 @@ mod tests {
         for node in half.nodes.iter().filter(|n| n.count > 0) {
             let items = &half.order[node.first as usize..(node.first + node.count) as usize];
             let (prims, insts) = items.split_at(node.primitives as usize);
-            assert!(prims.iter().all(|&i| (i as usize) < grid.len() / 2), "leaf items {items:?}: primitives {}", node.primitives);
-            assert!(insts.iter().all(|&i| (i as usize) >= grid.len() / 2), "leaf items {items:?}: primitives {}", node.primitives);
+            assert!(
+                prims.iter().all(|&i| (i as usize) < grid.len() / 2),
+                "leaf items {items:?}: primitives {}",
+                node.primitives
+            );
+            assert!(
+                insts.iter().all(|&i| (i as usize) >= grid.len() / 2),
+                "leaf items {items:?}: primitives {}",
+                node.primitives
+            );
             leaves += 1;
         }
         assert!(leaves > 10);
@@ -343,7 +386,8 @@ mod tests {
 
     #[test]
     fn deterministic() {
-        let boxes: Vec<Aabb> = (0..500).map(|i| unit_at((i * 37 % 101) as f64, (i * 11 % 53) as f64, 0.0, 0.3)).collect();
+        let boxes: Vec<Aabb> =
+            (0..500).map(|i| unit_at((i * 37 % 101) as f64, (i * 11 % 53) as f64, 0.0, 0.3)).collect();
         let (a, b) = (build(&boxes, boxes.len()), build(&boxes, boxes.len()));
         assert_eq!(a.nodes, b.nodes);
         assert_eq!(a.order, b.order);

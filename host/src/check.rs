@@ -23,7 +23,11 @@ pub fn ulp_distance(a: f32, b: f32) -> u64 {
     // adjacent integers, -0 just below +0.
     let key = |x: f32| -> i64 {
         let bits = x.to_bits();
-        if bits & 0x8000_0000 != 0 { -i64::from(bits & 0x7fff_ffff) - 1 } else { i64::from(bits) }
+        if bits & 0x8000_0000 != 0 {
+            -i64::from(bits & 0x7fff_ffff) - 1
+        } else {
+            i64::from(bits)
+        }
     };
     key(a).abs_diff(key(b))
 }
@@ -112,7 +116,11 @@ pub fn compare(a: &Picture, a_name: &str, b: &Picture, b_name: &str) -> Result<C
             let worst_c = (0..4).max_by_key(|&c| ulp_distance(pa.normal[c], pb.normal[c])).unwrap_or(0);
             let fmt = |p: &PixelOut| {
                 let [x, y, z, w] = p.normal.map(float_text);
-                if p.normal[3] == 0.0 { format!("[{x}, {y}, {z}]") } else { format!("[{x}, {y}, {z}], passes {w}") }
+                if p.normal[3] == 0.0 {
+                    format!("[{x}, {y}, {z}]")
+                } else {
+                    format!("[{x}, {y}, {z}], passes {w}")
+                }
             };
             note(&mut normal, x, y, fmt(pa), fmt(pb), Some(ulp_distance(pa.normal[worst_c], pb.normal[worst_c])));
             any = true;
@@ -222,7 +230,12 @@ mod tests {
         assert_eq!(r.buffers[4].worst, Some((1, 1, 2)));
         let text = r.to_string();
         assert!(text.contains("t:      2 of 4 pixels differ; first at (1, 0): gpu 2.0 (0x40000000), cpu 2.0000002 (0x40000001), 1 ULP; worst 5 ULP at (1, 1)"), "{text}");
-        assert!(text.contains("rays:   1 of 4 pixels differ; first at (1, 1): gpu 4, cpu 6, 2 rays; worst 2 rays at (1, 1)"), "{text}");
+        assert!(
+            text.contains(
+                "rays:   1 of 4 pixels differ; first at (1, 1): gpu 4, cpu 6, 2 rays; worst 2 rays at (1, 1)"
+            ),
+            "{text}"
+        );
         assert!(text.contains("3 of 4 pixels differ in at least one buffer"), "{text}");
         assert_eq!(r.diff_image.pixel(1, 0), [255, 0, 0]);
         assert!(compare(&a, "gpu", &a, "cpu").unwrap().identical());

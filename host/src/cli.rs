@@ -5,11 +5,11 @@
 //! RAYCAST_VALIDATION=1), 4 `check` found differences.
 
 use crate::check;
-use crate::layout;
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gpu::{self, DeviceSelector, GpuOptions};
 use crate::image_io::{self, Rgb8};
+use crate::layout;
 use crate::render::{GpuRenderer, Picture, SceneBuffers};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -23,7 +23,11 @@ pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.xml");
 pub(crate) const DEFAULT_SCENE_NAME: &str = "<default scene>";
 
 #[derive(Parser, Debug)]
-#[command(name = "raycast", version, about = "A ray caster in a Vulkan compute shader for CS1230/CS123/Comp175 XML scenes")]
+#[command(
+    name = "raycast",
+    version,
+    about = "A ray caster in a Vulkan compute shader for CS1230/CS123/Comp175 XML scenes"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -146,7 +150,11 @@ impl KernelOptions {
 
     /// Which kernel, for the commands' first line.
     pub(crate) fn kernel_text(&self) -> &'static str {
-        if self.shaders.is_some() { "the kernel from --shaders" } else { "the built-in kernel" }
+        if self.shaders.is_some() {
+            "the kernel from --shaders"
+        } else {
+            "the built-in kernel"
+        }
     }
 }
 
@@ -259,7 +267,8 @@ struct CheckArgs {
 }
 
 pub(crate) fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
-    let parse = |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{s:?} is not X,Y (two whole numbers, say 29,4)"));
+    let parse =
+        |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{s:?} is not X,Y (two whole numbers, say 29,4)"));
     match s.split_once(',') {
         Some((x, y)) => Ok((parse(x)?, parse(y)?)),
         None => Err(format!("{s:?} is not X,Y (two whole numbers, say 29,4)")),
@@ -317,7 +326,10 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
         ));
     }
     if !matches!(o.aov, AovArg::Color) {
-        return Err(Failure("raycast: error: trace follows the colour's rays; --aov is for render and check".to_string(), 2));
+        return Err(Failure(
+            "raycast: error: trace follows the colour's rays; --aov is for render and check".to_string(),
+            2,
+        ));
     }
     // Usage errors before any work (the picture's size and samples are the options').
     o.settings().validate().map_err(usage_error)?;
@@ -326,14 +338,20 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
         return Err(usage_error(format!("--pixel {x},{y} is outside the {}x{} picture", o.width, o.height)));
     }
     if args.sample >= o.spp.max(1) {
-        return Err(usage_error(format!("--sample {} is not one of the pixel's {} (0 to {})", args.sample, o.spp.max(1), o.spp.max(1) - 1)));
+        return Err(usage_error(format!(
+            "--sample {} is not one of the pixel's {} (0 to {})",
+            args.sample,
+            o.spp.max(1),
+            o.spp.max(1) - 1
+        )));
     }
     let p = prepare(args.scene.as_deref(), o)?;
     if !args.json {
         print_scene(&p);
     }
     let cpu = CpuRenderer::new()?;
-    let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
+    let steps =
+        cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
     let spp = p.data.frame.spp.max(1);
     // At one sample a pixel, the render's pixel: the same 8-bit colour, rays and first hit.
     let render = (spp == 1).then(|| cpu.render_rows(&p.data, &[y])[0][x as usize]);
@@ -343,7 +361,9 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
     let agrees = |pixel: &layout::PixelOut| {
         colour == Some(pixel.rgba)
             && rays == pixel.rays as usize
-            && first.is_some_and(|c| c.id == pixel.id && (c.id == layout::NO_HIT || c.value[3].to_bits() == pixel.t.to_bits()))
+            && first.is_some_and(|c| {
+                c.id == pixel.id && (c.id == layout::NO_HIT || c.value[3].to_bits() == pixel.t.to_bits())
+            })
     };
     if args.json {
         let render_json = render.map_or("null".to_string(), |pixel| {
@@ -592,7 +612,8 @@ fn devices() -> Result<(), Failure> {
     }
     if let Some(d) = list.get(default) {
         // As open_backend decides for --backend auto.
-        let auto = if d.runs_on_cpu() { "the CPU build instead, as this device runs on the CPU" } else { "this device" };
+        let auto =
+            if d.runs_on_cpu() { "the CPU build instead, as this device runs on the CPU" } else { "this device" };
         outln!("default: device {} (without --device); --backend auto renders with {auto}", d.index);
     }
     Ok(())
@@ -602,10 +623,11 @@ fn devices() -> Result<(), Failure> {
 /// correction, which the fma probe decides once the device is open
 /// (`GpuContext::division`).
 fn division_line(index: usize) -> String {
-    let ctx = match gpu::GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Index(index)), ..Default::default() }) {
-        Ok(ctx) => ctx,
-        Err(e) => return format!("division correction: residuals not known, the device does not open ({e})"),
-    };
+    let ctx =
+        match gpu::GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Index(index)), ..Default::default() }) {
+            Ok(ctx) => ctx,
+            Err(e) => return format!("division correction: residuals not known, the device does not open ({e})"),
+        };
     let why = |probe: &str| match gpu::forced_residuals() {
         Some(_) => "as RAYCAST_FMA_RESIDUALS says".to_string(),
         None => format!("the fma probe saw this device's fma() {probe}"),
@@ -625,7 +647,8 @@ fn ms(d: Duration) -> String {
 /// where no file has that name. Prints the scene's warnings to stderr.
 pub fn load_scene(path: Option<&Path>, opts: &ParseOptions, limits: &FlattenLimits) -> Result<Scene, String> {
     // A file of that name wins over a generated scene's name.
-    let generated = path.filter(|p| !p.exists()).and_then(|p| p.to_str()).filter(|n| crate::gen::parse_scene_name(n).is_some());
+    let generated =
+        path.filter(|p| !p.exists()).and_then(|p| p.to_str()).filter(|n| crate::gen::parse_scene_name(n).is_some());
     let file = match (path, generated) {
         (Some(p), None) => scene::parse_file(p, opts).map_err(|e| e.to_string())?,
         // The embedded default scene (None) or the generated one.
@@ -651,7 +674,8 @@ fn prepare(scene: Option<&Path>, o: &RenderOptions) -> Result<Prepared, Failure>
     settings.validate().map_err(usage_error)?;
     let start = Instant::now();
     let parse = ParseOptions { assets: o.assets.clone() };
-    let scene = load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives }).map_err(scene_failure)?;
+    let scene =
+        load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives }).map_err(scene_failure)?;
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
         errln!("raycast: note: {note}");
@@ -678,7 +702,8 @@ pub(crate) fn open_renderer(
     shaders: Option<&Path>,
     buffers: SceneBuffers,
 ) -> Result<GpuRenderer, Failure> {
-    let options = GpuOptions { device: parse_device(device), validation: validation_wanted(validate), ..GpuOptions::default() };
+    let options =
+        GpuOptions { device: parse_device(device), validation: validation_wanted(validate), ..GpuOptions::default() };
     let mut renderer = match shaders {
         Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
         None => GpuRenderer::new(&options)?,
@@ -749,7 +774,11 @@ fn write_picture(path: &Path, picture: &Picture) -> Result<(), Failure> {
 
 /// The scenes a command was given: each path, or None for the embedded default scene.
 fn scene_list(scenes: &[PathBuf]) -> Vec<Option<&Path>> {
-    if scenes.is_empty() { vec![None] } else { scenes.iter().map(|s| Some(s.as_path())).collect() }
+    if scenes.is_empty() {
+        vec![None]
+    } else {
+        scenes.iter().map(|s| Some(s.as_path())).collect()
+    }
 }
 
 /// A scene as the command's messages name it.
@@ -778,10 +807,13 @@ fn output_paths(
         ));
     }
     if let Some(dir) = out_dir {
-        std::fs::create_dir_all(dir).map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", dir.display()))?;
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", dir.display()))?;
     }
-    let outputs: Vec<PathBuf> =
-        scenes.iter().map(|scene| output.clone().unwrap_or_else(|| default_output(*scene, suffix, out_dir.as_deref()))).collect();
+    let outputs: Vec<PathBuf> = scenes
+        .iter()
+        .map(|scene| output.clone().unwrap_or_else(|| default_output(*scene, suffix, out_dir.as_deref())))
+        .collect();
     for (i, path) in outputs.iter().enumerate() {
         image_io::check_output_path(path)?;
         if let Some(j) = outputs[..i].iter().position(|earlier| earlier == path) {
@@ -811,8 +843,12 @@ impl<T> Batch<T> {
     /// `K of N scenes failed: …` (exit 1), with `also` added, where any failed.
     fn failure(&self, also: &str) -> Option<Failure> {
         let n = self.done.len() + self.failed.len();
-        (!self.failed.is_empty())
-            .then(|| Failure(format!("raycast: error: {} of {n} scenes failed: {}{also}", self.failed.len(), self.failed.join(", ")), 1))
+        (!self.failed.is_empty()).then(|| {
+            Failure(
+                format!("raycast: error: {} of {n} scenes failed: {}{also}", self.failed.len(), self.failed.join(", ")),
+                1,
+            )
+        })
     }
 }
 
@@ -931,7 +967,9 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
 /// CPU build was chosen (`; --backend auto: …`, or empty), to follow its
 /// thread count on the command's first line.
 fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, String), Failure> {
-    let cpu = |why: Option<String>| Ok((RenderBackend::Cpu(CpuRenderer::new()?), why.map_or(String::new(), |w| format!("; {w}"))));
+    let cpu = |why: Option<String>| {
+        Ok((RenderBackend::Cpu(CpuRenderer::new()?), why.map_or(String::new(), |w| format!("; {w}"))))
+    };
     match backend {
         Backend::Cpu => cpu(None),
         Backend::Gpu => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
@@ -1055,7 +1093,10 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     let scenes = scene_list(&args.scenes);
     if !args.pixel.is_empty() && scenes.len() > 1 {
         return Err(Failure(
-            format!("raycast: error: --pixel looks at one scene's pixel, but {} scenes were given: check that scene alone", scenes.len()),
+            format!(
+                "raycast: error: --pixel looks at one scene's pixel, but {} scenes were given: check that scene alone",
+                scenes.len()
+            ),
             2,
         ));
     }
@@ -1084,8 +1125,11 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         },
     )?;
     let accepted = batch.done.iter().filter(|(_, c)| matches!(c, Checked::Accepted)).count();
-    let differ: Vec<(&str, usize)> =
-        batch.done.iter().filter_map(|(name, c)| if let Checked::Differ(n) = c { Some((name.as_str(), *n)) } else { None }).collect();
+    let differ: Vec<(&str, usize)> = batch
+        .done
+        .iter()
+        .filter_map(|(name, c)| if let Checked::Differ(n) = c { Some((name.as_str(), *n)) } else { None })
+        .collect();
     if let Some(b) = backends {
         let messages = b.gpu.context().take_validation_messages();
         drop(b);
@@ -1121,7 +1165,12 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
 
 /// One scene on the device and on the CPU build, compared and reported; the
 /// diff image written to `diff` where asked (-o) or where something differs.
-fn check_scene(args: &CheckArgs, b: &CheckBackends, p: &Prepared, diff: &Path) -> Result<(Checked, Picture, Picture), Failure> {
+fn check_scene(
+    args: &CheckArgs,
+    b: &CheckBackends,
+    p: &Prepared,
+    diff: &Path,
+) -> Result<(Checked, Picture, Picture), Failure> {
     let device = b.gpu.context().info().name.clone();
     print_scene(p);
     outln!(
@@ -1161,7 +1210,12 @@ fn check_scene(args: &CheckArgs, b: &CheckBackends, p: &Prepared, diff: &Path) -
 }
 
 /// `check --pixel`: each pixel's render_pixel alone, through the harness.
-fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cpu_picture: &Picture) -> Result<(), Failure> {
+fn isolated_pixels(
+    args: &CheckArgs,
+    data: &FrameData,
+    gpu_picture: &Picture,
+    cpu_picture: &Picture,
+) -> Result<(), Failure> {
     use crate::harness::{Case, Harness, HarnessOptions, SceneBuffers};
     let width = data.frame.width;
     let mut harness = Harness::new(&HarnessOptions {
@@ -1174,7 +1228,10 @@ fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cp
     let mut scene = SceneBuffers::new().frame(&data.frame);
     for (binding, what, bytes) in data.scene_buffers() {
         let Some(b) = harness.shaders().scene_buffers.iter().find(|b| b.binding == binding) else {
-            return Err(Failure(format!("raycast: error: --pixel: scene_buffers.glsl declares no binding {binding} ({what})"), 1));
+            return Err(Failure(
+                format!("raycast: error: --pixel: scene_buffers.glsl declares no binding {binding} ({what})"),
+                1,
+            ));
         };
         let words = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
         scene = scene.with_words(&b.name, words);
@@ -1183,7 +1240,13 @@ fn isolated_pixels(args: &CheckArgs, data: &FrameData, gpu_picture: &Picture, cp
     let cases: Vec<Case> = args
         .pixel
         .iter()
-        .map(|&(x, y)| Case::new("render_pixel").named(format!("pixel ({x}, {y}) alone")).input("j", x).input("i", y).scene(scene.clone()))
+        .map(|&(x, y)| {
+            Case::new("render_pixel")
+                .named(format!("pixel ({x}, {y}) alone"))
+                .input("j", x)
+                .input("i", y)
+                .scene(scene.clone())
+        })
         .collect();
     let results = harness.run(&cases);
     for (&(x, y), r) in args.pixel.iter().zip(&results) {
@@ -1219,16 +1282,23 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
     // Not a corpus, or one that cannot be read, fails before the device starts.
     let all = crate::conformance::cases(&corpus)?;
     let total = all.len();
-    let cases: Vec<_> =
-        all.into_iter().filter(|c| args.only.is_empty() || args.only.iter().any(|t| c.label().contains(t.as_str()))).collect();
+    let cases: Vec<_> = all
+        .into_iter()
+        .filter(|c| args.only.is_empty() || args.only.iter().any(|t| c.label().contains(t.as_str())))
+        .collect();
     if cases.is_empty() {
         return Err(Failure(
-            format!("raycast: error: no case of the {total} in {} matches --only {}", corpus.display(), args.only.join(", --only ")),
+            format!(
+                "raycast: error: no case of the {total} in {} matches --only {}",
+                corpus.display(),
+                args.only.join(", --only ")
+            ),
             2,
         ));
     }
     let count = cases.len();
-    std::fs::create_dir_all(&args.out_dir).map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
+    std::fs::create_dir_all(&args.out_dir)
+        .map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
     let summary = match open_backend(args.backend, &args.kernel)? {
         (RenderBackend::Cpu(cpu), why) => {
             outln!("conformance: the {} against {}, {count} cases", cpu.summary(&why), corpus.display());
@@ -1266,7 +1336,10 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
 
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
     if !(0.0..=100.0).contains(&args.max_percent) {
-        return Err(Failure(format!("raycast: error: --max-percent {} is out of range: 0 to 100", args.max_percent), 2));
+        return Err(Failure(
+            format!("raycast: error: --max-percent {} is out of range: 0 to 100", args.max_percent),
+            2,
+        ));
     }
     if let Some(path) = &args.output {
         image_io::check_output_path(path)?;
@@ -1296,7 +1369,11 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
     }
     if !passes {
         return Err(Failure(
-            format!("raycast: compare failed: {:.4}% of pixels differ, more than --max-percent {}", diff.fraction() * 100.0, args.max_percent),
+            format!(
+                "raycast: compare failed: {:.4}% of pixels differ, more than --max-percent {}",
+                diff.fraction() * 100.0,
+                args.max_percent
+            ),
             4,
         ));
     }

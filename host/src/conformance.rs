@@ -27,15 +27,15 @@ pub const MAX_FRACTION: f64 = 0.001;
 const SUPERSAMPLED: &str = "reference rendered with supersampling: its silhouette pixels blend the surface with the background (e.g. 3/4 coverage: expected [45, 166, 135] where we write [61, 223, 179])";
 const DEEP_MIRRORS: &str = "hundreds of mirrored, textured primitives seen through up to 4 bounces: a last-bit difference in a reflected direction lands on a neighbouring silhouette or texel; the differences are scattered single pixels, and changing the reflection or shadow conventions does not move them (an independent implementation of the same model measured 0.42% and 0.62% on recursiveSpheres4 and recursiveCones4)";
 const ALLOWANCES: &[(&str, f64, &str)] = &[
-    ("intersect_normal_color/test_intersect_behind_camera", 0.0020, SUPERSAMPLED),   // [0.1663%]
-    ("intersect_normal_color/test_intersect_parse_matrix", 0.0016, SUPERSAMPLED),    // [0.1321%]
-    ("intersect_normal_color/test_intersect_phong_ambient", 0.0032, SUPERSAMPLED),   // [0.2860%]
-    ("intersect_normal_color/test_intersect_phong_diffuse", 0.0032, SUPERSAMPLED),   // [0.2860%]
-    ("intersect_normal_color/test_intersect_phong_specular", 0.0032, SUPERSAMPLED),  // [0.2860%]
-    ("intersect_normal_color/test_intersect_phong_total", 0.0032, SUPERSAMPLED),     // [0.2860%]
-    ("grading_illuminate/test_efficiency_recursiveSpheres3", 0.0013, DEEP_MIRRORS),  // [0.1094%]
-    ("grading_illuminate/test_efficiency_recursiveSpheres4", 0.0065, DEEP_MIRRORS),  // [0.5880%]
-    ("grading_illuminate/test_efficiency_recursiveCones4", 0.0090, DEEP_MIRRORS),    // [0.8367%]
+    ("intersect_normal_color/test_intersect_behind_camera", 0.0020, SUPERSAMPLED), // [0.1663%]
+    ("intersect_normal_color/test_intersect_parse_matrix", 0.0016, SUPERSAMPLED),  // [0.1321%]
+    ("intersect_normal_color/test_intersect_phong_ambient", 0.0032, SUPERSAMPLED), // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_diffuse", 0.0032, SUPERSAMPLED), // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_specular", 0.0032, SUPERSAMPLED), // [0.2860%]
+    ("intersect_normal_color/test_intersect_phong_total", 0.0032, SUPERSAMPLED),   // [0.2860%]
+    ("grading_illuminate/test_efficiency_recursiveSpheres3", 0.0013, DEEP_MIRRORS), // [0.1094%]
+    ("grading_illuminate/test_efficiency_recursiveSpheres4", 0.0065, DEEP_MIRRORS), // [0.5880%]
+    ("grading_illuminate/test_efficiency_recursiveCones4", 0.0090, DEEP_MIRRORS),  // [0.8367%]
 ];
 
 /// Pixels whose 3x3 neighbourhood holds more than one hit id (or a miss and a hit).
@@ -106,7 +106,10 @@ impl Case {
 /// normals at 1024x768.
 pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
     if !corpus.join("bench").is_dir() {
-        return Err(format!("{} has no bench/ folder: not the cs1230 corpus (its scenes' folders and bench/ of references)", corpus.display()));
+        return Err(format!(
+            "{} has no bench/ folder: not the cs1230 corpus (its scenes' folders and bench/ of references)",
+            corpus.display()
+        ));
     }
     let plan: [(&str, Aov, bool, u32, u32, &str); 8] = [
         ("test_unit", Aov::Color, false, 512, 384, "grading_illuminate"),
@@ -149,12 +152,16 @@ pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, 
     let ref_name = case.reference.file_stem().unwrap_or_default().to_string_lossy().into_owned();
     let bench = case.reference.parent().and_then(|p| p.file_name()).unwrap_or_default().to_string_lossy();
     let key = format!("{bench}/{ref_name}");
-    let (allowed, why) =
-        ALLOWANCES.iter().find(|(n, _, _)| *n == key).map(|(_, f, why)| (*f, Some(*why))).unwrap_or((MAX_FRACTION, None));
+    let (allowed, why) = ALLOWANCES
+        .iter()
+        .find(|(n, _, _)| *n == key)
+        .map(|(_, f, why)| (*f, Some(*why)))
+        .unwrap_or((MAX_FRACTION, None));
     let rule = format!(
         "rule: at most {:.2}% off by more than {TOLERANCE}/255{}",
         allowed * 100.0,
-        why.map(|w| format!(", allowance: {w}; interior pixels at most {:.2}%", MAX_FRACTION * 100.0)).unwrap_or_default()
+        why.map(|w| format!(", allowance: {w}; interior pixels at most {:.2}%", MAX_FRACTION * 100.0))
+            .unwrap_or_default()
     );
     // For a supersampled reference, pixels off the silhouette still obey the default rule.
     let mut interior_report = String::new();
@@ -210,11 +217,13 @@ pub fn run(
     mut messages: impl FnMut() -> Vec<String>,
 ) -> Result<Summary, String> {
     let (mut passed, mut failed) = (0, 0);
-    let mut table = String::from("| scene | picture | pixels off by more than 2/255 | allowed | result |\n|---|---|---|---|---|\n");
+    let mut table =
+        String::from("| scene | picture | pixels off by more than 2/255 | allowed | result |\n|---|---|---|---|---|\n");
     for case in cases {
         let label = case.label();
         let start = std::time::Instant::now();
-        let outcome = case.frame(corpus).and_then(|data| render(&data)).and_then(|picture| judge(case, &picture, out_dir));
+        let outcome =
+            case.frame(corpus).and_then(|data| render(&data)).and_then(|picture| judge(case, &picture, out_dir));
         match outcome {
             Ok((msg, fraction, allowed)) => {
                 passed += 1;
@@ -231,7 +240,12 @@ pub fn run(
             Err(msg) => {
                 failed += 1;
                 outln!("FAILED {label}: {msg}");
-                table.push_str(&format!("| {}/{} | {} | see the log | | FAILED |\n", case.group, case.name, case.picture_text()));
+                table.push_str(&format!(
+                    "| {}/{} | {} | see the log | | FAILED |\n",
+                    case.group,
+                    case.name,
+                    case.picture_text()
+                ));
             }
         }
         let said = messages();

@@ -74,7 +74,8 @@ pub fn check_layouts() -> Result<(), String> {
             let member = CString::new(f.name).unwrap();
             let offset = unsafe { raycast_cpu_field_offset(name.as_ptr(), member.as_ptr()) };
             if offset != i64::from(f.offset) {
-                errors.push(format!("{}.{}: offset {offset} in the C++ build, {} on the host", s.name, f.name, f.offset));
+                errors
+                    .push(format!("{}.{}: offset {offset} in the C++ build, {} on the host", s.name, f.name, f.offset));
             }
         }
     }
@@ -149,7 +150,14 @@ impl CpuRenderer {
     /// `data.frame`, or another camera's or size's, as the preview draws)
     /// as `render` takes it (layout.h TraceStep): each ray and what it met,
     /// each light's term, each level's colour, and the sample's colour last.
-    pub fn trace(&self, data: &FrameData, frame: &layout::Frame, x: u32, y: u32, sample: u32) -> Result<Vec<layout::TraceStep>, String> {
+    pub fn trace(
+        &self,
+        data: &FrameData,
+        frame: &layout::Frame,
+        x: u32,
+        y: u32,
+        sample: u32,
+    ) -> Result<Vec<layout::TraceStep>, String> {
         if x >= frame.width || y >= frame.height {
             return Err(format!("pixel ({x}, {y}) is outside the {}x{} picture", frame.width, frame.height));
         }
@@ -163,7 +171,9 @@ impl CpuRenderer {
         loop {
             let capacity = u32::try_from(steps.len()).expect("a trace's steps fit u32");
             // SAFETY: as in `run`; `steps` holds `capacity` TraceSteps (layout checked).
-            let n = unsafe { raycast_cpu_trace_sample(buffers.0.as_ptr(), x, y, sample, steps.as_mut_ptr().cast(), capacity) };
+            let n = unsafe {
+                raycast_cpu_trace_sample(buffers.0.as_ptr(), x, y, sample, steps.as_mut_ptr().cast(), capacity)
+            };
             if n <= capacity {
                 steps.truncate(n as usize);
                 return Ok(steps);
@@ -209,21 +219,34 @@ impl CpuRenderer {
         let width = frame.width as usize;
         let (begin, end) = (preview.row_offset, row_end);
         assert!(begin < end && end <= frame.height, "the band is inside the frame");
-        assert!(accum.len() >= end as usize * width && pixels.len() >= end as usize * width, "the buffers hold the frame");
+        assert!(
+            accum.len() >= end as usize * width && pixels.len() >= end as usize * width,
+            "the buffers hold the frame"
+        );
         let mut buffers = buffer_pointers(data);
         buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
         let band = begin as usize * width..end as usize * width;
         let rows = width * ROWS_PER_JOB as usize;
-        let jobs = accum[band.clone()].chunks_mut(rows).zip(pixels[band].chunks_mut(rows)).enumerate().map(|(k, (a, p))| {
-            let first = begin + k as u32 * ROWS_PER_JOB;
-            (first, (first + ROWS_PER_JOB).min(end), a, p)
-        });
+        let jobs =
+            accum[band.clone()].chunks_mut(rows).zip(pixels[band].chunks_mut(rows)).enumerate().map(|(k, (a, p))| {
+                let first = begin + k as u32 * ROWS_PER_JOB;
+                (first, (first + ROWS_PER_JOB).min(end), a, p)
+            });
         let (sample, [jx, jy, ..]) = (preview.sample_index, preview.jitter);
         self.run_jobs(jobs, |(first, last, a, p)| {
             assert!(a.len() == p.len() && a.len() == (last - first) as usize * width, "a job's pixels are its rows");
             // SAFETY: as in `run`; `a` and `p` hold exactly the job's rows (asserted).
             unsafe {
-                raycast_cpu_preview_rows(buffers.as_ptr(), first, last, sample, jx, jy, a.as_mut_ptr().cast(), p.as_mut_ptr().cast());
+                raycast_cpu_preview_rows(
+                    buffers.as_ptr(),
+                    first,
+                    last,
+                    sample,
+                    jx,
+                    jy,
+                    a.as_mut_ptr().cast(),
+                    p.as_mut_ptr().cast(),
+                );
             }
             last - first
         });
@@ -342,7 +365,10 @@ mod tests {
                         rays += steps.iter().filter(|s| s.is_ray()).count() as u32;
                         for pair in steps.windows(2) {
                             if pair[0].kind == TRACE_LIGHT && pair[0].id == TRACE_LIGHT_SHADOW {
-                                assert!(pair[1].kind == TRACE_SHADOW && pair[1].light == pair[0].light, "{name} ({x}, {y}): {steps:?}");
+                                assert!(
+                                    pair[1].kind == TRACE_SHADOW && pair[1].light == pair[0].light,
+                                    "{name} ({x}, {y}): {steps:?}"
+                                );
                             }
                         }
                         let last = steps.last().expect("a step");
@@ -363,7 +389,10 @@ mod tests {
         }
         let data = crate::frame::build(&mirrors(point), &Default::default()).unwrap();
         assert!(renderer.trace(&data, &data.frame, 512, 0, 0).unwrap_err().contains("outside the 512x384 picture"));
-        assert!(renderer.trace(&data, &data.frame, 0, 0, 1).unwrap_err().contains("sample 1 is not one of the pixel's 1"));
+        assert!(renderer
+            .trace(&data, &data.frame, 0, 0, 1)
+            .unwrap_err()
+            .contains("sample 1 is not one of the pixel's 1"));
     }
 
     /// Two spheres in front of the camera: A (id 0, radius 1) at the
@@ -441,7 +470,13 @@ mod tests {
             .filter(|(_, p)| rgb(p) != if p.id == crate::layout::NO_HIT { [0, 0, 0] } else { id_color(p.id) })
             .map(|(i, p)| (i, p.id, rgb(p)))
             .collect();
-        assert!(wrong.is_empty(), "id AOV: {} of {} pixels not their id's colour; first (pixel, id, rgb) {:?}", wrong.len(), ids.pixels.len(), wrong.first());
+        assert!(
+            wrong.is_empty(),
+            "id AOV: {} of {} pixels not their id's colour; first (pixel, id, rgb) {:?}",
+            wrong.len(),
+            ids.pixels.len(),
+            wrong.first()
+        );
         assert_ne!(id_color(0), id_color(1), "the two spheres' colours");
     }
 
@@ -456,7 +491,12 @@ mod tests {
     fn cost_aov_counts_the_walk() {
         use crate::frame::{build, Aov, RenderSettings};
         let cubes: String = (0..20)
-            .map(|i| format!(r#"<transblock><translate x="{}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#, i - 10))
+            .map(|i| {
+                format!(
+                    r#"<transblock><translate x="{}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#,
+                    i - 10
+                )
+            })
             .collect();
         let xml = format!(
             r#"<scenefile>
@@ -467,7 +507,8 @@ mod tests {
         let scene = crate::scene::from_xml(xml, "row.xml");
         let renderer = CpuRenderer::new().unwrap();
         let render = |bvh: bool, cost_max: Option<u32>| {
-            let settings = RenderSettings { width: 48, height: 32, aov: Aov::Cost, bvh, cost_max, ..RenderSettings::default() };
+            let settings =
+                RenderSettings { width: 48, height: 32, aov: Aov::Cost, bvh, cost_max, ..RenderSettings::default() };
             settings.validate().unwrap();
             renderer.render(&build(&scene, &settings).unwrap()).unwrap()
         };
@@ -490,13 +531,22 @@ mod tests {
         // The passes also come back as numbers (PixelOut.normal's w), the same as the colours say.
         let counted: Vec<u32> = picture.pixels.iter().map(|p| p.normal[3] as u32).collect();
         assert_eq!(counted, with, "normal.w against the colours");
-        assert!(picture.passes_text("x").contains(&format!("most {}", with.iter().max().unwrap())), "{}", picture.passes_text("x"));
+        assert!(
+            picture.passes_text("x").contains(&format!("most {}", with.iter().max().unwrap())),
+            "{}",
+            picture.passes_text("x")
+        );
         assert!(with.iter().all(|&n| n >= 1), "every camera ray walks a pass or more");
         // The top-left pixel looks above the row: its walk pops the root,
         // meets neither child's box, and ends.
         assert_eq!(with[0], 1, "a ray that meets no box: the root's pass alone");
         let shorter: Vec<usize> = (0..with.len()).filter(|&i| without[i] < with[i]).collect();
-        assert!(shorter.is_empty(), "{} pixels walk less without the boxes; first {:?}", shorter.len(), shorter.first());
+        assert!(
+            shorter.is_empty(),
+            "{} pixels walk less without the boxes; first {:?}",
+            shorter.len(),
+            shorter.first()
+        );
         let (a, b) = (with.iter().sum::<u32>(), without.iter().sum::<u32>());
         assert!(b > a, "without the boxes the walks are longer: {b} passes against {a}");
         let one = render(true, Some(1));

@@ -175,7 +175,10 @@ impl RenderSettings {
             }
         }
         if self.spp == 0 || self.spp > MAX_SPP {
-            return Err(SettingsError(format!("--spp {} is out of range: between 1 and {MAX_SPP} samples per pixel", self.spp)));
+            return Err(SettingsError(format!(
+                "--spp {} is out of range: between 1 and {MAX_SPP} samples per pixel",
+                self.spp
+            )));
         }
         if self.max_depth > layout::MAX_DEPTH {
             return Err(SettingsError(format!(
@@ -189,7 +192,9 @@ impl RenderSettings {
         }
         match self.cost_max {
             Some(_) if !matches!(self.aov, Aov::Cost | Aov::CostAll) => {
-                return Err(SettingsError("--cost-max is for --aov cost or cost-all; this render is neither".to_string()))
+                return Err(SettingsError(
+                    "--cost-max is for --aov cost or cost-all; this render is neither".to_string(),
+                ))
             }
             Some(n) if n == 0 || n > MAX_COST => {
                 return Err(SettingsError(format!("--cost-max {n} is out of range: between 1 and {MAX_COST} passes")))
@@ -348,21 +353,21 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
                 _ => -1,
             };
             Ok(layout::Material {
-            diffuse: rgb(m.diffuse),
-            ambient: rgb(m.ambient),
-            specular: rgb(m.specular),
-            reflective: rgb(m.reflective),
-            transparent: rgb(m.transparent),
-            emissive: rgb(m.emissive),
-            shininess: m.shininess,
-            blend: m.blend,
-            ior: m.ior,
-            texture,
-            texture_repeat: m
-                .texture
-                .as_ref()
-                .map(|t| [t.repeat_u, t.repeat_v, 0.0, 0.0])
-                .unwrap_or([1.0, 1.0, 0.0, 0.0]),
+                diffuse: rgb(m.diffuse),
+                ambient: rgb(m.ambient),
+                specular: rgb(m.specular),
+                reflective: rgb(m.reflective),
+                transparent: rgb(m.transparent),
+                emissive: rgb(m.emissive),
+                shininess: m.shininess,
+                blend: m.blend,
+                ior: m.ior,
+                texture,
+                texture_repeat: m
+                    .texture
+                    .as_ref()
+                    .map(|t| [t.repeat_u, t.repeat_v, 0.0, 0.0])
+                    .unwrap_or([1.0, 1.0, 0.0, 0.0]),
             })
         })
         .collect::<Result<Vec<_>, String>>()?;
@@ -381,10 +386,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
                 LightKind::Directional => layout::LIGHT_DIRECTIONAL,
                 LightKind::Spot => layout::LIGHT_SPOT,
                 LightKind::Area => {
-                    notes.push(format!(
-                        "{}: area light drawn as a point light at its position",
-                        l.loc
-                    ));
+                    notes.push(format!("{}: area light drawn as a point light at its position", l.loc));
                     layout::LIGHT_POINT
                 }
             };
@@ -624,7 +626,11 @@ fn bounding_sphere(group: &crate::scene::Group, bounds: &Aabb, spheres: &[(DVec3
         c += (b + towards * r - c) / (k as f64 + 1.0);
     }
     let (from_start, from_c) = (reach(start), reach(c));
-    if from_c < from_start { (c, from_c) } else { (start, from_start) }
+    if from_c < from_start {
+        (c, from_c)
+    } else {
+        (start, from_start)
+    }
 }
 
 /// An instance record for a bounding sphere (layout.h, BvhNode): the
@@ -641,7 +647,8 @@ fn sphere_record(leaf: ([f32; 4], [f32; 4]), (c, radius): (DVec3, f64), item: u3
             return None;
         }
         if step > 0.0 {
-            q[a] = ((c[a] - f64::from(lo[a])) / f64::from(step)).round().clamp(0.0, f64::from(layout::BOX_STEPS)) as u32;
+            q[a] =
+                ((c[a] - f64::from(lo[a])) / f64::from(step)).round().clamp(0.0, f64::from(layout::BOX_STEPS)) as u32;
         }
         at[a] = f64::from(stepped(lo[a], hi[a], q[a], 0).0);
     }
@@ -661,7 +668,11 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let groups = &scene.groups;
     let n = groups.len();
     if scene.primitive_count() >= u64::from(layout::NO_HIT) {
-        return Err(format!("the scene expands to {} primitives; ids are 32-bit, so at most {}", scene.primitive_count(), layout::NO_HIT - 1));
+        return Err(format!(
+            "the scene expands to {} primitives; ids are 32-bit, so at most {}",
+            scene.primitive_count(),
+            layout::NO_HIT - 1
+        ));
     }
     let post = scene.groups_children_first();
     let mut prim_base = vec![0u32; n];
@@ -736,7 +747,8 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                 }
                 for &k in items.iter().filter(|&&k| (k as usize) >= np) {
                     let inst = &group.instances[k as usize - np];
-                    let (ilo, ihi) = group_bounds[inst.group as usize].transformed(&inst.parent_from_group).padded_f32();
+                    let (ilo, ihi) =
+                        group_bounds[inst.group as usize].transformed(&inst.parent_from_group).padded_f32();
                     let item = layout::ITEM_INSTANCE | (inst_base[g] + k - np as u32);
                     // A sphere where its surface is less than twice the
                     // box's (a ray meets a convex bound about in proportion
@@ -782,14 +794,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                 need[g] = need[g].max(leaf_need);
                 levels[g] = levels[g].max(placed.iter().map(|&c| levels[c] + 1).max().unwrap_or(0));
             }
-            nodes.push(layout::BvhNode {
-                lo,
-                hi,
-                first,
-                count: node.count,
-                axis,
-                primitives: node.primitives,
-            });
+            nodes.push(layout::BvhNode { lo, hi, first, count: node.count, axis, primitives: node.primitives });
         }
         // An interior node's two children are pushed at once: one more entry.
         need[g] += 1;
@@ -844,12 +849,21 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
         .collect();
     for (what, count) in [("nodes", nodes.len()), ("primitives", p_total as usize), ("instances", i_total as usize)] {
         if count > layout::MAX_INDEX as usize {
-            return Err(format!("the scene needs {count} {what}, more than the shader can index ({})", layout::MAX_INDEX));
+            return Err(format!(
+                "the scene needs {count} {what}, more than the shader can index ({})",
+                layout::MAX_INDEX
+            ));
         }
     }
     if group_root[0] == u32::MAX {
         // Nothing to draw: no hierarchy, no primitives.
-        return Ok(Packed { primitives: vec![], nodes: vec![], leaf_items: vec![], instances: vec![], group_roots: vec![] });
+        return Ok(Packed {
+            primitives: vec![],
+            nodes: vec![],
+            leaf_items: vec![],
+            instances: vec![],
+            group_roots: vec![],
+        });
     }
     if n == 1 && p_total as usize <= SMALL_SCENE {
         // A few primitives and no instances: testing them in order is cheaper
@@ -909,7 +923,11 @@ mod tests {
         assert_eq!(scene.primitive_count(), 2 * 5 + 1 + 2 + 2);
         let mut kinds = check_packed_hierarchy(&scene);
         // The generated families: spheres, upright cones, axis-aligned cubes.
-        for family in [crate::gen::Family::RecursiveSpheres, crate::gen::Family::RecursiveCones, crate::gen::Family::RecursiveCubes] {
+        for family in [
+            crate::gen::Family::RecursiveSpheres,
+            crate::gen::Family::RecursiveCones,
+            crate::gen::Family::RecursiveCubes,
+        ] {
             let xml = crate::gen::generate(family, 3, &crate::gen::GenOptions { texture: None }).unwrap();
             let file = crate::scene::parse_str(&xml, std::path::Path::new("gen.xml"), &Default::default()).unwrap();
             let (boxes, spheres) = check_packed_hierarchy(&crate::scene::flatten(&file, &Default::default()).unwrap());
@@ -951,14 +969,18 @@ mod tests {
         // spheres of the records that led there: their space from the
         // world's, centre, radius)
         type Spheres = Vec<(DMat4, DVec3, f64)>;
-        let mut stack: Vec<(u32, u32, DMat4, Spheres)> = vec![(data.frame.root_node, 0u32, DMat4::IDENTITY, Vec::new())];
+        let mut stack: Vec<(u32, u32, DMat4, Spheres)> =
+            vec![(data.frame.root_node, 0u32, DMat4::IDENTITY, Vec::new())];
         while let Some((n, first_id, world_from_group, spheres)) = stack.pop() {
             let node = data.nodes[n as usize];
             if node.count == 0 {
                 for c in [node.first, node.first + 1] {
                     let child = data.nodes[c as usize];
                     for a in 0..3 {
-                        assert!(node.lo[a] <= child.lo[a] && node.hi[a] >= child.hi[a], "node {n} does not hold child {c}");
+                        assert!(
+                            node.lo[a] <= child.lo[a] && node.hi[a] >= child.hi[a],
+                            "node {n} does not hold child {c}"
+                        );
                     }
                     stack.push((c, first_id, world_from_group, spheres.clone()));
                 }
@@ -995,14 +1017,21 @@ mod tests {
                 let (q_lo, q_hi) = record_steps(w);
                 if w[3] & layout::RECORD_SPHERE != 0 {
                     kinds.1 += 1;
-                    let c = DVec3::from(std::array::from_fn::<f64, 3, _>(|a| f64::from(stepped(node.lo[a], node.hi[a], q_lo[a], 0).0)));
+                    let c = DVec3::from(std::array::from_fn::<f64, 3, _>(|a| {
+                        f64::from(stepped(node.lo[a], node.hi[a], q_lo[a], 0).0)
+                    }));
                     below.push((world_from_group.inverse(), c, f64::from(f32::from_bits(w[2]))));
                 } else {
                     kinds.0 += 1;
-                    let sides: [(f32, f32); 3] = std::array::from_fn(|a| stepped(node.lo[a], node.hi[a], q_lo[a], q_hi[a]));
-                    let (lo, hi) = (DVec3::from(sides.map(|s| f64::from(s.0))), DVec3::from(sides.map(|s| f64::from(s.1))));
+                    let sides: [(f32, f32); 3] =
+                        std::array::from_fn(|a| stepped(node.lo[a], node.hi[a], q_lo[a], q_hi[a]));
+                    let (lo, hi) =
+                        (DVec3::from(sides.map(|s| f64::from(s.0))), DVec3::from(sides.map(|s| f64::from(s.1))));
                     let root = data.nodes[inst.root as usize];
-                    let root_box = Aabb { lo: glam::Vec3::from_slice(&root.lo).as_dvec3(), hi: glam::Vec3::from_slice(&root.hi).as_dvec3() };
+                    let root_box = Aabb {
+                        lo: glam::Vec3::from_slice(&root.lo).as_dvec3(),
+                        hi: glam::Vec3::from_slice(&root.hi).as_dvec3(),
+                    };
                     let slack = (hi - lo).max_element() * 1e-4;
                     for corner in root_box.corners() {
                         let p = m.transform_point3(corner);

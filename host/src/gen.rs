@@ -10,8 +10,8 @@
 
 use crate::cli::Failure;
 use crate::scene::{Material, Node, SceneFile, Shape, TransBlock};
-use glam::DMat4;
 use clap::{Args, ValueEnum};
+use glam::DMat4;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -146,8 +146,12 @@ impl Default for GenOptions {
 
 pub(crate) fn run(args: &GenArgs) -> Result<(), Failure> {
     let options = GenOptions { texture: (!args.no_texture).then(|| args.texture.clone()) };
-    let xml = if args.flat { generate_flat(args.family, args.depth, &options) } else { generate(args.family, args.depth, &options) }
-        .map_err(|e| Failure(format!("raycast: error: {e}"), 2))?;
+    let xml = if args.flat {
+        generate_flat(args.family, args.depth, &options)
+    } else {
+        generate(args.family, args.depth, &options)
+    }
+    .map_err(|e| Failure(format!("raycast: error: {e}"), 2))?;
     match &args.output {
         None => std::io::stdout().lock().write_all(xml.as_bytes())?,
         Some(path) => {
@@ -237,7 +241,8 @@ const SPHERE_CHILDREN: [(Dir, &str); 6] = [
 const AXIS_ALIGNED_CHILDREN: [Dir; 6] = [PX, PY, PZ, NX, NY, NZ];
 
 /// The corpus's three colours, by level mod 3.
-const COLOURS: [&str; 3] = ["r=\"1\" g=\"0.75\" b=\"0.75\"", "r=\"0.75\" g=\"1\" b=\"0.75\"", "r=\"0.75\" g=\"0.75\" b=\"1\""];
+const COLOURS: [&str; 3] =
+    ["r=\"1\" g=\"0.75\" b=\"0.75\"", "r=\"0.75\" g=\"1\" b=\"0.75\"", "r=\"0.75\" g=\"0.75\" b=\"1\""];
 
 /// A number as the corpus writes it: shortest round-trip decimal, `0` for zero.
 fn num(v: f64) -> String {
@@ -302,8 +307,9 @@ pub fn generate_flat(family: Family, depth: u32, options: &GenOptions) -> Result
         ));
     }
     let instanced = generate(family, depth, options)?;
-    let file = crate::scene::parse_str(&instanced, std::path::Path::new("gen.xml"), &crate::scene::ParseOptions::default())
-        .map_err(|e| e.to_string())?;
+    let file =
+        crate::scene::parse_str(&instanced, std::path::Path::new("gen.xml"), &crate::scene::ParseOptions::default())
+            .map_err(|e| e.to_string())?;
     let mut xml = String::with_capacity(600 * family.expanded_count(depth) as usize);
     header(&mut xml, family == Family::RecursiveSpheres);
     xml.push_str("\t<object type=\"tree\" name=\"root\">\n");
@@ -311,7 +317,8 @@ pub fn generate_flat(family: Family, depth: u32, options: &GenOptions) -> Result
         xml.push_str("\t\t<transblock>\n\t\t\t<matrix>\n");
         for r in 0..4 {
             let row = m.row(r);
-            let _ = writeln!(xml, "\t\t\t\t<row{r} v1=\"{}\" v2=\"{}\" v3=\"{}\" v4=\"{}\"/>", row.x, row.y, row.z, row.w);
+            let _ =
+                writeln!(xml, "\t\t\t\t<row{r} v1=\"{}\" v2=\"{}\" v3=\"{}\" v4=\"{}\"/>", row.x, row.y, row.z, row.w);
         }
         let _ = writeln!(xml, "\t\t\t</matrix>\n\t\t\t<object type=\"primitive\" name=\"{}\">", shape.name());
         material_xml(&mut xml, &material);
@@ -337,14 +344,22 @@ fn material_xml(xml: &mut String, m: &Material) {
             let _ = writeln!(xml, "\t\t\t\t<{name} r=\"{}\" g=\"{}\" b=\"{}\"/>", c[0], c[1], c[2]);
         }
     }
-    for (name, v, default) in [("shininess", m.shininess, d.shininess), ("ior", m.ior, d.ior), ("blend", m.blend, d.blend)] {
+    for (name, v, default) in
+        [("shininess", m.shininess, d.shininess), ("ior", m.ior, d.ior), ("blend", m.blend, d.blend)]
+    {
         if v != default {
             let _ = writeln!(xml, "\t\t\t\t<{name} v=\"{v}\"/>");
         }
     }
     for (name, t) in [("texture", &m.texture), ("bumpmap", &m.bumpmap)] {
         if let Some(t) = t {
-            let _ = writeln!(xml, "\t\t\t\t<{name} file=\"{}\" u=\"{}\" v=\"{}\"/>", escape_attr(&t.file), t.repeat_u, t.repeat_v);
+            let _ = writeln!(
+                xml,
+                "\t\t\t\t<{name} file=\"{}\" u=\"{}\" v=\"{}\"/>",
+                escape_attr(&t.file),
+                t.repeat_u,
+                t.repeat_v
+            );
         }
     }
 }
@@ -424,7 +439,11 @@ fn primitive_block(xml: &mut String, family: Family, level: u32, options: &GenOp
         family.shape()
     );
     if let Some(t) = &options.texture {
-        let _ = write!(xml, "\t\t\t\t<texture file=\"{}\" u=\"1\" v=\"1\"/>\n\t\t\t\t<blend v=\"0.75\"/>\n", escape_attr(t));
+        let _ = write!(
+            xml,
+            "\t\t\t\t<texture file=\"{}\" u=\"1\" v=\"1\"/>\n\t\t\t\t<blend v=\"0.75\"/>\n",
+            escape_attr(t)
+        );
     }
     xml.push_str("\t\t\t</object>\n\t\t</transblock>\n");
 }
@@ -586,7 +605,8 @@ mod tests {
     fn parse_generated(family: Family, depth: u32, assets: Vec<PathBuf>) -> SceneFile {
         let xml = generate(family, depth, &GenOptions::default()).unwrap();
         let path = assets.first().map_or(PathBuf::from("gen.xml"), |c| c.join("test_efficiency/gen.xml"));
-        parse_str(&xml, &path, &ParseOptions { assets }).unwrap_or_else(|e| panic!("{} --depth {depth}: {e}", family.name()))
+        parse_str(&xml, &path, &ParseOptions { assets })
+            .unwrap_or_else(|e| panic!("{} --depth {depth}: {e}", family.name()))
     }
 
     /// `--flat`: every family at depths 1 to 3 reads back as the instanced
@@ -600,7 +620,14 @@ mod tests {
         for family in Family::ALL {
             for depth in 1..=3 {
                 let options = GenOptions::default();
-                let instanced = expand(&parse_str(&generate(family, depth, &options).unwrap(), Path::new("i.xml"), &ParseOptions::default()).unwrap());
+                let instanced = expand(
+                    &parse_str(
+                        &generate(family, depth, &options).unwrap(),
+                        Path::new("i.xml"),
+                        &ParseOptions::default(),
+                    )
+                    .unwrap(),
+                );
                 let flat_xml = generate_flat(family, depth, &options).unwrap();
                 let flat_file = parse_str(&flat_xml, Path::new("f.xml"), &ParseOptions::default()).unwrap();
                 assert_eq!(flat_file.trees.len(), 1, "{} {depth}: one tree", family.name());
@@ -643,7 +670,12 @@ mod tests {
         for family in Family::ALL {
             for depth in 1..=5 {
                 let file = parse_generated(family, depth, vec![]);
-                assert_eq!(expand(&file).len() as u64, count_primitives(&file).expanded, "{} --depth {depth}", family.name());
+                assert_eq!(
+                    expand(&file).len() as u64,
+                    count_primitives(&file).expanded,
+                    "{} --depth {depth}",
+                    family.name()
+                );
             }
         }
     }
@@ -661,7 +693,13 @@ mod tests {
         assert_eq!(parse_scene_name("gen:recursive-spheres:6"), Some(Ok((Family::RecursiveSpheres, 6))));
         assert_eq!(parse_scene_name("gen:recursive-cubes:12"), Some(Ok((Family::RecursiveCubes, 12))));
         assert_eq!(parse_scene_name("scenes/default.xml"), None);
-        for bad in ["gen:recursive-spheres:13", "gen:recursive-spheres:0", "gen:recursive-tori:4", "gen:recursive-cones", "gen:"] {
+        for bad in [
+            "gen:recursive-spheres:13",
+            "gen:recursive-spheres:0",
+            "gen:recursive-tori:4",
+            "gen:recursive-cones",
+            "gen:",
+        ] {
             let e = parse_scene_name(bad).unwrap().unwrap_err();
             assert!(e.contains("gen:FAMILY:DEPTH"), "{bad}: {e}");
         }
@@ -690,11 +728,18 @@ mod tests {
             let ours = if depth == 4 {
                 ours
             } else {
-                ours.lines().filter(|l| !l.contains("<aperture") && !l.contains("<focallength")).collect::<Vec<_>>().join("\n")
+                ours.lines()
+                    .filter(|l| !l.contains("<aperture") && !l.contains("<focallength"))
+                    .collect::<Vec<_>>()
+                    .join("\n")
             };
             let (a, b) = (ours.trim_end(), theirs.trim_end());
             if a != b {
-                let line = a.lines().zip(b.lines()).position(|(x, y)| x != y).unwrap_or(a.lines().count().min(b.lines().count()));
+                let line = a
+                    .lines()
+                    .zip(b.lines())
+                    .position(|(x, y)| x != y)
+                    .unwrap_or(a.lines().count().min(b.lines().count()));
                 panic!(
                     "gen recursive-spheres --depth {depth} differs from {} (rule: identical text but the final newline) at line {}:\n  ours:   {:?}\n  corpus: {:?}",
                     path.display(),
@@ -731,10 +776,21 @@ mod tests {
                 for (i, ((sa, ma, mata), (sb, mb, matb))) in a.iter().zip(&b).enumerate() {
                     let what = format!("{} --depth {depth} against {}, primitive {i}", family.name(), path.display());
                     assert_eq!(sa, sb, "{what}: shape");
-                    assert_eq!(ma.to_cols_array(), mb.to_cols_array(), "{what}: world_from_object (rule: f64 bit for bit)");
+                    assert_eq!(
+                        ma.to_cols_array(),
+                        mb.to_cols_array(),
+                        "{what}: world_from_object (rule: f64 bit for bit)"
+                    );
                     if family == Family::RecursiveSpheres {
                         let key = |m: &Material| {
-                            (m.diffuse, m.reflective, m.specular, m.shininess, m.blend, m.texture.as_ref().map(|t| t.resolved.clone()))
+                            (
+                                m.diffuse,
+                                m.reflective,
+                                m.specular,
+                                m.shininess,
+                                m.blend,
+                                m.texture.as_ref().map(|t| t.resolved.clone()),
+                            )
                         };
                         assert_eq!(key(mata), key(matb), "{what}: material");
                     }
@@ -753,7 +809,8 @@ mod tests {
         let opts = ParseOptions { assets: vec![corpus.clone()] };
         let settings = RenderSettings { width: 128, height: 96, ..RenderSettings::default() };
         let limits = FlattenLimits::default();
-        let ours = scene::flatten(&parse_generated(Family::RecursiveSpheres, 4, vec![corpus.clone()]), &limits).unwrap();
+        let ours =
+            scene::flatten(&parse_generated(Family::RecursiveSpheres, 4, vec![corpus.clone()]), &limits).unwrap();
         let path = corpus.join("test_efficiency/recursiveSpheres4.xml");
         let theirs = scene::load(&path, &opts, &limits).unwrap();
         let renderer = GpuRenderer::new(&GpuOptions {

@@ -22,8 +22,15 @@ impl Rgb8 {
 /// Writes PNG whatever the name's extension (`check_output_path` refuses
 /// other image extensions before the work).
 pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
-    image::save_buffer_with_format(path, &image.data, image.width, image.height, image::ExtendedColorType::Rgb8, image::ImageFormat::Png)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    image::save_buffer_with_format(
+        path,
+        &image.data,
+        image.width,
+        image.height,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 /// Whether a picture could be written to `path`, asked before the work that
@@ -80,7 +87,10 @@ impl ImageDiff {
     /// "expected"} or null) and "worst" ({"at", "by"} or null).
     pub fn json_fields(&self) -> String {
         let first = self.first.map_or("null".to_string(), |(x, y, a, e)| {
-            format!("{{\"at\":[{x},{y}],\"actual\":[{},{},{}],\"expected\":[{},{},{}]}}", a[0], a[1], a[2], e[0], e[1], e[2])
+            format!(
+                "{{\"at\":[{x},{y}],\"actual\":[{},{},{}],\"expected\":[{},{},{}]}}",
+                a[0], a[1], a[2], e[0], e[1], e[2]
+            )
         });
         let worst = self.worst.map_or("null".to_string(), |(x, y, d)| format!("{{\"at\":[{x},{y}],\"by\":{d}}}"));
         format!(
@@ -169,7 +179,13 @@ pub fn remove_stale(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
 
 /// Writes `<dir>/<name>-actual.png`, `-expected.png` and `-diff.png` and
 /// returns their paths.
-pub fn write_diff_images(dir: &Path, name: &str, actual: &Rgb8, expected: &Rgb8, diff: &ImageDiff) -> Result<[PathBuf; 3], String> {
+pub fn write_diff_images(
+    dir: &Path,
+    name: &str,
+    actual: &Rgb8,
+    expected: &Rgb8,
+    diff: &ImageDiff,
+) -> Result<[PathBuf; 3], String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let paths = diff_image_paths(dir, name);
     write_png(&paths[0], actual)?;

@@ -9,8 +9,8 @@ use crate::frame::{FrameData, RenderSettings};
 use crate::layout::BvhNode;
 use crate::render::Specialization;
 use crate::scene::{scene_bounds, Bounds, Camera, Scene};
-use glam::DVec3;
 use crate::units::{fmt_bytes, json_str, thousands};
+use glam::DVec3;
 
 /// The surface-area heuristic's cost of a pass through an inner node and
 /// of testing one leaf item (a primitive, or an instance's bound), the
@@ -104,7 +104,11 @@ pub struct Info {
 fn number(x: f64) -> String {
     let s = format!("{x:.6}");
     let s = if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.') } else { &s };
-    if s == "-0" { "0".to_string() } else { s.to_string() }
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
+    }
 }
 
 fn vector(v: DVec3) -> String {
@@ -357,7 +361,9 @@ mod tests {
     /// row of twenty cubes, a binary tree; the default scene has none).
     #[test]
     fn info_of_packed_scenes() {
-        let xml = crate::gen::generate(crate::gen::Family::RecursiveSpheres, 5, &crate::gen::GenOptions { texture: None }).unwrap();
+        let xml =
+            crate::gen::generate(crate::gen::Family::RecursiveSpheres, 5, &crate::gen::GenOptions { texture: None })
+                .unwrap();
         let scene = crate::scene::from_xml(xml, "gen.xml");
         let data = pack(&scene).unwrap();
         let info = Info::of("gen.xml", &scene, &data);
@@ -377,7 +383,11 @@ mod tests {
 
         // Twenty cubes in a row: inner nodes, a binary tree over the twenty.
         let cubes: String = (0..20)
-            .map(|i| format!(r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#))
+            .map(|i| {
+                format!(
+                    r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#
+                )
+            })
             .collect();
         let xml = format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#);
         let scene = crate::scene::from_xml(xml, "row.xml");

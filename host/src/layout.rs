@@ -229,9 +229,32 @@ macro_rules! struct_layout {
 
 impl Frame {
     pub fn layout() -> StructLayout {
-        struct_layout!(Frame, "Frame", [world_from_film, eye, k, aov_scale, width, height,
-            primitive_count, light_count, aov, flags, max_depth, spp, texture_filter, root_node, node_count, loop_canary,
-            row_offset, pad0, pad1, pad2])
+        struct_layout!(
+            Frame,
+            "Frame",
+            [
+                world_from_film,
+                eye,
+                k,
+                aov_scale,
+                width,
+                height,
+                primitive_count,
+                light_count,
+                aov,
+                flags,
+                max_depth,
+                spp,
+                texture_filter,
+                root_node,
+                node_count,
+                loop_canary,
+                row_offset,
+                pad0,
+                pad1,
+                pad2
+            ]
+        )
     }
 }
 
@@ -261,8 +284,23 @@ impl Instance {
 
 impl Material {
     pub fn layout() -> StructLayout {
-        struct_layout!(Material, "Material", [diffuse, ambient, specular, reflective,
-            transparent, emissive, shininess, blend, ior, texture, texture_repeat])
+        struct_layout!(
+            Material,
+            "Material",
+            [
+                diffuse,
+                ambient,
+                specular,
+                reflective,
+                transparent,
+                emissive,
+                shininess,
+                blend,
+                ior,
+                texture,
+                texture_repeat
+            ]
+        )
     }
 }
 
@@ -280,8 +318,11 @@ impl Texel {
 
 impl Light {
     pub fn layout() -> StructLayout {
-        struct_layout!(Light, "Light", [color, position, direction_to_light, spot_axis,
-            attenuation, kind, angle_deg, penumbra_deg, pad0])
+        struct_layout!(
+            Light,
+            "Light",
+            [color, position, direction_to_light, spot_axis, attenuation, kind, angle_deg, penumbra_deg, pad0]
+        )
     }
 }
 
@@ -314,7 +355,11 @@ impl TraceStep {
     }
 
     pub fn layout() -> StructLayout {
-        struct_layout!(TraceStep, "TraceStep", [origin, direction, value, extra, kind, level, light, id, passes, pad0, pad1, pad2])
+        struct_layout!(
+            TraceStep,
+            "TraceStep",
+            [origin, direction, value, extra, kind, level, light, id, passes, pad0, pad1, pad2]
+        )
     }
 }
 
@@ -346,8 +391,16 @@ impl FmaCase {
 /// fma_probe.comp's bindings: its cases, and the same cases with r filled in.
 pub fn fma_probe_bindings() -> Vec<BindingLayout> {
     vec![
-        BindingLayout { binding: BINDING_FMA_CASES, shape: BufferShape::RuntimeArray(FmaCase::layout()), writable: false },
-        BindingLayout { binding: BINDING_FMA_RESULTS, shape: BufferShape::RuntimeArray(FmaCase::layout()), writable: true },
+        BindingLayout {
+            binding: BINDING_FMA_CASES,
+            shape: BufferShape::RuntimeArray(FmaCase::layout()),
+            writable: false,
+        },
+        BindingLayout {
+            binding: BINDING_FMA_RESULTS,
+            shape: BufferShape::RuntimeArray(FmaCase::layout()),
+            writable: true,
+        },
     ]
 }
 
@@ -356,14 +409,34 @@ pub fn fma_probe_bindings() -> Vec<BindingLayout> {
 pub fn scene_bindings() -> Vec<BindingLayout> {
     vec![
         BindingLayout { binding: BINDING_FRAME, shape: BufferShape::Single(Frame::layout()), writable: false },
-        BindingLayout { binding: BINDING_PRIMITIVES, shape: BufferShape::RuntimeArray(Primitive::layout()), writable: false },
-        BindingLayout { binding: BINDING_MATERIALS, shape: BufferShape::RuntimeArray(Material::layout()), writable: false },
+        BindingLayout {
+            binding: BINDING_PRIMITIVES,
+            shape: BufferShape::RuntimeArray(Primitive::layout()),
+            writable: false,
+        },
+        BindingLayout {
+            binding: BINDING_MATERIALS,
+            shape: BufferShape::RuntimeArray(Material::layout()),
+            writable: false,
+        },
         BindingLayout { binding: BINDING_LIGHTS, shape: BufferShape::RuntimeArray(Light::layout()), writable: false },
-        BindingLayout { binding: BINDING_TEXTURES, shape: BufferShape::RuntimeArray(Texture::layout()), writable: false },
+        BindingLayout {
+            binding: BINDING_TEXTURES,
+            shape: BufferShape::RuntimeArray(Texture::layout()),
+            writable: false,
+        },
         BindingLayout { binding: BINDING_TEXELS, shape: BufferShape::RuntimeArray(Texel::layout()), writable: false },
         BindingLayout { binding: BINDING_NODES, shape: BufferShape::RuntimeArray(BvhNode::layout()), writable: false },
-        BindingLayout { binding: BINDING_LEAF_ITEMS, shape: BufferShape::RuntimeArray(LeafItem::layout()), writable: false },
-        BindingLayout { binding: BINDING_INSTANCES, shape: BufferShape::RuntimeArray(Instance::layout()), writable: false },
+        BindingLayout {
+            binding: BINDING_LEAF_ITEMS,
+            shape: BufferShape::RuntimeArray(LeafItem::layout()),
+            writable: false,
+        },
+        BindingLayout {
+            binding: BINDING_INSTANCES,
+            shape: BufferShape::RuntimeArray(Instance::layout()),
+            writable: false,
+        },
     ]
 }
 
@@ -382,7 +455,11 @@ pub const UNIFORM_KERNEL_IMAGE_BYTES: usize = IMAGE_WIDTH as usize * IMAGE_ROWS 
 pub fn uniform_kernel_images() -> Vec<crate::gpu::ImageBinding> {
     UNIFORM_KERNEL_IMAGES
         .iter()
-        .map(|&binding| crate::gpu::ImageBinding { binding, writable: false, format: crate::gpu::ImageFormat::Rgba32Uint })
+        .map(|&binding| crate::gpu::ImageBinding {
+            binding,
+            writable: false,
+            format: crate::gpu::ImageFormat::Rgba32Uint,
+        })
         .collect()
 }
 
@@ -390,7 +467,8 @@ pub fn uniform_kernel_images() -> Vec<crate::gpu::ImageBinding> {
 /// preview_uniform.comp: the frame as a uniform block, the textures and
 /// texels as in `scene_bindings` (the arrays are images).
 pub fn uniform_kernel_scene_bindings() -> Vec<BindingLayout> {
-    let mut b: Vec<BindingLayout> = scene_bindings().into_iter().filter(|b| !UNIFORM_KERNEL_IMAGES.contains(&b.binding)).collect();
+    let mut b: Vec<BindingLayout> =
+        scene_bindings().into_iter().filter(|b| !UNIFORM_KERNEL_IMAGES.contains(&b.binding)).collect();
     for binding in &mut b {
         if binding.binding == BINDING_FRAME {
             binding.shape = BufferShape::UniformSingle(Frame::layout());
@@ -408,7 +486,8 @@ pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u
         return std::borrow::Cow::Borrowed(bytes);
     }
     let row = IMAGE_WIDTH as usize * 16;
-    let len = if bytes.len() <= row { bytes.len().max(16).next_multiple_of(16) } else { bytes.len().next_multiple_of(row) };
+    let len =
+        if bytes.len() <= row { bytes.len().max(16).next_multiple_of(16) } else { bytes.len().next_multiple_of(row) };
     if len == bytes.len() {
         return std::borrow::Cow::Borrowed(bytes);
     }
@@ -428,7 +507,11 @@ pub fn render_uniform_bindings() -> Vec<BindingLayout> {
 /// The bindings of every kernel that writes pixels: the scene and the pixels.
 pub fn pixel_kernel_bindings() -> Vec<BindingLayout> {
     let mut b = scene_bindings();
-    b.push(BindingLayout { binding: BINDING_PIXELS, shape: BufferShape::RuntimeArray(PixelOut::layout()), writable: true });
+    b.push(BindingLayout {
+        binding: BINDING_PIXELS,
+        shape: BufferShape::RuntimeArray(PixelOut::layout()),
+        writable: true,
+    });
     b
 }
 
@@ -436,6 +519,10 @@ pub fn pixel_kernel_bindings() -> Vec<BindingLayout> {
 /// pixels and the running sums of their samples.
 pub fn render_bindings() -> Vec<BindingLayout> {
     let mut b = pixel_kernel_bindings();
-    b.push(BindingLayout { binding: BINDING_SAMPLE_SUMS, shape: BufferShape::RuntimeArray(SampleSum::layout()), writable: true });
+    b.push(BindingLayout {
+        binding: BINDING_SAMPLE_SUMS,
+        shape: BufferShape::RuntimeArray(SampleSum::layout()),
+        writable: true,
+    });
     b
 }

@@ -40,12 +40,12 @@ macro_rules! errln {
     }};
 }
 
+pub mod bench;
 pub mod bounded;
 pub mod bvh;
-pub mod bench;
+pub mod check;
 pub mod cli;
 pub mod conformance;
-pub mod check;
 pub mod cpu;
 pub mod frame;
 pub mod gen;

@@ -32,10 +32,7 @@ pub(crate) fn try_with_capacity<T>(n: usize, what: &str) -> Result<Vec<T>, Strin
     let mut v = Vec::new();
     v.try_reserve_exact(n).map_err(|_| {
         let bytes = (n as u128 * std::mem::size_of::<T>() as u128).min(u128::from(u64::MAX)) as u64;
-        format!(
-            "cannot allocate {} for {what}; render a smaller image",
-            crate::units::fmt_bytes(bytes)
-        )
+        format!("cannot allocate {} for {what}; render a smaller image", crate::units::fmt_bytes(bytes))
     })?;
     Ok(v)
 }
@@ -135,7 +132,8 @@ pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result
             ctx.info().name
         ));
     }
-    let sizes: Vec<(u32, &str, usize)> = data.scene_buffers().iter().map(|&(b, what, bytes)| (b, what, bytes.len())).collect();
+    let sizes: Vec<(u32, &str, usize)> =
+        data.scene_buffers().iter().map(|&(b, what, bytes)| (b, what, bytes.len())).collect();
     fits_images(&sizes)
 }
 
@@ -305,7 +303,8 @@ impl SceneFeatures {
 fn record_kind(data: &FrameData, bit: u32) -> bool {
     data.nodes.iter().filter(|n| n.count > n.primitives).any(|n| {
         let records = (n.first + n.primitives).next_multiple_of(4);
-        (0..n.count - n.primitives).any(|r| data.leaf_items[(records + 4 * r + 3) as usize].item & layout::RECORD_SPHERE == bit)
+        (0..n.count - n.primitives)
+            .any(|r| data.leaf_items[(records + 4 * r + 3) as usize].item & layout::RECORD_SPHERE == bit)
     })
 }
 
@@ -363,7 +362,8 @@ pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRender
 }
 
 /// What to do about pixels cut short, for the commands that render a frame.
-pub const RENDER_ADVICE: &str = "`raycast render` finishes such pixels with the CPU build (the same code; on lavapipe the same \
+pub const RENDER_ADVICE: &str =
+    "`raycast render` finishes such pixels with the CPU build (the same code; on lavapipe the same \
      bits); here, drop --no-bvh, use a smaller --depth, or another Vulkan device";
 
 /// An error when the kernel marked pixels whose loops the device ended
@@ -430,7 +430,8 @@ impl GpuRenderer {
     /// as a storage buffer of the device holds in pixel records and running
     /// sums (or `set_band_bytes`), a whole number of tiles.
     pub fn band_rows(&self, width: u32) -> u32 {
-        let per_row = u64::from(width) * std::mem::size_of::<PixelOut>().max(std::mem::size_of::<layout::SampleSum>()) as u64;
+        let per_row =
+            u64::from(width) * std::mem::size_of::<PixelOut>().max(std::mem::size_of::<layout::SampleSum>()) as u64;
         let limit = self.band_bytes.unwrap_or(u64::MAX).min(self.context.max_storage_bytes());
         let tiles = (limit / per_row.max(1) / u64::from(layout::WORKGROUP_SIZE)).max(1);
         u32::try_from(tiles * u64::from(layout::WORKGROUP_SIZE)).unwrap_or(u32::MAX)
@@ -498,7 +499,9 @@ impl GpuRenderer {
         let scene: Vec<(u32, std::borrow::Cow<[u8]>)> = data
             .scene_buffers()
             .into_iter()
-            .map(|(binding, _, bytes)| (binding, if uniform { layout::padded_for_uniform(binding, bytes) } else { bytes.into() }))
+            .map(|(binding, _, bytes)| {
+                (binding, if uniform { layout::padded_for_uniform(binding, bytes) } else { bytes.into() })
+            })
             .collect();
         let count = f.width as usize * f.height as usize;
         let what = format!("the {}x{} picture's pixels read back from the device", f.width, f.height);
@@ -525,7 +528,8 @@ impl GpuRenderer {
             // One sample of every pixel per dispatch (render.comp).
             let (bytes, t) = self.context.run_passes(&kernel, &buffers, groups, f.spp.max(1))?;
             // Read as records wherever the bytes lie (a Vec<u8> promises no alignment).
-            let band: Vec<PixelOut> = bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned).collect();
+            let band: Vec<PixelOut> =
+                bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned).collect();
             // Every pixel the kernel covers counts at least its camera ray, far
             // fewer than the sentinel.
             let unwritten = band.iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();
@@ -638,7 +642,11 @@ mod tests {
         }
         // Each group of `rich` fits one leaf; twenty cubes in a row do not.
         let cubes: String = (0..20)
-            .map(|i| format!(r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#))
+            .map(|i| {
+                format!(
+                    r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#
+                )
+            })
             .collect();
         let row = format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#);
         let d = data(&row, &RenderSettings::default());

@@ -13,7 +13,11 @@ fn v3(v: [f32; 4]) -> String {
 }
 
 fn passes(n: u32) -> String {
-    if n == 1 { "1 pass".to_string() } else { format!("{n} passes") }
+    if n == 1 {
+        "1 pass".to_string()
+    } else {
+        format!("{n} passes")
+    }
 }
 
 /// `primitive 12 (sphere, scene.xml:34:7)`.
@@ -38,7 +42,11 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
     for s in steps {
         match s.kind {
             layout::TRACE_CAMERA | layout::TRACE_MIRROR => {
-                let what = if s.kind == layout::TRACE_CAMERA { "camera ray".to_string() } else { format!("mirror ray {}", s.level) };
+                let what = if s.kind == layout::TRACE_CAMERA {
+                    "camera ray".to_string()
+                } else {
+                    format!("mirror ray {}", s.level)
+                };
                 lines.push(format!("{what} from {} along {}", v3(s.origin), v3(s.direction)));
                 if s.id == NO_HIT {
                     lines.push(format!("  misses everything (its walk: {})", passes(s.passes)));
@@ -67,7 +75,9 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
             layout::TRACE_LIGHT => {
                 let term = v3(s.value);
                 let what = match s.id {
-                    layout::TRACE_LIGHT_NOTHING => format!("adds nothing ({term}: facing away, outside its cone, or dark)"),
+                    layout::TRACE_LIGHT_NOTHING => {
+                        format!("adds nothing ({term}: facing away, outside its cone, or dark)")
+                    }
                     layout::TRACE_LIGHT_ADDED => format!("adds {term} (no shadow rays)"),
                     _ => format!("would add {term}; its shadow ray decides"),
                 };
@@ -75,7 +85,11 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
             }
             layout::TRACE_SHADOW => {
                 // T_FAR (raycast.glsl), the largest float: a directional light's.
-                let t_max = if s.direction[3] == f32::MAX { "any distance".to_string() } else { format!("t {}", s.direction[3]) };
+                let t_max = if s.direction[3] == f32::MAX {
+                    "any distance".to_string()
+                } else {
+                    format!("t {}", s.direction[3])
+                };
                 if s.id == NO_HIT {
                     lines.push(format!(
                         "    shadow ray from {} to {t_max}: clear, so the term is added (its walk: {})",
@@ -116,7 +130,11 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
 /// A float in JSON: Rust's shortest digits that read back as the same f32,
 /// or null where it is not finite (JSON has no NaN or infinity).
 fn num(x: f32) -> String {
-    if x.is_finite() { format!("{x}") } else { "null".to_string() }
+    if x.is_finite() {
+        format!("{x}")
+    } else {
+        "null".to_string()
+    }
 }
 
 fn vec3_json(v: [f32; 4]) -> String {

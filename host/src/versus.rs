@@ -15,12 +15,12 @@
 //! - whether the two pictures have the same bits (`check::compare`).
 
 use crate::bench::{load_or_skip, median, skipped, BenchArgs, BenchBackend};
-use crate::units::json_str;
 use crate::check;
 use crate::cli::{check_validation, open_renderer, scene_failure, Failure};
 use crate::gpu::GpuError;
 use crate::render::Picture;
 use crate::scene::{FlattenLimits, ParseOptions};
+use crate::units::json_str;
 use std::path::Path;
 use std::time::Duration;
 
@@ -88,7 +88,12 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     }
     let settings = args.render.settings();
     settings.validate().map_err(crate::cli::usage_error)?;
-    let a_name = args.render.kernel.shaders.as_ref().map_or("the built-in kernel".to_string(), |d| format!("the kernel from {}", d.display()));
+    let a_name = args
+        .render
+        .kernel
+        .shaders
+        .as_ref()
+        .map_or("the built-in kernel".to_string(), |d| format!("the kernel from {}", d.display()));
     let b_name = format!("the kernel from {}", versus.display());
     let r = &args.render;
     let k = &r.kernel;
@@ -100,12 +105,14 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
         outln!("A: {a_name}\nB: {b_name}");
         outln!(
             "{} pairs of frames after {} warm-up frames each, in turn A B, B A, …; dispatch times",
-            args.frames, args.warmup
+            args.frames,
+            args.warmup
         );
     }
     let opts = ParseOptions { assets: args.render.assets.clone() };
     let limits = FlattenLimits { max_primitives: args.render.max_primitives };
-    let names: Vec<Option<&str>> = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    let names: Vec<Option<&str>> =
+        if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
     for name in names {
         // Over --max-primitives: listed as skipped, as `bench` does.
         let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
@@ -137,7 +144,9 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
         let (pairs, (pa, pb)) = match timed {
             Ok(x) => x,
             Err(GpuError::CutShort { count, total, .. }) => {
-                let why = format!("not timed: a kernel cut {count} of {total} pixels short (Mesa's loop budget per invocation)");
+                let why = format!(
+                    "not timed: a kernel cut {count} of {total} pixels short (Mesa's loop budget per invocation)"
+                );
                 skipped(&loaded.name, None, loaded.counts, &why, args);
                 continue;
             }
@@ -178,7 +187,13 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
             outln!("  dispatch median: A {:.1} ms, B {:.1} ms", v.a_median_ms, v.b_median_ms);
             outln!(
                 "  B/A: {:.3} median of {} pairs ({:.3} – {:.3}); B faster in {}, A in {} (sign test p = {:.3})",
-                v.ratio.0, args.frames, v.ratio.1, v.ratio.2, v.b_faster, v.a_faster, v.p_value
+                v.ratio.0,
+                args.frames,
+                v.ratio.1,
+                v.ratio.2,
+                v.b_faster,
+                v.a_faster,
+                v.p_value
             );
             outln!("  pictures: {pictures}");
         }

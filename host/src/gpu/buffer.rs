@@ -63,7 +63,12 @@ impl Buffer {
 
     /// Copies `bytes` to `offset`. Panics when they do not fit.
     pub fn write(&self, offset: usize, bytes: &[u8]) {
-        assert!(offset + bytes.len() <= self.len, "{}: write of {} bytes at {offset} past its end", self.what, bytes.len());
+        assert!(
+            offset + bytes.len() <= self.len,
+            "{}: write of {} bytes at {offset} past its end",
+            self.what,
+            bytes.len()
+        );
         // SAFETY: in bounds of the mapping (checked above); host-coherent memory.
         unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), self.mapped.add(offset), bytes.len()) };
     }
@@ -131,12 +136,8 @@ impl DescriptorSet {
         let inner = &kernel.inner;
         let mut given: Vec<u32> = resources.iter().map(|(b, _)| *b).collect();
         given.sort_unstable();
-        let mut wanted: Vec<u32> = kernel
-            .bindings()
-            .iter()
-            .map(|b| b.binding)
-            .chain(kernel.images().iter().map(|i| i.binding))
-            .collect();
+        let mut wanted: Vec<u32> =
+            kernel.bindings().iter().map(|b| b.binding).chain(kernel.images().iter().map(|i| i.binding)).collect();
         wanted.sort_unstable();
         if given != wanted {
             return Err(bad(format!(
@@ -185,8 +186,10 @@ impl DescriptorSet {
         }
         let d = &inner.device;
         let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
-        let pool = unsafe { d.create_descriptor_pool(&pool_info, None) }.map_err(GpuError::vk("vkCreateDescriptorPool"))?;
-        let mut out = DescriptorSet { pool, set: vk::DescriptorSet::null(), set_layout: kernel.set_layout, inner: inner.clone() };
+        let pool =
+            unsafe { d.create_descriptor_pool(&pool_info, None) }.map_err(GpuError::vk("vkCreateDescriptorPool"))?;
+        let mut out =
+            DescriptorSet { pool, set: vk::DescriptorSet::null(), set_layout: kernel.set_layout, inner: inner.clone() };
         let set_layouts = [kernel.set_layout];
         let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts);
         out.set = unsafe { d.allocate_descriptor_sets(&alloc) }.map_err(GpuError::vk("vkAllocateDescriptorSets"))?[0];
@@ -194,7 +197,9 @@ impl DescriptorSet {
         let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = resources
             .iter()
             .map(|(_, r)| match r {
-                Resource::Buffer(b) => [vk::DescriptorBufferInfo::default().buffer(b.buffer).offset(0).range(vk::WHOLE_SIZE)],
+                Resource::Buffer(b) => {
+                    [vk::DescriptorBufferInfo::default().buffer(b.buffer).offset(0).range(vk::WHOLE_SIZE)]
+                }
                 Resource::Image(_) | Resource::Data(_) => [vk::DescriptorBufferInfo::default()],
             })
             .collect();
@@ -202,9 +207,9 @@ impl DescriptorSet {
             .iter()
             .map(|(_, r)| match r {
                 Resource::Buffer(_) => [vk::DescriptorImageInfo::default()],
-                Resource::Image(_) | Resource::Data(_) => {
-                    [vk::DescriptorImageInfo::default().image_view(r.image_view()).image_layout(vk::ImageLayout::GENERAL)]
-                }
+                Resource::Image(_) | Resource::Data(_) => [vk::DescriptorImageInfo::default()
+                    .image_view(r.image_view())
+                    .image_layout(vk::ImageLayout::GENERAL)],
             })
             .collect();
         let writes: Vec<vk::WriteDescriptorSet> = resources

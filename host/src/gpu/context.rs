@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 use ash::vk;
 
 use super::float_controls;
-use super::present::Surface;
 use super::image::layout_barrier;
+use super::present::Surface;
 use super::{fma_probe, Division, GpuError, ImageFormat, Kernel};
 use crate::layout::IMAGE_WIDTH;
 
@@ -127,7 +127,12 @@ pub fn list_devices_with_default() -> Result<(Vec<DeviceInfo>, usize), GpuError>
 /// a window: one that can present), else the first.
 fn default_device(devices: &[Physical]) -> usize {
     // min_by_key keeps the first of equal ranks: enumeration order within a kind.
-    devices.iter().enumerate().filter(|(_, d)| d.compute_family.is_some()).min_by_key(|(_, d)| d.rank).map_or(0, |(i, _)| i)
+    devices
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.compute_family.is_some())
+        .min_by_key(|(_, d)| d.rank)
+        .map_or(0, |(i, _)| i)
 }
 
 /// An open Vulkan device with one compute queue. Kernels made from it keep it alive.
@@ -189,10 +194,7 @@ fn cstrs(names: &[&CStr]) -> Vec<*const c_char> {
 }
 
 fn ext_names(props: &[vk::ExtensionProperties]) -> Vec<String> {
-    props
-        .iter()
-        .filter_map(|p| p.extension_name_as_c_str().ok().map(|s| s.to_string_lossy().into_owned()))
-        .collect()
+    props.iter().filter_map(|p| p.extension_name_as_c_str().ok().map(|s| s.to_string_lossy().into_owned())).collect()
 }
 
 fn version_string(v: u32) -> String {
@@ -255,10 +257,8 @@ impl InstanceParts {
         let has = |list: &[String], name: &CStr| list.iter().any(|e| e.as_bytes() == name.to_bytes());
 
         let mut extensions: Vec<&CStr> = Vec::new();
-        let extra: Vec<std::ffi::CString> = extra
-            .iter()
-            .map(|e| std::ffi::CString::new(e.as_str()).unwrap_or_default())
-            .collect();
+        let extra: Vec<std::ffi::CString> =
+            extra.iter().map(|e| std::ffi::CString::new(e.as_str()).unwrap_or_default()).collect();
         for e in &extra {
             if !has(&available, e) {
                 return Err(GpuError::Presentation {
@@ -344,7 +344,9 @@ impl InstanceParts {
         let instance = match unsafe { entry.create_instance(&create_info, None) } {
             Ok(i) => i,
             Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
-                return Err(GpuError::no_device("vkCreateInstance found no compatible driver (ERROR_INCOMPATIBLE_DRIVER)"))
+                return Err(GpuError::no_device(
+                    "vkCreateInstance found no compatible driver (ERROR_INCOMPATIBLE_DRIVER)",
+                ))
             }
             Err(vk::Result::ERROR_LAYER_NOT_PRESENT) if validation => {
                 return Err(GpuError::ValidationUnavailable {
@@ -400,7 +402,9 @@ impl InstanceParts {
             // IEEE NaN, infinities and subnormals in every kernel where the
             // device can promise them (float_controls.rs).
             let mut float_modes = float_controls::Modes::default();
-            if props.api_version >= vk::API_VERSION_1_1 && extensions.iter().any(|e| e == "VK_KHR_shader_float_controls") {
+            if props.api_version >= vk::API_VERSION_1_1
+                && extensions.iter().any(|e| e == "VK_KHR_shader_float_controls")
+            {
                 let mut controls = vk::PhysicalDeviceFloatControlsProperties::default();
                 let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut controls);
                 unsafe { self.instance.get_physical_device_properties2(handle, &mut props2) };
@@ -419,7 +423,11 @@ impl InstanceParts {
             };
             let yes_no = |b: bool, yes: &str, no: &str| if b { yes.to_string() } else { no.to_string() };
             let arithmetic = [
-                yes_no(inexact_division, "division and square root corrected to IEEE's", "division and square root as the device gives them"),
+                yes_no(
+                    inexact_division,
+                    "division and square root corrected to IEEE's",
+                    "division and square root as the device gives them",
+                ),
                 yes_no(float_modes.preserve_nan, "NaN and infinities preserved", "NaN and infinities not promised"),
                 yes_no(float_modes.preserve_denorms, "subnormals preserved", "subnormals not promised"),
             ]
@@ -454,9 +462,9 @@ pub(crate) fn usable_devices(
         Ok(h) if h.is_empty() => Err(GpuError::no_device("the Vulkan loader reports zero devices")),
         Ok(h) => Ok(h),
         // The loader's answer when every driver loaded but none found hardware.
-        Err(vk::Result::ERROR_INITIALIZATION_FAILED) => Err(GpuError::no_device(
-            "vkEnumeratePhysicalDevices found no usable device (ERROR_INITIALIZATION_FAILED)",
-        )),
+        Err(vk::Result::ERROR_INITIALIZATION_FAILED) => {
+            Err(GpuError::no_device("vkEnumeratePhysicalDevices found no usable device (ERROR_INITIALIZATION_FAILED)"))
+        }
         Err(e) => Err(GpuError::vk("vkEnumeratePhysicalDevices")(e)),
     }
 }
@@ -582,12 +590,10 @@ impl GpuContext {
         }
         let ext_ptrs = cstrs(&device_exts);
         let priorities = [1.0f32];
-        let queue_info = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(queue_family)
-            .queue_priorities(&priorities)];
-        let device_info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queue_info)
-            .enabled_extension_names(&ext_ptrs);
+        let queue_info =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let device_info =
+            vk::DeviceCreateInfo::default().queue_create_infos(&queue_info).enabled_extension_names(&ext_ptrs);
         let device = unsafe { instance.create_device(physical.handle, &device_info, None) }
             .map_err(GpuError::vk("vkCreateDevice"))?;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
@@ -719,7 +725,8 @@ impl GpuContext {
 
         // Clear, fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
         let start = Instant::now();
-        let res = inner.submit_once(res, |d, cmd, res| unsafe { record_run(d, cmd, res, kernel, set, groups, passes) })?;
+        let res =
+            inner.submit_once(res, |d, cmd, res| unsafe { record_run(d, cmd, res, kernel, set, groups, passes) })?;
         let dispatch = start.elapsed();
 
         let start = Instant::now();
@@ -789,7 +796,9 @@ impl Inner {
             return Err(GpuError::TooManyGroups { groups, limit });
         }
         let out_binding = buffers.output.0;
-        if let Some(&(binding, _)) = buffers.cleared.iter().chain([&buffers.output]).find(|(b, _)| kernel.binds_image(*b)) {
+        if let Some(&(binding, _)) =
+            buffers.cleared.iter().chain([&buffers.output]).find(|(b, _)| kernel.binds_image(*b))
+        {
             let what = if binding == out_binding { "the output" } else { "cleared" };
             return Err(bad(format!("binding {binding} is a read-only image; it cannot be {what}")));
         }
@@ -800,7 +809,8 @@ impl Inner {
             }
             self.check_storage_size(buffer_size(len), || kernel.binding_label(binding))?;
             let uniform_range = u64::from(self.limits.max_uniform_buffer_range);
-            if kernel.descriptor_type(binding) == vk::DescriptorType::UNIFORM_BUFFER && buffer_size(len) > uniform_range {
+            if kernel.descriptor_type(binding) == vk::DescriptorType::UNIFORM_BUFFER && buffer_size(len) > uniform_range
+            {
                 return Err(GpuError::TooLarge {
                     what: kernel.binding_label(binding),
                     bytes: buffer_size(len),
@@ -814,7 +824,11 @@ impl Inner {
 
     /// The buffers and data images of a checked run, the inputs written,
     /// and a descriptor set binding them.
-    fn prepare_run(&self, kernel: &Kernel, buffers: &RunBuffers) -> Result<(RunResources, vk::DescriptorSet), GpuError> {
+    fn prepare_run(
+        &self,
+        kernel: &Kernel,
+        buffers: &RunBuffers,
+    ) -> Result<(RunResources, vk::DescriptorSet), GpuError> {
         let mut res = RunResources::new(self.device.clone());
         // Inputs: one host-visible buffer per binding, written in place.
         for &(binding, data) in buffers.inputs {
@@ -836,7 +850,8 @@ impl Inner {
         }
         // Cleared buffers and the output: filled by the device, before the first pass.
         for &(binding, len) in buffers.cleared {
-            let (buffer, _) = self.create_buffer(&mut res, buffer_size(len), Place::Device, &kernel.binding_label(binding))?;
+            let (buffer, _) =
+                self.create_buffer(&mut res, buffer_size(len), Place::Device, &kernel.binding_label(binding))?;
             res.bindings.push((binding, buffer));
             res.fills.push((buffer, 0));
         }
@@ -853,7 +868,11 @@ impl Inner {
     /// A descriptor set (from a pool in `res`) with `res`'s buffers and data images at their bindings.
     fn run_descriptor_set(&self, res: &mut RunResources, kernel: &Kernel) -> Result<vk::DescriptorSet, GpuError> {
         let images = res.images.len() as u32;
-        let uniform = res.bindings.iter().filter(|(b, _)| kernel.descriptor_type(*b) == vk::DescriptorType::UNIFORM_BUFFER).count() as u32;
+        let uniform = res
+            .bindings
+            .iter()
+            .filter(|(b, _)| kernel.descriptor_type(*b) == vk::DescriptorType::UNIFORM_BUFFER)
+            .count() as u32;
         let sizes: Vec<vk::DescriptorPoolSize> = [
             (vk::DescriptorType::STORAGE_BUFFER, res.bindings.len() as u32 - uniform - images),
             (vk::DescriptorType::UNIFORM_BUFFER, uniform),
@@ -867,9 +886,8 @@ impl Inner {
         res.descriptor_pool = unsafe { self.device.create_descriptor_pool(&pool_info, None) }
             .map_err(GpuError::vk("vkCreateDescriptorPool"))?;
         let set_layouts = [kernel.set_layout];
-        let alloc = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(res.descriptor_pool)
-            .set_layouts(&set_layouts);
+        let alloc =
+            vk::DescriptorSetAllocateInfo::default().descriptor_pool(res.descriptor_pool).set_layouts(&set_layouts);
         let set = unsafe { self.device.allocate_descriptor_sets(&alloc) }
             .map_err(GpuError::vk("vkAllocateDescriptorSets"))?[0];
         let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = res
@@ -963,8 +981,14 @@ unsafe fn record_run(
 ///
 /// # Safety
 /// `cmd` is a command buffer of `d` in the recording state.
-unsafe fn shader_writes_barrier(d: &ash::Device, cmd: vk::CommandBuffer, dst_stage: vk::PipelineStageFlags, dst_access: vk::AccessFlags) {
-    let barrier = [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(dst_access)];
+unsafe fn shader_writes_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    dst_stage: vk::PipelineStageFlags,
+    dst_access: vk::AccessFlags,
+) {
+    let barrier =
+        [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(dst_access)];
     // SAFETY: the caller's.
     unsafe {
         d.cmd_pipeline_barrier(
@@ -986,7 +1010,8 @@ impl Inner {
     /// (t % IMAGE_WIDTH, t / IMAGE_WIDTH)), within maxImageDimension2D, a
     /// format the device can store. `kernel` and `what` name it in errors.
     pub(crate) fn check_data_image(&self, kernel: &str, what: &str, len: usize) -> Result<(), GpuError> {
-        let bad = |message: String| GpuError::BadRun { kernel: kernel.to_string(), message: format!("{what}: {message}") };
+        let bad =
+            |message: String| GpuError::BadRun { kernel: kernel.to_string(), message: format!("{what}: {message}") };
         let max = u64::from(self.limits.max_image_dimension2_d);
         if len == 0 || !len.is_multiple_of(16) {
             return Err(bad(format!("{len} bytes are not whole 16-byte texels")));
@@ -1009,7 +1034,9 @@ impl Inner {
             .optimal_tiling_features;
         let needed = vk::FormatFeatureFlags::STORAGE_IMAGE | vk::FormatFeatureFlags::TRANSFER_DST;
         if !features.contains(needed) {
-            return Err(bad(format!("the device cannot use {DATA_FORMAT:?} as a storage image and copy target ({features:?})")));
+            return Err(bad(format!(
+                "the device cannot use {DATA_FORMAT:?} as a storage image and copy target ({features:?})"
+            )));
         }
         Ok(())
     }
@@ -1085,7 +1112,8 @@ impl Inner {
         unsafe { d.begin_command_buffer(cmd, &begin) }.map_err(GpuError::vk("vkBeginCommandBuffer"))?;
         record(d, cmd, &res);
         unsafe { d.end_command_buffer(cmd) }.map_err(GpuError::vk("vkEndCommandBuffer"))?;
-        res.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(GpuError::vk("vkCreateFence"))?;
+        res.fence =
+            unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(GpuError::vk("vkCreateFence"))?;
         let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
         let cmds = [cmd];
         let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
@@ -1104,7 +1132,10 @@ impl Inner {
     /// A command pool of the queue's family (`flags`) and one primary
     /// command buffer from it; the caller destroys the pool. On an error
     /// nothing is left behind.
-    pub(crate) fn command_buffer(&self, flags: vk::CommandPoolCreateFlags) -> Result<(vk::CommandPool, vk::CommandBuffer), GpuError> {
+    pub(crate) fn command_buffer(
+        &self,
+        flags: vk::CommandPoolCreateFlags,
+    ) -> Result<(vk::CommandPool, vk::CommandBuffer), GpuError> {
         let d = &self.device;
         let info = vk::CommandPoolCreateInfo::default().flags(flags).queue_family_index(self.queue_family);
         let pool = unsafe { d.create_command_pool(&info, None) }.map_err(GpuError::vk("vkCreateCommandPool"))?;
@@ -1126,7 +1157,13 @@ impl Inner {
     /// `Place::Device`. Memory types are tried best first (device-local;
     /// host-cached for readback), falling back to the next when an
     /// allocation fails.
-    fn create_buffer(&self, res: &mut RunResources, size: u64, place: Place, what: &str) -> Result<(vk::Buffer, vk::DeviceMemory), GpuError> {
+    fn create_buffer(
+        &self,
+        res: &mut RunResources,
+        size: u64,
+        place: Place,
+        what: &str,
+    ) -> Result<(vk::Buffer, vk::DeviceMemory), GpuError> {
         let d = &self.device;
         let info = vk::BufferCreateInfo::default()
             .size(size)
@@ -1143,7 +1180,9 @@ impl Inner {
 
         let needed = match place {
             Place::Device => vk::MemoryPropertyFlags::empty(),
-            Place::Upload | Place::Readback => vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+            Place::Upload | Place::Readback => {
+                vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT
+            }
         };
         let types = &self.memory.memory_types[..self.memory.memory_type_count as usize];
         let mut candidates: Vec<(u32, u32)> = types
@@ -1239,11 +1278,19 @@ struct RunImage {
 ///
 /// # Safety
 /// `cmd` is a command buffer of `d` in the recording state.
-pub(crate) unsafe fn record_image_upload(d: &ash::Device, cmd: vk::CommandBuffer, source: vk::Buffer, image: vk::Image, texels: u32) {
+pub(crate) unsafe fn record_image_upload(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    source: vk::Buffer,
+    image: vk::Image,
+    texels: u32,
+) {
     let [width, height] = data_image_size(u64::from(texels)).map(|n| n as u32);
     let barrier = |old, new, src, dst| [layout_barrier(image, old, new, src, dst)];
     let region = [vk::BufferImageCopy::default()
-        .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
+        .image_subresource(
+            vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),
+        )
         .image_extent(vk::Extent3D { width, height, depth: 1 })];
     let to_copy = barrier(
         vk::ImageLayout::UNDEFINED,
@@ -1319,6 +1366,7 @@ impl Drop for RunResources {
 
 #[cfg(test)]
 pub(crate) fn load_entry_from(path: &str) -> Result<InstanceParts, GpuError> {
-    let entry = unsafe { ash::Entry::load_from(path) }.map_err(|e| GpuError::LoaderMissing { detail: e.to_string() })?;
+    let entry =
+        unsafe { ash::Entry::load_from(path) }.map_err(|e| GpuError::LoaderMissing { detail: e.to_string() })?;
     InstanceParts::with_entry(entry, false, &[])
 }

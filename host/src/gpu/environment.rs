@@ -57,8 +57,13 @@ fn skip_drivers_without_devices() {
 }
 
 /// The environment variables that choose Vulkan drivers.
-pub(crate) const DRIVER_CHOICE_VARS: [&str; 5] =
-    ["VK_DRIVER_FILES", "VK_ICD_FILENAMES", "VK_ADD_DRIVER_FILES", "VK_LOADER_DRIVERS_SELECT", "VK_LOADER_DRIVERS_DISABLE"];
+pub(crate) const DRIVER_CHOICE_VARS: [&str; 5] = [
+    "VK_DRIVER_FILES",
+    "VK_ICD_FILENAMES",
+    "VK_ADD_DRIVER_FILES",
+    "VK_LOADER_DRIVERS_SELECT",
+    "VK_LOADER_DRIVERS_DISABLE",
+];
 
 /// `skip_drivers_without_devices`'s rule: the drivers to disable, given
 /// which variables are set (`is_set`) and whether the machine has DRM
@@ -77,7 +82,9 @@ pub(crate) fn user_disabled_drivers() -> bool {
 /// `skip_drivers_without_devices`): what it was asked for, not a
 /// problem to report.
 pub(crate) fn own_driver_choice(message: &str) -> bool {
-    message.starts_with("Driver ") && message.contains(" ignored because ") && message.contains("env var 'VK_LOADER_DRIVERS_")
+    message.starts_with("Driver ")
+        && message.contains(" ignored because ")
+        && message.contains("env var 'VK_LOADER_DRIVERS_")
 }
 
 #[cfg(test)]
@@ -96,7 +103,10 @@ mod tests {
             let matched = DRM_DRIVER_MANIFESTS.split(',').any(|glob| manifest.starts_with(glob.trim_end_matches('*')));
             assert!(!matched, "{manifest} would be disabled");
         }
-        assert!(DRM_DRIVER_MANIFESTS.split(',').all(|g| g.ends_with('*') && !g.contains(' ')), "{DRM_DRIVER_MANIFESTS}");
+        assert!(
+            DRM_DRIVER_MANIFESTS.split(',').all(|g| g.ends_with('*') && !g.contains(' ')),
+            "{DRM_DRIVER_MANIFESTS}"
+        );
     }
 
     /// The loader's notes on drivers left out as asked are not reported as
@@ -104,8 +114,12 @@ mod tests {
     #[test]
     fn the_loaders_notes_on_chosen_drivers_are_not_validation_messages() {
         let own = own_driver_choice;
-        assert!(own("Driver \"intel_icd.x86_64.json\" ignored because it was disabled by env var 'VK_LOADER_DRIVERS_DISABLE'"));
-        assert!(own("Driver \"radeon_icd.x86_64.json\" ignored because not selected by env var 'VK_LOADER_DRIVERS_SELECT'"));
+        assert!(own(
+            "Driver \"intel_icd.x86_64.json\" ignored because it was disabled by env var 'VK_LOADER_DRIVERS_DISABLE'"
+        ));
+        assert!(own(
+            "Driver \"radeon_icd.x86_64.json\" ignored because not selected by env var 'VK_LOADER_DRIVERS_SELECT'"
+        ));
         assert!(!own("loader_scan_for_implicit_layers: Implicit layer VkLayer_X ignored because it was disabled by env var 'VK_LOADER_LAYERS_DISABLE'"));
         assert!(!own("Validation Error: [ VUID-vkCmdDispatch-None-02697 ] Driver state is invalid"));
     }

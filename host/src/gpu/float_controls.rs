@@ -87,7 +87,8 @@ pub(crate) fn add_modes(words: &[u32], modes: Modes) -> Result<Vec<u32>, String>
         return Ok(words.to_vec());
     }
     let name = string_words(EXTENSION);
-    let has_extension = instructions.iter().any(|&(at, op, count)| op == OP_EXTENSION && words[at + 1..at + count] == name[..]);
+    let has_extension =
+        instructions.iter().any(|&(at, op, count)| op == OP_EXTENSION && words[at + 1..at + count] == name[..]);
     // Capabilities come first, then extensions; entry points before execution modes.
     let last_capability = instructions.iter().rfind(|i| i.1 == OP_CAPABILITY).map(|i| i.0 + i.2);
     let entry_points: Vec<(usize, u32)> = instructions
@@ -145,7 +146,8 @@ mod tests {
 
         let path = std::env::temp_dir().join(format!("raycast-float-controls-{}.spv", std::process::id()));
         std::fs::write(&path, bytemuck::cast_slice::<u32, u8>(&patched)).unwrap();
-        let val = std::process::Command::new("spirv-val").arg("--target-env").arg("vulkan1.1").arg(&path).output().unwrap();
+        let val =
+            std::process::Command::new("spirv-val").arg("--target-env").arg("vulkan1.1").arg(&path).output().unwrap();
         assert!(val.status.success(), "spirv-val: {}", String::from_utf8_lossy(&val.stderr));
         let dis = std::process::Command::new("spirv-dis").arg(&path).output().unwrap();
         let _ = std::fs::remove_file(&path);
@@ -165,7 +167,9 @@ mod tests {
     fn bad_modules_are_errors() {
         assert!(add_modes(&[1, 2, 3], BOTH).unwrap_err().contains("magic"));
         // A header and an instruction claiming 9 words of 2.
-        assert!(add_modes(&[0x0723_0203, 0x10300, 0, 10, 0, (9 << 16) | OP_CAPABILITY, 1], BOTH).unwrap_err().contains("word count"));
+        assert!(add_modes(&[0x0723_0203, 0x10300, 0, 10, 0, (9 << 16) | OP_CAPABILITY, 1], BOTH)
+            .unwrap_err()
+            .contains("word count"));
         assert!(add_modes(&[0x0723_0203, 0x10300, 0, 10, 0], BOTH).unwrap_err().contains("without"));
     }
 }

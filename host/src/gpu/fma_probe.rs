@@ -44,7 +44,8 @@ pub fn fma_rounds_once(ctx: &GpuContext) -> Result<bool, GpuError> {
     let cases = cases();
     let bytes: &[u8] = bytemuck::cast_slice(&cases);
     let groups = [cases.len().div_ceil(64) as u32, 1, 1];
-    let (out, _) = ctx.run(&kernel, &[(layout::BINDING_FMA_CASES, bytes)], (layout::BINDING_FMA_RESULTS, bytes.len()), 0, groups)?;
+    let (out, _) =
+        ctx.run(&kernel, &[(layout::BINDING_FMA_CASES, bytes)], (layout::BINDING_FMA_RESULTS, bytes.len()), 0, groups)?;
     let results: Vec<FmaCase> = bytemuck::pod_collect_to_vec(&out);
     Ok(cases.iter().zip(&results).all(|(c, r)| r.r.to_bits() == c.a.mul_add(c.b, c.c).to_bits()))
 }

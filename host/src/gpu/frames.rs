@@ -65,15 +65,15 @@ impl FrameLoop {
             inner: inner.clone(),
         };
         (f.pool, f.cmd) = inner.command_buffer(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER)?;
-        f.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(GpuError::vk("vkCreateFence"))?;
+        f.fence =
+            unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(GpuError::vk("vkCreateFence"))?;
         f.acquired = unsafe { d.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
             .map_err(GpuError::vk("vkCreateSemaphore"))?;
         let families = unsafe { inner.parts.instance.get_physical_device_queue_family_properties(inner.physical) };
         let valid_bits = families.get(inner.queue_family as usize).map_or(0, |q| q.timestamp_valid_bits);
         if valid_bits > 0 && inner.limits.timestamp_period > 0.0 {
             let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
-            f.queries =
-                Some(unsafe { d.create_query_pool(&info, None) }.map_err(GpuError::vk("vkCreateQueryPool"))?);
+            f.queries = Some(unsafe { d.create_query_pool(&info, None) }.map_err(GpuError::vk("vkCreateQueryPool"))?);
         }
         Ok(f)
     }
@@ -171,7 +171,13 @@ impl FrameLoop {
             let memory = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ)
                 .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
-            let to_general = [layout_barrier(image.image, image.layout.get(), vk::ImageLayout::GENERAL, vk::AccessFlags::empty(), vk::AccessFlags::SHADER_WRITE)];
+            let to_general = [layout_barrier(
+                image.image,
+                image.layout.get(),
+                vk::ImageLayout::GENERAL,
+                vk::AccessFlags::empty(),
+                vk::AccessFlags::SHADER_WRITE,
+            )];
             d.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
@@ -197,9 +203,19 @@ impl FrameLoop {
             let memory = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::SHADER_WRITE)
                 .dst_access_mask(vk::AccessFlags::HOST_READ)];
-            let to_src = [layout_barrier(image.image, vk::ImageLayout::GENERAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, vk::AccessFlags::SHADER_WRITE, vk::AccessFlags::TRANSFER_READ)];
+            let to_src = [layout_barrier(
+                image.image,
+                vk::ImageLayout::GENERAL,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                vk::AccessFlags::SHADER_WRITE,
+                vk::AccessFlags::TRANSFER_READ,
+            )];
             let image_barriers: &[vk::ImageMemoryBarrier] = if target.is_some() { &to_src } else { &[] };
-            image.layout.set(if target.is_some() { vk::ImageLayout::TRANSFER_SRC_OPTIMAL } else { vk::ImageLayout::GENERAL });
+            image.layout.set(if target.is_some() {
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL
+            } else {
+                vk::ImageLayout::GENERAL
+            });
             d.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::COMPUTE_SHADER,
@@ -212,7 +228,13 @@ impl FrameLoop {
 
             if let Some((sc, index)) = &target {
                 let dst = sc.images[*index as usize];
-                let to_dst = [layout_barrier(dst, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::AccessFlags::empty(), vk::AccessFlags::TRANSFER_WRITE)];
+                let to_dst = [layout_barrier(
+                    dst,
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::AccessFlags::empty(),
+                    vk::AccessFlags::TRANSFER_WRITE,
+                )];
                 // TRANSFER: the stage the acquire semaphore is waited at.
                 d.cmd_pipeline_barrier(
                     cmd,
@@ -244,7 +266,13 @@ impl FrameLoop {
                     &region,
                     vk::Filter::NEAREST,
                 );
-                let to_present = [layout_barrier(dst, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::PRESENT_SRC_KHR, vk::AccessFlags::TRANSFER_WRITE, vk::AccessFlags::empty())];
+                let to_present = [layout_barrier(
+                    dst,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::ImageLayout::PRESENT_SRC_KHR,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::AccessFlags::empty(),
+                )];
                 d.cmd_pipeline_barrier(
                     cmd,
                     vk::PipelineStageFlags::TRANSFER,
@@ -275,7 +303,8 @@ impl FrameLoop {
         let signal = signal.expect("set with target");
         let swapchains = [sc.handle];
         let indices = [index];
-        let present = vk::PresentInfoKHR::default().wait_semaphores(&signal).swapchains(&swapchains).image_indices(&indices);
+        let present =
+            vk::PresentInfoKHR::default().wait_semaphores(&signal).swapchains(&swapchains).image_indices(&indices);
         match unsafe { sc.loader.queue_present(*queue, &present) } {
             Ok(false) => Ok(FrameStatus::Done),
             Ok(true) | Err(vk::Result::SUBOPTIMAL_KHR) => Ok(FrameStatus::Suboptimal),
@@ -305,7 +334,9 @@ impl Drop for FrameLoop {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::{compile_kernel, Buffer, Division, DataImage, DeviceSelector, GpuOptions, ImageBinding, ImageFormat, Resource};
+    use crate::gpu::{
+        compile_kernel, Buffer, DataImage, DeviceSelector, Division, GpuOptions, ImageBinding, ImageFormat, Resource,
+    };
     use crate::layout::{BindingLayout, BufferShape, FieldLayout, StructLayout};
 
     /// out[i] = 3 i + sample for i < 64, and the pixel (i, 0) of the image.
@@ -341,10 +372,18 @@ void main() {
         let spv = compile_kernel(&src, Division::AsGiven).unwrap_or_else(|e| panic!("{e}"));
         let _ = std::fs::remove_dir_all(&dir);
 
-        let opts = GpuOptions { device: Some(DeviceSelector::Name("llvmpipe".into())), validation: true, ..Default::default() };
+        let opts = GpuOptions {
+            device: Some(DeviceSelector::Name("llvmpipe".into())),
+            validation: true,
+            ..Default::default()
+        };
         let ctx = GpuContext::new(&opts).unwrap_or_else(|e| panic!("{e}"));
         let bindings = [
-            BindingLayout { binding: 0, shape: BufferShape::Single(four_uints("Params", "sample_index")), writable: false },
+            BindingLayout {
+                binding: 0,
+                shape: BufferShape::Single(four_uints("Params", "sample_index")),
+                writable: false,
+            },
             BindingLayout { binding: 1, shape: BufferShape::RuntimeArray(four_uints("Item", "value")), writable: true },
         ];
         let images = [ImageBinding { binding: 2, writable: true, format: ImageFormat::Rgba8 }];
@@ -354,22 +393,30 @@ void main() {
         let image = StorageImage::new(&ctx, 64, 1).unwrap();
 
         // Every binding once, each of the right kind.
-        let e = DescriptorSet::new(&kernel, &[(0, Resource::Buffer(&params)), (1, Resource::Buffer(&out))]).err().unwrap();
+        let e =
+            DescriptorSet::new(&kernel, &[(0, Resource::Buffer(&params)), (1, Resource::Buffer(&out))]).err().unwrap();
         assert!(e.to_string().contains("given bindings [0, 1], the kernel declares [0, 1, 2]"), "{e}");
-        let e = DescriptorSet::new(&kernel, &[(0, Resource::Buffer(&params)), (1, Resource::Image(&image)), (2, Resource::Buffer(&out))])
-            .err()
-            .unwrap();
+        let e = DescriptorSet::new(
+            &kernel,
+            &[(0, Resource::Buffer(&params)), (1, Resource::Image(&image)), (2, Resource::Buffer(&out))],
+        )
+        .err()
+        .unwrap();
         assert!(e.to_string().contains("is a storage buffer, not an image"), "{e}");
         // A data image where the kernel wants a picture.
         let data = DataImage::new(&ctx, &[7u8; 64], "a test data image").unwrap_or_else(|e| panic!("{e}"));
-        let e = DescriptorSet::new(&kernel, &[(0, Resource::Buffer(&params)), (1, Resource::Buffer(&out)), (2, Resource::Data(&data))])
-            .err()
-            .unwrap();
+        let e = DescriptorSet::new(
+            &kernel,
+            &[(0, Resource::Buffer(&params)), (1, Resource::Buffer(&out)), (2, Resource::Data(&data))],
+        )
+        .err()
+        .unwrap();
         assert!(e.to_string().contains("binding 2 is a picture (rgba8), not a data image"), "{e}");
         let e = DataImage::new(&ctx, &[7u8; 40], "a ragged data image").err().unwrap();
         assert!(e.to_string().contains("a ragged data image: 40 bytes are not whole 16-byte texels"), "{e}");
         // One-shot runs refuse kernels with pictures (they take data images only).
-        let e = ctx.run(&kernel, &[(0, &[0u8; 16][..]), (2, &[0u8; 16][..])], (1, 64 * 16), 0, [1, 1, 1]).err().unwrap();
+        let e =
+            ctx.run(&kernel, &[(0, &[0u8; 16][..]), (2, &[0u8; 16][..])], (1, 64 * 16), 0, [1, 1, 1]).err().unwrap();
         assert!(e.to_string().contains("binding 2 is a picture"), "{e}");
 
         let set = DescriptorSet::new(
@@ -381,7 +428,10 @@ void main() {
         for sample in 0..2u32 {
             frames.wait().unwrap();
             params.write(0, bytemuck::bytes_of(&[sample, 0, 0, 0]));
-            assert_eq!(frames.submit(&kernel, &set, [1, 1, 1], &image, [image.width(), image.height()], None).unwrap(), FrameStatus::Done);
+            assert_eq!(
+                frames.submit(&kernel, &set, [1, 1, 1], &image, [image.width(), image.height()], None).unwrap(),
+                FrameStatus::Done
+            );
             frames.wait().unwrap();
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out.read(0, 64 * 16));
             for i in 0..64u32 {

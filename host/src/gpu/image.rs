@@ -70,10 +70,8 @@ pub struct StorageImage {
 impl StorageImage {
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<StorageImage, GpuError> {
         let inner = &ctx.inner;
-        let features = unsafe {
-            inner.parts.instance.get_physical_device_format_properties(inner.physical, FORMAT)
-        }
-        .optimal_tiling_features;
+        let features = unsafe { inner.parts.instance.get_physical_device_format_properties(inner.physical, FORMAT) }
+            .optimal_tiling_features;
         let needed = vk::FormatFeatureFlags::STORAGE_IMAGE | vk::FormatFeatureFlags::BLIT_SRC;
         if !features.contains(needed) {
             return Err(GpuError::Presentation {
@@ -178,7 +176,8 @@ pub(crate) fn create_image(
         made.0 = unsafe { d.create_image(&info, None) }.map_err(GpuError::vk("vkCreateImage"))?;
         let req = unsafe { d.get_image_memory_requirements(made.0) };
         let types = &inner.memory.memory_types[..inner.memory.memory_type_count as usize];
-        let mut candidates: Vec<u32> = (0..types.len() as u32).filter(|i| req.memory_type_bits & (1 << i) != 0).collect();
+        let mut candidates: Vec<u32> =
+            (0..types.len() as u32).filter(|i| req.memory_type_bits & (1 << i) != 0).collect();
         candidates.sort_by_key(|&i| !types[i as usize].property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL));
         let mut last = vk::Result::ERROR_OUT_OF_DEVICE_MEMORY;
         for type_index in candidates {
@@ -222,7 +221,10 @@ pub(crate) fn create_image(
 ///
 /// # Safety
 /// The device no longer uses them.
-pub(crate) unsafe fn destroy_image(d: &ash::Device, (image, memory, view): (vk::Image, vk::DeviceMemory, vk::ImageView)) {
+pub(crate) unsafe fn destroy_image(
+    d: &ash::Device,
+    (image, memory, view): (vk::Image, vk::DeviceMemory, vk::ImageView),
+) {
     // SAFETY: the caller's.
     unsafe {
         d.destroy_image_view(view, None);

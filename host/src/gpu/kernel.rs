@@ -46,7 +46,12 @@ impl Kernel {
     /// The checks of [`Kernel::with_images`] alone (naga's validation, the
     /// bindings and struct layouts against `expected` and `images`), for
     /// SPIR-V whose pipelines are built later.
-    pub fn check(name: &str, spirv: &[u8], expected: &[BindingLayout], images: &[ImageBinding]) -> Result<(), GpuError> {
+    pub fn check(
+        name: &str,
+        spirv: &[u8],
+        expected: &[BindingLayout],
+        images: &[ImageBinding],
+    ) -> Result<(), GpuError> {
         reflect::reflect(name, spirv, expected, images).map(|_| ())
     }
 
@@ -109,7 +114,8 @@ impl Kernel {
         let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
             .map(|id| vk::SpecializationMapEntry { constant_id: id, offset: id * 4, size: 4 })
             .collect();
-        let specialization = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
+        let specialization =
+            vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
@@ -162,7 +168,10 @@ impl Kernel {
 
     /// The descriptor type of buffer binding `binding` (storage unless the kernel declares a uniform block there).
     pub(crate) fn descriptor_type(&self, binding: u32) -> vk::DescriptorType {
-        self.bindings.iter().find(|b| b.binding == binding).map_or(vk::DescriptorType::STORAGE_BUFFER, buffer_descriptor_type)
+        self.bindings
+            .iter()
+            .find(|b| b.binding == binding)
+            .map_or(vk::DescriptorType::STORAGE_BUFFER, buffer_descriptor_type)
     }
 }
 

@@ -17,8 +17,8 @@ pub fn kernel_spirv(stem: &str) -> Option<&'static [u8]> {
     EMBEDDED_KERNELS.iter().find(|(name, _)| *name == stem).map(|(_, spv)| *spv)
 }
 
-mod compile;
 mod buffer;
+mod compile;
 mod context;
 mod environment;
 mod error;
@@ -32,13 +32,16 @@ pub mod reflect;
 #[cfg(test)]
 mod tests;
 
+pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use compile::{compile_kernel, compile_kernel_pair};
-pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
+pub use context::{
+    forced_residuals, list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuContext, GpuOptions,
+    RunBuffers, RunTimings,
+};
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
-pub use context::{forced_residuals, list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuContext, GpuOptions, RunBuffers, RunTimings};
+pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
 pub use error::GpuError;
 pub use fma_probe::fma_rounds_once;
-pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};
 pub use kernel::Kernel;

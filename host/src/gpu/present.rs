@@ -190,7 +190,8 @@ impl Swapchain {
         let new = unsafe { self.loader.create_swapchain(&info, None) }.map_err(GpuError::vk("vkCreateSwapchainKHR"))?;
         self.destroy();
         self.handle = new;
-        self.images = unsafe { self.loader.get_swapchain_images(new) }.map_err(GpuError::vk("vkGetSwapchainImagesKHR"))?;
+        self.images =
+            unsafe { self.loader.get_swapchain_images(new) }.map_err(GpuError::vk("vkGetSwapchainImagesKHR"))?;
         for _ in 0..self.images.len() {
             let sem = unsafe { inner.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
                 .map_err(GpuError::vk("vkCreateSemaphore"))?;

@@ -211,21 +211,27 @@ impl Checker<'_> {
                 // Uniform buffers are read-only.
                 AddressSpace::Uniform => StorageAccess::LOAD,
                 other => {
-                    out.push((rb.binding, format!(
-                        "kernel {kernel}: binding {} ({var_name}) is a {} in the shader; only storage and \
-                         uniform buffers are supported",
+                    out.push((
                         rb.binding,
-                        space_name(other)
-                    )));
+                        format!(
+                            "kernel {kernel}: binding {} ({var_name}) is a {} in the shader; only storage and \
+                         uniform buffers are supported",
+                            rb.binding,
+                            space_name(other)
+                        ),
+                    ));
                     continue;
                 }
             };
             if rb.group != 0 {
-                out.push((rb.binding, format!(
-                    "kernel {kernel}: binding {} ({var_name}) is in descriptor set {} in the shader; every \
+                out.push((
+                    rb.binding,
+                    format!(
+                        "kernel {kernel}: binding {} ({var_name}) is in descriptor set {} in the shader; every \
                      binding must be in set 0",
-                    rb.binding, rb.group
-                )));
+                        rb.binding, rb.group
+                    ),
+                ));
                 continue;
             }
             seen.insert(rb.binding, ());
@@ -243,36 +249,48 @@ impl Checker<'_> {
                     self.check_binding(exp, var.ty, access, &mut lines);
                     out.extend(lines.into_iter().map(|l| (rb.binding, l)));
                 }
-                None => out.push((rb.binding, format!(
-                    "kernel {kernel}: binding {} ({}) is declared in the shader but not on the host ({HOST_FILE})",
+                None => out.push((
                     rb.binding,
-                    self.block_label(var.ty).unwrap_or(var_name)
-                ))),
+                    format!(
+                        "kernel {kernel}: binding {} ({}) is declared in the shader but not on the host ({HOST_FILE})",
+                        rb.binding,
+                        self.block_label(var.ty).unwrap_or(var_name)
+                    ),
+                )),
             }
         }
         for image in self.images {
             if by_binding.contains_key(&image.binding) {
-                out.push((image.binding, format!(
-                    "kernel {kernel}: binding {} is listed as both a buffer and an image on the host",
-                    image.binding
-                )));
-            } else if !seen.contains_key(&image.binding) {
-                out.push((image.binding, format!(
-                    "kernel {kernel}: binding {} (storage image) is expected by the host but not declared in \
-                     the shader (as `{}`)",
+                out.push((
                     image.binding,
-                    image.format.glsl()
-                )));
+                    format!(
+                        "kernel {kernel}: binding {} is listed as both a buffer and an image on the host",
+                        image.binding
+                    ),
+                ));
+            } else if !seen.contains_key(&image.binding) {
+                out.push((
+                    image.binding,
+                    format!(
+                        "kernel {kernel}: binding {} (storage image) is expected by the host but not declared in \
+                     the shader (as `{}`)",
+                        image.binding,
+                        image.format.glsl()
+                    ),
+                ));
             }
         }
         for exp in expected {
             if !seen.contains_key(&exp.binding) {
-                out.push((exp.binding, format!(
-                    "kernel {kernel}: binding {} ({}) is expected by the host ({HOST_FILE}) but not declared \
-                     in the shader",
+                out.push((
                     exp.binding,
-                    shape_label(&exp.shape)
-                )));
+                    format!(
+                        "kernel {kernel}: binding {} ({}) is expected by the host ({HOST_FILE}) but not declared \
+                     in the shader",
+                        exp.binding,
+                        shape_label(&exp.shape)
+                    ),
+                ));
             }
         }
         out.sort_by_key(|(binding, _)| *binding);
@@ -343,11 +361,15 @@ impl Checker<'_> {
         let writable = access.contains(StorageAccess::STORE);
         if writable != exp.writable {
             out.push(if writable {
-                format!("{at}: writable in the shader, read-only on the host; declare it readonly in the \
-                         shader or set writable: true ({HOST_FILE})")
+                format!(
+                    "{at}: writable in the shader, read-only on the host; declare it readonly in the \
+                         shader or set writable: true ({HOST_FILE})"
+                )
             } else {
-                format!("{at}: read-only in the shader, writable on the host; drop readonly in the shader \
-                         or set writable: false ({HOST_FILE})")
+                format!(
+                    "{at}: read-only in the shader, writable on the host; drop readonly in the shader \
+                         or set writable: false ({HOST_FILE})"
+                )
             });
         }
 
@@ -371,7 +393,10 @@ impl Checker<'_> {
                 if matches!(self.module.types[base].inner, TypeInner::Struct { .. }) =>
             {
                 if stride != s.size {
-                    out.push(format!("{at}: array stride {stride} in the shader, {} on the host ({HOST_FILE})", s.size));
+                    out.push(format!(
+                        "{at}: array stride {stride} in the shader, {} on the host ({HOST_FILE})",
+                        s.size
+                    ));
                 }
                 self.check_struct(&at, s, base, out);
             }

@@ -105,9 +105,8 @@ fn items(n: usize) -> Vec<u8> {
 fn run_double(ctx: &GpuContext, kernel: &Kernel, n: usize, spare: usize, fill: u32) -> Vec<u32> {
     let (p, it) = (params(n as u32), items(n));
     let groups = [(n as u32).div_ceil(64).max(1), 1, 1];
-    let (out, _) = ctx
-        .run(kernel, &[(0, &p), (1, &it)], (2, (n + spare) * 8), fill, groups)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let (out, _) =
+        ctx.run(kernel, &[(0, &p), (1, &it)], (2, (n + spare) * 8), fill, groups).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(out.len(), (n + spare) * 8);
     bytemuck::pod_collect_to_vec(&out)
 }
@@ -167,7 +166,11 @@ fn the_fma_probe_sees_that_lavapipes_fma_is_not_fused() {
     assert_no_messages(&ctx.message_sink(), "running the fma probe");
     let cases = fma_probe::cases();
     let telling = cases.iter().filter(|c| c.a.mul_add(c.b, c.c).to_bits() != (c.a * c.b + c.c).to_bits()).count();
-    assert!(telling * 4 >= cases.len() * 3, "only {telling} of {} cases tell a fused fma from an unfused one", cases.len());
+    assert!(
+        telling * 4 >= cases.len() * 3,
+        "only {telling} of {} cases tell a fused fma from an unfused one",
+        cases.len()
+    );
 }
 
 #[test]
@@ -186,10 +189,19 @@ fn cleared_buffers_read_as_zero() {
     let (out, _) = ctx.run_passes(&kernel, &buffers, [n as u32 / 64, 1, 1], 2).unwrap_or_else(|e| panic!("{e}"));
     let words: Vec<u32> = bytemuck::pod_collect_to_vec(&out);
     let nonzero = words.iter().filter(|w| **w != 0).count();
-    assert_eq!(nonzero, 0, "rule: bit-exact zeros; {nonzero} of {} words are not (first {:?})", words.len(), words.iter().find(|w| **w != 0));
+    assert_eq!(
+        nonzero,
+        0,
+        "rule: bit-exact zeros; {nonzero} of {} words are not (first {:?})",
+        words.len(),
+        words.iter().find(|w| **w != 0)
+    );
     let twice = RunBuffers { inputs: &[(0, &p[..]), (1, &[0u8; 8][..])], cleared: &[(1, 8)], output: (2, 8), fill: 0 };
     let e = ctx.run_passes(&kernel, &twice, [1, 1, 1], 1).unwrap_err().to_string();
-    assert!(e.contains("given bindings [0, 1, 1, 2] (inputs, cleared and output)") && e.contains("exactly once"), "{e}");
+    assert!(
+        e.contains("given bindings [0, 1, 1, 2] (inputs, cleared and output)") && e.contains("exactly once"),
+        "{e}"
+    );
     assert_no_messages(&sink, "clearing");
 }
 
@@ -221,19 +233,31 @@ fn run_uploads_data_images_texel_for_texel() {
         BindingLayout { binding: 2, shape: BufferShape::RuntimeArray(quad), writable: true },
     ];
     let image = ImageBinding { binding: 1, writable: false, format: ImageFormat::Rgba32Uint };
-    let kernel = Kernel::with_images(&ctx, "data_image", &spv, &buffers, std::slice::from_ref(&image)).unwrap_or_else(|e| panic!("{e}"));
+    let kernel = Kernel::with_images(&ctx, "data_image", &spv, &buffers, std::slice::from_ref(&image))
+        .unwrap_or_else(|e| panic!("{e}"));
     // One partial row (300 texels) and three whole rows (12,288), distinct
     // words with NaN and infinity patterns among them: bits, not values.
     for n in [300usize, 3 * 4096] {
         let words: Vec<u32> = (0..4 * n as u32).map(|w| w.wrapping_mul(0x9E37_79B9) ^ 0x7FC0_0001).collect();
         let (out, _) = ctx
-            .run(&kernel, &[(0, &params(n as u32)), (1, bytemuck::cast_slice(&words))], (2, n * 16), 0, [(n as u32).div_ceil(64), 1, 1])
+            .run(
+                &kernel,
+                &[(0, &params(n as u32)), (1, bytemuck::cast_slice(&words))],
+                (2, n * 16),
+                0,
+                [(n as u32).div_ceil(64), 1, 1],
+            )
             .unwrap_or_else(|e| panic!("{e}"));
         let got: Vec<u32> = bytemuck::pod_collect_to_vec(&out);
         let want: Vec<u32> = words.chunks(4).flat_map(|t| [t[3], t[2], t[1], t[0]]).collect();
         let differ = got.iter().zip(&want).filter(|(g, w)| g != w).count();
         let first = got.iter().zip(&want).position(|(g, w)| g != w);
-        assert_eq!(differ, 0, "rule: bit-exact; {n} texels: {differ} of {} words differ, first at {first:?}", want.len());
+        assert_eq!(
+            differ,
+            0,
+            "rule: bit-exact; {n} texels: {differ} of {} words differ, first at {first:?}",
+            want.len()
+        );
     }
     // Bytes that are not whole texels, and more than a row that is not whole rows.
     let e = ctx.run(&kernel, &[(0, &params(1)), (1, &[0u8; 20][..])], (2, 16), 0, [1, 1, 1]).err().unwrap();
@@ -291,10 +315,7 @@ fn run_rejects_bad_calls_and_checks_limits() {
     let e = ctx.run(&kernel, &[(0, &p), (1, &[])], (2, range as usize + 4), 0, [1, 1, 1]).unwrap_err();
     assert!(matches!(e, GpuError::TooLarge { .. }), "{e:?}");
     let e = e.to_string();
-    assert!(
-        e.starts_with("kernel double: binding 2 (Item[]) needs ") && e.contains("maxStorageBufferRange of"),
-        "{e}"
-    );
+    assert!(e.starts_with("kernel double: binding 2 (Item[]) needs ") && e.contains("maxStorageBufferRange of"), "{e}");
 
     // Too many work groups.
     let max = ctx.max_compute_work_group_count();
@@ -453,7 +474,11 @@ void main() { words[0] = params.count; }
     let params = StructLayout {
         name: "Params",
         size: 16,
-        fields: ["count", "pad0", "pad1", "pad2"].iter().enumerate().map(|(i, n)| FieldLayout { name: n, offset: 4 * i as u32, size: 4 }).collect(),
+        fields: ["count", "pad0", "pad1", "pad2"]
+            .iter()
+            .enumerate()
+            .map(|(i, n)| FieldLayout { name: n, offset: 4 * i as u32, size: 4 })
+            .collect(),
     };
     for (shape, want) in [
         (BufferShape::Single(params.clone()), "a uniform buffer in the shader, a storage buffer on the host"),
@@ -479,11 +504,13 @@ fn list_devices_finds_lavapipe_and_selectors_work() {
         assert_eq!(d.index, i);
     }
 
-    let by_index = GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Index(lvp.index)), ..Default::default() })
-        .unwrap_or_else(|e| panic!("{e}"));
+    let by_index =
+        GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Index(lvp.index)), ..Default::default() })
+            .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(by_index.info(), lvp);
-    let by_name = GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Name("LLVMPIPE".into())), ..Default::default() })
-        .unwrap_or_else(|e| panic!("{e}"));
+    let by_name =
+        GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Name("LLVMPIPE".into())), ..Default::default() })
+            .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(by_name.info(), lvp);
     assert!(by_name.take_validation_messages().is_empty());
 
@@ -578,7 +605,10 @@ fn no_device_when_the_only_driver_finds_no_hardware() {
 
 #[test]
 fn missing_validation_layer_is_explained() {
-    run_child("no_layer", &[("VK_LAYER_PATH", "/nonexistent"), ("XDG_DATA_DIRS", "/nonexistent"), ("XDG_DATA_HOME", "/nonexistent")]);
+    run_child(
+        "no_layer",
+        &[("VK_LAYER_PATH", "/nonexistent"), ("XDG_DATA_DIRS", "/nonexistent"), ("XDG_DATA_HOME", "/nonexistent")],
+    );
 }
 
 #[test]
@@ -591,10 +621,7 @@ fn validation_messages_are_captured_and_taken() {
         unsafe { device.destroy_buffer(buffer, None) };
     }
     let messages = ctx.take_validation_messages();
-    assert!(
-        messages.iter().any(|m| m.starts_with("ERROR [VUID-VkBufferCreateInfo-size-00912] ")),
-        "{messages:#?}"
-    );
+    assert!(messages.iter().any(|m| m.starts_with("ERROR [VUID-VkBufferCreateInfo-size-00912] ")), "{messages:#?}");
     assert!(ctx.take_validation_messages().is_empty());
 }
 

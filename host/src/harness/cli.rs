@@ -44,14 +44,17 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
         Ok(i) => DeviceSelector::Index(i),
         Err(_) => DeviceSelector::Name(s.clone()),
     });
-    let mut harness = Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation }).map_err(fail)?;
+    let mut harness =
+        Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation }).map_err(fail)?;
 
     let mut per_file = Vec::new();
     for path in &files {
         let shown = shown_path(path, &root);
         // File errors already read `file:line: error: …`.
         let cases = file::load(path, &shown, harness.shaders()).map_err(|e| (e, 1u8))?;
-        let wanted = |c: &super::Case| args.only.iter().any(|t| c.function.contains(t.as_str()) || c.display_name().contains(t.as_str()));
+        let wanted = |c: &super::Case| {
+            args.only.iter().any(|t| c.function.contains(t.as_str()) || c.display_name().contains(t.as_str()))
+        };
         let cases: Vec<_> = cases.into_iter().filter(|c| args.only.is_empty() || wanted(c)).collect();
         if !cases.is_empty() {
             per_file.push((shown, cases));
@@ -59,7 +62,14 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
     }
     let total: usize = per_file.iter().map(|(_, c)| c.len()).sum();
     if total == 0 {
-        return Err((format!("raycast: error: no case of {} file(s) matches --only {}", files.len(), args.only.join(", --only ")), 2));
+        return Err((
+            format!(
+                "raycast: error: no case of {} file(s) matches --only {}",
+                files.len(),
+                args.only.join(", --only ")
+            ),
+            2,
+        ));
     }
     let d = harness.device();
     // On a GPU the kernels correct division (raycast.glsl div_rn): say how.

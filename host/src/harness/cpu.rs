@@ -42,7 +42,12 @@ pub struct CpuLibrary {
 impl CpuLibrary {
     /// Compiles (or finds in the cache) the C++ build of `functions` for the
     /// shaders of `info`; `cpu_dir` holds shared.hpp.
-    pub fn build(info: &ShaderInfo, cpu_dir: &Path, default_shaders: &Path, functions: &[&Function]) -> Result<CpuLibrary, String> {
+    pub fn build(
+        info: &ShaderInfo,
+        cpu_dir: &Path,
+        default_shaders: &Path,
+        functions: &[&Function],
+    ) -> Result<CpuLibrary, String> {
         let source = codegen::cpp_source(info, functions);
         let flags = compile_flags();
         // -I: the shaders under test first, then the source tree's (shared.hpp's own folder is searched first of all).

@@ -36,7 +36,9 @@ pub fn parse(text: &str, shown: &str, info: &ShaderInfo) -> Result<Vec<Case>, St
 
     for key in doc.keys() {
         if key != "case" && key != "scenes" {
-            return Err(format!("{shown}: error: unknown top-level key {key:?} (expected [[case]] tables and [scenes.NAME])"));
+            return Err(format!(
+                "{shown}: error: unknown top-level key {key:?} (expected [[case]] tables and [scenes.NAME])"
+            ));
         }
     }
 
@@ -47,7 +49,8 @@ pub fn parse(text: &str, shown: &str, info: &ShaderInfo) -> Result<Vec<Case>, St
             return Err(format!("{shown}: error: `scenes` must be tables [scenes.NAME]"));
         };
         for (name, v) in t {
-            let at = header_lines(&format!("[scenes.{name}]")).first().map_or(shown.to_string(), |l| format!("{shown}:{l}"));
+            let at =
+                header_lines(&format!("[scenes.{name}]")).first().map_or(shown.to_string(), |l| format!("{shown}:{l}"));
             let scene = scene(v, info).map_err(|e| format!("{at}: error: scene {name}: {e}"))?;
             scenes.insert(name.clone(), Arc::new(scene));
         }
@@ -105,7 +108,9 @@ fn case(t: &toml::Table, info: &ShaderInfo, scenes: &BTreeMap<String, Arc<SceneB
         _ => None,
     };
     let f = info.function_where(function, |f| {
-        inputs.is_some_and(|inputs| f.takes(inputs.len(), |p, ty| inputs.get(p).is_some_and(|v| value(v, ty, info, false).is_ok())))
+        inputs.is_some_and(|inputs| {
+            f.takes(inputs.len(), |p, ty| inputs.get(p).is_some_and(|v| value(v, ty, info, false).is_ok()))
+        })
     })?;
     let mut case = Case::new(function);
     if let Some(n) = string("name")? {
@@ -201,13 +206,18 @@ fn value(v: &toml::Value, ty: &Type, info: &ShaderInfo, zero_fill: bool) -> Resu
         (Type::Matrix(n), toml::Value::Array(cols)) if cols.len() == *n => Ok(Value::List(
             cols.iter()
                 .enumerate()
-                .map(|(c, col)| value(col, &Type::Vector(Scalar::Float, *n), info, zero_fill).map_err(|e| format!("column {c}: {e}")))
+                .map(|(c, col)| {
+                    value(col, &Type::Vector(Scalar::Float, *n), info, zero_fill)
+                        .map_err(|e| format!("column {c}: {e}"))
+                })
                 .collect::<Result<_, _>>()?,
         )),
         (Type::Matrix(_), v @ (toml::Value::Float(_) | toml::Value::Integer(_) | toml::Value::String(_))) => {
             scalar(Scalar::Float, v, info)
         }
-        (Type::Matrix(n), _) => Err(format!("expected a mat{n}: an array of {n} columns, or one number for the diagonal")),
+        (Type::Matrix(n), _) => {
+            Err(format!("expected a mat{n}: an array of {n} columns, or one number for the diagonal"))
+        }
         (Type::Struct(def), toml::Value::Table(t)) => {
             let mut members = Vec::new();
             for (k, x) in t {
@@ -264,7 +274,9 @@ fn scalar(s: Scalar, v: &toml::Value, info: &ShaderInfo) -> Result<Value, String
             }
             if let Some(c) = info.constants.get(text.as_str()) {
                 return match (s, c) {
-                    (Scalar::Float, Value::Float(_)) | (Scalar::Int, Value::Int(_)) | (Scalar::Uint, Value::Uint(_)) => Ok(c.clone()),
+                    (Scalar::Float, Value::Float(_))
+                    | (Scalar::Int, Value::Int(_))
+                    | (Scalar::Uint, Value::Uint(_)) => Ok(c.clone()),
                     (Scalar::Int, Value::Uint(u)) if *u <= i32::MAX as u32 => Ok(Value::Int(*u as i32)),
                     (Scalar::Float, Value::Uint(u)) if *u < (1 << 24) => Ok(Value::Float(*u as f32)),
                     _ => Err(format!("constant {text} is {}, not a {name}", c.text())),
@@ -327,12 +339,21 @@ scene = "one_cube"
     fn mistakes_name_the_line() {
         let i = info();
         let e = parse("[[case]]\nfunction = \"plane_t\"\ninputs = { r = { origin = [0, 0, 0], direction = [1, 0, 0] }, axis = 0, s = 0.5 }\nexpected = 0.5\n", "t.toml", &i).unwrap_err();
-        assert_eq!(e, "t.toml:1: error: a case with `expected` states its rule: rule = \"exact\", \"ulp N\" or \"abs E\"");
+        assert_eq!(
+            e,
+            "t.toml:1: error: a case with `expected` states its rule: rule = \"exact\", \"ulp N\" or \"abs E\""
+        );
         let e = parse("\n[[case]]\nfunction = \"plane\"\n", "t.toml", &i).unwrap_err();
         assert!(e.starts_with("t.toml:2: error: ") && e.contains("no top-level function \"plane\""), "{e}");
-        let e = parse("[[case]]\nfunction = \"dot3\"\ninputs = { a = [1, 2, 3] }\nsame_as_cpu = true\n", "t.toml", &i).unwrap_err();
+        let e = parse("[[case]]\nfunction = \"dot3\"\ninputs = { a = [1, 2, 3] }\nsame_as_cpu = true\n", "t.toml", &i)
+            .unwrap_err();
         assert!(e.contains("input b of float dot3(vec3 a, vec3 b) is missing"), "{e}");
-        let e = parse("[[case]]\nfunction = \"dot3\"\ninputs = { a = [1, 2], b = [1, 2, 3] }\nsame_as_cpu = true\n", "t.toml", &i).unwrap_err();
+        let e = parse(
+            "[[case]]\nfunction = \"dot3\"\ninputs = { a = [1, 2], b = [1, 2, 3] }\nsame_as_cpu = true\n",
+            "t.toml",
+            &i,
+        )
+        .unwrap_err();
         assert!(e.contains("input a: expected a vec3"), "{e}");
         let e = parse("[[case]]\nfunction = \"dot3\"\nexpect = 1\n", "t.toml", &i).unwrap_err();
         assert!(e.contains("unknown key \"expect\""), "{e}");

@@ -121,10 +121,15 @@ impl ShaderInfo {
             [] => Err(match self.unsupported.get(name) {
                 Some(why) => format!("function {name} of {shared} cannot be tested: {why}"),
                 None => {
-                    let mut near: Vec<&str> =
-                        self.functions.iter().map(|f| f.name.as_str()).filter(|n| n.contains(name) || name.contains(n)).collect();
+                    let mut near: Vec<&str> = self
+                        .functions
+                        .iter()
+                        .map(|f| f.name.as_str())
+                        .filter(|n| n.contains(name) || name.contains(n))
+                        .collect();
                     near.dedup();
-                    let hint = if near.is_empty() { String::new() } else { format!(" (did you mean {}?)", near.join(", ")) };
+                    let hint =
+                        if near.is_empty() { String::new() } else { format!(" (did you mean {}?)", near.join(", ")) };
                     format!("{shared} has no top-level function {name:?}{hint}")
                 }
             }),
@@ -196,16 +201,22 @@ impl ShaderInfo {
         let binding_expr = header
             .split_once("binding")
             .and_then(|(_, rest)| rest.trim_start().strip_prefix('='))
-            .map(|rest| rest.trim_start().split(|c: char| c == ',' || c == ')' || c.is_whitespace()).next().unwrap_or(""))
+            .map(|rest| {
+                rest.trim_start().split(|c: char| c == ',' || c == ')' || c.is_whitespace()).next().unwrap_or("")
+            })
             .ok_or_else(|| format!("buffer without a binding: {header}"))?;
         let binding = match self.constants.get(binding_expr) {
             Some(Value::Uint(v)) => *v,
-            _ => binding_expr.parse::<u32>().map_err(|_| format!("binding {binding_expr} is not a number or a #define"))?,
+            _ => binding_expr
+                .parse::<u32>()
+                .map_err(|_| format!("binding {binding_expr} is not a number or a #define"))?,
         };
         let member = body.split(';').map(str::trim).find(|s| !s.is_empty()).unwrap_or("");
         let words: Vec<&str> = member.split_whitespace().collect();
         let [ty_name, var] = words[..] else {
-            return Err(format!("expected one member `Type name;` or `Type name[];` in the buffer block, found {member:?}"));
+            return Err(format!(
+                "expected one member `Type name;` or `Type name[];` in the buffer block, found {member:?}"
+            ));
         };
         let Some(def) = self.structs.get(ty_name).cloned() else {
             return Err(format!("buffer member type {ty_name} is not a struct of layout.h"));
@@ -436,7 +447,11 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("raycast-glsl-parse-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join(LAYOUT), "#define BINDING_THING 3 // x\n#define NO_HIT 0xffffffffu\nstruct Thing {\n  vec4 a; // c\n  uint b, c;\n};\n").unwrap();
-        std::fs::write(dir.join(SCENE_BUFFERS), "layout(std430, binding = BINDING_THING) readonly buffer ThingBlock { Thing things[]; };\n").unwrap();
+        std::fs::write(
+            dir.join(SCENE_BUFFERS),
+            "layout(std430, binding = BINDING_THING) readonly buffer ThingBlock { Thing things[]; };\n",
+        )
+        .unwrap();
         std::fs::write(
             dir.join(SHARED),
             "const float T_FAR = 3.40282347e38f;\n/* block\ncomment */\nstruct Ray {\n    vec3 origin;\n    vec3 direction;\n};\n\
@@ -468,7 +483,10 @@ mod tests {
         assert_eq!(info.function_where("twice", vec3).unwrap().signature(), "vec3 twice(vec3 x)");
         assert_eq!(info.function_where("twice", |f| f.params.len() == 2).unwrap().key(), "twice__float_float");
         let none = info.function_where("twice", |f| f.params.len() == 3).unwrap_err();
-        assert!(none.contains("no overload takes these inputs") && none.contains("float twice(float x, float y)"), "{none}");
+        assert!(
+            none.contains("no overload takes these inputs") && none.contains("float twice(float x, float y)"),
+            "{none}"
+        );
         assert!(info.function_where("twice", |f| f.params.len() == 1).unwrap_err().contains("more than one"));
         let keys: std::collections::BTreeSet<String> = info.functions.iter().map(Function::key).collect();
         assert_eq!(keys.len(), info.functions.len(), "{keys:?}");
@@ -477,7 +495,10 @@ mod tests {
         let thing = &info.structs["Thing"];
         assert_eq!(thing.members.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(), ["a", "b", "c"]);
         assert_eq!(info.scene_buffers.len(), 1);
-        assert_eq!((info.scene_buffers[0].name.as_str(), info.scene_buffers[0].binding, info.scene_buffers[0].array), ("things", 3, true));
+        assert_eq!(
+            (info.scene_buffers[0].name.as_str(), info.scene_buffers[0].binding, info.scene_buffers[0].array),
+            ("things", 3, true)
+        );
     }
 
     #[test]

@@ -21,8 +21,8 @@
 //!
 //! Knows nothing of scene files: a case's scene is raw buffers.
 
-mod codegen;
 pub mod cli;
+mod codegen;
 mod cpu;
 pub mod file;
 mod glsl;
@@ -75,7 +75,8 @@ impl SceneBuffers {
     /// The buffer `name` holding `items` (structs of layout.h, `#[repr(C)]`).
     pub fn with<T: bytemuck::Pod>(self, name: &str, items: &[T]) -> SceneBuffers {
         let bytes: &[u8] = bytemuck::cast_slice(items);
-        let words = bytes.chunks(4).map(|c| u32::from_le_bytes([c[0], c[1], *c.get(2).unwrap_or(&0), *c.get(3).unwrap_or(&0)]));
+        let words =
+            bytes.chunks(4).map(|c| u32::from_le_bytes([c[0], c[1], *c.get(2).unwrap_or(&0), *c.get(3).unwrap_or(&0)]));
         self.with_words(name, words.collect())
     }
 
@@ -254,8 +255,16 @@ fn word_layout() -> StructLayout {
 /// scene's (`layout::scene_bindings`) and the harness's input and output words.
 pub fn kernel_bindings() -> Vec<BindingLayout> {
     let mut b = layout::scene_bindings();
-    b.push(BindingLayout { binding: codegen::BINDING_IN, shape: BufferShape::RuntimeArray(word_layout()), writable: false });
-    b.push(BindingLayout { binding: codegen::BINDING_OUT, shape: BufferShape::RuntimeArray(word_layout()), writable: true });
+    b.push(BindingLayout {
+        binding: codegen::BINDING_IN,
+        shape: BufferShape::RuntimeArray(word_layout()),
+        writable: false,
+    });
+    b.push(BindingLayout {
+        binding: codegen::BINDING_OUT,
+        shape: BufferShape::RuntimeArray(word_layout()),
+        writable: true,
+    });
     b
 }
 
@@ -422,7 +431,9 @@ impl Harness {
         let f = self
             .info
             .function_where(&case.function, |f| {
-                f.takes(case.inputs.len(), |p, ty| case.inputs.iter().any(|(n, v)| n == p && v.encode(ty, false).is_ok()))
+                f.takes(case.inputs.len(), |p, ty| {
+                    case.inputs.iter().any(|(n, v)| n == p && v.encode(ty, false).is_ok())
+                })
             })?
             .clone();
         for (name, _) in &case.inputs {
@@ -440,7 +451,9 @@ impl Harness {
             }
         }
         let expected = match &case.expected {
-            Expected::Value(v) => Some(v.encode(&f.ret, false).map_err(|e| format!("expected {}: {e}", f.ret.glsl_name()))?),
+            Expected::Value(v) => {
+                Some(v.encode(&f.ret, false).map_err(|e| format!("expected {}: {e}", f.ret.glsl_name()))?)
+            }
             Expected::SameAsCpu if !case.cpu => {
                 return Err("\"same as CPU\" needs the C++ build, which this case turns off".into())
             }
@@ -451,7 +464,10 @@ impl Harness {
         for name in given.buffers.keys() {
             if !self.info.scene_buffers.iter().any(|b| &b.name == name) {
                 let known: Vec<&str> = self.info.scene_buffers.iter().map(|b| b.name.as_str()).collect();
-                return Err(format!("scene buffer {name:?} is not in scene_buffers.glsl (it has {})", known.join(", ")));
+                return Err(format!(
+                    "scene buffer {name:?} is not in scene_buffers.glsl (it has {})",
+                    known.join(", ")
+                ));
             }
         }
         let mut scene = Vec::new();
@@ -480,7 +496,13 @@ impl Harness {
         Kernel::new(&self.ctx, &kernel_name(f), &spirv, &kernel_bindings()).map_err(|e| e.to_string())
     }
 
-    fn run_device(&self, f: &Function, scene: &[Vec<u32>], input: &[u32], out_words: usize) -> Result<Vec<u32>, String> {
+    fn run_device(
+        &self,
+        f: &Function,
+        scene: &[Vec<u32>],
+        input: &[u32],
+        out_words: usize,
+    ) -> Result<Vec<u32>, String> {
         let kernel = match self.kernels.get(&f.key()) {
             Some(Ok(k)) => k,
             Some(Err(e)) => return Err(e.clone()),
@@ -493,7 +515,13 @@ impl Harness {
         let cases = input[0];
         let (bytes, _) = self
             .ctx
-            .run(kernel, &inputs, (codegen::BINDING_OUT, out_words * 4), codegen::SENTINEL, [cases.div_ceil(codegen::GROUP), 1, 1])
+            .run(
+                kernel,
+                &inputs,
+                (codegen::BINDING_OUT, out_words * 4),
+                codegen::SENTINEL,
+                [cases.div_ceil(codegen::GROUP), 1, 1],
+            )
             .map_err(|e| e.to_string())?;
         Ok(bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
@@ -555,7 +583,12 @@ fn title(case: &Case) -> String {
 }
 
 /// Compares one case's results and writes the report of a failure.
-fn judge(case: &Case, p: &Prepared, device: &Result<Vec<u32>, String>, cpu: Option<&Result<Vec<u32>, String>>) -> CaseResult {
+fn judge(
+    case: &Case,
+    p: &Prepared,
+    device: &Result<Vec<u32>, String>,
+    cpu: Option<&Result<Vec<u32>, String>>,
+) -> CaseResult {
     let f = &p.function;
     let leaves = f.ret.leaves();
     let mut problems: Vec<String> = Vec::new();
@@ -675,7 +708,8 @@ fn judge(case: &Case, p: &Prepared, device: &Result<Vec<u32>, String>, cpu: Opti
                 mark,
             ]);
         }
-        let widths: Vec<usize> = (0..6).map(|c| rows.iter().map(|row| row[c].chars().count()).max().unwrap_or(0)).collect();
+        let widths: Vec<usize> =
+            (0..6).map(|c| rows.iter().map(|row| row[c].chars().count()).max().unwrap_or(0)).collect();
         for row in &rows {
             let mut line = String::from("   ");
             for (c, cell) in row.iter().enumerate() {

@@ -39,9 +39,7 @@ impl Rule {
         match self {
             Rule::Exact => expected.to_bits() == actual.to_bits(),
             Rule::Ulp(n) => ulp_distance(expected, actual) <= n,
-            Rule::Abs(e) => {
-                expected == actual || (f64::from(actual) - f64::from(expected)).abs() <= e
-            }
+            Rule::Abs(e) => expected == actual || (f64::from(actual) - f64::from(expected)).abs() <= e,
         }
     }
 }

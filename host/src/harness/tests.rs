@@ -3,7 +3,8 @@
 use super::*;
 
 fn harness() -> Harness {
-    let opts = HarnessOptions { shaders: None, device: Some(DeviceSelector::Name("llvmpipe".into())), validation: true };
+    let opts =
+        HarnessOptions { shaders: None, device: Some(DeviceSelector::Name("llvmpipe".into())), validation: true };
     Harness::new(&opts).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -23,7 +24,11 @@ fn cases_pass_fail_and_report_readably() {
             .input("b", [4.0f32, 5.0, 6.0])
             .expect(33.0f32, Rule::Ulp(1)),
         Case::new("min_f").input("a", f32::NAN).input("b", 1.0f32).same_as_cpu(Rule::Exact),
-        Case::new("quadratic_roots").input("a", 1.0f32).input("b", -3.0f32).input("c", 2.0f32).expect([1.0f32, 2.0], Rule::Exact),
+        Case::new("quadratic_roots")
+            .input("a", 1.0f32)
+            .input("b", -3.0f32)
+            .input("c", 2.0f32)
+            .expect([1.0f32, 2.0], Rule::Exact),
     ];
     let r = h.run(&cases);
     assert!(r[0].passed, "{}", r[0].report);
@@ -72,7 +77,11 @@ fn scene_buffers_reach_the_function() {
         .scene(scene.clone());
     // One unit cube at the origin; a miss returns id NO_HIT = the sentinel's
     // bits, which the written word tells apart from "never written".
-    let cube = layout::Primitive { object_from_world: glam::Mat4::IDENTITY.to_cols_array_2d(), shape: layout::SHAPE_CUBE, ..Default::default() };
+    let cube = layout::Primitive {
+        object_from_world: glam::Mat4::IDENTITY.to_cols_array_2d(),
+        shape: layout::SHAPE_CUBE,
+        ..Default::default()
+    };
     let one = Arc::new(SceneBuffers::new().frame(&layout::Frame { primitive_count: 1, ..frame }).primitives(&[cube]));
     let miss = Case::new("trace").input("r", Value::ray([0.0f32, 0.0, 2.0], [0.0f32, 0.0, 1.0])).scene(one.clone());
     let hit = Case::new("trace").input("r", Value::ray([0.0f32, 0.0, 2.0], [0.0f32, 0.0, -1.0])).scene(one);
@@ -95,7 +104,11 @@ fn mistakes_in_a_case_fail_it_with_the_reason() {
         Case::new("no_such_function").expect(1.0f32, Rule::Exact),
         Case::new("dot3").input("a", [1.0f32, 2.0, 3.0]).expect(1.0f32, Rule::Exact),
         Case::new("dot3").input("a", [1.0f32, 2.0, 3.0]).input("b", 1.0f32).expect(1.0f32, Rule::Exact),
-        Case::new("dot3").input("a", [1.0f32, 2.0, 3.0]).input("b", [1.0f32, 2.0, 3.0]).same_as_cpu(Rule::Exact).without_cpu(),
+        Case::new("dot3")
+            .input("a", [1.0f32, 2.0, 3.0])
+            .input("b", [1.0f32, 2.0, 3.0])
+            .same_as_cpu(Rule::Exact)
+            .without_cpu(),
     ]);
     assert!(r.iter().all(|x| !x.passed));
     assert!(r[0].report.contains("no top-level function \"no_such_function\""), "{}", r[0].report);
@@ -111,7 +124,8 @@ fn an_unwritten_case_fails_even_when_its_words_could_be_legitimate() {
     // a legitimate result; the written word is what tells them apart.
     let info = ShaderInfo::load(&source_root().join("shaders")).unwrap();
     let f = info.function("pack_rgba8").unwrap().clone();
-    let case = Case::new("pack_rgba8").input("c", [1.0f32, 1.0, 1.0]).expect(Value::Uint(u32::MAX), Rule::Exact).without_cpu();
+    let case =
+        Case::new("pack_rgba8").input("c", [1.0f32, 1.0, 1.0]).expect(Value::Uint(u32::MAX), Rule::Exact).without_cpu();
     let p = Prepared { function: f, input: vec![0; 3], expected: Some(vec![u32::MAX]), scene: Vec::new() };
     let unwritten = judge(&case, &p, &Ok(vec![codegen::SENTINEL; 2]), None);
     assert!(!unwritten.passed);

@@ -92,7 +92,8 @@ impl Type {
     }
 
     fn push_leaves(&self, label: &str, access: &str, out: &mut Vec<Leaf>) {
-        let join = |label: &str, part: &str| if label.is_empty() { part.to_string() } else { format!("{label}.{part}") };
+        let join =
+            |label: &str, part: &str| if label.is_empty() { part.to_string() } else { format!("{label}.{part}") };
         match self {
             Type::Scalar(s) => out.push(Leaf { label: label.to_string(), access: access.to_string(), scalar: *s }),
             Type::Vector(s, n) => {
@@ -289,9 +290,9 @@ impl Value {
             Type::Matrix(n) => {
                 Value::List((0..*n).map(|_| Value::List((0..*n).map(|_| next(Scalar::Float)).collect())).collect())
             }
-            Type::Struct(def) => Value::Struct(
-                def.members.iter().map(|(n, t)| (n.clone(), Value::decode_from(t, words, at))).collect(),
-            ),
+            Type::Struct(def) => {
+                Value::Struct(def.members.iter().map(|(n, t)| (n.clone(), Value::decode_from(t, words, at))).collect())
+            }
         }
     }
 
@@ -340,7 +341,11 @@ pub fn float_text(x: f32) -> String {
     if x.is_nan() {
         "nan".into()
     } else if x.is_infinite() {
-        if x > 0.0 { "inf".into() } else { "-inf".into() }
+        if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        }
     } else {
         format!("{x:?}")
     }
@@ -393,7 +398,10 @@ mod tests {
 
     fn ray_type() -> Type {
         let v3 = Type::Vector(Scalar::Float, 3);
-        Type::Struct(Arc::new(StructDef { name: "Ray".into(), members: vec![("origin".into(), v3.clone()), ("direction".into(), v3)] }))
+        Type::Struct(Arc::new(StructDef {
+            name: "Ray".into(),
+            members: vec![("origin".into(), v3.clone()), ("direction".into(), v3)],
+        }))
     }
 
     #[test]

@@ -19,11 +19,11 @@ use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
 use crate::scene::{scene_bounds, Bounds, FlattenLimits, ParseOptions, Scene};
 
-use crate::scene::CameraControl;
 use super::layout::PreviewFrame;
-use super::reload::{self, Reload, WatchConfig, Watcher, KERNEL_FILE};
+use super::reload::{Reload, ShaderFolder, WatchConfig, Watcher, KERNEL_FILE};
 use super::renderer::{PreviewKernels, PreviewRenderer};
 use super::{PresentArg, PreviewArgs};
+use crate::scene::CameraControl;
 
 /// Samples per pixel after which an interactive preview stops drawing until something changes.
 const MAX_SAMPLES: u32 = 1024;
@@ -76,7 +76,8 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     // The window. GLFW reports its errors through the callback.
     let glfw_errors: Arc<Mutex<Vec<String>>> = Arc::default();
     let sink = glfw_errors.clone();
-    let last_glfw_error = move || glfw_errors.lock().unwrap_or_else(|p| p.into_inner()).last().cloned().unwrap_or_default();
+    let last_glfw_error =
+        move || glfw_errors.lock().unwrap_or_else(|p| p.into_inner()).last().cloned().unwrap_or_default();
     let mut glfw = glfw::init(move |_, description: String| {
         sink.lock().unwrap_or_else(|p| p.into_inner()).push(description);
     })
@@ -117,7 +118,11 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         let mut surface: glfw::ffi::VkSurfaceKHR = std::ptr::null_mut();
         // SAFETY: `instance` is a live VkInstance with the extensions GLFW asked for.
         let result = unsafe {
-            window.create_window_surface(instance.as_raw() as usize as glfw::ffi::VkInstance, std::ptr::null(), &mut surface)
+            window.create_window_surface(
+                instance.as_raw() as usize as glfw::ffi::VkInstance,
+                std::ptr::null(),
+                &mut surface,
+            )
         };
         if result != 0 {
             return Err(format!("glfwCreateWindowSurface failed with {:?}", vk::Result::from_raw(result)));
@@ -142,10 +147,11 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
 
     // A --shaders folder's kernel from the first frame on (so --frames and
     // --screenshot see it); a compile error ends the command.
+    let shaders = shaders.map(|dir| ShaderFolder { dir, division: context.division() });
     let kernel = match (&shaders, compile_at_start) {
-        (Some(dir), true) => match reload::compile(dir, context.division()) {
+        (Some(folder), true) => match folder.compile() {
             Reload::Kernel(kernel) => kernel,
-            Reload::Failed(e) => return Err(Failure::from(format!("--shaders {}: {e}", dir.display()))),
+            Reload::Failed(e) => return Err(Failure::from(format!("--shaders {}: {e}", folder.dir.display()))),
             Reload::Scene(_) => unreachable!("compile gives a kernel or a failure"),
         },
         _ => PreviewKernels::embedded(&context)?,
@@ -170,14 +176,13 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         limits,
         settings: settings.clone(),
         shaders: shaders.clone(),
-        division: context.division(),
     });
 
     let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
     preview.moving_frames = args.moving;
     preview.click = args.click;
     preview.keys = args.keys.clone().map(|k| k.0).unwrap_or_default();
-    preview.shaders = shaders.map(|dir| (dir, context.division()));
+    preview.shaders = shaders;
     preview.aov = args.aov.into();
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
@@ -192,7 +197,14 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
             );
         }
     }
-    let result = preview.run(&mut glfw, &mut window, &events, &watcher, args.frames.or(args.screenshot.as_ref().map(|_| 1)), args.screenshot.as_deref());
+    let result = preview.run(
+        &mut glfw,
+        &mut window,
+        &events,
+        &watcher,
+        args.frames.or(args.screenshot.as_ref().map(|_| 1)),
+        args.screenshot.as_deref(),
+    );
 
     // Tear down in order: frames and buffers, the watcher's kernels, then
     // what the validation layer said, then the device and the window.
@@ -282,9 +294,9 @@ struct Preview {
     click: Option<(u32, u32)>,
     /// Scripted runs (--keys): keys pressed just before frame N (from 1).
     keys: Vec<(u32, Key)>,
-    /// The shader folder the watcher follows (None: reload is off), and how
-    /// its kernels are compiled for the device: K recompiles it at once.
-    shaders: Option<(PathBuf, crate::gpu::Division)>,
+    /// The shader folder the watcher follows (None: reload is off): K
+    /// recompiles it at once.
+    shaders: Option<ShaderFolder>,
     /// K was pressed: recompile before the next frame.
     recompile: bool,
     /// Frames submitted so far.
@@ -508,9 +520,9 @@ impl Preview {
             // inflate the cost per pixel: only frames of COST_MIN_PIXELS or more count.
             if self.pixels_in_flight >= COST_MIN_PIXELS {
                 // The frame's own time: the device's, or else since its submission.
-                let ms = device.map(|t| t.as_secs_f64() * 1e3).or_else(|| {
-                    self.stats.last_submit.map(|s| (waited.max(s) - s).as_secs_f64() * 1e3)
-                });
+                let ms = device
+                    .map(|t| t.as_secs_f64() * 1e3)
+                    .or_else(|| self.stats.last_submit.map(|s| (waited.max(s) - s).as_secs_f64() * 1e3));
                 if let Some(ms) = ms {
                     self.pixel_cost.push(ms / self.pixels_in_flight as f64);
                 }
@@ -715,7 +727,13 @@ impl Preview {
             if times.is_empty() {
                 outln!("moving: too few frames to time (--moving 2 or more, with --frames more than that)");
             } else {
-                outln!("moving: {} (the picture {}x{}): {}", frames_at(&times), self.renderer.size()[0], self.renderer.size()[1], rate(&times));
+                outln!(
+                    "moving: {} (the picture {}x{}): {}",
+                    frames_at(&times),
+                    self.renderer.size()[0],
+                    self.renderer.size()[1],
+                    rate(&times)
+                );
             }
         }
         if !self.rest_times.is_empty() {
@@ -916,12 +934,12 @@ impl Preview {
     /// changed: after an edit the watcher has not seen, or to hand the
     /// drawing to the device's kernel of the folder's code.
     fn recompile_shaders(&mut self) -> Result<(), Failure> {
-        let Some((dir, division)) = self.shaders.clone() else {
+        let Some(folder) = self.shaders.clone() else {
             errln!("raycast: preview: K: no shader folder to recompile (the source tree's shaders/ is not here; use --shaders DIR)");
             return Ok(());
         };
-        errln!("raycast: preview: recompiling the shaders of {}", dir.display());
-        self.on_reload(reload::compile(&dir, division))
+        errln!("raycast: preview: recompiling the shaders of {}", folder.dir.display());
+        self.on_reload(folder.compile())
     }
 
     /// A reload that did not take: says why, keeps the last good picture

@@ -100,9 +100,21 @@ pub fn preview_uniform_bindings() -> Vec<BindingLayout> {
 /// `scene_and_pixels` plus the preview's own buffers.
 fn with_preview_bindings(scene_and_pixels: Vec<BindingLayout>) -> Vec<BindingLayout> {
     let mut b = scene_and_pixels;
-    b.push(BindingLayout { binding: BINDING_PREVIEW, shape: BufferShape::Single(PreviewFrame::layout()), writable: false });
-    b.push(BindingLayout { binding: BINDING_ACCUM, shape: BufferShape::RuntimeArray(AccumPixel::layout()), writable: true });
-    b.push(BindingLayout { binding: BINDING_STATUS, shape: BufferShape::Single(PreviewStatus::layout()), writable: true });
+    b.push(BindingLayout {
+        binding: BINDING_PREVIEW,
+        shape: BufferShape::Single(PreviewFrame::layout()),
+        writable: false,
+    });
+    b.push(BindingLayout {
+        binding: BINDING_ACCUM,
+        shape: BufferShape::RuntimeArray(AccumPixel::layout()),
+        writable: true,
+    });
+    b.push(BindingLayout {
+        binding: BINDING_STATUS,
+        shape: BufferShape::Single(PreviewStatus::layout()),
+        writable: true,
+    });
     b
 }
 

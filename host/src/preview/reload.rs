@@ -39,9 +39,16 @@ pub struct WatchConfig {
     pub parse: ParseOptions,
     pub limits: FlattenLimits,
     pub settings: RenderSettings,
-    /// The folder with preview.comp and what it includes; None: no shader reload.
-    pub shaders: Option<PathBuf>,
-    /// Compile it as the device's `division` says (GpuContext).
+    /// The shader folder to follow; None: no shader reload.
+    pub shaders: Option<ShaderFolder>,
+}
+
+/// A folder with preview.comp and what it includes, and how its kernels
+/// are compiled for the device (`GpuContext::division`): what the watcher
+/// follows and K recompiles.
+#[derive(Clone, Debug)]
+pub struct ShaderFolder {
+    pub dir: PathBuf,
     pub division: crate::gpu::Division,
 }
 
@@ -102,7 +109,7 @@ fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
 
 fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
     let mut scene_stamp = config.scene.as_deref().map(stamp);
-    let mut shader_stamp = config.shaders.as_deref().map(shader_stamps);
+    let mut shader_stamp = config.shaders.as_ref().map(|f| shader_stamps(&f.dir));
     while !stop.load(Ordering::Relaxed) {
         std::thread::sleep(POLL);
         if let Some(path) = &config.scene {
@@ -121,11 +128,11 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
                 }
             }
         }
-        if let Some(dir) = &config.shaders {
-            let now = Some(shader_stamps(dir));
+        if let Some(folder) = &config.shaders {
+            let now = Some(shader_stamps(&folder.dir));
             if now != shader_stamp {
                 shader_stamp = now;
-                if tx.send(compile(dir, config.division)).is_err() {
+                if tx.send(folder.compile()).is_err() {
                     return;
                 }
             }
@@ -133,18 +140,20 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
     }
 }
 
-/// `dir/preview.comp` and, when there is one, `dir/preview_uniform.comp`
-/// compiled as every runtime kernel is (`gpu::compile_kernel_pair`: glslang
-/// with `dir` on the include path and `division`'s macros, then
-/// spirv-opt), checked (PreviewKernels::new; the renderer builds their
-/// pipelines).
-pub fn compile(dir: &Path, division: crate::gpu::Division) -> Reload {
-    let (storage, uniform) = match crate::gpu::compile_kernel_pair(dir, KERNEL_STEM, division) {
-        Ok(pair) => pair,
-        Err(e) => return Reload::Failed(e),
-    };
-    match PreviewKernels::new(&storage, uniform.as_deref()) {
-        Ok(k) => Reload::Kernel(k),
-        Err(e) => Reload::Failed(format!("{}: {e}", dir.join(KERNEL_FILE).display())),
+impl ShaderFolder {
+    /// `dir/preview.comp` and, when there is one, `dir/preview_uniform.comp`
+    /// compiled as every runtime kernel is (`gpu::compile_kernel_pair`:
+    /// glslang with `dir` on the include path and `division`'s macros, then
+    /// spirv-opt), checked (PreviewKernels::new; the renderer builds their
+    /// pipelines).
+    pub fn compile(&self) -> Reload {
+        let (storage, uniform) = match crate::gpu::compile_kernel_pair(&self.dir, KERNEL_STEM, self.division) {
+            Ok(pair) => pair,
+            Err(e) => return Reload::Failed(e),
+        };
+        match PreviewKernels::new(&storage, uniform.as_deref()) {
+            Ok(k) => Reload::Kernel(k),
+            Err(e) => Reload::Failed(format!("{}: {e}", self.dir.join(KERNEL_FILE).display())),
+        }
     }
 }

@@ -17,8 +17,8 @@ use crate::layout::{self, Frame, PixelOut};
 use crate::render::{SceneFeatures, Specialization};
 
 use super::layout::{
-    preview_bindings, preview_images, preview_uniform_bindings, preview_uniform_images, AccumPixel, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW,
-    BINDING_STATUS, SPEC_HOST_PIXELS,
+    preview_bindings, preview_images, preview_uniform_bindings, preview_uniform_images, AccumPixel, PreviewFrame,
+    PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW, BINDING_STATUS, SPEC_HOST_PIXELS,
 };
 
 // The preview kernel's own constant follows layout.h's (preview.h).
@@ -60,9 +60,14 @@ impl PreviewKernels {
         let mut constants = spec.constants().to_vec();
         constants.push(u32::from(host_pixels));
         match &self.uniform {
-            Some(u) if uniform => {
-                Kernel::specialized(ctx, "preview_uniform", u, &preview_uniform_bindings(), &preview_uniform_images(), &constants)
-            }
+            Some(u) if uniform => Kernel::specialized(
+                ctx,
+                "preview_uniform",
+                u,
+                &preview_uniform_bindings(),
+                &preview_uniform_images(),
+                &constants,
+            ),
             _ => Kernel::specialized(ctx, "preview", &self.storage, &preview_bindings(), &preview_images(), &constants),
         }
     }
@@ -179,7 +184,12 @@ struct HostSamples {
 impl HostSamples {
     fn new(cpu: CpuRenderer, [w, h]: [u32; 2]) -> HostSamples {
         let count = w as usize * h as usize;
-        HostSamples { cpu, accum: vec![AccumPixel::default(); count], pixels: vec![PixelOut::default(); count], drawn_in: None }
+        HostSamples {
+            cpu,
+            accum: vec![AccumPixel::default(); count],
+            pixels: vec![PixelOut::default(); count],
+            drawn_in: None,
+        }
     }
 }
 
@@ -192,7 +202,8 @@ struct PictureBuffers {
 }
 
 /// The pixel buffer's name in messages: too large a window says where larger pictures go.
-const WHOLE_WINDOW_PIXELS: &str = "the preview's pixel buffer (every pixel of the window; `raycast render` draws larger pictures in bands)";
+const WHOLE_WINDOW_PIXELS: &str =
+    "the preview's pixel buffer (every pixel of the window; `raycast render` draws larger pictures in bands)";
 
 impl PictureBuffers {
     fn new(ctx: &GpuContext, size: [u32; 2]) -> Result<PictureBuffers, GpuError> {
@@ -201,7 +212,12 @@ impl PictureBuffers {
             size,
             // One buffer each for the whole window (`raycast render` draws larger pictures in bands).
             pixels: Buffer::new(ctx, count * std::mem::size_of::<PixelOut>(), true, WHOLE_WINDOW_PIXELS)?,
-            accum: Buffer::new(ctx, count * std::mem::size_of::<AccumPixel>(), false, "the preview's accumulation buffer")?,
+            accum: Buffer::new(
+                ctx,
+                count * std::mem::size_of::<AccumPixel>(),
+                false,
+                "the preview's accumulation buffer",
+            )?,
             display: StorageImage::new(ctx, size[0], size[1])?,
         })
     }
@@ -318,7 +334,8 @@ impl PreviewRenderer {
     pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), String>, GpuError> {
         self.frames.wait()?;
         let relayout = kernels.uniform.is_some() != self.kernels.uniform.is_some();
-        let scene = if relayout { Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some())?) } else { None };
+        let scene =
+            if relayout { Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some())?) } else { None };
         let uniform = scene.as_ref().map_or(self.scene.uniform, |s| s.uniform);
         let built = match self.kernel.current_key() {
             Some(key) => {
@@ -406,14 +423,19 @@ impl PreviewRenderer {
         present: bool,
     ) -> Result<FrameStatus, GpuError> {
         let [w, h] = self.picture.size;
-        assert!(frame.width >= 1 && frame.height >= 1 && frame.width <= w && frame.height <= h, "the frame fits the picture");
+        assert!(
+            frame.width >= 1 && frame.height >= 1 && frame.width <= w && frame.height <= h,
+            "the frame fits the picture"
+        );
         assert!(preview.row_offset < row_end && row_end <= frame.height, "the band is inside the frame");
         self.frames.wait()?;
         if let Some(host) = &mut self.host {
             let start = Instant::now();
             host.cpu.preview_rows(data, frame, preview, row_end, &mut host.accum, &mut host.pixels);
             let band = preview.row_offset as usize * frame.width as usize..row_end as usize * frame.width as usize;
-            self.picture.pixels.write(band.start * std::mem::size_of::<PixelOut>(), bytemuck::cast_slice(&host.pixels[band]));
+            self.picture
+                .pixels
+                .write(band.start * std::mem::size_of::<PixelOut>(), bytemuck::cast_slice(&host.pixels[band]));
             host.drawn_in = Some(start.elapsed());
         }
         self.prepare(frame)?;
@@ -443,7 +465,8 @@ impl PreviewRenderer {
     /// budget per invocation; raycast.glsl loop_budget_ok): they are wrong.
     pub fn cut_short(&mut self) -> Result<u32, GpuError> {
         self.frames.wait()?;
-        let status: PreviewStatus = bytemuck::pod_read_unaligned(&self.status.read(0, std::mem::size_of::<PreviewStatus>()));
+        let status: PreviewStatus =
+            bytemuck::pod_read_unaligned(&self.status.read(0, std::mem::size_of::<PreviewStatus>()));
         Ok(status.cut_short)
     }
 

@@ -50,7 +50,12 @@ impl CameraControl {
             }
             None => 5.0,
         };
-        CameraControl { camera: camera.clone(), focus_distance: distance, home: camera.clone(), home_distance: distance }
+        CameraControl {
+            camera: camera.clone(),
+            focus_distance: distance,
+            home: camera.clone(),
+            home_distance: distance,
+        }
     }
 
     pub fn focus(&self) -> DVec3 {
@@ -194,7 +199,8 @@ mod tests {
     /// reaches the poles.
     #[test]
     fn orbit_keeps_the_distance_to_the_focus() {
-        let mut c = CameraControl::new(&camera([4.5, 3.2, 6.5], [-4.5, -2.9, -6.5], [0.0, 1.0, 0.0], 40.0), Some(bounds()));
+        let mut c =
+            CameraControl::new(&camera([4.5, 3.2, 6.5], [-4.5, -2.9, -6.5], [0.0, 1.0, 0.0], 40.0), Some(bounds()));
         let focus = c.focus();
         let d0 = (c.camera.pos - focus).length();
         for k in 0..500 {
@@ -204,7 +210,10 @@ mod tests {
             assert!((d - d0).abs() <= 1e-9 * d0, "step {k} (yaw {yaw}, pitch {pitch}): distance {d}, started at {d0}");
             assert!((c.focus() - focus).length() <= 1e-9 * d0, "step {k}: focus moved to {}", c.focus());
             let polar = (c.camera.pos - focus).angle_between(DVec3::Y).to_degrees();
-            assert!((POLE_MARGIN_DEG - 1e-6..=180.0 - POLE_MARGIN_DEG + 1e-6).contains(&polar), "step {k}: polar {polar}");
+            assert!(
+                (POLE_MARGIN_DEG - 1e-6..=180.0 - POLE_MARGIN_DEG + 1e-6).contains(&polar),
+                "step {k}: polar {polar}"
+            );
         }
     }
 
@@ -237,7 +246,8 @@ mod tests {
     #[test]
     fn frame_fits_the_bounds() {
         for aspect in [0.5, 1.0, 4.0 / 3.0, 3.0] {
-            let mut c = CameraControl::new(&camera([10.0, 20.0, 30.0], [-1.0, -1.0, -1.0], [0.0, 1.0, 0.0], 45.0), None);
+            let mut c =
+                CameraControl::new(&camera([10.0, 20.0, 30.0], [-1.0, -1.0, -1.0], [0.0, 1.0, 0.0], 45.0), None);
             let dir = c.forward();
             let b = bounds();
             c.frame(&b, aspect);
@@ -250,8 +260,14 @@ mod tests {
                 let p = corner - c.camera.pos;
                 let z = p.dot(dir);
                 assert!(z > 0.0, "corner {corner} is behind the camera");
-                assert!((p.dot(right) / z).abs() <= tan_h + 1e-9, "corner {corner} is outside horizontally (aspect {aspect})");
-                assert!((p.dot(up) / z).abs() <= tan_v + 1e-9, "corner {corner} is outside vertically (aspect {aspect})");
+                assert!(
+                    (p.dot(right) / z).abs() <= tan_h + 1e-9,
+                    "corner {corner} is outside horizontally (aspect {aspect})"
+                );
+                assert!(
+                    (p.dot(up) / z).abs() <= tan_v + 1e-9,
+                    "corner {corner} is outside vertically (aspect {aspect})"
+                );
             }
             let half = (22.5f64).to_radians().min(tan_h.atan());
             assert!((c.focus_distance() * half.sin() - b.radius()).abs() < 1e-9);
@@ -261,14 +277,15 @@ mod tests {
     /// Rule: bit-exact. The printed block, parsed by the scene parser, is the camera.
     #[test]
     fn cameradata_block_round_trips_through_the_parser() {
-        let mut c = CameraControl::new(&camera([4.5, 3.2, 6.5], [-4.5, -2.9, -6.5], [0.0, 1.0, 0.0], 40.0), Some(bounds()));
+        let mut c =
+            CameraControl::new(&camera([4.5, 3.2, 6.5], [-4.5, -2.9, -6.5], [0.0, 1.0, 0.0], 40.0), Some(bounds()));
         c.orbit(33.3, 12.7);
         c.pan(13.0, -7.0, 384.0);
         c.dolly(-1.5);
         let block = c.cameradata_block();
         let xml = format!("<scenefile>\n{block}\n<object type=\"tree\" name=\"root\"></object>\n</scenefile>");
-        let parsed = parse_str(&xml, Path::new("camera.xml"), &ParseOptions::default())
-            .unwrap_or_else(|e| panic!("{e}\n{xml}"));
+        let parsed =
+            parse_str(&xml, Path::new("camera.xml"), &ParseOptions::default()).unwrap_or_else(|e| panic!("{e}\n{xml}"));
         assert_eq!(parsed.camera.pos, c.camera.pos, "{block}");
         assert_eq!(parsed.camera.look, c.camera.look, "{block}");
         assert_eq!(parsed.camera.up, c.camera.up, "{block}");

@@ -67,11 +67,7 @@ fn check_invertible(m: &DMat4) -> Result<(), &'static str> {
 
 /// Groups `file.trees[file.root]` and the masters it places.
 pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneError> {
-    let err = |loc: Option<SourceLoc>, message: String| SceneError {
-        loc,
-        file: file.path.clone(),
-        message,
-    };
+    let err = |loc: Option<SourceLoc>, message: String| SceneError { loc, file: file.path.clone(), message };
     let Some(root) = file.trees.get(file.root) else {
         return Err(err(None, format!("internal error: root tree index {} is out of range", file.root)));
     };
@@ -134,7 +130,8 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
     while let Some(tree_index) = pending.pop() {
         let group_index = group_of[&tree_index] as usize;
         let tree = &file.trees[tree_index];
-        let mut group = Group { name: tree.name.clone(), primitives: vec![], instances: vec![], expanded: counts[tree_index] };
+        let mut group =
+            Group { name: tree.name.clone(), primitives: vec![], instances: vec![], expanded: counts[tree_index] };
         let mut next_id = 0u64;
         // Depth first in file order, inline trees merged into the group, with
         // an explicit stack: (blocks, next index, matrix of the enclosing
@@ -155,7 +152,10 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                 Node::Tree { blocks, .. } => stack.push((blocks, 0, ctm)),
                 Node::Master { tree, loc } => {
                     if file.trees.get(*tree).is_none() {
-                        return Err(err(Some(loc.clone()), format!("internal error: master tree index {tree} is out of range")));
+                        return Err(err(
+                            Some(loc.clone()),
+                            format!("internal error: master tree index {tree} is out of range"),
+                        ));
                     }
                     // A group even when it draws nothing, so that its
                     // skipped primitives are reported; no instance then.
@@ -168,7 +168,10 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                         continue;
                     }
                     if let Err(why) = check_invertible(&ctm) {
-                        return Err(err(Some(b.loc.clone()), format!("{why}: the combined transform of this master cannot be inverted")));
+                        return Err(err(
+                            Some(b.loc.clone()),
+                            format!("{why}: the combined transform of this master cannot be inverted"),
+                        ));
                     }
                     group.instances.push(Instance {
                         group: child,
@@ -332,11 +335,9 @@ mod tests {
 
     #[test]
     fn matrix_row_major_translation_in_fourth_column() {
-        let p = one(
-            "<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\" v4=\"7\"/><row1 v1=\"0\" v2=\"1\" v3=\"0\" v4=\"8\"/>\
+        let p = one("<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\" v4=\"7\"/><row1 v1=\"0\" v2=\"1\" v3=\"0\" v4=\"8\"/>\
              <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"9\"/><row3 v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\"/></matrix>\
-             <scale x=\"2\" y=\"2\" z=\"2\"/>",
-        );
+             <scale x=\"2\" y=\"2\" z=\"2\"/>");
         assert!(close(p.world_from_object.transform_point3(DVec3::ONE), DVec3::new(9.0, 10.0, 11.0)));
     }
 
@@ -399,7 +400,10 @@ mod tests {
         assert_eq!(at(&e), (4, 3));
         assert!(e.message.contains("transform is singular (a scale of 0?)"), "{e}");
         // Rotated, so the zero is not on the diagonal.
-        let e = flat_err(&doc("", &cube_block("<rotate x=\"1\" y=\"1\" z=\"0\" angle=\"37\"/><scale x=\"1\" y=\"0\" z=\"1\"/>")));
+        let e = flat_err(&doc(
+            "",
+            &cube_block("<rotate x=\"1\" y=\"1\" z=\"0\" angle=\"37\"/><scale x=\"1\" y=\"0\" z=\"1\"/>"),
+        ));
         assert!(e.message.contains("singular"), "{e}");
         // From an enclosing transblock: reported at that block.
         let body = "<transblock><scale x=\"0\" y=\"0\" z=\"0\"/><object type=\"tree\">\n<transblock><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>";
@@ -419,10 +423,13 @@ mod tests {
         assert_eq!(at(&e), (4, 1));
         assert!(e.message.contains("out of range") && e.message.contains("the combined transform"), "{e}");
         // A degenerate shear (dependent columns) in a matrix.
-        let e = flat_err(&doc("", &cube_block(
-            "<matrix><row0 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/><row1 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
+        let e = flat_err(&doc(
+            "",
+            &cube_block(
+                "<matrix><row0 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/><row1 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
              <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/><row3 v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\"/></matrix>",
-        )));
+            ),
+        ));
         assert!(e.message.contains("singular"), "{e}");
     }
 
@@ -482,7 +489,8 @@ mod tests {
 
     #[test]
     fn torus_and_mesh_skipped_with_one_warning_per_source() {
-        let top = "<object type=\"tree\" name=\"m\"><transblock><object type=\"primitive\" name=\"torus\"/></transblock>\
+        let top =
+            "<object type=\"tree\" name=\"m\"><transblock><object type=\"primitive\" name=\"torus\"/></transblock>\
             <transblock><object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\"/></transblock></object>\n";
         let body = "<transblock><object type=\"master\" name=\"m\"/></transblock>".repeat(3)
             + "<transblock><object type=\"primitive\" name=\"sphere\"/></transblock>";

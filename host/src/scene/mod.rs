@@ -19,7 +19,8 @@ pub use parse::{parse_file, parse_str, ParseOptions};
 /// flattened with the default options and limits (panics on an error).
 #[cfg(test)]
 pub fn from_xml(xml: impl AsRef<str>, name: &str) -> Scene {
-    let file = parse_str(xml.as_ref(), std::path::Path::new(name), &ParseOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let file =
+        parse_str(xml.as_ref(), std::path::Path::new(name), &ParseOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     flatten(&file, &FlattenLimits::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 

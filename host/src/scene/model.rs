@@ -75,7 +75,11 @@ pub fn warning_lines(warnings: &[Warning]) -> Vec<String> {
                 return first.to_string();
             }
             let place = |l: &SourceLoc| {
-                if l.file == first.loc.file { format!("{}:{}", l.line, l.col) } else { l.to_string() }
+                if l.file == first.loc.file {
+                    format!("{}:{}", l.line, l.col)
+                } else {
+                    l.to_string()
+                }
             };
             let listed: Vec<String> = more.iter().take(LISTED).map(|l| place(l)).collect();
             let rest = if more.len() > LISTED { format!(" and {} more", more.len() - LISTED) } else { String::new() };
@@ -212,7 +216,10 @@ impl Material {
             c3(self.emissive),
             self.ior,
             self.blend,
-            self.texture.as_ref().map(|t| format!(" texture {} (repeat {} {})", t.file, t.repeat_u, t.repeat_v)).unwrap_or_default()
+            self.texture
+                .as_ref()
+                .map(|t| format!(" texture {} (repeat {} {})", t.file, t.repeat_u, t.repeat_v))
+                .unwrap_or_default()
         )
     }
 }
@@ -245,7 +252,9 @@ pub enum Shape {
     /// Parsed and kept; not rendered (no canonical size is defined).
     Torus,
     /// Parsed and kept; not rendered yet. The OBJ path as written.
-    Mesh { file: String },
+    Mesh {
+        file: String,
+    },
 }
 
 impl Shape {
@@ -267,7 +276,10 @@ impl Shape {
 pub enum Transform {
     Translate(DVec3),
     /// Axis (not necessarily unit) and angle in degrees, right-handed.
-    Rotate { axis: DVec3, angle_deg: f64 },
+    Rotate {
+        axis: DVec3,
+        angle_deg: f64,
+    },
     Scale(DVec3),
     /// Row-major as written; stored as a glam (column-major) matrix. Boxed:
     /// inline it made every transform 136 bytes, where the others take 32.
@@ -281,11 +293,21 @@ pub enum Transform {
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Node {
-    Primitive { shape: Shape, material: Material, loc: SourceLoc },
+    Primitive {
+        shape: Shape,
+        material: Material,
+        loc: SourceLoc,
+    },
     /// An inline `type="tree"`: its transblocks.
-    Tree { blocks: Vec<TransBlock>, loc: SourceLoc },
+    Tree {
+        blocks: Vec<TransBlock>,
+        loc: SourceLoc,
+    },
     /// `type="master" name=…`: index into `SceneFile::trees`.
-    Master { tree: usize, loc: SourceLoc },
+    Master {
+        tree: usize,
+        loc: SourceLoc,
+    },
 }
 
 /// `<transblock>`: its transforms in file order and its one object.

@@ -38,13 +38,45 @@ impl Rng {
 
 /// What a quoted attribute value may become: extremes, non-numbers, near misses.
 const VALUES: &[&str] = &[
-    "0", "-0", "1e38", "-1e38", "3.4e38", "1e-45", "nan", "inf", "-inf", "4294967296", "-1", "99999999999999999999",
-    "0.0000001", "1e300", "65536", "2147483648", " ", "", "1,2", "0x10", "1e", "--1", "1 2",
+    "0",
+    "-0",
+    "1e38",
+    "-1e38",
+    "3.4e38",
+    "1e-45",
+    "nan",
+    "inf",
+    "-inf",
+    "4294967296",
+    "-1",
+    "99999999999999999999",
+    "0.0000001",
+    "1e300",
+    "65536",
+    "2147483648",
+    " ",
+    "",
+    "1,2",
+    "0x10",
+    "1e",
+    "--1",
+    "1 2",
 ];
 
 /// Words whose swap keeps the XML well formed but the scene's meaning not.
 const WORDS: &[&str] = &[
-    "tree", "master", "primitive", "sphere", "cube", "cone", "cylinder", "root", "directional", "point", "spot", "area",
+    "tree",
+    "master",
+    "primitive",
+    "sphere",
+    "cube",
+    "cone",
+    "cylinder",
+    "root",
+    "directional",
+    "point",
+    "spot",
+    "area",
 ];
 
 fn lines_of(s: &str) -> Vec<String> {
@@ -115,7 +147,11 @@ fn sources() -> (Vec<PathBuf>, Vec<PathBuf>) {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let xml_in = |dir: &Path| -> Vec<PathBuf> {
         let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-            .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "xml")).collect())
+            .map(|d| {
+                d.filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| p.extension().is_some_and(|x| x == "xml"))
+                    .collect()
+            })
             .unwrap_or_default();
         files.sort();
         files
@@ -171,7 +207,11 @@ fn mutated_scenes_fail_with_located_errors_and_never_panic() {
             }
             Err(panic) => Some(format!(
                 "panicked: {}",
-                panic.downcast_ref::<String>().cloned().or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default()
+                panic
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_default()
             )),
         };
         if let Some(problem) = problem {
@@ -182,7 +222,10 @@ fn mutated_scenes_fail_with_located_errors_and_never_panic() {
             failures.push(format!("case {case} (from {name}, written to {}): {problem}", kept.display()));
         }
     }
-    println!("{CASES} mutated scenes: {rendered} rendered, {refused} refused with located errors, {} failed", failures.len());
+    println!(
+        "{CASES} mutated scenes: {rendered} rendered, {refused} refused with located errors, {} failed",
+        failures.len()
+    );
     assert!(failures.is_empty(), "{} of {CASES} mutated scenes failed; first: {}", failures.len(), failures[0]);
     // The mutations reach every stage: some scenes still render, most are refused.
     assert!(rendered > CASES / 20 && refused > CASES / 2, "{rendered} rendered, {refused} refused");

@@ -155,9 +155,7 @@ pub fn parse_file(path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneEr
             return Err(SceneError {
                 loc: Some(SourceLoc { file: file.clone(), line: sat_u32(line), col: sat_u32(col) }),
                 file,
-                message: format!(
-                    "the file is not valid UTF-8 (byte 0x{byte:02X} at offset {good}); save it as UTF-8"
-                ),
+                message: format!("the file is not valid UTF-8 (byte 0x{byte:02X} at offset {good}); save it as UTF-8"),
             });
         }
     };
@@ -320,8 +318,17 @@ pub(crate) fn transform_matrix(t: &Transform) -> DMat4 {
 
 const PRIMITIVES: &[&str] = &["cube", "cone", "cylinder", "sphere", "torus", "mesh"];
 const MATERIAL_ELEMENTS: &[&str] = &[
-    "diffuse", "ambient", "specular", "reflective", "transparent", "emissive", "shininess", "ior",
-    "blend", "texture", "bumpmap",
+    "diffuse",
+    "ambient",
+    "specular",
+    "reflective",
+    "transparent",
+    "emissive",
+    "shininess",
+    "ior",
+    "blend",
+    "texture",
+    "bumpmap",
 ];
 const TRANSBLOCK_ELEMENTS: &[&str] = &["translate", "rotate", "scale", "matrix", "object"];
 
@@ -373,15 +380,10 @@ impl<'a> Ctx<'a> {
         use roxmltree::Error as E;
         let end = self.loc(self.text.len());
         let (loc, message) = match e {
-            E::UnexpectedEndOfStream | E::UnclosedRootNode => (
-                end,
-                "malformed XML: the file ends before every element is closed (an unclosed tag?)"
-                    .to_string(),
-            ),
-            E::NoRootNode => (
-                end,
-                "malformed XML: the file has no root element (expected <scenefile>)".to_string(),
-            ),
+            E::UnexpectedEndOfStream | E::UnclosedRootNode => {
+                (end, "malformed XML: the file ends before every element is closed (an unclosed tag?)".to_string())
+            }
+            E::NoRootNode => (end, "malformed XML: the file has no root element (expected <scenefile>)".to_string()),
             E::UnexpectedCloseTag(expected, actual, _) => (
                 self.text_pos(e),
                 format!(
@@ -402,10 +404,7 @@ impl<'a> Ctx<'a> {
                     m = "a DTD with declarations is not supported; remove the <!DOCTYPE …> block".to_string();
                 }
                 let loc = match e {
-                    E::DtdDetected
-                    | E::NodesLimitReached
-                    | E::AttributesLimitReached
-                    | E::NamespacesLimitReached => {
+                    E::DtdDetected | E::NodesLimitReached | E::AttributesLimitReached | E::NamespacesLimitReached => {
                         SourceLoc { file: self.file.clone(), line: 1, col: 1 }
                     }
                     _ => self.text_pos(e),
@@ -432,11 +431,7 @@ impl<'a> Ctx<'a> {
             } else if c.is_text() {
                 let t = c.text().unwrap_or("").trim();
                 if !t.is_empty() {
-                    let msg = format!(
-                        "unexpected text {} inside <{}>; ignored",
-                        shown(t),
-                        n.tag_name().name()
-                    );
+                    let msg = format!("unexpected text {} inside <{}>; ignored", shown(t), n.tag_name().name());
                     let raw = c.text().unwrap_or("");
                     let lead = raw.len() - raw.trim_start().len();
                     let loc = self.loc(c.range().start + lead);
@@ -455,18 +450,11 @@ impl<'a> Ctx<'a> {
             }
             let el = n.tag_name().name();
             let msg = match suggest(a.name(), allowed) {
-                Some(s) => format!(
-                    "unknown attribute `{}` on <{el}> (did you mean `{s}`?); ignored",
-                    a.name()
-                ),
+                Some(s) => format!("unknown attribute `{}` on <{el}> (did you mean `{s}`?); ignored", a.name()),
                 None if allowed.is_empty() => {
                     format!("unknown attribute `{}` on <{el}> (it takes none); ignored", a.name())
                 }
-                None => format!(
-                    "unknown attribute `{}` on <{el}> (expected {}); ignored",
-                    a.name(),
-                    or_list(allowed)
-                ),
+                None => format!("unknown attribute `{}` on <{el}> (expected {}); ignored", a.name(), or_list(allowed)),
             };
             let loc = self.aloc(&a);
             self.warn(loc, msg);
@@ -493,21 +481,13 @@ impl<'a> Ctx<'a> {
     /// attribute when there is one.
     fn missing(&self, n: XNode, name: &str, expected: &str) -> SceneError {
         let el = n.tag_name().name();
-        let misspelt = n
-            .attributes()
-            .find(|a| a.name() != name && suggest(a.name(), &[name]).is_some());
+        let misspelt = n.attributes().find(|a| a.name() != name && suggest(a.name(), &[name]).is_some());
         match misspelt {
             Some(a) => self.err(
                 self.aloc(&a),
-                format!(
-                    "<{el}> is missing attribute `{name}` (found `{}`: did you mean `{name}`?)",
-                    a.name()
-                ),
+                format!("<{el}> is missing attribute `{name}` (found `{}`: did you mean `{name}`?)", a.name()),
             ),
-            None => self.err(
-                self.nloc(n),
-                format!("<{el}> is missing attribute `{name}` (expected {expected})"),
-            ),
+            None => self.err(self.nloc(n), format!("<{el}> is missing attribute `{name}` (expected {expected})")),
         }
     }
 
@@ -525,10 +505,7 @@ impl<'a> Ctx<'a> {
         }
         match t.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => Err(self.err(
-                self.aloc(a),
-                format!("{} is {} (expected a finite number)", what(), shown(raw)),
-            )),
+            Ok(_) => Err(self.err(self.aloc(a), format!("{} is {} (expected a finite number)", what(), shown(raw)))),
             Err(_) => Err(self.err(
                 self.aloc(a),
                 format!(
@@ -625,11 +602,8 @@ impl<'a> Ctx<'a> {
         let el = n.tag_name().name();
         let spellings: Vec<String> = fams.iter().map(|f| f.join(" ")).collect();
         let spellings: Vec<&str> = spellings.iter().map(|s| s.as_str()).collect();
-        let present: Vec<&[&str]> = fams
-            .iter()
-            .copied()
-            .filter(|f| f.iter().any(|name| Self::attr(n, name).is_some()))
-            .collect();
+        let present: Vec<&[&str]> =
+            fams.iter().copied().filter(|f| f.iter().any(|name| Self::attr(n, name).is_some())).collect();
         match present.as_slice() {
             [] => {
                 // Point at a misspelling if there is one.
@@ -669,9 +643,7 @@ impl<'a> Ctx<'a> {
         if rname != "scenefile" {
             return Err(self.err(
                 self.nloc(root),
-                format!(
-                    "the root element is <{rname}>, expected <scenefile>; is this a CS1230 scene file?"
-                ),
+                format!("the root element is <{rname}>, expected <scenefile>; is this a CS1230 scene file?"),
             ));
         }
         self.check_attrs(root, &[]);
@@ -699,9 +671,7 @@ impl<'a> Ctx<'a> {
                     match &globals {
                         None => globals = Some((g, line)),
                         Some((_, first)) => {
-                            let msg = format!(
-                                "second <globaldata> (the first is at line {first}); ignored"
-                            );
+                            let msg = format!("second <globaldata> (the first is at line {first}); ignored");
                             self.warn(self.nloc(c), msg);
                         }
                     }
@@ -712,9 +682,7 @@ impl<'a> Ctx<'a> {
                     match &camera {
                         None => camera = Some((cam, line)),
                         Some((_, first)) => {
-                            let msg = format!(
-                                "second <cameradata> (the first is at line {first}); ignored"
-                            );
+                            let msg = format!("second <cameradata> (the first is at line {first}); ignored");
                             self.warn(self.nloc(c), msg);
                         }
                     }
@@ -761,9 +729,7 @@ impl<'a> Ctx<'a> {
         let name = c.tag_name().name().to_string();
         let line = self.nloc(c).line;
         if let Some(first) = seen.insert(name.clone(), line) {
-            let msg = format!(
-                "second <{name}> in <{parent}> (the first is at line {first}); the later one is used"
-            );
+            let msg = format!("second <{name}> in <{parent}> (the first is at line {first}); the later one is used");
             self.warn(self.nloc(c), msg);
         }
     }
@@ -792,8 +758,7 @@ impl<'a> Ctx<'a> {
 
     fn cameradata(&mut self, n: XNode) -> R<Camera> {
         self.check_attrs(n, &[]);
-        const KNOWN: &[&str] =
-            &["pos", "focus", "look", "up", "heightangle", "aspectratio", "aperture", "focallength"];
+        const KNOWN: &[&str] = &["pos", "focus", "look", "up", "heightangle", "aspectratio", "aperture", "focallength"];
         let mut cam = Camera::default();
         let mut seen = HashMap::new();
         let mut aim: Option<(XNode, DVec3)> = None; // <focus> or <look>, value as written
@@ -882,7 +847,9 @@ impl<'a> Ctx<'a> {
             if l.cross(u).length() < 1e-9 {
                 let (loc, which) = match (up_node, look_node) {
                     (Some(u), _) => (self.nloc(u), "<up>"),
-                    (None, Some(l)) => (self.nloc(l), if l.tag_name().name() == "focus" { "<focus>" } else { "<look>" }),
+                    (None, Some(l)) => {
+                        (self.nloc(l), if l.tag_name().name() == "focus" { "<focus>" } else { "<look>" })
+                    }
                     (None, None) => (self.nloc(n), "<cameradata>"),
                 };
                 return Err(self.err(
@@ -899,10 +866,8 @@ impl<'a> Ctx<'a> {
 
     fn lightdata(&mut self, n: XNode) -> R<Light> {
         self.check_attrs(n, &[]);
-        const KNOWN: &[&str] = &[
-            "id", "type", "color", "position", "direction", "function", "angle", "penumbra",
-            "width", "height",
-        ];
+        const KNOWN: &[&str] =
+            &["id", "type", "color", "position", "direction", "function", "angle", "penumbra", "width", "height"];
         let mut light = Light {
             id: 0,
             kind: LightKind::Point,
@@ -925,10 +890,7 @@ impl<'a> Ctx<'a> {
                     let v = self.v(c)?;
                     if v.fract() != 0.0 || v < i32::MIN as f64 || v > i32::MAX as f64 {
                         let a = self.req_attr(c, "v", "v")?;
-                        return Err(self.err(
-                            self.aloc(&a),
-                            format!("light <id> is {v} (expected a whole number)"),
-                        ));
+                        return Err(self.err(self.aloc(&a), format!("light <id> is {v} (expected a whole number)")));
                     }
                     light.id = v as i32;
                 }
@@ -1084,16 +1046,13 @@ impl<'a> Ctx<'a> {
                     self.check_attrs(c, &["x", "y", "z", "angle"]);
                     self.leaf(c);
                     let e = "x, y, z and angle";
-                    let axis = DVec3::new(
-                        self.req_num(c, "x", e)?,
-                        self.req_num(c, "y", e)?,
-                        self.req_num(c, "z", e)?,
-                    );
+                    let axis = DVec3::new(self.req_num(c, "x", e)?, self.req_num(c, "y", e)?, self.req_num(c, "z", e)?);
                     let angle_deg = self.req_num(c, "angle", "an angle in degrees, e.g. angle=\"90\"")?;
                     if unit(axis).is_none() {
                         return Err(self.err(
                             self.nloc(c),
-                            "<rotate> has the zero vector as its axis (expected x y z of the axis to rotate about)".to_string(),
+                            "<rotate> has the zero vector as its axis (expected x y z of the axis to rotate about)"
+                                .to_string(),
                         ));
                     }
                     transforms.push(Transform::Rotate { axis, angle_deg });
@@ -1212,10 +1171,7 @@ impl<'a> Ctx<'a> {
             }
             other => Err(self.err(
                 self.aloc(&t),
-                format!(
-                    "unknown object type {} (expected primitive, tree or master)",
-                    shown(other)
-                ),
+                format!("unknown object type {} (expected primitive, tree or master)", shown(other)),
             )),
         }
     }
@@ -1380,7 +1336,6 @@ impl<'a> Ctx<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
 
     fn opts() -> ParseOptions {
         ParseOptions::default()
@@ -1704,7 +1659,10 @@ mod tests {
 
     #[test]
     fn material_duplicate_and_unknown_children() {
-        let f = ok(&prim("cube", "<diffuse r=\"1\" g=\"0\" b=\"0\"/>\n<diffuse r=\"0\" g=\"1\" b=\"0\"/>\n<glow v=\"1\"/>"));
+        let f = ok(&prim(
+            "cube",
+            "<diffuse r=\"1\" g=\"0\" b=\"0\"/>\n<diffuse r=\"0\" g=\"1\" b=\"0\"/>\n<glow v=\"1\"/>",
+        ));
         assert_eq!(first_prim(&f).1.diffuse, [0.0, 1.0, 0.0]);
         warned_at(&f, 6, 1, "second <diffuse> in <object> (the first is at line 5); the later one is used");
         warned_at(&f, 7, 1, "unknown element <glow> in <object>");
@@ -1949,7 +1907,12 @@ mod tests {
         let xml = "<scenefile>\n  <fog density=\"1\"/>\n  <lightdata><colour r=\"1\" g=\"1\" b=\"1\"/></lightdata>\n\
                    <object type=\"tree\" name=\"root\"><cube/><transblock><object type=\"primitive\" name=\"cube\"/></transblock></object>\n</scenefile>";
         let f = ok(xml);
-        warned_at(&f, 2, 3, "unknown top-level element <fog> (expected globaldata, cameradata, lightdata or object); skipped");
+        warned_at(
+            &f,
+            2,
+            3,
+            "unknown top-level element <fog> (expected globaldata, cameradata, lightdata or object); skipped",
+        );
         warned_at(&f, 3, 14, "unknown element <colour> in <lightdata> (did you mean <color>?); skipped");
         warned_at(&f, 4, 33, "unknown element <cube> in <object> (expected transblock)");
         assert_eq!(f.trees[f.root].blocks.len(), 1);
@@ -2004,19 +1967,20 @@ mod tests {
         bad_at("<scenefile>\n<object type=\"tree\"/>\n</scenefile>", 2, 1, "missing attribute `name`");
         let dup = "<scenefile>\n<object type=\"tree\" name=\"a\"/>\n<object type=\"tree\" name=\"root\"/>\n  <object type=\"tree\" name=\"a\"/>\n</scenefile>";
         bad_at(dup, 4, 23, "a second tree named \"a\" (the first is at line 2)");
-        let e = bad_at(
-            "<scenefile>\n<object type=\"tree\" name=\"main\"/>\n</scenefile>",
-            1,
-            1,
-            "no tree named \"root\"",
-        );
+        let e =
+            bad_at("<scenefile>\n<object type=\"tree\" name=\"main\"/>\n</scenefile>", 1, 1, "no tree named \"root\"");
         assert!(e.message.contains("trees found: main"), "{e}");
         bad_at("<scenefile/>", 1, 1, "no tree named \"root\" (the file has no trees)");
     }
 
     #[test]
     fn xml_and_file_errors() {
-        let e = bad_at("<scenefile>\n<object type=\"tree\" name=\"root\">\n<transblock>\n</object>\n</scenefile>", 4, 1, "malformed XML");
+        let e = bad_at(
+            "<scenefile>\n<object type=\"tree\" name=\"root\">\n<transblock>\n</object>\n</scenefile>",
+            4,
+            1,
+            "malformed XML",
+        );
         assert!(e.message.contains("found </object> while <transblock> is still open"), "{e}");
         bad_at("<scenefile>\n<object", 2, 8, "malformed XML");
         bad_at("<scenefile>\n", 2, 1, "malformed XML: the file ends");
@@ -2089,7 +2053,12 @@ mod tests {
         bad_at(&prim("triangle", ""), 4, 26, "unknown primitive \"triangle\"");
         // Numbers written "" or "=0.1".
         bad_at(&prim("cube", "<blend v=\"\"/>"), 5, 8, "attribute `v` of <blend> is empty");
-        bad_at(&prim("cube", "<blend v=\"=0.1\"/>"), 5, 8, "attribute `v` of <blend> is \"=0.1\", which is not a number");
+        bad_at(
+            &prim("cube", "<blend v=\"=0.1\"/>"),
+            5,
+            8,
+            "attribute `v` of <blend> is \"=0.1\", which is not a number",
+        );
         // No root tree.
         bad_at("<scenefile>\n<object type=\"tree\" name=\"scene\"/>\n</scenefile>", 1, 1, "no tree named \"root\"");
         // Absolute texture path: a warning (not found), the scene still loads.
