@@ -707,20 +707,14 @@ fn render_settings_out_of_range() {
     );
     assert_fails(&raycast(&["render", "--depth-range", "1,2"], &[]), 2, "--depth-range is for --aov depth");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "0"], &[]), 2, "--cost-max 0 is out of range");
-    let o = raycast(
-        &[
-            "render",
-            "--aov",
-            "cost",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "-o",
-            out_dir().join("cost.png").to_str().unwrap(),
-        ],
-        &[],
-    );
+    // A small cost picture of the default scene, with `extra` options.
+    let cost_render = |extra: &[&str]| {
+        let out = out_dir().join("cost.png");
+        let mut args = vec!["render", "--aov", "cost", "--width", "32", "--height", "24", "-o", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        raycast(&args, &[])
+    };
+    let o = cost_render(&[]);
     assert!(text(&o).0.contains("cost: a camera ray's walk takes "), "{:?}", text(&o));
     // The default scene's walks (5 passes: no hierarchy) are far under the default scale, 64: a hint.
     assert!(
@@ -730,22 +724,7 @@ fn render_settings_out_of_range() {
         "{:?}",
         text(&o)
     );
-    let o = raycast(
-        &[
-            "render",
-            "--aov",
-            "cost",
-            "--cost-max",
-            "5",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "-o",
-            out_dir().join("cost.png").to_str().unwrap(),
-        ],
-        &[],
-    );
+    let o = cost_render(&["--cost-max", "5"]);
     assert!(o.status.success() && !text(&o).0.contains("spreads"), "{:?}", text(&o));
     assert_fails(&raycast(&["render", "--aov", "depth", "--cost-max", "9"], &[]), 2, "--cost-max is for --aov cost");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "many"], &[]), 2, "invalid value 'many'");
