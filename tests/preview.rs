@@ -381,7 +381,9 @@ fn bad_arguments_are_usage_errors() {
 /// A preview frame the device cut short (lavapipe's 65535 loop iterations
 /// per invocation; here a planted loop of 70,000 in a copy of the preview kernel,
 /// which --shaders compiles before the first frame) is named on stderr, and
-/// its screenshot is refused, not written wrong.
+/// its screenshot is refused, not written wrong. On a device without the
+/// budget (`common::device_loop_budget`: Mesa 25's lavapipe, a GPU) the
+/// loop runs through: no such message, and the screenshot is written.
 #[test]
 fn pixels_cut_short_are_reported_and_not_saved() {
     let dir = common::copy_of_shaders(&out_dir().join("planted-loop-shaders"));
@@ -407,6 +409,12 @@ fn pixels_cut_short_are_reported_and_not_saved() {
         png.to_str().unwrap(),
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{}", text(&o));
+    if common::device_loop_budget(&out_dir()).is_none() {
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        assert!(!err.contains("short") && png.exists(), "{}", text(&o));
+        return;
+    }
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(err.contains("the picture is WRONG: the device cut 384 pixels short"), "{}", text(&o));
     assert!(err.contains("cut 384 of 384 pixels short") && err.contains("nothing was written"), "{}", text(&o));

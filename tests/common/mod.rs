@@ -36,3 +36,45 @@ pub fn raycast(args: &[&str], env: &[(&str, &str)]) -> Output {
 pub fn text(o: &Output) -> (String, String) {
     (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
+
+/// How many loop passes a shader invocation on the default device gets in
+/// all, if it has such a budget: Mesa 22's lavapipe ends every loop after
+/// 65535 passes (LP_MAX_TGSI_LOOP_ITERATIONS, raycast.glsl
+/// loop_budget_ok); later lavapipes (Mesa 25) and GPUs have none. Found by
+/// running it, not by the driver's version: a loop of 70,000 passes,
+/// planted in a copy of the shaders under `dir`, through `raycast
+/// shader-test`; Some(passes it ran) where they fall short, None where it
+/// ran them all. Prints what it found, so a test that branches on it says
+/// which way it went.
+pub fn device_loop_budget(dir: &Path) -> Option<u32> {
+    const PASSES: u32 = 70_000;
+    let shaders = copy_of_shaders(&dir.join("loop-probe-shaders"));
+    let glsl = shaders.join("raycast.glsl");
+    let mut source = std::fs::read_to_string(&glsl).unwrap();
+    source.push_str(
+        "\nuint loop_probe(uint n) {\n    uint c = 0u;\n    for (uint k = 0u; k < n; k++) {\n        c = c + 1u;\n    }\n    return c;\n}\n",
+    );
+    std::fs::write(&glsl, source).unwrap();
+    let case = dir.join("loop-probe.toml");
+    std::fs::write(
+        &case,
+        format!(
+            "[[case]]\nfunction = \"loop_probe\"\ninputs = {{ n = {PASSES} }}\nexpected = {PASSES}\nrule = \"exact\"\n"
+        ),
+    )
+    .unwrap();
+    let o = raycast(&["shader-test", "--shaders", shaders.to_str().unwrap(), case.to_str().unwrap()], &[]);
+    let (out, err) = text(&o);
+    if o.status.success() {
+        println!("loop budget: none (a loop of {PASSES} passes ran them all on the device)");
+        return None;
+    }
+    // The failure's result row: `value  70000 (0x…) DEVICE (0x…) 70000 (0x…) …`.
+    let row = out.lines().find(|l| l.trim_start().starts_with("value ")).unwrap_or_else(|| panic!("{out}{err}"));
+    let words: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!((words[1], words[5]), (PASSES.to_string().as_str(), PASSES.to_string().as_str()), "{out}{err}");
+    let ran: u32 = words[3].parse().unwrap_or_else(|_| panic!("{out}{err}"));
+    assert!(ran < PASSES, "{out}{err}");
+    println!("loop budget: {ran} passes (a loop of {PASSES} passes ran {ran} on the device)");
+    Some(ran)
+}
