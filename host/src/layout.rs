@@ -208,6 +208,23 @@ pub struct BindingLayout {
     pub writable: bool,
 }
 
+impl BindingLayout {
+    /// A read-only block of one `layout` at `binding`.
+    pub fn single(binding: u32, layout: StructLayout) -> BindingLayout {
+        BindingLayout { binding, shape: BufferShape::Single(layout), writable: false }
+    }
+
+    /// A read-only runtime array of `element`s at `binding`.
+    pub fn array(binding: u32, element: StructLayout) -> BindingLayout {
+        BindingLayout { binding, shape: BufferShape::RuntimeArray(element), writable: false }
+    }
+
+    /// The same binding, written by the kernel.
+    pub fn writable(self) -> BindingLayout {
+        BindingLayout { writable: true, ..self }
+    }
+}
+
 /// Builds the [`StructLayout`] of a `#[repr(C)]` struct from its fields,
 /// with offsets and sizes taken from the compiler.
 macro_rules! struct_layout {
@@ -391,16 +408,8 @@ impl FmaCase {
 /// fma_probe.comp's bindings: its cases, and the same cases with r filled in.
 pub fn fma_probe_bindings() -> Vec<BindingLayout> {
     vec![
-        BindingLayout {
-            binding: BINDING_FMA_CASES,
-            shape: BufferShape::RuntimeArray(FmaCase::layout()),
-            writable: false,
-        },
-        BindingLayout {
-            binding: BINDING_FMA_RESULTS,
-            shape: BufferShape::RuntimeArray(FmaCase::layout()),
-            writable: true,
-        },
+        BindingLayout::array(BINDING_FMA_CASES, FmaCase::layout()),
+        BindingLayout::array(BINDING_FMA_RESULTS, FmaCase::layout()).writable(),
     ]
 }
 
@@ -408,35 +417,15 @@ pub fn fma_probe_bindings() -> Vec<BindingLayout> {
 /// for every kernel that includes raycast.glsl.
 pub fn scene_bindings() -> Vec<BindingLayout> {
     vec![
-        BindingLayout { binding: BINDING_FRAME, shape: BufferShape::Single(Frame::layout()), writable: false },
-        BindingLayout {
-            binding: BINDING_PRIMITIVES,
-            shape: BufferShape::RuntimeArray(Primitive::layout()),
-            writable: false,
-        },
-        BindingLayout {
-            binding: BINDING_MATERIALS,
-            shape: BufferShape::RuntimeArray(Material::layout()),
-            writable: false,
-        },
-        BindingLayout { binding: BINDING_LIGHTS, shape: BufferShape::RuntimeArray(Light::layout()), writable: false },
-        BindingLayout {
-            binding: BINDING_TEXTURES,
-            shape: BufferShape::RuntimeArray(Texture::layout()),
-            writable: false,
-        },
-        BindingLayout { binding: BINDING_TEXELS, shape: BufferShape::RuntimeArray(Texel::layout()), writable: false },
-        BindingLayout { binding: BINDING_NODES, shape: BufferShape::RuntimeArray(BvhNode::layout()), writable: false },
-        BindingLayout {
-            binding: BINDING_LEAF_ITEMS,
-            shape: BufferShape::RuntimeArray(LeafItem::layout()),
-            writable: false,
-        },
-        BindingLayout {
-            binding: BINDING_INSTANCES,
-            shape: BufferShape::RuntimeArray(Instance::layout()),
-            writable: false,
-        },
+        BindingLayout::single(BINDING_FRAME, Frame::layout()),
+        BindingLayout::array(BINDING_PRIMITIVES, Primitive::layout()),
+        BindingLayout::array(BINDING_MATERIALS, Material::layout()),
+        BindingLayout::array(BINDING_LIGHTS, Light::layout()),
+        BindingLayout::array(BINDING_TEXTURES, Texture::layout()),
+        BindingLayout::array(BINDING_TEXELS, Texel::layout()),
+        BindingLayout::array(BINDING_NODES, BvhNode::layout()),
+        BindingLayout::array(BINDING_LEAF_ITEMS, LeafItem::layout()),
+        BindingLayout::array(BINDING_INSTANCES, Instance::layout()),
     ]
 }
 
@@ -507,11 +496,7 @@ pub fn render_uniform_bindings() -> Vec<BindingLayout> {
 /// The bindings of every kernel that writes pixels: the scene and the pixels.
 pub fn pixel_kernel_bindings() -> Vec<BindingLayout> {
     let mut b = scene_bindings();
-    b.push(BindingLayout {
-        binding: BINDING_PIXELS,
-        shape: BufferShape::RuntimeArray(PixelOut::layout()),
-        writable: true,
-    });
+    b.push(BindingLayout::array(BINDING_PIXELS, PixelOut::layout()).writable());
     b
 }
 
@@ -519,10 +504,6 @@ pub fn pixel_kernel_bindings() -> Vec<BindingLayout> {
 /// pixels and the running sums of their samples.
 pub fn render_bindings() -> Vec<BindingLayout> {
     let mut b = pixel_kernel_bindings();
-    b.push(BindingLayout {
-        binding: BINDING_SAMPLE_SUMS,
-        shape: BufferShape::RuntimeArray(SampleSum::layout()),
-        writable: true,
-    });
+    b.push(BindingLayout::array(BINDING_SAMPLE_SUMS, SampleSum::layout()).writable());
     b
 }

@@ -337,7 +337,7 @@ mod tests {
     use crate::gpu::{
         compile_kernel, Buffer, DataImage, DeviceSelector, Division, GpuOptions, ImageBinding, ImageFormat, Resource,
     };
-    use crate::layout::{BindingLayout, BufferShape, FieldLayout, StructLayout};
+    use crate::layout::{BindingLayout, FieldLayout, StructLayout};
 
     /// out[i] = 3 i + sample for i < 64, and the pixel (i, 0) of the image.
     const SRC: &str = r#"
@@ -379,12 +379,8 @@ void main() {
         };
         let ctx = GpuContext::new(&opts).unwrap_or_else(|e| panic!("{e}"));
         let bindings = [
-            BindingLayout {
-                binding: 0,
-                shape: BufferShape::Single(four_uints("Params", "sample_index")),
-                writable: false,
-            },
-            BindingLayout { binding: 1, shape: BufferShape::RuntimeArray(four_uints("Item", "value")), writable: true },
+            BindingLayout::single(0, four_uints("Params", "sample_index")),
+            BindingLayout::array(1, four_uints("Item", "value")).writable(),
         ];
         let images = [ImageBinding { binding: 2, writable: true, format: ImageFormat::Rgba8 }];
         let kernel = Kernel::with_images(&ctx, "frames", &spv, &bindings, &images).unwrap_or_else(|e| panic!("{e}"));

@@ -85,9 +85,9 @@ void main() {
 
 fn double_bindings() -> Vec<BindingLayout> {
     vec![
-        BindingLayout { binding: 0, shape: BufferShape::Single(params_layout()), writable: false },
-        BindingLayout { binding: 1, shape: BufferShape::RuntimeArray(item_layout()), writable: false },
-        BindingLayout { binding: 2, shape: BufferShape::RuntimeArray(item_layout()), writable: true },
+        BindingLayout::single(0, params_layout()),
+        BindingLayout::array(1, item_layout()),
+        BindingLayout::array(2, item_layout()).writable(),
     ]
 }
 
@@ -228,10 +228,7 @@ fn run_uploads_data_images_texel_for_texel() {
     let ctx = validated_context();
     let sink = ctx.message_sink();
     let quad = StructLayout { name: "Quad", size: 16, fields: vec![field("v", 0, 16)] };
-    let buffers = [
-        BindingLayout { binding: 0, shape: BufferShape::Single(params_layout()), writable: false },
-        BindingLayout { binding: 2, shape: BufferShape::RuntimeArray(quad), writable: true },
-    ];
+    let buffers = [BindingLayout::single(0, params_layout()), BindingLayout::array(2, quad).writable()];
     let image = ImageBinding { binding: 1, writable: false, format: ImageFormat::Rgba32Uint };
     let kernel = Kernel::with_images(&ctx, "data_image", &spv, &buffers, std::slice::from_ref(&image))
         .unwrap_or_else(|e| panic!("{e}"));
@@ -340,10 +337,7 @@ void main() {
 }
 "#;
     let spv = compile("spin", &src);
-    let bindings = vec![
-        BindingLayout { binding: 0, shape: BufferShape::Single(params_layout()), writable: false },
-        BindingLayout { binding: 2, shape: BufferShape::RuntimeArray(item_layout()), writable: true },
-    ];
+    let bindings = vec![BindingLayout::single(0, params_layout()), BindingLayout::array(2, item_layout()).writable()];
     let opts = GpuOptions { device: lavapipe(), validation: true, timeout: Duration::from_millis(1) };
     let ctx = GpuContext::new(&opts).unwrap();
     let kernel = Kernel::new(&ctx, "spin", &spv, &bindings).unwrap();
@@ -400,7 +394,7 @@ fn check_layouts_reports_every_planted_mismatch() {
     struct_of(&mut host[2]).size = 144;
     // A binding missing on the host, one missing in the shader.
     host.retain(|b| b.binding != 3);
-    host.push(BindingLayout { binding: 7, shape: BufferShape::RuntimeArray(item_layout()), writable: false });
+    host.push(BindingLayout::array(7, item_layout()));
     // Writability flipped.
     host[0].writable = true;
     // A host field the shader lacks (and so a shader member the host lacks).

@@ -40,7 +40,7 @@ use std::sync::Arc;
 
 use crate::check::ulp_distance;
 use crate::gpu::{self, DeviceSelector, GpuContext, GpuOptions, Kernel};
-use crate::layout::{self, BindingLayout, BufferShape, FieldLayout, StructLayout};
+use crate::layout::{self, BindingLayout, FieldLayout, StructLayout};
 use cpu::CpuLibrary;
 
 /// The repository the binary was built from: default shaders, test files, host/cpu.
@@ -255,16 +255,8 @@ fn word_layout() -> StructLayout {
 /// scene's (`layout::scene_bindings`) and the harness's input and output words.
 pub fn kernel_bindings() -> Vec<BindingLayout> {
     let mut b = layout::scene_bindings();
-    b.push(BindingLayout {
-        binding: codegen::BINDING_IN,
-        shape: BufferShape::RuntimeArray(word_layout()),
-        writable: false,
-    });
-    b.push(BindingLayout {
-        binding: codegen::BINDING_OUT,
-        shape: BufferShape::RuntimeArray(word_layout()),
-        writable: true,
-    });
+    b.push(BindingLayout::array(codegen::BINDING_IN, word_layout()));
+    b.push(BindingLayout::array(codegen::BINDING_OUT, word_layout()).writable());
     b
 }
 
