@@ -382,15 +382,7 @@ mod tests {
         assert!(json.starts_with("{\"scene\":\"gen.xml\"") && json.contains("\"expanded\":937"), "{json}");
 
         // Twenty cubes in a row: inner nodes, a binary tree over the twenty.
-        let cubes: String = (0..20)
-            .map(|i| {
-                format!(
-                    r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#
-                )
-            })
-            .collect();
-        let xml = format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#);
-        let scene = crate::scene::from_xml(xml, "row.xml");
+        let scene = crate::scene::from_xml(crate::scene::row_of_cubes_xml(20), "row.xml");
         let data = pack(&scene).unwrap();
         let t = Info::of("row.xml", &scene, &data).groups[0].tree.clone().expect("a hierarchy");
         assert_eq!(t.items, 20);

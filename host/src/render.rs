@@ -641,15 +641,7 @@ mod tests {
             assert!(on(Specialization::of(&d, &d.frame)).contains(&layout::SPEC_AOVS), "{aov:?}");
         }
         // Each group of `rich` fits one leaf; twenty cubes in a row do not.
-        let cubes: String = (0..20)
-            .map(|i| {
-                format!(
-                    r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#
-                )
-            })
-            .collect();
-        let row = format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#);
-        let d = data(&row, &RenderSettings::default());
+        let d = data(&crate::scene::row_of_cubes_xml(20), &RenderSettings::default());
         assert!(d.nodes.iter().any(|n| n.count == 0), "twenty primitives make inner nodes");
         assert!(on(Specialization::of(&d, &d.frame)).contains(&layout::SPEC_INNER_NODES));
         // One sphere and its child instances in each group's one leaf: neither.

@@ -134,12 +134,7 @@ impl DescriptorSet {
     pub fn new(kernel: &Kernel, resources: &[(u32, Resource<'_>)]) -> Result<DescriptorSet, GpuError> {
         let bad = |message: String| GpuError::BadRun { kernel: kernel.name().to_string(), message };
         let inner = &kernel.inner;
-        let mut given: Vec<u32> = resources.iter().map(|(b, _)| *b).collect();
-        given.sort_unstable();
-        let mut wanted: Vec<u32> =
-            kernel.bindings().iter().map(|b| b.binding).chain(kernel.images().iter().map(|i| i.binding)).collect();
-        wanted.sort_unstable();
-        if given != wanted {
+        if let Some((given, wanted)) = kernel.binding_mismatch(resources.iter().map(|(b, _)| *b)) {
             return Err(bad(format!(
                 "the descriptor set was given bindings {given:?}, the kernel declares {wanted:?}; \
                  pass each binding exactly once"

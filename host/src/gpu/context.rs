@@ -780,12 +780,7 @@ impl Inner {
                 i.binding
             )));
         }
-        let mut given: Vec<u32> = buffers.lengths().map(|(b, _)| b).collect();
-        given.sort_unstable();
-        let mut wanted: Vec<u32> =
-            kernel.bindings().iter().map(|b| b.binding).chain(kernel.images().iter().map(|i| i.binding)).collect();
-        wanted.sort_unstable();
-        if given != wanted {
+        if let Some((given, wanted)) = kernel.binding_mismatch(buffers.lengths().map(|(b, _)| b)) {
             return Err(bad(format!(
                 "run() was given bindings {given:?} (inputs, cleared and output), the kernel declares {wanted:?}; \
                  pass each binding exactly once"

@@ -135,6 +135,18 @@ impl Kernel {
         &self.name
     }
 
+    /// None when `given` names each of the kernel's bindings (buffers and
+    /// images) exactly once; else the given and the declared binding
+    /// numbers, each sorted, for the caller's message.
+    pub fn binding_mismatch(&self, given: impl IntoIterator<Item = u32>) -> Option<(Vec<u32>, Vec<u32>)> {
+        let mut given: Vec<u32> = given.into_iter().collect();
+        given.sort_unstable();
+        let mut wanted: Vec<u32> =
+            self.bindings.iter().map(|b| b.binding).chain(self.images.iter().map(|i| i.binding)).collect();
+        wanted.sort_unstable();
+        (given != wanted).then_some((given, wanted))
+    }
+
     /// The specialization constants it was built with (`specialized`).
     pub fn constants(&self) -> &[u32] {
         &self.constants

@@ -24,6 +24,20 @@ pub fn from_xml(xml: impl AsRef<str>, name: &str) -> Scene {
     flatten(&file, &FlattenLimits::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Tests: a scene file of `n` unit cubes in a row along x, one apart, all
+/// in the root tree: more than a leaf holds, so its hierarchy has inner nodes.
+#[cfg(test)]
+pub fn row_of_cubes_xml(n: usize) -> String {
+    let cubes: String = (0..n)
+        .map(|i| {
+            format!(
+                r#"<transblock><translate x="{i}" y="0" z="0"/><object type="primitive" name="cube"/></transblock>"#
+            )
+        })
+        .collect();
+    format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#)
+}
+
 /// Tests: the course corpus from RAYCAST_CORPUS, or None after printing
 /// that the test is skipped.
 #[cfg(test)]
