@@ -11,7 +11,9 @@
 # whose COMMAND contains TEXT are run again; the others stay as they are.
 #
 # RAYCAST_COMMIT names the commit in the machine block where the tree's .git
-# is not its own (a copy sent to a GPU machine).
+# is not its own (a copy sent to a GPU machine). A block whose COMMAND uses
+# $LAVAPIPE_ICD (a second driver's manifest, `unpack-driver` below) is kept
+# as it is unless LAVAPIPE_ICD names such a file.
 #
 # Helpers that print blocks of their own:
 #   ci/benchmarks.sh machine            the machine: CPU, cores, memory, Vulkan device, Mesa, load
@@ -40,6 +42,17 @@
 #                                       `build/raycast check` per scene: how many pixels
 #                                       differ between the device and the CPU build, per
 #                                       buffer (0 everywhere on lavapipe; counts on GPUs).
+#   ci/benchmarks.sh drivers [--rounds N] ICD.json SCENE...
+#                                       `build/raycast render` with the Vulkan driver the
+#                                       loader finds and with VK_DRIVER_FILES=ICD.json, in
+#                                       turn: medians of the whole command and of the
+#                                       dispatch, and whether the PNGs are the same bytes
+#                                       (another Mesa's lavapipe beside the installed one).
+#   ci/benchmarks.sh unpack-driver DEB DIR
+#                                       unpacks a driver package (mesa-vulkan-drivers_*.deb)
+#                                       into DIR without installing it and writes DIR/icd.json
+#                                       naming its lavapipe, for `drivers` (BENCHMARKS.md,
+#                                       "A newer lavapipe").
 source "$(dirname "$0")/common.sh"
 cd "$ROOT"
 RAYCAST=build/raycast
@@ -190,6 +203,65 @@ checks() {
   rm -rf "$tmp"
 }
 
+unpack_driver() {
+  local deb="$1" dir="$2" icd lib
+  [ -f "$deb" ] && [ -n "$dir" ] || { echo "usage: ci/benchmarks.sh unpack-driver DEB DIR" >&2; exit 2; }
+  mkdir -p "$dir"
+  dir="$(cd "$dir" && pwd)"
+  dpkg-deb -x "$deb" "$dir/root"
+  icd="$(ls "$dir"/root/usr/share/vulkan/icd.d/lvp_icd*.json 2>/dev/null | head -1)"
+  lib="$(find "$dir/root" -name 'libvulkan_lvp.so' | head -1)"
+  [ -n "$icd" ] && [ -n "$lib" ] || { echo "unpack-driver: $deb holds no lavapipe (lvp_icd*.json, libvulkan_lvp.so)" >&2; exit 1; }
+  sed "s#\"library_path\": *\"[^\"]*\"#\"library_path\": \"$lib\"#" "$icd" >"$dir/icd.json"
+  echo "$dir/icd.json: $(VK_DRIVER_FILES="$dir/icd.json" "$RAYCAST" devices | head -1)"
+}
+
+drivers() {
+  local rounds=5 icd s file tmp r v out t d a b
+  if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
+  icd="$1"; shift
+  [ -f "$icd" ] || { echo "drivers: no driver manifest $icd (ci/benchmarks.sh unpack-driver DEB DIR writes one)" >&2; exit 2; }
+  tmp="$(mktemp -d)"
+  a="$("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
+  b="$(VK_DRIVER_FILES="$icd" "$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
+  echo "\`ci/benchmarks.sh drivers --rounds $rounds ICD.json $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, the driver the loader finds, and B, \`VK_DRIVER_FILES=ICD.json\`, in turn, $rounds rounds after one untimed (each builds its kernels once; Mesa caches them): the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s dispatch, and whether the two PNGs are the same bytes."
+  echo
+  echo "- A: $a"
+  echo "- B: $b"
+  echo
+  echo "| scene | whole, A | whole, B | dispatch, A | dispatch, B | B ÷ A, dispatch | same PNG |"
+  echo "|---|---|---|---|---|---|---|"
+  for s in "$@"; do
+    file="$s"
+    if [[ "$s" == gen:* ]]; then
+      IFS=: read -r _ family depth <<<"$s"
+      file="$tmp/$family-$depth.xml"
+      "$RAYCAST" gen "$family" --depth "$depth" -o "$file" 2>/dev/null
+    fi
+    local -A walls=() dispatches=()
+    for ((r = -1; r < rounds; r++)); do
+      for v in A B; do
+        local env=()
+        [ $v = A ] || env=(VK_DRIVER_FILES="$icd")
+        out="$(env "${env[@]}" /usr/bin/time -f 'TIME %e' "$RAYCAST" render "$file" --assets "$CORPUS" -o "$tmp/$v.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+        [ "$r" -ge 0 ] || continue
+        t="$(sed -n 's/^TIME \([0-9.]*\)/\1/p' <<<"$out")"
+        d="$(sed -n 's/^time: .*dispatch \([0-9.]*\) ms.*/\1/p' <<<"$out")"
+        walls[$v]+="$t "
+        dispatches[$v]+="$d "
+      done
+    done
+    local med=() list
+    for list in "${walls[A]}" "${walls[B]}" "${dispatches[A]}" "${dispatches[B]}"; do
+      med+=("$(tr ' ' '\n' <<<"$list" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }')")
+    done
+    local same=no
+    cmp -s "$tmp/A.png" "$tmp/B.png" && same=yes
+    echo "| ${s##*/} | ${med[0]} s | ${med[1]} s | ${med[2]} ms | ${med[3]} ms | $(awk -v a="${med[2]}" -v b="${med[3]}" 'BEGIN { printf "%.2f", b / a }') | $same |"
+  done
+  rm -rf "$tmp"
+}
+
 division() {
   local opts=() rounds=6 s v r out line kernel
   while [[ "${1:-}" == --* ]]; do
@@ -233,6 +305,8 @@ case "${1:-}" in
   division) shift; division "$@"; exit ;;
   wall) shift; wall "$@"; exit ;;
   checks) shift; checks "$@"; exit ;;
+  drivers) shift; drivers "$@"; exit ;;
+  unpack-driver) shift; unpack_driver "$@"; exit ;;
   passes) shift; passes "$@"; exit ;;
   preview) shift; preview_rates "$@"; exit ;;
 esac
@@ -250,7 +324,11 @@ in_block=0
 while IFS= read -r line || [ -n "$line" ]; do
   if [ "$in_block" = 0 ] && [[ "$line" =~ ^'<!-- bench: '(.*)' -->'$ ]]; then
     printf '%s\n' "$line" >>"$out"
-    if [[ "${BASH_REMATCH[1]}" == *"$only"* ]]; then
+    if [[ "${BASH_REMATCH[1]}" == *'$LAVAPIPE_ICD'* ]] && [ ! -f "${LAVAPIPE_ICD:-}" ]; then
+      # The second driver is not on every machine: its block stays as it is.
+      echo "benchmarks: kept as it is (LAVAPIPE_ICD names no driver manifest; ci/benchmarks.sh unpack-driver DEB DIR writes one): ${BASH_REMATCH[1]}" >&2
+      in_block=2
+    elif [[ "${BASH_REMATCH[1]}" == *"$only"* ]]; then
       echo "benchmarks: ${BASH_REMATCH[1]}" >&2
       eval "${BASH_REMATCH[1]}" >>"$out" </dev/null
       in_block=1
