@@ -1,7 +1,19 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages raycast needs to build, render and test.
 # Idempotent: only missing packages are installed. Needs root (or sudo).
+#
+# RAYCAST_LAVAPIPE=backports takes Mesa (lavapipe and the rest of Mesa with
+# it) from Debian's bookworm-backports, 25.0 where Debian 12 has 22.3: the
+# same pictures, faster (BENCHMARKS.md, "A newer lavapipe"). It adds that
+# archive to apt's sources (/etc/apt/sources.list.d/raycast-bookworm-backports.sources,
+# unless one names it already), whose packages apt takes only when asked.
+# Unset or `debian`: Debian 12's own, what CI tests on.
 set -euo pipefail
+lavapipe="${RAYCAST_LAVAPIPE:-debian}"
+case "$lavapipe" in
+  debian | backports) ;;
+  *) echo "raycast: RAYCAST_LAVAPIPE=$lavapipe: expected debian or backports" >&2; exit 2 ;;
+esac
 
 PKGS=(
   # build
@@ -22,15 +34,32 @@ missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
 done
-if [ ${#missing[@]} -eq 0 ]; then
+# The backport is wanted and not there yet (its versions carry "~bpo12").
+want_backport=0
+if [ "$lavapipe" = backports ] && ! dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null | grep -q '~bpo12'; then
+  want_backport=1
+fi
+if [ ${#missing[@]} -eq 0 ] && [ $want_backport = 0 ]; then
   exit 0
 fi
-echo "raycast: installing Debian packages: ${missing[*]}" >&2
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then
   if command -v sudo >/dev/null; then SUDO=sudo; else
-    echo "raycast: need root to install: ${missing[*]}" >&2; exit 1; fi
+    echo "raycast: need root to install: ${missing[*]}${missing:+ }$([ $want_backport = 1 ] && echo 'Mesa from bookworm-backports')" >&2; exit 1; fi
 fi
 export DEBIAN_FRONTEND=noninteractive
+if [ $want_backport = 1 ] && ! grep -rqs 'bookworm-backports' /etc/apt/sources.list /etc/apt/sources.list.d/; then
+  echo "raycast: adding Debian's bookworm-backports to apt's sources (RAYCAST_LAVAPIPE=backports)" >&2
+  printf 'Types: deb\nURIs: http://deb.debian.org/debian\nSuites: bookworm-backports\nComponents: main\nSigned-By: /usr/share/keyrings/debian-archive-keyring.gpg\n' |
+    $SUDO tee /etc/apt/sources.list.d/raycast-bookworm-backports.sources >/dev/null
+fi
 $SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "raycast: installing Debian packages: ${missing[*]}" >&2
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
+if [ $want_backport = 1 ]; then
+  echo "raycast: installing Mesa's lavapipe from bookworm-backports (RAYCAST_LAVAPIPE=backports)" >&2
+  $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports mesa-vulkan-drivers >&2
+  echo "raycast: mesa-vulkan-drivers $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers)" >&2
+fi
