@@ -251,6 +251,95 @@ fn unwritable_output() {
     }
 }
 
+/// Where the device offers shader objects (VK_EXT_shader_object: Mesa
+/// 25's lavapipe, not Debian 12's 22.3), kernels are shader objects whose
+/// binaries are kept in RAYCAST_CACHE_DIR: the first run compiles and keeps
+/// the binary, the next one makes its kernel from it, a damaged or foreign
+/// cache file is compiled again, and every picture is the pipeline's bit
+/// for bit (RAYCAST_SHADER_OBJECTS=0). Validation is off in these runs:
+/// Debian 12's validation layers (1.3.239) predate the extension and crash
+/// on its dispatches, so with validation kernels are always pipelines
+/// (checked last). Where the device has no shader objects, the runs are
+/// pipelines and say nothing of shader objects.
+#[test]
+fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
+    let cache = out_dir().join("shader-object-cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    let cache_text = cache.to_str().unwrap();
+    let scene = repo().join("scenes/default.xml");
+    let render = |name: &str, env: &[(&str, &str)]| {
+        let png = out_dir().join(format!("shader-object-{name}.png"));
+        let mut all = vec![("RAYCAST_VALIDATION", "0"), ("RAYCAST_CACHE_DIR", cache_text)];
+        all.extend_from_slice(env);
+        let o = raycast(
+            &["render", scene.to_str().unwrap(), "--width", "64", "--height", "48", "-o", png.to_str().unwrap()],
+            &all,
+        );
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{name}: {out}{err}");
+        let kernel = out.lines().find(|l| l.starts_with("kernel: ")).unwrap_or_else(|| panic!("{out}")).to_string();
+        (raycast::image_io::read_png(&png).unwrap(), kernel)
+    };
+    let (pipeline, kernel) = render("pipeline", &[("RAYCAST_SHADER_OBJECTS", "0")]);
+    assert!(!kernel.contains("shader object"), "{kernel}");
+    // Rule: bit-exact, each picture against the pipeline's.
+    let same = |picture: &raycast::image_io::Rgb8, what: &str| {
+        let diff = raycast::image_io::compare(picture, &pipeline, 0).unwrap();
+        assert_eq!(diff.differing, 0, "{what}: {diff}");
+    };
+    let (first, kernel) = render("first", &[]);
+    same(&first, "first");
+    if !kernel.contains("shader object") {
+        println!(
+            "skipped: this device offers no shader objects (VK_EXT_shader_object); its kernels are pipelines: {kernel}"
+        );
+        return;
+    }
+    assert!(kernel.contains("(a shader object, compiled; its binary kept for the next run)"), "{kernel}");
+    let files: Vec<PathBuf> = std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let (second, kernel) = render("second", &[]);
+    same(&second, "second");
+    assert!(kernel.contains("(a shader object, from the binary a run before kept)"), "{kernel}");
+    // A cache file cut short, and one whose binary has a changed byte (its checksum no longer holds):
+    // each compiled again and written anew.
+    let bytes = std::fs::read(&files[0]).unwrap();
+    let mut flipped = bytes.clone();
+    *flipped.last_mut().unwrap() ^= 1;
+    for (what, damaged) in [("cut short", &bytes[..bytes.len() / 3]), ("a byte changed", &flipped[..])] {
+        std::fs::write(&files[0], damaged).unwrap();
+        let (picture, kernel) = render("damaged", &[]);
+        same(&picture, what);
+        assert!(kernel.contains("(a shader object, compiled; its binary kept for the next run)"), "{what}: {kernel}");
+        assert_eq!(std::fs::read(&files[0]).unwrap(), bytes, "{what}: the file written again");
+    }
+    // Another picture size is the same kernel; other specialization constants (no shadows) another file.
+    let o = raycast(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--no-textures",
+            "--no-shadows",
+            "-o",
+            "/dev/null",
+        ],
+        &[("RAYCAST_VALIDATION", "0"), ("RAYCAST_CACHE_DIR", cache_text)],
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert_eq!(std::fs::read_dir(&cache).unwrap().count(), 2, "a second kernel, a second file");
+    // With validation: a pipeline, whatever the device offers.
+    let o = raycast(
+        &["render", scene.to_str().unwrap(), "--width", "64", "--height", "48", "-o", "/dev/null"],
+        &[("RAYCAST_CACHE_DIR", cache_text)],
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success() && !out.contains("shader object"), "{out}{err}");
+}
+
 #[test]
 fn no_vulkan_device() {
     // Each of the loader's two spellings, the other one removed (VK_DRIVER_FILES, set by whoever runs the

@@ -53,7 +53,8 @@ fn preview(args: &[&str]) -> Output {
     let mut cmd = Command::new("xvfb-run");
     cmd.args(["-a", "-s", "-screen 0 1280x1024x24", env!("CARGO_BIN_EXE_raycast"), "preview"])
         .args(args)
-        .env("RAYCAST_VALIDATION", "1");
+        .env("RAYCAST_VALIDATION", "1")
+        .env("RAYCAST_CACHE_DIR", common::shader_cache());
     cmd.output().unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"))
 }
 

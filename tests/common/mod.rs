@@ -21,11 +21,18 @@ pub fn copy_of_shaders(dir: &Path) -> PathBuf {
     dir.to_path_buf()
 }
 
+/// The shader-binary cache the tests' commands use (RAYCAST_CACHE_DIR),
+/// not the user's.
+pub fn shader_cache() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("shader-cache")
+}
+
 /// `raycast ARGS` with `env` added to the environment, validation on
-/// (RAYCAST_VALIDATION=1: any validation message fails the command).
+/// (RAYCAST_VALIDATION=1: any validation message fails the command), and
+/// the tests' own shader-binary cache.
 pub fn raycast(args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_raycast"));
-    cmd.args(args).env("RAYCAST_VALIDATION", "1");
+    cmd.args(args).env("RAYCAST_VALIDATION", "1").env("RAYCAST_CACHE_DIR", shader_cache());
     for (k, v) in env {
         cmd.env(k, v);
     }

@@ -10,6 +10,7 @@ use ash::vk;
 use super::float_controls;
 use super::image::layout_barrier;
 use super::present::Surface;
+use super::shader_object;
 use super::{fma_probe, Division, GpuError, ImageFormat, Kernel};
 use crate::layout::IMAGE_WIDTH;
 
@@ -182,6 +183,8 @@ pub(crate) struct Inner {
     pub(crate) inexact_division: bool,
     /// `division`, once decided (its probe runs on the first call).
     division: OnceLock<Division>,
+    /// Kernels are shader objects on this device (shader_object.rs); None: pipelines.
+    pub(crate) shader_objects: Option<shader_object::ShaderObjects>,
     pub(crate) physical: vk::PhysicalDevice,
     /// The window surface of `GpuContext::with_surface`; destroyed after the
     /// device, before the instance (field order).
@@ -588,14 +591,26 @@ impl GpuContext {
         if physical.float_modes != float_controls::Modes::default() {
             device_exts.push(ash::khr::shader_float_controls::NAME);
         }
+        // Kernels as shader objects with their binaries kept, where offered (shader_object.rs).
+        let shader_objects = shader_object::wanted(opts.validation)
+            && shader_object::supported(instance, physical.handle, &physical.extensions);
+        if shader_objects {
+            device_exts.push(ash::ext::shader_object::NAME);
+        }
         let ext_ptrs = cstrs(&device_exts);
         let priorities = [1.0f32];
         let queue_info =
             [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
-        let device_info =
+        let mut shader_object_features = vk::PhysicalDeviceShaderObjectFeaturesEXT::default().shader_object(true);
+        let mut device_info =
             vk::DeviceCreateInfo::default().queue_create_infos(&queue_info).enabled_extension_names(&ext_ptrs);
+        if shader_objects {
+            device_info = device_info.push_next(&mut shader_object_features);
+        }
         let device = unsafe { instance.create_device(physical.handle, &device_info, None) }
             .map_err(GpuError::vk("vkCreateDevice"))?;
+        let shader_objects =
+            shader_objects.then(|| shader_object::ShaderObjects::new(instance, physical.handle, &device));
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
 
         Ok(GpuContext {
@@ -612,6 +627,7 @@ impl GpuContext {
                 float_modes: physical.float_modes,
                 inexact_division: physical.inexact_division,
                 division: OnceLock::new(),
+                shader_objects,
                 physical: physical.handle,
                 surface,
                 parts,
@@ -957,7 +973,7 @@ unsafe fn record_run(
         for image in &res.images {
             record_image_upload(d, cmd, image.source, image.image, image.texels);
         }
-        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
+        kernel.bind(cmd);
         d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
         for pass in 0..passes {
             if pass > 0 {

@@ -188,7 +188,7 @@ impl FrameLoop {
                 &to_general,
             );
 
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline);
+            kernel.bind(cmd);
             d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set.set], &[]);
             if let Some(pool) = self.queries {
                 d.cmd_reset_query_pool(cmd, pool, 0, 2);

@@ -1,17 +1,23 @@
-//! `Kernel`: a checked compute pipeline and its descriptor set layout,
-//! reusable across runs.
+//! `Kernel`: a checked compute pipeline (or, where the device offers them
+//! and validation is off, a shader object: shader_object.rs) and its
+//! descriptor set layout, reusable across runs.
 
 use std::sync::Arc;
 
 use ash::vk;
 
 use super::context::Inner;
-use super::{float_controls, reflect, GpuContext, GpuError, ImageBinding};
+use super::{float_controls, reflect, GpuContext, GpuError, ImageBinding, ShaderSource};
 use crate::layout::BindingLayout;
 
 /// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
 pub struct Kernel {
+    /// Null where the kernel is a shader object (`shader`).
     pub(crate) pipeline: vk::Pipeline,
+    /// The shader object, on a device with shader objects; else null.
+    shader: vk::ShaderEXT,
+    /// Where the shader object came from (None: a pipeline).
+    source: Option<ShaderSource>,
     pub(crate) pipeline_layout: vk::PipelineLayout,
     pub(crate) set_layout: vk::DescriptorSetLayout,
     name: String,
@@ -74,6 +80,8 @@ impl Kernel {
         let d = &ctx.inner.device;
         let mut kernel = Kernel {
             pipeline: vk::Pipeline::null(),
+            shader: vk::ShaderEXT::null(),
+            source: None,
             pipeline_layout: vk::PipelineLayout::null(),
             set_layout: vk::DescriptorSetLayout::null(),
             name: name.to_string(),
@@ -109,6 +117,14 @@ impl Kernel {
         kernel.pipeline_layout =
             unsafe { d.create_pipeline_layout(&info, None) }.map_err(GpuError::vk("vkCreatePipelineLayout"))?;
 
+        if let Some(objects) = &ctx.inner.shader_objects {
+            let bindings: Vec<(u32, i32)> =
+                layout_bindings.iter().map(|b| (b.binding, b.descriptor_type.as_raw())).collect();
+            let (shader, source) = objects.create(name, &words, constants, &set_layouts, &bindings)?;
+            kernel.shader = shader;
+            kernel.source = Some(source);
+            return Ok(kernel);
+        }
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let module = unsafe { d.create_shader_module(&info, None) }.map_err(GpuError::vk("vkCreateShaderModule"))?;
         let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
@@ -133,6 +149,23 @@ impl Kernel {
 
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// None for a pipeline; for a shader object, whether it was compiled
+    /// or made from the binary a run before kept (shader_object.rs).
+    pub fn shader_source(&self) -> Option<ShaderSource> {
+        self.source
+    }
+
+    /// Records binding the kernel (its pipeline or shader object) for dispatch.
+    pub(crate) fn bind(&self, cmd: vk::CommandBuffer) {
+        let d = &self.inner.device;
+        match &self.inner.shader_objects {
+            Some(objects) if self.shader != vk::ShaderEXT::null() => unsafe {
+                objects.ext.cmd_bind_shaders(cmd, &[vk::ShaderStageFlags::COMPUTE], &[self.shader])
+            },
+            _ => unsafe { d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline) },
+        }
     }
 
     /// None when `given` names each of the kernel's bindings (buffers and
@@ -203,6 +236,9 @@ impl Drop for Kernel {
         self.inner.wait_if_abandoned();
         // Null handles (a failed `new`) are no-ops.
         unsafe {
+            if let Some(objects) = &self.inner.shader_objects {
+                objects.ext.destroy_shader(self.shader, None);
+            }
             d.destroy_pipeline(self.pipeline, None);
             d.destroy_pipeline_layout(self.pipeline_layout, None);
             d.destroy_descriptor_set_layout(self.set_layout, None);

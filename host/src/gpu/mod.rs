@@ -29,6 +29,7 @@ mod image;
 mod kernel;
 mod present;
 pub mod reflect;
+mod shader_object;
 #[cfg(test)]
 mod tests;
 
@@ -46,3 +47,4 @@ pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};
 pub use kernel::Kernel;
 pub use present::{PresentMode, Swapchain};
+pub use shader_object::{cache_dir as shader_cache_dir, ShaderSource};
