@@ -75,6 +75,18 @@ machine() {
   echo "- load average when the run began (other work on the machine slows every number): $(cut -d' ' -f1-3 /proc/loadavg)"
 }
 
+# The scene file of SCENE (a file, or gen:FAMILY:DEPTH written into folder TMP by `raycast gen`).
+scene_file() {
+  local s="$1" tmp="$2" family depth
+  if [[ "$s" == gen:* ]]; then
+    IFS=: read -r _ family depth <<<"$s"
+    "$RAYCAST" gen "$family" --depth "$depth" -o "$tmp/$family-$depth.xml" >/dev/null 2>&1
+    echo "$tmp/$family-$depth.xml"
+  else
+    echo "$s"
+  fi
+}
+
 wall() {
   local max=() tmp
   while [ "${1:-}" = --max-primitives ] || [ "${1:-}" = --device ]; do max+=("$1" "$2"); shift 2; done
@@ -85,12 +97,7 @@ wall() {
   echo "|---|---|---|---|"
   local s file walls rss out n t m
   for s in "$@"; do
-    file="$s"
-    if [[ "$s" == gen:* ]]; then
-      IFS=: read -r _ family depth <<<"$s"
-      file="$tmp/$family-$depth.xml"
-      "$RAYCAST" gen "$family" --depth "$depth" -o "$file" 2>/dev/null
-    fi
+    file="$(scene_file "$s" "$tmp")"
     walls=() rss=0 n=""
     for _ in 1 2 3; do
       if ! out="$(/usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" "${max[@]}" -o "$tmp/out.png" 2>&1)"; then
@@ -131,12 +138,7 @@ preview_rates() {
   echo "| scene | $size | median frame | frames a second |"
   echo "|---|---|---|---|"
   for s in "$@"; do
-    file="$s"
-    if [[ "$s" == gen:* ]]; then
-      IFS=: read -r _ family depth <<<"$s"
-      file="$tmp/$family-$depth.xml"
-      "$RAYCAST" gen "$family" --depth "$depth" -o "$file" >/dev/null 2>&1
-    fi
+    file="$(scene_file "$s" "$tmp")"
     # Three runs; the one with the middle median (this machine's noise).
     lines=()
     for _ in 1 2 3; do
@@ -232,12 +234,7 @@ drivers() {
   echo "| scene | whole, A | whole, B | dispatch, A | dispatch, B | B ÷ A, dispatch | same PNG |"
   echo "|---|---|---|---|---|---|---|"
   for s in "$@"; do
-    file="$s"
-    if [[ "$s" == gen:* ]]; then
-      IFS=: read -r _ family depth <<<"$s"
-      file="$tmp/$family-$depth.xml"
-      "$RAYCAST" gen "$family" --depth "$depth" -o "$file" 2>/dev/null
-    fi
+    file="$(scene_file "$s" "$tmp")"
     local -A walls=() dispatches=()
     for ((r = -1; r < rounds; r++)); do
       for v in A B; do

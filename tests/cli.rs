@@ -313,7 +313,7 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
         assert!(kernel.contains("(a shader object, compiled; its binary kept for the next run)"), "{what}: {kernel}");
         assert_eq!(std::fs::read(&files[0]).unwrap(), bytes, "{what}: the file written again");
     }
-    // Another picture size is the same kernel; other specialization constants (no shadows) another file.
+    // Other specialization constants (no textures, no shadows): another kernel, another file.
     let o = raycast(
         &[
             "render",
