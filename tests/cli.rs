@@ -289,6 +289,11 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
     };
     let (first, kernel) = render("first", &[]);
     same(&first, "first");
+    // `devices` says so, with the folder, exactly where kernels are shader objects.
+    let o = raycast(&["devices"], &[("RAYCAST_CACHE_DIR", cache_text)]);
+    let devices = text(&o).0;
+    let line = format!("kernels: shader objects (VK_EXT_shader_object), their binaries kept in {cache_text};");
+    assert_eq!(devices.contains(&line), kernel.contains("shader object"), "{devices}{kernel}");
     if !kernel.contains("shader object") {
         println!(
             "skipped: this device offers no shader objects (VK_EXT_shader_object); its kernels are pipelines: {kernel}"

@@ -609,6 +609,13 @@ fn devices() -> Result<(), Failure> {
         if d.corrects_division {
             outln!("   {}", division_line(d.index));
         }
+        if d.shader_objects {
+            let kept = match gpu::shader_cache_dir() {
+                Some(dir) => format!("their binaries kept in {}", dir.display()),
+                None => "no cache folder to keep their binaries in (set RAYCAST_CACHE_DIR)".to_string(),
+            };
+            outln!("   kernels: shader objects (VK_EXT_shader_object), {kept}; pipelines with validation or RAYCAST_SHADER_OBJECTS=0");
+        }
     }
     if let Some(d) = list.get(default) {
         // As open_backend decides for --backend auto.

@@ -82,6 +82,9 @@ pub struct DeviceInfo {
     /// but a CPU one, unless RAYCAST_INEXACT_DIVISION says); how, the open
     /// device's `GpuContext::division` says.
     pub corrects_division: bool,
+    /// Whether it offers shader objects (VK_EXT_shader_object), which its
+    /// kernels are without validation (shader_object.rs).
+    pub shader_objects: bool,
 }
 
 impl DeviceInfo {
@@ -435,6 +438,7 @@ impl InstanceParts {
                 yes_no(float_modes.preserve_denorms, "subnormals preserved", "subnormals not promised"),
             ]
             .join(", ");
+            let shader_objects = shader_object::supported(&self.instance, handle, &extensions);
             out.push(Physical {
                 handle,
                 info: DeviceInfo {
@@ -445,6 +449,7 @@ impl InstanceParts {
                     driver,
                     arithmetic,
                     corrects_division: inexact_division,
+                    shader_objects,
                 },
                 rank,
                 compute_family,
