@@ -614,7 +614,9 @@ fn devices() -> Result<(), Failure> {
                 Some(dir) => format!("their binaries kept in {}", dir.display()),
                 None => "no cache folder to keep their binaries in (set RAYCAST_CACHE_DIR)".to_string(),
             };
-            outln!("   kernels: shader objects (VK_EXT_shader_object), {kept}; pipelines with validation or RAYCAST_SHADER_OBJECTS=0");
+            outln!(
+                "   kernels: shader objects (VK_EXT_shader_object), {kept}; pipelines with validation or RAYCAST_SHADER_OBJECTS=0"
+            );
         }
     }
     if let Some(d) = list.get(default) {

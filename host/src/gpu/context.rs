@@ -82,8 +82,8 @@ pub struct DeviceInfo {
     /// but a CPU one, unless RAYCAST_INEXACT_DIVISION says); how, the open
     /// device's `GpuContext::division` says.
     pub corrects_division: bool,
-    /// Whether it offers shader objects (VK_EXT_shader_object), which its
-    /// kernels are without validation (shader_object.rs).
+    /// Whether its kernels are shader objects (VK_EXT_shader_object) when
+    /// validation is off (shader_object.rs `chosen`).
     pub shader_objects: bool,
 }
 
@@ -438,7 +438,10 @@ impl InstanceParts {
                 yes_no(float_modes.preserve_denorms, "subnormals preserved", "subnormals not promised"),
             ]
             .join(", ");
-            let shader_objects = shader_object::supported(&self.instance, handle, &extensions);
+            let shader_objects = shader_object::chosen(
+                shader_object::supported(&self.instance, handle, &extensions),
+                props.device_type == vk::PhysicalDeviceType::CPU,
+            );
             out.push(Physical {
                 handle,
                 info: DeviceInfo {
@@ -597,8 +600,7 @@ impl GpuContext {
             device_exts.push(ash::khr::shader_float_controls::NAME);
         }
         // Kernels as shader objects with their binaries kept, where offered (shader_object.rs).
-        let shader_objects = shader_object::wanted(opts.validation)
-            && shader_object::supported(instance, physical.handle, &physical.extensions);
+        let shader_objects = !opts.validation && physical.info.shader_objects;
         if shader_objects {
             device_exts.push(ash::ext::shader_object::NAME);
         }

@@ -11,9 +11,11 @@
 //! the cache folder when there is one for exactly this kernel on exactly
 //! this driver, else from SPIR-V, whose binary is then written there.
 //!
-//! Not with validation: Debian 12's validation layers (1.3.239) predate
-//! the extension and crash on its dispatches; with validation, and with
-//! RAYCAST_SHADER_OBJECTS=0, kernels are pipelines as everywhere else.
+//! Only on a device that runs on the CPU unless RAYCAST_SHADER_OBJECTS=1
+//! (`chosen`), and not with validation: Debian 12's validation layers
+//! (1.3.239) predate the extension and crash on its dispatches; with
+//! validation, and with RAYCAST_SHADER_OBJECTS=0, kernels are pipelines as
+//! everywhere else.
 //!
 //! A cache file holds the whole key it was made for (the driver's binary
 //! UUID and version, the kernel's name, SPIR-V, specialization constants
@@ -64,10 +66,17 @@ pub fn cache_dir() -> Option<PathBuf> {
     std::env::var_os("HOME").filter(|d| !d.is_empty()).map(|h| Path::new(&h).join(".cache/raycast"))
 }
 
-/// Whether kernels on a device that offers shader objects should use them:
-/// not with validation (above), not with RAYCAST_SHADER_OBJECTS=0.
-pub(crate) fn wanted(validation: bool) -> bool {
-    !validation && std::env::var("RAYCAST_SHADER_OBJECTS").map_or(true, |v| v != "0")
+/// Whether a device's kernels are shader objects when validation is off:
+/// where it offers them (`offered`) and runs on the CPU (lavapipe, which
+/// builds a pipeline from SPIR-V on every run; a GPU's driver keeps its own
+/// cache of pipelines, and this path has not been run on a GPU), unless
+/// RAYCAST_SHADER_OBJECTS says otherwise: 0 never, 1 wherever offered.
+pub(crate) fn chosen(offered: bool, cpu: bool) -> bool {
+    match std::env::var("RAYCAST_SHADER_OBJECTS").as_deref() {
+        Ok("0") => false,
+        Ok("1") => offered,
+        _ => offered && cpu,
+    }
 }
 
 /// The device's shader-object feature, if it has the extension and the
