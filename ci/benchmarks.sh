@@ -46,8 +46,11 @@
 #                                       `build/raycast render` with the Vulkan driver the
 #                                       loader finds and with VK_DRIVER_FILES=ICD.json, in
 #                                       turn: medians of the whole command and of the
-#                                       dispatch, and whether the PNGs are the same bytes
+#                                       compile and dispatch, and whether the PNGs are the same bytes
 #                                       (another Mesa's lavapipe beside the installed one).
+#   ci/benchmarks.sh settings [--rounds N] 'VAR=V ...' 'VAR=V ...' SCENE...
+#                                       the same table for two environments of `render` on
+#                                       one driver (RAYCAST_SHADER_OBJECTS=1 against =0).
 #   ci/benchmarks.sh unpack-driver DEB DIR
 #                                       unpacks a driver package (mesa-vulkan-drivers_*.deb)
 #                                       into DIR without installing it and writes DIR/icd.json
@@ -219,42 +222,59 @@ unpack_driver() {
 }
 
 drivers() {
-  local rounds=5 icd s file tmp r v out t d a b
+  local rounds=5 icd
   if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
   icd="$1"; shift
   [ -f "$icd" ] || { echo "drivers: no driver manifest $icd (ci/benchmarks.sh unpack-driver DEB DIR writes one)" >&2; exit 2; }
+  echo "\`ci/benchmarks.sh drivers --rounds $rounds ICD.json $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, the driver the loader finds, and B, \`VK_DRIVER_FILES=ICD.json\`, in turn, $rounds rounds after one untimed (each builds its kernels once; Mesa caches them): the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s compile and dispatch steps, and whether the two PNGs are the same bytes."
+  echo
+  echo "- A: $("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
+  echo "- B: $(VK_DRIVER_FILES="$icd" "$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
+  echo
+  ab_rows "$rounds" "" "VK_DRIVER_FILES=$icd" "$@"
+}
+
+settings() {
+  local rounds=5 a b
+  if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
+  a="$1" b="$2"; shift 2
+  echo "\`ci/benchmarks.sh settings --rounds $rounds '$a' '$b' $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, \`$a\`, and B, \`$b\`, in the environment, in turn, $rounds rounds after one untimed: the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s compile and dispatch steps, and whether the two PNGs are the same bytes. Device: $("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')."
+  echo
+  ab_rows "$rounds" "$a" "$b" "$@"
+}
+
+# ROUNDS A_ENV B_ENV SCENE...: the table of `drivers` and `settings`, `render` of each
+# scene with A's and B's VAR=VALUE words (space-separated) in its environment, in turn.
+ab_rows() {
+  local rounds="$1" a_env="$2" b_env="$3" s file tmp r v out t c d
+  shift 3
   tmp="$(mktemp -d)"
-  a="$("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
-  b="$(VK_DRIVER_FILES="$icd" "$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
-  echo "\`ci/benchmarks.sh drivers --rounds $rounds ICD.json $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, the driver the loader finds, and B, \`VK_DRIVER_FILES=ICD.json\`, in turn, $rounds rounds after one untimed (each builds its kernels once; Mesa caches them): the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s dispatch, and whether the two PNGs are the same bytes."
-  echo
-  echo "- A: $a"
-  echo "- B: $b"
-  echo
-  echo "| scene | whole, A | whole, B | dispatch, A | dispatch, B | B ÷ A, dispatch | same PNG |"
-  echo "|---|---|---|---|---|---|---|"
+  echo "| scene | whole, A | whole, B | compile, A | compile, B | dispatch, A | dispatch, B | B ÷ A, dispatch | same PNG |"
+  echo "|---|---|---|---|---|---|---|---|---|"
   for s in "$@"; do
     file="$(scene_file "$s" "$tmp")"
-    local -A walls=() dispatches=()
+    local -A walls=() compiles=() dispatches=()
     for ((r = -1; r < rounds; r++)); do
       for v in A B; do
         local env=()
-        [ $v = A ] || env=(VK_DRIVER_FILES="$icd")
+        if [ $v = A ]; then read -r -a env <<<"$a_env"; else read -r -a env <<<"$b_env"; fi
         out="$(env "${env[@]}" /usr/bin/time -f 'TIME %e' "$RAYCAST" render "$file" --assets "$CORPUS" -o "$tmp/$v.png" 2>&1)" || { echo "$out" >&2; exit 1; }
         [ "$r" -ge 0 ] || continue
         t="$(sed -n 's/^TIME \([0-9.]*\)/\1/p' <<<"$out")"
+        c="$(sed -n 's/^time: .*compile \([0-9.]*\) ms.*/\1/p' <<<"$out")"
         d="$(sed -n 's/^time: .*dispatch \([0-9.]*\) ms.*/\1/p' <<<"$out")"
         walls[$v]+="$t "
+        compiles[$v]+="$c "
         dispatches[$v]+="$d "
       done
     done
     local med=() list
-    for list in "${walls[A]}" "${walls[B]}" "${dispatches[A]}" "${dispatches[B]}"; do
+    for list in "${walls[A]}" "${walls[B]}" "${compiles[A]}" "${compiles[B]}" "${dispatches[A]}" "${dispatches[B]}"; do
       med+=("$(tr ' ' '\n' <<<"$list" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }')")
     done
     local same=no
     cmp -s "$tmp/A.png" "$tmp/B.png" && same=yes
-    echo "| ${s##*/} | ${med[0]} s | ${med[1]} s | ${med[2]} ms | ${med[3]} ms | $(awk -v a="${med[2]}" -v b="${med[3]}" 'BEGIN { printf "%.2f", b / a }') | $same |"
+    echo "| ${s##*/} | ${med[0]} s | ${med[1]} s | ${med[2]} ms | ${med[3]} ms | ${med[4]} ms | ${med[5]} ms | $(awk -v a="${med[4]}" -v b="${med[5]}" 'BEGIN { printf "%.2f", b / a }') | $same |"
   done
   rm -rf "$tmp"
 }
@@ -303,6 +323,7 @@ case "${1:-}" in
   wall) shift; wall "$@"; exit ;;
   checks) shift; checks "$@"; exit ;;
   drivers) shift; drivers "$@"; exit ;;
+  settings) shift; settings "$@"; exit ;;
   unpack-driver) shift; unpack_driver "$@"; exit ;;
   passes) shift; passes "$@"; exit ;;
   preview) shift; preview_rates "$@"; exit ;;
