@@ -11,10 +11,6 @@ source "$(dirname "$0")/common.sh"
 have_fmt=0; have_clippy=0
 cargo fmt --version >/dev/null 2>&1 && have_fmt=1
 cargo clippy --version >/dev/null 2>&1 && have_clippy=1
-if [ $have_fmt = 0 ] && [ $have_clippy = 0 ]; then
-  echo "lint: SKIPPED: neither cargo fmt nor cargo clippy is installed (rustup component add rustfmt clippy)"
-  exit 77
-fi
 if [ $have_fmt = 1 ]; then
   cargo fmt --version
   # --check prints each place as a diff; `cargo fmt` (from the repository root) fixes them.
@@ -23,7 +19,7 @@ if [ $have_fmt = 1 ]; then
     exit 1
   fi
 else
-  echo "lint: rustfmt SKIPPED: cargo fmt is not installed (rustup component add rustfmt); clippy runs, and the test counts as skipped if it passes"
+  echo "lint: rustfmt SKIPPED: cargo fmt is not installed (rustup component add rustfmt); clippy runs where it is, and the test counts as skipped"
 fi
 if [ $have_clippy = 0 ]; then
   echo "lint: SKIPPED (rustfmt passed): cargo clippy is not installed (rustup component add clippy)"

@@ -267,19 +267,21 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
     let _ = std::fs::remove_dir_all(&cache);
     let cache_text = cache.to_str().unwrap();
     let scene = repo().join("scenes/default.xml");
-    let render = |name: &str, env: &[(&str, &str)]| {
+    // `render` of the default scene at 64x48 with `flags`, validation off unless `env` says otherwise.
+    let render_with = |name: &str, flags: &[&str], env: &[(&str, &str)]| {
         let png = out_dir().join(format!("shader-object-{name}.png"));
         let mut all = vec![("RAYCAST_VALIDATION", "0"), ("RAYCAST_CACHE_DIR", cache_text)];
         all.extend_from_slice(env);
-        let o = raycast(
-            &["render", scene.to_str().unwrap(), "--width", "64", "--height", "48", "-o", png.to_str().unwrap()],
-            &all,
-        );
+        let mut args = vec!["render", scene.to_str().unwrap(), "--width", "64", "--height", "48"];
+        args.extend_from_slice(flags);
+        args.extend_from_slice(&["-o", png.to_str().unwrap()]);
+        let o = raycast(&args, &all);
         let (out, err) = text(&o);
         assert!(o.status.success(), "{name}: {out}{err}");
         let kernel = out.lines().find(|l| l.starts_with("kernel: ")).unwrap_or_else(|| panic!("{out}")).to_string();
         (raycast::image_io::read_png(&png).unwrap(), kernel)
     };
+    let render = |name: &str, env: &[(&str, &str)]| render_with(name, &[], env);
     let (pipeline, kernel) = render("pipeline", &[("RAYCAST_SHADER_OBJECTS", "0")]);
     assert!(!kernel.contains("shader object"), "{kernel}");
     // Rule: bit-exact, each picture against the pipeline's.
@@ -319,30 +321,11 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
         assert_eq!(std::fs::read(&files[0]).unwrap(), bytes, "{what}: the file written again");
     }
     // Other specialization constants (no textures, no shadows): another kernel, another file.
-    let o = raycast(
-        &[
-            "render",
-            scene.to_str().unwrap(),
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--no-textures",
-            "--no-shadows",
-            "-o",
-            "/dev/null",
-        ],
-        &[("RAYCAST_VALIDATION", "0"), ("RAYCAST_CACHE_DIR", cache_text)],
-    );
-    assert!(o.status.success(), "{:?}", text(&o));
+    render_with("other", &["--no-textures", "--no-shadows"], &[]);
     assert_eq!(std::fs::read_dir(&cache).unwrap().count(), 2, "a second kernel, a second file");
     // With validation: a pipeline, whatever the device offers.
-    let o = raycast(
-        &["render", scene.to_str().unwrap(), "--width", "64", "--height", "48", "-o", "/dev/null"],
-        &[("RAYCAST_CACHE_DIR", cache_text)],
-    );
-    let (out, err) = text(&o);
-    assert!(o.status.success() && !out.contains("shader object"), "{out}{err}");
+    let (_, kernel) = render_with("validated", &[], &[("RAYCAST_VALIDATION", "1")]);
+    assert!(!kernel.contains("shader object"), "{kernel}");
 }
 
 #[test]
