@@ -117,21 +117,23 @@ impl Kernel {
         kernel.pipeline_layout =
             unsafe { d.create_pipeline_layout(&info, None) }.map_err(GpuError::vk("vkCreatePipelineLayout"))?;
 
+        // constant_id i is constants[i], a 32-bit word.
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+            .map(|id| vk::SpecializationMapEntry { constant_id: id, offset: id * 4, size: 4 })
+            .collect();
+        let specialization =
+            vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
+
         if let Some(objects) = &ctx.inner.shader_objects {
             let bindings: Vec<(u32, i32)> =
                 layout_bindings.iter().map(|b| (b.binding, b.descriptor_type.as_raw())).collect();
-            let (shader, source) = objects.create(name, &words, constants, &set_layouts, &bindings)?;
+            let (shader, source) = objects.create(name, &words, constants, &specialization, &set_layouts, &bindings)?;
             kernel.shader = shader;
             kernel.source = Some(source);
             return Ok(kernel);
         }
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let module = unsafe { d.create_shader_module(&info, None) }.map_err(GpuError::vk("vkCreateShaderModule"))?;
-        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
-            .map(|id| vk::SpecializationMapEntry { constant_id: id, offset: id * 4, size: 4 })
-            .collect();
-        let specialization =
-            vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)

@@ -101,8 +101,8 @@ impl ShaderObjects {
         ShaderObjects { ext: ash::ext::shader_object::Device::new(instance, device), driver_key, dir: cache_dir() }
     }
 
-    /// The compute shader object of `spirv` (words) with `constants` and
-    /// `set_layouts`, from the cache when it holds this very kernel's
+    /// The compute shader object of `spirv` (words) with `constants` (as
+    /// `specialization` gives them to the driver) and `set_layouts`, from the cache when it holds this very kernel's
     /// binary, else compiled and its binary kept. `bindings` (binding,
     /// descriptor type) are part of the key.
     pub(crate) fn create(
@@ -110,6 +110,7 @@ impl ShaderObjects {
         name: &str,
         spirv: &[u32],
         constants: &[u32],
+        specialization: &vk::SpecializationInfo<'_>,
         set_layouts: &[vk::DescriptorSetLayout],
         bindings: &[(u32, i32)],
     ) -> Result<(vk::ShaderEXT, ShaderSource), GpuError> {
@@ -124,11 +125,6 @@ impl ShaderObjects {
             key.extend_from_slice(&t.to_le_bytes());
         }
         let file = self.dir.as_ref().map(|d| d.join(format!("{}-{:016x}.bin", name, fnv1a(&key))));
-        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
-            .map(|id| vk::SpecializationMapEntry { constant_id: id, offset: id * 4, size: 4 })
-            .collect();
-        let specialization =
-            vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
         let make = |code_type: vk::ShaderCodeTypeEXT, code: &[u8]| {
             let info = [vk::ShaderCreateInfoEXT::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
@@ -136,7 +132,7 @@ impl ShaderObjects {
                 .code(code)
                 .name(c"main")
                 .set_layouts(set_layouts)
-                .specialization_info(&specialization)];
+                .specialization_info(specialization)];
             unsafe { self.ext.create_shaders(&info, None) }.map(|s| s[0])
         };
         if let Some(binary) = file.as_deref().and_then(|f| cached_binary(f, &key)) {
