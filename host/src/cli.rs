@@ -68,14 +68,9 @@ pub struct RenderOptions {
     pub width: u32,
     #[arg(long, default_value_t = 384, value_name = "H")]
     pub height: u32,
-    /// What the picture shows: the shaded colour; or, of the first hit only
-    /// (black on a miss), its normal, its distance (grey, white when near:
-    /// `--depth-range`) or its primitive (a colour each); or what the
-    /// camera ray's walk through the hierarchy cost (its passes, dark blue
-    /// to dark red: `--cost-max`), or what all the pixel's rays cost
-    /// (camera, shadow and mirror: cost-all)
-    #[arg(long, value_enum, default_value_t = AovArg::Color)]
-    pub aov: AovArg,
+    /// What the picture shows
+    #[arg(long, value_enum, default_value_t = Aov::Color)]
+    pub aov: Aov,
     /// With `--aov depth`: the distances from the eye drawn white and black
     /// [default: the scene's bounding sphere, nearest to farthest]
     #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range)]
@@ -102,9 +97,9 @@ pub struct RenderOptions {
     /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub spp: u32,
-    /// How textures are sampled: the nearest texel, as the course's renders, or bilinear.
-    #[arg(long, value_enum, default_value_t = FilterArg::Nearest)]
-    pub texture_filter: FilterArg,
+    /// How textures are sampled
+    #[arg(long, value_enum, default_value_t = TextureFilter::Nearest)]
+    pub texture_filter: TextureFilter,
     /// Extra folder to find textures in, after the scene file's folder
     /// (repeatable). Generated scenes (`raycast gen`) name the corpus's
     /// texture: pass the corpus root.
@@ -164,17 +159,14 @@ impl RenderOptions {
         RenderSettings {
             width: self.width,
             height: self.height,
-            aov: self.aov.into(),
+            aov: self.aov,
             shadows: !self.no_shadows,
             reflections: !self.no_reflections,
             textures: !self.no_textures,
             max_depth: self.depth,
             bvh: !self.no_bvh,
             spp: self.spp,
-            texture_filter: match self.texture_filter {
-                FilterArg::Nearest => TextureFilter::Nearest,
-                FilterArg::Bilinear => TextureFilter::Bilinear,
-            },
+            texture_filter: self.texture_filter,
             depth_range: self.depth_range,
             cost_max: self.cost_max,
         }
@@ -325,7 +317,7 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
             2,
         ));
     }
-    if !matches!(o.aov, AovArg::Color) {
+    if o.aov != Aov::Color {
         return Err(Failure(
             "raycast: error: trace follows the colour's rays; --aov is for render and check".to_string(),
             2,
@@ -488,12 +480,6 @@ struct CompareArgs {
     json: bool,
 }
 
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum FilterArg {
-    Nearest,
-    Bilinear,
-}
-
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Backend {
     /// A Vulkan device (--device, or the best one).
@@ -502,29 +488,6 @@ pub enum Backend {
     Cpu,
     /// The device, unless it runs on the CPU (lavapipe) or, without --device, none opens: then the CPU build.
     Auto,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum AovArg {
-    Color,
-    Normal,
-    Depth,
-    Id,
-    Cost,
-    CostAll,
-}
-
-impl From<AovArg> for Aov {
-    fn from(a: AovArg) -> Aov {
-        match a {
-            AovArg::Color => Aov::Color,
-            AovArg::Normal => Aov::Normal,
-            AovArg::Depth => Aov::Depth,
-            AovArg::Id => Aov::Id,
-            AovArg::Cost => Aov::Cost,
-            AovArg::CostAll => Aov::CostAll,
-        }
-    }
 }
 
 /// A failure to report: the message and the exit code.

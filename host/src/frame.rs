@@ -22,26 +22,25 @@ pub const MAX_COST: u32 = 1 << 24;
 /// Most texels of all textures together (4 bytes each).
 pub const MAX_TEXELS: u64 = 1 << 28;
 
-/// What the picture shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+/// What the picture shows (`--aov`; each variant's text is its line in
+/// `--help`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Aov {
-    /// Shaded colour.
+    /// The shaded colour
     #[default]
     Color,
-    /// floor(255·clamp((n+1)/2)) of the world-space normal, black on a miss.
+    /// The first hit's world-space normal, floor(255·clamp((n+1)/2)); black on a miss
     Normal,
-    /// Grey by the distance from the eye to the first hit: white at
-    /// `RenderSettings::depth_range`'s near distance, black at its far one
-    /// and beyond, and on a miss.
+    /// The first hit's distance from the eye in grey: white at --depth-range's near distance, black at its far one
+    /// and beyond, and on a miss
     Depth,
-    /// A colour per primitive (its id scrambled), black on a miss.
+    /// The first hit's primitive, a colour each (its id scrambled); black on a miss
     Id,
-    /// What the camera ray's walk cost: its passes through the hierarchy
-    /// on a heat scale, dark blue for none, dark red from
-    /// `RenderSettings::cost_max` on; misses too.
+    /// What the camera ray's walk through the hierarchy cost: its passes on a heat scale, dark blue for none, dark
+    /// red from --cost-max on; misses too
     Cost,
-    /// What every ray of the pixel cost (camera, shadow and mirror rays,
-    /// traced as in colour): their walks' passes summed, on the same scale.
+    /// What all the pixel's rays cost (camera, shadow and mirror rays, traced as in colour): their walks' passes
+    /// summed, on the same scale
     CostAll,
 }
 
@@ -99,13 +98,13 @@ pub fn aov_scale(depth_range: [f32; 2], cost_max: u32) -> [f32; 4] {
     [depth_range[0], depth_range[1], cost_max as f32, 0.0]
 }
 
-/// How textures are sampled.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+/// How textures are sampled (`--texture-filter`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum TextureFilter {
-    /// The texel the point falls in, as the official renders.
+    /// The texel the point falls in, as the course's renders
     #[default]
     Nearest,
-    /// The four nearest texels, weighted.
+    /// The four nearest texels, weighted
     Bilinear,
 }
 
@@ -877,6 +876,15 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
 mod tests {
     use super::*;
     use crate::scene::Camera;
+    use clap::ValueEnum;
+
+    /// `Aov::name` (the preview's status line, `bench`, `conformance`) is what `--aov` takes.
+    #[test]
+    fn aov_names_are_the_command_lines() {
+        for aov in Aov::value_variants() {
+            assert_eq!(aov.to_possible_value().unwrap().get_name(), aov.name());
+        }
+    }
 
     /// The film corner (1, 1, -1) must map to the direction of the top-right
     /// pixel edge given by SCENE_FORMAT.md: U/2·u + V/2·v - w.

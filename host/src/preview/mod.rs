@@ -22,7 +22,8 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use crate::cli::{AovArg, Backend, Failure};
+use crate::cli::{Backend, Failure};
+use crate::frame::Aov;
 use crate::scene::FlattenLimits;
 
 /// `raycast preview` flags.
@@ -69,12 +70,9 @@ pub struct PreviewArgs {
     /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,
-    /// What the window shows at first (1 to 6 switch): the shaded colour,
-    /// or the first hit's normal, distance (grey, white when near) or
-    /// primitive, or the walk cost (passes, blue to red) of the camera ray
-    /// or of all the pixel's rays
-    #[arg(long, value_enum, default_value_t = AovArg::Color)]
-    pub aov: AovArg,
+    /// What the window shows at first (keys 1 to 6 switch)
+    #[arg(long, value_enum, default_value_t = Aov::Color)]
+    pub aov: Aov,
     /// With --frames: after the last frame, click pixel (X, Y) of the
     /// picture, as a left click does (what it sees, then its rays as
     /// `raycast trace` follows them).
