@@ -1,7 +1,7 @@
 //! naga reflection of compiled kernels: validates the SPIR-V and checks its
 //! storage buffers, field by field, against the host's `BindingLayout`s.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use naga::{AddressSpace, ArraySize, Handle, Module, ShaderStage, StorageAccess, Type, TypeInner};
 
@@ -46,7 +46,7 @@ pub(crate) fn reflect(
         strict_capabilities: false,
         block_ctx_dump_prefix: None,
     };
-    let module = naga::front::spv::parse_u8_slice(spirv, &options).map_err(|e| invalid(error_chain(&e)))?;
+    let module = naga::front::spv::parse_u8_slice(&for_naga(spirv), &options).map_err(|e| invalid(error_chain(&e)))?;
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .map_err(|e| invalid(error_chain(e.as_inner())))?;
@@ -87,6 +87,77 @@ pub(crate) fn shape_label(shape: &BufferShape) -> String {
     }
 }
 
+const OP_TYPE_POINTER: u32 = 32;
+const OP_VARIABLE: u32 = 59;
+const OP_DECORATE: u32 = 71;
+const OP_MEMBER_DECORATE: u32 = 72;
+const OP_TYPE_STRUCT: u32 = 30;
+const DEC_NON_WRITABLE: u32 = 24;
+const DEC_NON_READABLE: u32 = 25;
+const DEC_BINDING: u32 = 33;
+const DEC_SET: u32 = 34;
+const CLASS_UNIFORM: u32 = 2;
+const CLASS_STORAGE_BUFFER: u32 = 12;
+
+/// A SPIR-V module's words in this machine's order, or None where it does
+/// not start with SPIR-V's magic number (naga says what is wrong with it).
+fn spirv_words(spirv: &[u8]) -> Option<Vec<u32>> {
+    const MAGIC: u32 = 0x0723_0203;
+    let mut words: Vec<u32> = spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    if words.first() == Some(&MAGIC.swap_bytes()) {
+        words.iter_mut().for_each(|w| *w = w.swap_bytes());
+    }
+    (words.len() >= 5 && words[0] == MAGIC).then_some(words)
+}
+
+/// The module's instructions after its header: each one's first word's
+/// index, its opcode and its operands. Stops at a malformed length.
+fn instructions(words: &[u32]) -> impl Iterator<Item = (usize, u32, &[u32])> {
+    let mut at = 5;
+    std::iter::from_fn(move || {
+        let (count, op) = ((*words.get(at)? >> 16) as usize, words[at] & 0xffff);
+        if count == 0 || at + count > words.len() {
+            return None;
+        }
+        let item = (at, op, &words[at + 1..at + count]);
+        at += count;
+        Some(item)
+    })
+}
+
+/// The module as naga is given it: without the `NonReadable` decoration of
+/// buffer variables. glslang 15 (Debian 13) puts it on a `writeonly
+/// buffer`'s variable, where glslang 11 (Debian 12) put it on the members
+/// only, and naga's spv-in turns it into a store-only storage access that
+/// its validator refuses (WGSL has no write-only buffers). The access
+/// check reads it from the SPIR-V itself ([`spirv_storage_access`]); the
+/// driver gets the module unchanged.
+fn for_naga(spirv: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    let Some(words) = spirv_words(spirv) else { return spirv.into() };
+    let buffers: BTreeSet<u32> = instructions(&words)
+        .filter_map(|(_, op, ops)| match (op, ops) {
+            (OP_VARIABLE, [_, id, class, ..]) if *class == CLASS_STORAGE_BUFFER || *class == CLASS_UNIFORM => Some(*id),
+            _ => None,
+        })
+        .collect();
+    let dropped: Vec<(usize, usize)> = instructions(&words)
+        .filter_map(|(at, op, ops)| match (op, ops) {
+            (OP_DECORATE, [target, DEC_NON_READABLE]) if buffers.contains(target) => Some((at, at + 1 + ops.len())),
+            _ => None,
+        })
+        .collect();
+    if dropped.is_empty() {
+        return spirv.into();
+    }
+    let mut kept = Vec::with_capacity(spirv.len());
+    let mut from = 0;
+    for (start, end) in dropped.into_iter().chain([(words.len(), words.len())]) {
+        kept.extend(words[from..start].iter().flat_map(|w| w.to_le_bytes()));
+        from = end;
+    }
+    kept.into()
+}
+
 /// Access of each storage buffer `(set, binding)`, read from the SPIR-V decorations.
 ///
 /// naga's spv-in drops the member-level `NonWritable`/`NonReadable` that
@@ -95,27 +166,8 @@ pub(crate) fn shape_label(shape: &BufferShape) -> String {
 /// every such buffer looks read-write (gfx-rs/wgpu#4916). As naga intends:
 /// the members' access ORed together, ANDed with the variable's.
 fn spirv_storage_access(spirv: &[u8]) -> BTreeMap<(u32, u32), StorageAccess> {
-    const MAGIC: u32 = 0x0723_0203;
-    const OP_TYPE_POINTER: u32 = 32;
-    const OP_VARIABLE: u32 = 59;
-    const OP_DECORATE: u32 = 71;
-    const OP_MEMBER_DECORATE: u32 = 72;
-    const OP_TYPE_STRUCT: u32 = 30;
-    const DEC_NON_WRITABLE: u32 = 24;
-    const DEC_NON_READABLE: u32 = 25;
-    const DEC_BINDING: u32 = 33;
-    const DEC_SET: u32 = 34;
-    const CLASS_UNIFORM: u32 = 2;
-    const CLASS_STORAGE_BUFFER: u32 = 12;
-
-    let mut words: Vec<u32> = spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    if words.first() == Some(&MAGIC.swap_bytes()) {
-        words.iter_mut().for_each(|w| *w = w.swap_bytes());
-    }
     let mut out = BTreeMap::new();
-    if words.len() < 5 || words[0] != MAGIC {
-        return out;
-    }
+    let Some(words) = spirv_words(spirv) else { return out };
 
     let denied = |dec: u32| match dec {
         DEC_NON_WRITABLE => StorageAccess::STORE,
@@ -130,13 +182,7 @@ fn spirv_storage_access(spirv: &[u8]) -> BTreeMap<(u32, u32), StorageAccess> {
     let mut member_count: BTreeMap<u32, u32> = BTreeMap::new();
     let mut pointee: BTreeMap<u32, u32> = BTreeMap::new();
     let mut variables = Vec::new();
-    let mut at = 5;
-    while at < words.len() {
-        let (count, op) = ((words[at] >> 16) as usize, words[at] & 0xffff);
-        if count == 0 || at + count > words.len() {
-            break;
-        }
-        let ops = &words[at + 1..at + count];
+    for (_, op, ops) in instructions(&words) {
         match (op, ops) {
             (OP_DECORATE, [target, DEC_BINDING, b, ..]) => _ = binding.insert(*target, *b),
             (OP_DECORATE, [target, DEC_SET, s, ..]) => _ = set.insert(*target, *s),
@@ -151,7 +197,6 @@ fn spirv_storage_access(spirv: &[u8]) -> BTreeMap<(u32, u32), StorageAccess> {
             }
             _ => {}
         }
-        at += count;
     }
     for (ptr, var) in variables {
         let (Some(&b), Some(&block)) = (binding.get(&var), pointee.get(&ptr)) else { continue };

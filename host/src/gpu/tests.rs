@@ -439,6 +439,67 @@ fn check_layouts_reports_shape_and_name_mismatches() {
     );
 }
 
+/// `src` compiled, then `OpDecorate %var NonReadable` added after the
+/// `Binding` decoration of each variable bound at one of `bindings`: what
+/// glslang 15 (Debian 13) writes for a `writeonly buffer`, where Debian 12's
+/// glslang 11 decorates the members only.
+fn with_variable_non_readable(spv: &[u8], bindings: &[u32]) -> Vec<u8> {
+    const OP_DECORATE: u32 = 71;
+    const DEC_BINDING: u32 = 33;
+    const DEC_NON_READABLE: u32 = 25;
+    let words: Vec<u32> = bytemuck::pod_collect_to_vec(spv);
+    let mut out = words[..5].to_vec();
+    let mut at = 5;
+    let mut planted = 0;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        out.extend_from_slice(&words[at..at + count]);
+        if words[at] & 0xffff == OP_DECORATE && words[at + 2] == DEC_BINDING && bindings.contains(&words[at + 3]) {
+            out.extend_from_slice(&[(3 << 16) | OP_DECORATE, words[at + 1], DEC_NON_READABLE]);
+            planted += 1;
+        }
+        at += count;
+    }
+    assert_eq!(planted, bindings.len(), "bindings {bindings:?} not all found");
+    bytemuck::cast_slice(&out).to_vec()
+}
+
+/// A `writeonly buffer` as glslang 15 writes it (the variable decorated
+/// NonReadable) is a store-only storage access to naga, which its validator
+/// refuses; raycast's check takes it, with its access, and still catches a
+/// host that calls it read-only. Found building on Debian 13, where every
+/// kernel with such a buffer (render, the harness, the FMA probe) failed at
+/// start-up.
+#[test]
+fn check_layouts_takes_a_writeonly_buffer_decorated_on_its_variable() {
+    let src = COMMON.replace("binding = 2) buffer Outputs", "binding = 2) writeonly buffer Outputs")
+        + r#"
+layout(std430, set = 0, binding = 1) readonly buffer Inputs { Item items[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= params.count) return;
+    results[i].u = items[i].u * 2u;
+    results[i].f = items[i].f * 2.0;
+}
+"#;
+    assert!(src.contains("writeonly buffer Outputs"));
+    let spv = with_variable_non_readable(&compile("double_writeonly", &src), &[2]);
+    // The planted module is what fails naga's own validation (so this test
+    // would see the failure if raycast handed naga the module as it is).
+    let options = naga::front::spv::Options::default();
+    let module = naga::front::spv::parse_u8_slice(&spv, &options).unwrap();
+    let e = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .unwrap_err();
+    assert!(format!("{:?}", e.as_inner()).contains("StorageAddressSpaceWriteOnlyNotSupported"), "{e:?}");
+
+    reflect::check_layouts("double_writeonly", &spv, &double_bindings()).unwrap_or_else(|e| panic!("{e}"));
+    let mut host = double_bindings();
+    host[2].writable = false;
+    let e = reflect::check_layouts("double_writeonly", &spv, &host).unwrap_err().to_string();
+    assert!(e.contains("binding 2") && e.contains("writable in the shader, read-only on the host"), "{e}");
+}
+
 #[test]
 fn check_layouts_rejects_invalid_spirv_and_other_resources() {
     let e = reflect::check_layouts("junk", &[0u8; 64], &[]).unwrap_err();
