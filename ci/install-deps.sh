@@ -7,13 +7,20 @@
 # same pictures, faster (BENCHMARKS.md, "A newer lavapipe"). It adds that
 # archive to apt's sources (/etc/apt/sources.list.d/raycast-bookworm-backports.sources,
 # unless one names it already), whose packages apt takes only when asked.
-# Unset or `debian`: Debian 12's own, what CI tests on.
+# Unset or `debian`: Debian 12's own, what CI tests on. Only on Debian 12
+# (bookworm): Debian 13's own Mesa is 25.0 already, and bookworm's packages
+# do not belong on any other release.
 set -euo pipefail
 lavapipe="${RAYCAST_LAVAPIPE:-debian}"
 case "$lavapipe" in
   debian | backports) ;;
   *) echo "raycast: RAYCAST_LAVAPIPE=$lavapipe: expected debian or backports" >&2; exit 2 ;;
 esac
+codename="$( (. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}") || true)"
+if [ "$lavapipe" = backports ] && [ "$codename" != bookworm ]; then
+  echo "raycast: RAYCAST_LAVAPIPE=backports is for Debian 12 (bookworm), not ${codename:-this system}: its own Mesa is used" >&2
+  lavapipe=debian
+fi
 
 PKGS=(
   # build
