@@ -472,16 +472,7 @@ fn with_variable_non_readable(spv: &[u8], bindings: &[u32]) -> Vec<u8> {
 /// start-up.
 #[test]
 fn check_layouts_takes_a_writeonly_buffer_decorated_on_its_variable() {
-    let src = COMMON.replace("binding = 2) buffer Outputs", "binding = 2) writeonly buffer Outputs")
-        + r#"
-layout(std430, set = 0, binding = 1) readonly buffer Inputs { Item items[]; };
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= params.count) return;
-    results[i].u = items[i].u * 2u;
-    results[i].f = items[i].f * 2.0;
-}
-"#;
+    let src = double_src().replace("binding = 2) buffer Outputs", "binding = 2) writeonly buffer Outputs");
     assert!(src.contains("writeonly buffer Outputs"));
     let spv = with_variable_non_readable(&compile("double_writeonly", &src), &[2]);
     // The planted module is what fails naga's own validation (so this test
