@@ -23,8 +23,8 @@ if [ "$lavapipe" = backports ] && [ "$codename" != bookworm ]; then
 fi
 
 PKGS=(
-  # build
-  cmake ninja-build g++ pkg-config
+  # build (make: the glfw crate builds its bundled GLFW with cmake's default generator, Unix Makefiles)
+  cmake ninja-build g++ pkg-config make
   # Vulkan: loader + headers, Mesa lavapipe, validation layers, tools
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
   # GLSL -> SPIR-V
