@@ -1,12 +1,16 @@
 #!/usr/bin/env bash
-# Checks that raycast builds, renders and passes its whole suite on Debian 13
-# (trixie), with Debian 13's own packages (Mesa 25 with LLVM 19, glslang 15,
-# GCC 14), in a chroot on this Debian machine. Not part of CI (which is
-# Debian 12); run it by hand after a change that could differ there (shaders,
-# SPIR-V handling, the build). Found 28fa9b7's bug (glslang 15's write-only
-# buffers, which naga refused).
+# Checks that raycast builds, renders and passes its whole suite on a fresh,
+# minimal Debian (debootstrap's minbase: no make, no compiler, nothing the
+# CI machine happens to have), with that release's own packages, in a chroot
+# on this Debian machine: Debian 12 (bookworm), what the README promises, or
+# Debian 13 (trixie: Mesa 25 with LLVM 19, glslang 15, GCC 14). Not part of
+# CI (whose machine is not minimal); run it by hand after a change to the
+# build, the installed packages, the shaders or the SPIR-V handling. It found
+# glslang 15's write-only buffers, which naga refused (28fa9b7), and the
+# missing `make` that the glfw crate's GLFW build needs (9d36a0f).
 #
-#   ci/debian13-check.sh [DIR]    # DIR: the chroot (default /tmp/raycast-trixie; reused when there)
+#   ci/debian-check.sh [bookworm|trixie] [DIR]    # default trixie; DIR: the chroot
+#                                                 # (default /tmp/raycast-SUITE; reused when there)
 #
 # Needs root, debootstrap (installed from Debian when missing), deb.debian.org,
 # and cargo from rustup (its ~/.cargo and ~/.rustup are bound into the chroot,
@@ -19,13 +23,18 @@
 # mounts are undone on exit; the chroot stays for the next run (about 400 MB).
 set -euo pipefail
 source "$(dirname "$0")/common.sh"
-T="${1:-/tmp/raycast-trixie}"
+SUITE="${1:-trixie}"
+case "$SUITE" in
+  bookworm | trixie) ;;
+  *) echo "raycast: ci/debian-check.sh $SUITE: expected bookworm (Debian 12) or trixie (Debian 13)" >&2; exit 2 ;;
+esac
+T="${2:-/tmp/raycast-$SUITE}"
 CORPUS="${RAYCAST_CORPUS:-$ROOT/../shared/corpus/cs1230}"
 CARGO_DIR="${CARGO_HOME:-$HOME/.cargo}"
 RUSTUP_DIR="${RUSTUP_HOME:-$HOME/.rustup}"
 
 if [ "$(id -u)" -ne 0 ]; then
-  echo "raycast: ci/debian13-check.sh needs root (debootstrap, chroot, mounts)" >&2
+  echo "raycast: ci/debian-check.sh needs root (debootstrap, chroot, mounts)" >&2
   exit 1
 fi
 for d in "$CARGO_DIR/bin" "$RUSTUP_DIR"; do
@@ -38,8 +47,8 @@ if ! command -v debootstrap >/dev/null; then
   apt-get install -y -qq debootstrap >&2
 fi
 if [ ! -x "$T/bin/bash" ]; then
-  echo "raycast: making a Debian 13 chroot in $T" >&2
-  debootstrap --variant=minbase --include=ca-certificates,git,python3 trixie "$T" http://deb.debian.org/debian >&2
+  echo "raycast: making a minimal $SUITE chroot in $T" >&2
+  debootstrap --variant=minbase --include=ca-certificates,git,python3 "$SUITE" "$T" http://deb.debian.org/debian >&2
 fi
 cp /etc/resolv.conf "$T/etc/resolv.conf"
 
@@ -72,12 +81,12 @@ in_chroot "ci/raycast.sh render -o default.png"
 here="$(mktemp --suffix=.png)"
 "$BUILD/raycast" render -o "$here" >/dev/null
 if cmp -s "$here" "$T/raycast/default.png"; then
-  echo "raycast: the default scene's PNG on Debian 13 is byte for byte this machine's" >&2
+  echo "raycast: the default scene's PNG on Debian $(cat "$T/etc/debian_version") is byte for byte this machine's" >&2
   rm -f "$here"
 else
-  echo "raycast: the default scene's PNG differs: Debian 13's $T/raycast/default.png, this machine's $here" \
+  echo "raycast: the default scene's PNG differs: $SUITE's $T/raycast/default.png, this machine's $here" \
     "(raycast compare says where)" >&2
   exit 1
 fi
 in_chroot "RAYCAST_CORPUS=/corpus ci/test.sh"
-echo "raycast: Debian 13: the README's two commands work (the PNG the same bytes, the suite passed)" >&2
+echo "raycast: Debian $(cat "$T/etc/debian_version") ($SUITE): the README's two commands work (the PNG the same bytes, the suite passed)" >&2
