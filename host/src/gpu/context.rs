@@ -602,7 +602,7 @@ impl GpuContext {
         // Kernels as shader objects with their binaries kept, where offered (shader_object.rs).
         let shader_objects = !opts.validation && physical.info.shader_objects;
         if shader_objects {
-            device_exts.push(ash::ext::shader_object::NAME);
+            device_exts.extend(shader_object::DEVICE_EXTENSIONS);
         }
         let ext_ptrs = cstrs(&device_exts);
         let priorities = [1.0f32];

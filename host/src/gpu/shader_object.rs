@@ -79,10 +79,25 @@ pub(crate) fn chosen(offered: bool, cpu: bool) -> bool {
     }
 }
 
-/// The device's shader-object feature, if it has the extension and the
-/// feature (`extensions`: the device's).
+/// The device extensions a device is created with for shader objects:
+/// VK_EXT_shader_object and, as raycast asks for Vulkan 1.1, what it
+/// requires that only later versions have in core: VK_KHR_dynamic_rendering
+/// (1.3) and its own requirements VK_KHR_depth_stencil_resolve and
+/// VK_KHR_create_renderpass2 (1.2). Without them device creation breaks
+/// the extension's rules (VUID-vkCreateDevice-ppEnabledExtensionNames-01387,
+/// which Debian 13's validation layers report).
+pub(crate) const DEVICE_EXTENSIONS: [&std::ffi::CStr; 4] = [
+    ash::ext::shader_object::NAME,
+    ash::khr::dynamic_rendering::NAME,
+    ash::khr::depth_stencil_resolve::NAME,
+    ash::khr::create_renderpass2::NAME,
+];
+
+/// The device's shader-object feature, if it has the extensions
+/// ([`DEVICE_EXTENSIONS`]) and the feature (`extensions`: the device's).
 pub(crate) fn supported(instance: &ash::Instance, physical: vk::PhysicalDevice, extensions: &[String]) -> bool {
-    if !extensions.iter().any(|e| e.as_bytes() == ash::ext::shader_object::NAME.to_bytes()) {
+    let offered = |name: &std::ffi::CStr| extensions.iter().any(|e| e.as_bytes() == name.to_bytes());
+    if !DEVICE_EXTENSIONS.iter().all(|name| offered(name)) {
         return false;
     }
     let mut features = vk::PhysicalDeviceShaderObjectFeaturesEXT::default();
