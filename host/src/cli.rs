@@ -577,9 +577,14 @@ fn devices() -> Result<(), Failure> {
                 Some(dir) => format!("their binaries kept in {}", dir.display()),
                 None => "no cache folder to keep their binaries in (set RAYCAST_CACHE_DIR)".to_string(),
             };
-            outln!(
-                "   kernels: shader objects (VK_EXT_shader_object), {kept}; pipelines with validation or RAYCAST_SHADER_OBJECTS=0"
-            );
+            let validated = match (&d.validation_layer, d.shader_objects_validated) {
+                (Some(layer), true) => format!("with validation too (the validation layer, {layer}, knows them)"),
+                (Some(layer), false) => {
+                    format!("pipelines with validation (the validation layer, {layer}, is older than 1.3.268)")
+                }
+                (None, _) => "no validation layer installed".to_string(),
+            };
+            outln!("   kernels: shader objects (VK_EXT_shader_object), {kept}; {validated}; pipelines with RAYCAST_SHADER_OBJECTS=0");
         }
     }
     if let Some(d) = list.get(default) {

@@ -85,6 +85,11 @@ pub struct DeviceInfo {
     /// Whether its kernels are shader objects (VK_EXT_shader_object) when
     /// validation is off (shader_object.rs `chosen`).
     pub shader_objects: bool,
+    /// Whether they are with validation too: when the installed validation
+    /// layer knows shader objects (shader_object.rs `validated`).
+    pub shader_objects_validated: bool,
+    /// The installed Khronos validation layer's version, if there is one.
+    pub validation_layer: Option<String>,
 }
 
 impl DeviceInfo {
@@ -375,6 +380,13 @@ impl InstanceParts {
     /// Every physical device with its `DeviceInfo`, in enumeration order.
     fn physical_devices(&self) -> Result<Vec<Physical>, GpuError> {
         let handles = usable_devices(unsafe { self.instance.enumerate_physical_devices() })?;
+        // The installed validation layer's version, enabled or not: whether
+        // shader objects may be used under it (shader_object::validated).
+        let validation_layer = unsafe { self.entry.enumerate_instance_layer_properties() }
+            .unwrap_or_default()
+            .iter()
+            .find(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER))
+            .map(|l| l.spec_version);
         let mut out = Vec::with_capacity(handles.len());
         for (index, handle) in handles.into_iter().enumerate() {
             let props = unsafe { self.instance.get_physical_device_properties(handle) };
@@ -442,6 +454,7 @@ impl InstanceParts {
                 shader_object::supported(&self.instance, handle, &extensions),
                 props.device_type == vk::PhysicalDeviceType::CPU,
             );
+            let shader_objects_validated = shader_objects && shader_object::validated(validation_layer);
             out.push(Physical {
                 handle,
                 info: DeviceInfo {
@@ -453,6 +466,8 @@ impl InstanceParts {
                     arithmetic,
                     corrects_division: inexact_division,
                     shader_objects,
+                    shader_objects_validated,
+                    validation_layer: validation_layer.map(version_string),
                 },
                 rank,
                 compute_family,
@@ -600,7 +615,8 @@ impl GpuContext {
             device_exts.push(ash::khr::shader_float_controls::NAME);
         }
         // Kernels as shader objects with their binaries kept, where offered (shader_object.rs).
-        let shader_objects = !opts.validation && physical.info.shader_objects;
+        let shader_objects =
+            if opts.validation { physical.info.shader_objects_validated } else { physical.info.shader_objects };
         if shader_objects {
             device_exts.extend(shader_object::DEVICE_EXTENSIONS);
         }

@@ -12,10 +12,11 @@
 //! this driver, else from SPIR-V, whose binary is then written there.
 //!
 //! Only on a device that runs on the CPU unless RAYCAST_SHADER_OBJECTS=1
-//! (`chosen`), and not with validation: Debian 12's validation layers
-//! (1.3.239) predate the extension and crash on its dispatches; with
-//! validation, and with RAYCAST_SHADER_OBJECTS=0, kernels are pipelines as
-//! everywhere else.
+//! (`chosen`), and with validation only where the validation layer knows
+//! the extension (`validated`): Debian 12's layers (1.3.239) predate it and
+//! crash on its dispatches, so there validated runs are pipelines; Debian
+//! 13's (1.4.309) validate it. With RAYCAST_SHADER_OBJECTS=0 kernels are
+//! pipelines as everywhere else.
 //!
 //! A cache file holds the whole key it was made for (the driver's binary
 //! UUID and version, the kernel's name, SPIR-V, specialization constants
@@ -77,6 +78,19 @@ pub(crate) fn chosen(offered: bool, cpu: bool) -> bool {
         Ok("1") => offered,
         _ => offered && cpu,
     }
+}
+
+/// The first Khronos validation layer taken to validate shader objects:
+/// 1.3.268 (the SDK of November 2023, which added most of its checks:
+/// KhronosGroup/Vulkan-Samples#843). 1.3.239 (Debian 12) crashes on their
+/// dispatches; 1.4.309 (Debian 13) validates render, check, shader-test and
+/// the preview with them without a message.
+pub(crate) const FIRST_VALIDATION_LAYER: u32 = vk::make_api_version(0, 1, 3, 268);
+
+/// Whether kernels may be shader objects under validation, with this
+/// validation layer installed (its spec version; None: none installed).
+pub(crate) fn validated(layer: Option<u32>) -> bool {
+    layer.is_some_and(|v| v >= FIRST_VALIDATION_LAYER)
 }
 
 /// The device extensions a device is created with for shader objects:
