@@ -44,6 +44,14 @@ pub fn text(o: &Output) -> (String, String) {
     (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
+/// The kernel a `render` or `check` names in its first `kernel:` line, up to
+/// the parenthesis a shader object adds or the comma before what it was
+/// specialised for: `render_uniform with CORRECT_DIVISION`.
+pub fn kernel_name(stdout: &str) -> Option<&str> {
+    let line = stdout.lines().find_map(|l| l.strip_prefix("kernel: "))?;
+    Some(line[..line.find([',', '(']).unwrap_or(line.len())].trim_end())
+}
+
 /// How many loop passes a shader invocation on the default device gets in
 /// all, if it has such a budget: Mesa 22's lavapipe ends every loop after
 /// 65535 passes (LP_MAX_TGSI_LOOP_ITERATIONS, raycast.glsl
