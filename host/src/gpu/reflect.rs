@@ -89,19 +89,24 @@ pub(crate) fn shape_label(shape: &BufferShape) -> String {
 
 const OP_TYPE_POINTER: u32 = 32;
 const OP_VARIABLE: u32 = 59;
-const OP_DECORATE: u32 = 71;
+pub(super) const OP_DECORATE: u32 = 71;
 const OP_MEMBER_DECORATE: u32 = 72;
 const OP_TYPE_STRUCT: u32 = 30;
 const DEC_NON_WRITABLE: u32 = 24;
-const DEC_NON_READABLE: u32 = 25;
-const DEC_BINDING: u32 = 33;
+pub(super) const DEC_NON_READABLE: u32 = 25;
+pub(super) const DEC_BINDING: u32 = 33;
 const DEC_SET: u32 = 34;
 const CLASS_UNIFORM: u32 = 2;
 const CLASS_STORAGE_BUFFER: u32 = 12;
 
+/// Whether a variable of this storage class is a buffer (uniform or storage block).
+fn buffer_class(class: u32) -> bool {
+    class == CLASS_STORAGE_BUFFER || class == CLASS_UNIFORM
+}
+
 /// A SPIR-V module's words in this machine's order, or None where it does
 /// not start with SPIR-V's magic number (naga says what is wrong with it).
-fn spirv_words(spirv: &[u8]) -> Option<Vec<u32>> {
+pub(super) fn spirv_words(spirv: &[u8]) -> Option<Vec<u32>> {
     const MAGIC: u32 = 0x0723_0203;
     let mut words: Vec<u32> = spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
     if words.first() == Some(&MAGIC.swap_bytes()) {
@@ -112,7 +117,7 @@ fn spirv_words(spirv: &[u8]) -> Option<Vec<u32>> {
 
 /// The module's instructions after its header: each one's first word's
 /// index, its opcode and its operands. Stops at a malformed length.
-fn instructions(words: &[u32]) -> impl Iterator<Item = (usize, u32, &[u32])> {
+pub(super) fn instructions(words: &[u32]) -> impl Iterator<Item = (usize, u32, &[u32])> {
     let mut at = 5;
     std::iter::from_fn(move || {
         let (count, op) = ((*words.get(at)? >> 16) as usize, words[at] & 0xffff);
@@ -136,7 +141,7 @@ fn for_naga(spirv: &[u8]) -> std::borrow::Cow<'_, [u8]> {
     let Some(words) = spirv_words(spirv) else { return spirv.into() };
     let buffers: BTreeSet<u32> = instructions(&words)
         .filter_map(|(_, op, ops)| match (op, ops) {
-            (OP_VARIABLE, [_, id, class, ..]) if *class == CLASS_STORAGE_BUFFER || *class == CLASS_UNIFORM => Some(*id),
+            (OP_VARIABLE, [_, id, class, ..]) if buffer_class(*class) => Some(*id),
             _ => None,
         })
         .collect();
@@ -192,9 +197,7 @@ fn spirv_storage_access(spirv: &[u8]) -> BTreeMap<(u32, u32), StorageAccess> {
             }
             (OP_TYPE_STRUCT, [id, members @ ..]) => _ = member_count.insert(*id, members.len() as u32),
             (OP_TYPE_POINTER, [id, _class, ty]) => _ = pointee.insert(*id, *ty),
-            (OP_VARIABLE, [ptr, id, class, ..]) if *class == CLASS_STORAGE_BUFFER || *class == CLASS_UNIFORM => {
-                variables.push((*ptr, *id))
-            }
+            (OP_VARIABLE, [ptr, id, class, ..]) if buffer_class(*class) => variables.push((*ptr, *id)),
             _ => {}
         }
     }

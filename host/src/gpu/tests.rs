@@ -444,22 +444,20 @@ fn check_layouts_reports_shape_and_name_mismatches() {
 /// glslang 15 (Debian 13) writes for a `writeonly buffer`, where Debian 12's
 /// glslang 11 decorates the members only.
 fn with_variable_non_readable(spv: &[u8], bindings: &[u32]) -> Vec<u8> {
-    const OP_DECORATE: u32 = 71;
-    const DEC_BINDING: u32 = 33;
-    const DEC_NON_READABLE: u32 = 25;
-    let words: Vec<u32> = bytemuck::pod_collect_to_vec(spv);
+    use reflect::{instructions, spirv_words, DEC_BINDING, DEC_NON_READABLE, OP_DECORATE};
+    let words = spirv_words(spv).unwrap();
     let mut out = words[..5].to_vec();
-    let mut at = 5;
     let mut planted = 0;
-    while at < words.len() {
-        let count = (words[at] >> 16) as usize;
-        out.extend_from_slice(&words[at..at + count]);
-        if words[at] & 0xffff == OP_DECORATE && words[at + 2] == DEC_BINDING && bindings.contains(&words[at + 3]) {
-            out.extend_from_slice(&[(3 << 16) | OP_DECORATE, words[at + 1], DEC_NON_READABLE]);
-            planted += 1;
+    for (at, op, ops) in instructions(&words) {
+        out.extend_from_slice(&words[at..at + 1 + ops.len()]);
+        if let (OP_DECORATE, [target, DEC_BINDING, b, ..]) = (op, ops) {
+            if bindings.contains(b) {
+                out.extend_from_slice(&[(3 << 16) | OP_DECORATE, *target, DEC_NON_READABLE]);
+                planted += 1;
+            }
         }
-        at += count;
     }
+    assert_eq!(out.len(), words.len() + 3 * planted, "the module's every instruction copied");
     assert_eq!(planted, bindings.len(), "bindings {bindings:?} not all found");
     bytemuck::cast_slice(&out).to_vec()
 }
