@@ -580,7 +580,7 @@ fn devices() -> Result<(), Failure> {
             let validated = match (&d.validation_layer, d.shader_objects_validated) {
                 (Some(layer), true) => format!("with validation too (the validation layer, {layer}, knows them)"),
                 (Some(layer), false) => {
-                    format!("pipelines with validation (the validation layer, {layer}, is older than 1.3.268)")
+                    format!("pipelines with validation (the validation layer, {layer}, predates them)")
                 }
                 (None, _) => "no validation layer installed".to_string(),
             };
