@@ -305,7 +305,8 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
         return;
     }
     assert!(kernel.contains("(a shader object, compiled; its binary kept for the next run)"), "{kernel}");
-    let files: Vec<PathBuf> = std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().path()).collect();
+    // Shader binaries are .bin files (the pipeline's run above may have kept specialised SPIR-V, .spv).
+    let files = common::cache_files(&cache, "bin");
     assert_eq!(files.len(), 1, "{files:?}");
     let (second, kernel) = render("second", &[]);
     same(&second, "second");
@@ -324,7 +325,7 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
     }
     // Other specialization constants (no textures, no shadows): another kernel, another file.
     render_with("other", &["--no-textures", "--no-shadows"], &[]);
-    assert_eq!(std::fs::read_dir(&cache).unwrap().count(), 2, "a second kernel, a second file");
+    assert_eq!(common::cache_files(&cache, "bin").len(), 2, "a second kernel, a second file");
     // With validation: a shader object where `devices` says the validation layer knows them (Debian 13's
     // 1.4.309), a pipeline where it is older (Debian 12's 1.3.239 crashes on them); either way no message
     // (render_with fails on one).
@@ -333,6 +334,107 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
     let (picture, kernel) = render_with("validated", &[], &[("RAYCAST_VALIDATION", "1")]);
     same(&picture, "validated");
     assert_eq!(kernel.contains("shader object"), validated, "{devices}{kernel}");
+}
+
+/// On a device that runs on the CPU (lavapipe) a pipeline's kernel is
+/// specialised ahead of the driver by spirv-opt and the result kept in
+/// RAYCAST_CACHE_DIR (gpu/specialize.rs; RAYCAST_SPECIALIZE=1 does it on any
+/// device, 0 nowhere): the first run makes and keeps it, the next one takes
+/// it, a damaged file is made again, other constants make another file, and
+/// without spirv-opt the driver specialises as before. Rules: every picture
+/// is the driver's specialisation's (RAYCAST_SPECIALIZE=0) byte for byte,
+/// and every buffer of each specialised kernel has the CPU build's bits
+/// (`check`) over scenes and flags that keep and leave out each feature.
+/// Shader objects off: they keep the driver's own result instead.
+#[test]
+fn specialised_kernels_give_the_drivers_bits() {
+    let cache = out_dir().join("specialised-cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    let cache_text = cache.to_str().unwrap();
+    let scene = repo().join("scenes/default.xml");
+    let scene = scene.to_str().unwrap();
+    // `raycast ARGS` with RAYCAST_SPECIALIZE=`specialize`, shader objects off, validation on; its stdout and kernel line.
+    let run = |args: &[&str], specialize: &str, cache: &str, path: Option<&str>| {
+        let mut env =
+            vec![("RAYCAST_SPECIALIZE", specialize), ("RAYCAST_SHADER_OBJECTS", "0"), ("RAYCAST_CACHE_DIR", cache)];
+        env.extend(path.map(|p| ("PATH", p)));
+        let o = raycast(args, &env);
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{args:?}: {out}{err}");
+        let kernel = out.lines().find(|l| l.starts_with("kernel: ")).unwrap_or_else(|| panic!("{out}")).to_string();
+        (out, kernel)
+    };
+    let render = |name: &str, specialize: &str, cache: &str, path: Option<&str>| {
+        let png = out_dir().join(format!("specialised-{name}.png"));
+        let args = ["render", scene, "--width", "64", "--height", "48", "-o", png.to_str().unwrap()];
+        let (_, kernel) = run(&args, specialize, cache, path);
+        (std::fs::read(&png).unwrap(), kernel)
+    };
+    let (driver, kernel) = render("driver", "0", cache_text, None);
+    assert!(!kernel.contains("SPIR-V specialised") && !kernel.contains("by the driver"), "{kernel}");
+    assert!(common::cache_files(&cache, "spv").is_empty());
+    // Rule: byte for byte, each PNG against the driver's specialisation's.
+    let same =
+        |png: &[u8], what: &str| assert!(png == driver, "{what}: the PNG differs from the driver's specialisation's");
+    let (first, kernel) = render("first", "1", cache_text, None);
+    same(&first, "first");
+    // A kernel: its name, and what its specialization constants keep (the kernel line's end).
+    let name_and_keeps = |out: &str| {
+        let keeps = out.lines().find_map(|l| l.split_once("specialised for the scene: ")).map(|(_, k)| k.to_string());
+        (kernel_name(out).unwrap_or_default().to_string(), keeps.unwrap_or_default())
+    };
+    let (render_kernel_name, render_keeps) = name_and_keeps(&kernel);
+    assert!(kernel.contains("(SPIR-V specialised ahead by spirv-opt, kept for the next run)"), "{kernel}");
+    let files = common::cache_files(&cache, "spv");
+    assert_eq!(files.len(), 1, "{files:?}");
+    let (second, kernel) = render("second", "1", cache_text, None);
+    same(&second, "second");
+    assert!(kernel.contains("(SPIR-V specialised ahead, kept by a run before)"), "{kernel}");
+    // A file cut short, and one with a changed byte (its checksum no longer holds): each made again.
+    let bytes = std::fs::read(&files[0]).unwrap();
+    let mut flipped = bytes.clone();
+    *flipped.last_mut().unwrap() ^= 1;
+    for (what, damaged) in [("cut short", &bytes[..bytes.len() / 3]), ("a byte changed", &flipped[..])] {
+        std::fs::write(&files[0], damaged).unwrap();
+        let (png, kernel) = render("damaged", "1", cache_text, None);
+        same(&png, what);
+        assert!(kernel.contains("(SPIR-V specialised ahead by spirv-opt, kept for the next run)"), "{what}: {kernel}");
+        assert_eq!(std::fs::read(&files[0]).unwrap(), bytes, "{what}: the file written again");
+    }
+    // No spirv-opt (a PATH without it, an empty cache): the driver specialises, and the line says why.
+    let empty = out_dir().join("specialised-no-tools");
+    let _ = std::fs::remove_dir_all(&empty);
+    std::fs::create_dir_all(&empty).unwrap();
+    let empty = empty.to_str().unwrap();
+    let (png, kernel) = render("no-spirv-opt", "1", empty, Some(empty));
+    same(&png, "without spirv-opt");
+    assert!(kernel.contains("(specialised by the driver: cannot run spirv-opt"), "{kernel}");
+    // Each feature kept and left out: every buffer the CPU build's, bit for bit; each set of constants its own file.
+    let configs: [&[&str]; 6] = [
+        &[scene, "--spp", "2"],
+        &[scene, "--aov", "cost", "--no-shadows"],
+        &["gen:recursive-spheres:2", "--no-textures", "--no-bvh"],
+        &[scene, "--scene-buffers", "storage"],
+        &["gen:recursive-spheres:3", "--no-textures"],
+        &["gen:recursive-cones:2", "--no-textures", "--no-reflections"],
+    ];
+    // Kernels by name and what their constants keep: one file each.
+    let mut kernels = std::collections::BTreeSet::from([(render_kernel_name, render_keeps)]);
+    for flags in configs {
+        let mut args = vec!["check", "--width", "48", "--height", "36"];
+        args.extend_from_slice(flags);
+        let (out, kernel) = run(&args, "1", cache_text, None);
+        assert!(out.contains("identical: every pixel of every buffer has the same bits"), "{flags:?}: {out}");
+        assert!(kernel.contains("SPIR-V specialised ahead"), "{flags:?}: {kernel}");
+        kernels.insert(name_and_keeps(&out));
+        assert_eq!(common::cache_files(&cache, "spv").len(), kernels.len(), "{flags:?}: one file for each kernel");
+    }
+    // `devices` says so, with the folder, exactly where the device runs on the CPU (the default rule).
+    let o = raycast(&["devices"], &[("RAYCAST_CACHE_DIR", cache_text)]);
+    let devices = text(&o).0;
+    let line = format!("pipelines: specialised ahead of the driver by spirv-opt, the results kept in {cache_text};");
+    let cpu = devices.lines().next().is_some_and(|l| l.contains(" (cpu, "));
+    assert_eq!(devices.contains(&line), cpu, "{devices}");
 }
 
 #[test]

@@ -573,7 +573,7 @@ fn devices() -> Result<(), Failure> {
             outln!("   {}", division_line(d.index));
         }
         if d.shader_objects {
-            let kept = match gpu::shader_cache_dir() {
+            let kept = match gpu::cache_dir() {
                 Some(dir) => format!("their binaries kept in {}", dir.display()),
                 None => "no cache folder to keep their binaries in (set RAYCAST_CACHE_DIR)".to_string(),
             };
@@ -585,6 +585,13 @@ fn devices() -> Result<(), Failure> {
                 (None, _) => "no validation layer installed".to_string(),
             };
             outln!("   kernels: shader objects (VK_EXT_shader_object), {kept}; {validated}; pipelines with RAYCAST_SHADER_OBJECTS=0");
+        }
+        if d.specialises_ahead {
+            let kept = match gpu::cache_dir() {
+                Some(dir) => format!("the results kept in {}", dir.display()),
+                None => "the results not kept: no cache folder (set RAYCAST_CACHE_DIR)".to_string(),
+            };
+            outln!("   pipelines: specialised ahead of the driver by spirv-opt, {kept}; by the driver with RAYCAST_SPECIALIZE=0");
         }
     }
     if let Some(d) = list.get(default) {
@@ -718,7 +725,9 @@ fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure>
         }
         Some(crate::gpu::ShaderSource::Cached) => " (a shader object, from the binary a run before kept)",
     };
-    outln!("kernel: {}{corrected}{object}, specialised for the scene: {}", kernel.name(), spec.describe());
+    // A pipeline specialised ahead of the driver (specialize.rs), or why not.
+    let ahead = kernel.specialised().map(|s| format!(" ({})", s.describe())).unwrap_or_default();
+    outln!("kernel: {}{corrected}{object}{ahead}, specialised for the scene: {}", kernel.name(), spec.describe());
     Ok(())
 }
 

@@ -27,6 +27,16 @@ pub fn shader_cache() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("shader-cache")
 }
 
+/// The files of a cache folder (RAYCAST_CACHE_DIR) with extension `ext`,
+/// sorted: `bin` for shader binaries, `spv` for specialised SPIR-V.
+pub fn cache_files(dir: &Path, ext: &str) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|d| d.map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == ext)).collect())
+        .unwrap_or_default();
+    files.sort();
+    files
+}
+
 /// `raycast ARGS` with `env` added to the environment, validation on
 /// (RAYCAST_VALIDATION=1: any validation message fails the command), and
 /// the tests' own shader-binary cache.

@@ -11,6 +11,7 @@ use super::float_controls;
 use super::image::layout_barrier;
 use super::present::Surface;
 use super::shader_object;
+use super::specialize;
 use super::{fma_probe, Division, GpuError, ImageFormat, Kernel};
 use crate::layout::IMAGE_WIDTH;
 
@@ -90,6 +91,9 @@ pub struct DeviceInfo {
     pub shader_objects_validated: bool,
     /// The installed Khronos validation layer's version, if there is one.
     pub validation_layer: Option<String>,
+    /// Whether its pipelines are built from SPIR-V specialised ahead of the
+    /// driver, the result kept (specialize.rs `chosen`).
+    pub specialises_ahead: bool,
 }
 
 impl DeviceInfo {
@@ -193,6 +197,8 @@ pub(crate) struct Inner {
     division: OnceLock<Division>,
     /// Kernels are shader objects on this device (shader_object.rs); None: pipelines.
     pub(crate) shader_objects: Option<shader_object::ShaderObjects>,
+    /// Pipelines are built from SPIR-V specialised ahead (specialize.rs).
+    pub(crate) specialise_ahead: bool,
     pub(crate) physical: vk::PhysicalDevice,
     /// The window surface of `GpuContext::with_surface`; destroyed after the
     /// device, before the instance (field order).
@@ -468,6 +474,7 @@ impl InstanceParts {
                     shader_objects,
                     shader_objects_validated,
                     validation_layer: validation_layer.map(version_string),
+                    specialises_ahead: specialize::chosen(props.device_type == vk::PhysicalDeviceType::CPU),
                 },
                 rank,
                 compute_family,
@@ -635,6 +642,7 @@ impl GpuContext {
         let shader_objects =
             shader_objects.then(|| shader_object::ShaderObjects::new(instance, physical.handle, &device));
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let specialise_ahead = physical.info.specialises_ahead;
 
         Ok(GpuContext {
             inner: Arc::new(Inner {
@@ -651,6 +659,7 @@ impl GpuContext {
                 inexact_division: physical.inexact_division,
                 division: OnceLock::new(),
                 shader_objects,
+                specialise_ahead,
                 physical: physical.handle,
                 surface,
                 parts,

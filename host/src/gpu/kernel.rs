@@ -1,13 +1,15 @@
 //! `Kernel`: a checked compute pipeline (or, where the device offers them
 //! and validation is off, a shader object: shader_object.rs) and its
-//! descriptor set layout, reusable across runs.
+//! descriptor set layout, reusable across runs. On a device that runs on
+//! the CPU a pipeline is built from SPIR-V specialised ahead
+//! (specialize.rs).
 
 use std::sync::Arc;
 
 use ash::vk;
 
 use super::context::Inner;
-use super::{float_controls, reflect, GpuContext, GpuError, ImageBinding, ShaderSource};
+use super::{float_controls, reflect, specialize, GpuContext, GpuError, ImageBinding, ShaderSource, Specialised};
 use crate::layout::BindingLayout;
 
 /// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
@@ -18,6 +20,9 @@ pub struct Kernel {
     shader: vk::ShaderEXT,
     /// Where the shader object came from (None: a pipeline).
     source: Option<ShaderSource>,
+    /// How a pipeline's specialization constants were applied ahead (None:
+    /// by the driver as usual, or a shader object).
+    specialised: Option<Specialised>,
     pub(crate) pipeline_layout: vk::PipelineLayout,
     pub(crate) set_layout: vk::DescriptorSetLayout,
     name: String,
@@ -82,6 +87,7 @@ impl Kernel {
             pipeline: vk::Pipeline::null(),
             shader: vk::ShaderEXT::null(),
             source: None,
+            specialised: None,
             pipeline_layout: vk::PipelineLayout::null(),
             set_layout: vk::DescriptorSetLayout::null(),
             name: name.to_string(),
@@ -132,6 +138,14 @@ impl Kernel {
             kernel.source = Some(source);
             return Ok(kernel);
         }
+        if ctx.inner.specialise_ahead && !constants.is_empty() {
+            let (specialised, how) = specialize::specialise(name, &words, constants);
+            if let Some(specialised) = specialised {
+                words = specialised;
+            }
+            kernel.specialised = Some(how);
+        }
+        // Where the constants are in the SPIR-V already the driver finds none of them: it ignores `specialization`.
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let module = unsafe { d.create_shader_module(&info, None) }.map_err(GpuError::vk("vkCreateShaderModule"))?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
@@ -157,6 +171,12 @@ impl Kernel {
     /// or made from the binary a run before kept (shader_object.rs).
     pub fn shader_source(&self) -> Option<ShaderSource> {
         self.source
+    }
+
+    /// For a pipeline on a device that specialises ahead (specialize.rs),
+    /// how its constants were applied; else None.
+    pub fn specialised(&self) -> Option<&Specialised> {
+        self.specialised.as_ref()
     }
 
     /// Records binding the kernel (its pipeline or shader object) for dispatch.

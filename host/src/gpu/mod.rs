@@ -18,6 +18,7 @@ pub fn kernel_spirv(stem: &str) -> Option<&'static [u8]> {
 }
 
 mod buffer;
+mod cache;
 mod compile;
 mod context;
 mod environment;
@@ -30,10 +31,12 @@ mod kernel;
 mod present;
 pub mod reflect;
 mod shader_object;
+mod specialize;
 #[cfg(test)]
 mod tests;
 
 pub use buffer::{Buffer, DescriptorSet, Resource};
+pub use cache::cache_dir;
 pub use compile::{compile_kernel, compile_kernel_pair};
 pub use context::{
     forced_residuals, list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuContext, GpuOptions,
@@ -47,4 +50,5 @@ pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};
 pub use kernel::Kernel;
 pub use present::{PresentMode, Swapchain};
-pub use shader_object::{cache_dir as shader_cache_dir, ShaderSource};
+pub use shader_object::ShaderSource;
+pub use specialize::Specialised;

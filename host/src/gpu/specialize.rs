@@ -1,0 +1,294 @@
+//! Kernels specialised ahead of the driver, the result kept.
+//!
+//! A pipeline is built from SPIR-V on every run. The kernels hold every
+//! feature a scene may use, each behind a specialization constant
+//! (shaders/layout.h `SPEC_*`), and Mesa's lavapipe turns all of that into
+//! NIR and optimises it before the constants let it drop what a scene does
+//! not use: 55-90 ms for recursiveSpheres4's render kernel on Debian 12's
+//! lavapipe (only LLVM's machine code is in Mesa's own cache). Here the
+//! constants are written into the SPIR-V as ordinary constants first
+//! (`freeze`) and spirv-opt removes the code they rule out
+//! (`SPECIALISE_PASSES`); the driver then gets a module half the size, and
+//! builds its pipeline in 35-40 ms (BENCHMARKS.md, "Specialised ahead").
+//! spirv-opt takes about half a second for that, so its result is kept in
+//! the cache folder (cache.rs) and made once per kernel, constants and
+//! SPIR-V.
+//!
+//! Done for pipelines on a device that runs on the CPU (`chosen`; a GPU's
+//! driver keeps its own cache of pipelines, and shader objects keep the
+//! driver's own result, shader_object.rs), unless RAYCAST_SPECIALIZE says
+//! otherwise. Where spirv-opt cannot be run or fails, the driver
+//! specialises the kernel as before, and `render`'s kernel line says why.
+//!
+//! The passes are the build's own (`SPIRV_OPT_PASSES`: none of them
+//! touches arithmetic) and a constant propagation, an instruction
+//! simplification and the dead-code passes after it. spirv-opt folds no
+//! floating-point instruction that carries NoContraction, which every float
+//! operation of the shared code does (`precise`, EXACTNESS.md); what it
+//! folds are the constants' booleans and the branches on them. The
+//! pictures are the driver's specialisation's bit for bit
+//! (tests/cli.rs `specialised_kernels_give_the_drivers_bits`).
+
+use std::collections::HashMap;
+use std::io::Write;
+
+use super::{cache, reflect, SPIRV_OPT, SPIRV_OPT_PASSES};
+
+/// Specialised SPIR-V in the cache folder: `.spv` files, the newest 128
+/// kept (about 200 KB each with their keys; the whole test suite makes 38).
+const CACHE: cache::Kind = cache::Kind { extension: "spv", keep: 128 };
+const MAGIC: &[u8] = b"raycast specialised SPIR-V 1\n";
+
+/// spirv-opt's passes after `SPIRV_OPT_PASSES`, on the frozen module:
+/// constants propagated and the branches, blocks, functions and code they
+/// leave unreachable removed.
+pub const SPECIALISE_PASSES: &[&str] = &[
+    "--ccp",
+    "--simplify-instructions",
+    "--eliminate-dead-branches",
+    "--eliminate-dead-functions",
+    "--eliminate-dead-code-aggressive",
+    "--merge-blocks",
+    "--cfg-cleanup",
+];
+
+const OP_CONSTANT_TRUE: u32 = 41;
+const OP_CONSTANT_FALSE: u32 = 42;
+const OP_CONSTANT: u32 = 43;
+const OP_SPEC_CONSTANT_TRUE: u32 = 48;
+const OP_SPEC_CONSTANT_FALSE: u32 = 49;
+const OP_SPEC_CONSTANT: u32 = 50;
+const DEC_SPEC_ID: u32 = 1;
+
+/// Whether pipelines on a device are specialised ahead: on a device that
+/// runs on the CPU (`cpu`), unless RAYCAST_SPECIALIZE says otherwise: 0
+/// never, 1 on every device.
+pub(crate) fn chosen(cpu: bool) -> bool {
+    match std::env::var("RAYCAST_SPECIALIZE").as_deref() {
+        Ok("0") => false,
+        Ok("1") => true,
+        _ => cpu,
+    }
+}
+
+/// How a kernel's specialization constants were applied, for its pipeline.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Specialised {
+    /// Ahead, by spirv-opt, in this run; its result kept in the cache
+    /// folder (`kept`) or not (no folder, or not writable).
+    Made { kept: bool },
+    /// Ahead, in a run before: the SPIR-V kept in the cache folder.
+    Kept,
+    /// By the driver, as spirv-opt could not do it: why.
+    ByTheDriver(String),
+}
+
+impl Specialised {
+    /// How `render`'s kernel line says it.
+    pub fn describe(&self) -> String {
+        match self {
+            Specialised::Made { kept: true } => "SPIR-V specialised ahead by spirv-opt, kept for the next run".into(),
+            Specialised::Made { kept: false } => {
+                "SPIR-V specialised ahead by spirv-opt, not kept: no cache folder, or not writable".into()
+            }
+            Specialised::Kept => "SPIR-V specialised ahead, kept by a run before".into(),
+            Specialised::ByTheDriver(why) => format!("specialised by the driver: {why}"),
+        }
+    }
+}
+
+/// `words` (a kernel named `name`) with its specialization constants
+/// 0 .. constants.len() applied ahead, from the cache folder when it holds
+/// exactly this, else made by spirv-opt and kept; None (and why) where
+/// that failed: the caller builds from `words` with the constants as
+/// specialization info.
+pub(crate) fn specialise(name: &str, words: &[u32], constants: &[u32]) -> (Option<Vec<u32>>, Specialised) {
+    let passes = SPIRV_OPT_PASSES.iter().chain(SPECIALISE_PASSES).copied().collect::<Vec<_>>().join(" ");
+    let key = cache::key(&[
+        MAGIC,
+        passes.as_bytes(),
+        name.as_bytes(),
+        bytemuck::cast_slice(constants),
+        bytemuck::cast_slice(words),
+    ]);
+    let file = cache::cache_dir().map(|d| cache::file_for(&d, CACHE, name, &key));
+    if let Some(kept) = file.as_deref().and_then(|f| cache::read(f, &key)) {
+        if let Some(spirv) = reflect::spirv_words(&kept) {
+            return (Some(spirv), Specialised::Kept);
+        }
+    }
+    let made = freeze(words, constants).and_then(|frozen| optimise(name, &frozen));
+    match made {
+        Ok(spirv) => {
+            // A cache that cannot be written is only slower.
+            let kept = file.is_some_and(|f| cache::write(&f, CACHE, &key, bytemuck::cast_slice(&spirv)).is_ok());
+            (Some(spirv), Specialised::Made { kept })
+        }
+        Err(why) => (None, Specialised::ByTheDriver(why)),
+    }
+}
+
+/// `words` with each specialization constant whose SpecId is below
+/// `constants.len()` made an ordinary constant of that value
+/// (`constants[id]`: a bool is 0 or not, a 32-bit scalar the word itself),
+/// and those SpecId decorations removed. An error for a module it cannot
+/// walk or a constant wider than 32 bits.
+pub(crate) fn freeze(words: &[u32], constants: &[u32]) -> Result<Vec<u32>, String> {
+    let value = |id: &u32| constants.get(*id as usize).copied();
+    let spec_ids: HashMap<u32, u32> = reflect::instructions(words)
+        .filter_map(|(_, op, ops)| match (op, ops) {
+            (reflect::OP_DECORATE, [target, DEC_SPEC_ID, id]) if value(id).is_some() => Some((*target, *id)),
+            _ => None,
+        })
+        .collect();
+    let frozen = |result: &u32| spec_ids.get(result).and_then(value);
+    let mut out = Vec::with_capacity(words.len());
+    out.extend_from_slice(&words[..5.min(words.len())]);
+    let mut end = 5;
+    for (at, op, ops) in reflect::instructions(words) {
+        end = at + 1 + ops.len();
+        let whole = &words[at..end];
+        match (op, ops) {
+            (reflect::OP_DECORATE, [target, DEC_SPEC_ID, _]) if spec_ids.contains_key(target) => {}
+            (OP_SPEC_CONSTANT_TRUE | OP_SPEC_CONSTANT_FALSE, [_, result]) if frozen(result).is_some() => {
+                let op = if frozen(result) != Some(0) { OP_CONSTANT_TRUE } else { OP_CONSTANT_FALSE };
+                out.push((whole[0] & 0xffff_0000) | op);
+                out.extend_from_slice(ops);
+            }
+            (OP_SPEC_CONSTANT, [ty, result, _]) if frozen(result).is_some() => {
+                out.extend_from_slice(&[(whole[0] & 0xffff_0000) | OP_CONSTANT, *ty, *result]);
+                out.extend(frozen(result));
+            }
+            (OP_SPEC_CONSTANT, [_, result, ..]) if frozen(result).is_some() => {
+                return Err(format!("specialization constant %{result} is wider than 32 bits"));
+            }
+            _ => out.extend_from_slice(whole),
+        }
+    }
+    if words.len() < 5 || end != words.len() {
+        return Err("the SPIR-V could not be walked to its end".into());
+    }
+    Ok(out)
+}
+
+/// `frozen` through spirv-opt (`SPIRV_OPT_PASSES` and `SPECIALISE_PASSES`):
+/// the module on its standard input, the result through a temporary file
+/// (spirv-opt writes its warnings to standard output).
+fn optimise(name: &str, frozen: &[u32]) -> Result<Vec<u32>, String> {
+    // Unique per call: threads may specialise kernels of the same name at once.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let out = std::env::temp_dir().join(format!(
+        "raycast-{}-{}-{name}-specialised.spv",
+        std::process::id(),
+        CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    let result = (|| {
+        let mut child = std::process::Command::new(SPIRV_OPT)
+            .args(SPIRV_OPT_PASSES)
+            .args(SPECIALISE_PASSES)
+            .arg("-")
+            .arg("-o")
+            .arg(&out)
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .map_err(|e| format!("cannot run {SPIRV_OPT} (Debian package spirv-tools): {e}"))?;
+        let mut stdin = child.stdin.take().expect("piped");
+        let input: Vec<u8> = bytemuck::cast_slice(frozen).to_vec();
+        // Written from a thread while its output is drained, so that neither side waits on a full pipe.
+        let writer = std::thread::spawn(move || stdin.write_all(&input));
+        let output = child.wait_with_output().map_err(|e| format!("{SPIRV_OPT}: {e}"))?;
+        let written = writer.join().unwrap_or_else(|_| Err(std::io::Error::other("writer panicked")));
+        if !output.status.success() {
+            let said = String::from_utf8_lossy(&output.stderr);
+            let first = said.lines().find(|l| !l.trim().is_empty()).unwrap_or("no message");
+            return Err(format!("{SPIRV_OPT} failed ({}): {first}", output.status));
+        }
+        written.map_err(|e| format!("cannot give {SPIRV_OPT} the SPIR-V: {e}"))?;
+        let bytes = std::fs::read(&out).map_err(|e| format!("cannot read {SPIRV_OPT}'s result: {e}"))?;
+        reflect::spirv_words(&bytes).ok_or_else(|| format!("{SPIRV_OPT} wrote no SPIR-V"))
+    })();
+    let _ = std::fs::remove_file(&out);
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The render kernel as lavapipe gets it (every kernel's constants are bools).
+    fn render_words() -> Vec<u32> {
+        reflect::spirv_words(super::super::kernel_spirv("render_uniform").unwrap()).unwrap()
+    }
+
+    /// The spec constants of `words` by SpecId: (opcode, value word if any).
+    fn spec_constants(words: &[u32]) -> Vec<(u32, u32)> {
+        let ids: HashMap<u32, u32> = reflect::instructions(words)
+            .filter_map(|(_, op, ops)| match (op, ops) {
+                (reflect::OP_DECORATE, [target, DEC_SPEC_ID, id]) => Some((*target, *id)),
+                _ => None,
+            })
+            .collect();
+        let mut found: Vec<(u32, u32)> = reflect::instructions(words)
+            .filter_map(|(_, op, ops)| match (op, ops) {
+                (OP_SPEC_CONSTANT_TRUE | OP_SPEC_CONSTANT_FALSE | OP_SPEC_CONSTANT, [_, result, ..]) => {
+                    ids.get(result).map(|id| (*id, op))
+                }
+                _ => None,
+            })
+            .collect();
+        found.sort_unstable();
+        found
+    }
+
+    #[test]
+    fn freeze_makes_the_given_constants_ordinary_and_leaves_the_rest() {
+        let words = render_words();
+        let before = spec_constants(&words);
+        assert_eq!(before.len(), crate::layout::SPEC_COUNT as usize, "{before:?}");
+        // The first three given (true, false, true), the rest left to the driver.
+        let frozen = freeze(&words, &[1, 0, 7]).unwrap();
+        let after = spec_constants(&frozen);
+        assert_eq!(after, before[3..].to_vec(), "only SpecIds 0, 1 and 2 frozen");
+        // Each frozen constant is now an OpConstantTrue/False of its own result id, per its value.
+        let results: Vec<(u32, u32)> = reflect::instructions(&words)
+            .filter_map(|(_, op, ops)| match (op, ops) {
+                (reflect::OP_DECORATE, [target, DEC_SPEC_ID, id]) if *id < 3 => Some((*id, *target)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(results.len(), 3);
+        for (id, result) in results {
+            let op = reflect::instructions(&frozen)
+                .find_map(|(_, op, ops)| (ops.get(1) == Some(&result)).then_some(op))
+                .unwrap_or_else(|| panic!("%{result} gone"));
+            let want = if id == 1 { OP_CONSTANT_FALSE } else { OP_CONSTANT_TRUE };
+            assert_eq!(op, want, "SpecId {id}");
+        }
+        // Three SpecId decorations (4 words each) fewer; nothing else changed in size.
+        assert_eq!(frozen.len(), words.len() - 3 * 4);
+        // Nothing given: the module as it was.
+        assert_eq!(freeze(&words, &[]).unwrap(), words);
+    }
+
+    #[test]
+    fn freeze_sets_a_32_bit_constant_and_refuses_what_it_cannot_walk() {
+        // A hand-made module's tail: OpDecorate %5 SpecId 0; %5 = OpSpecConstant %4 9.
+        let header = [0x0723_0203, 0x0001_0300, 0, 10, 0];
+        let mut words = header.to_vec();
+        words.extend_from_slice(&[(4 << 16) | reflect::OP_DECORATE, 5, DEC_SPEC_ID, 0]);
+        words.extend_from_slice(&[(4 << 16) | OP_SPEC_CONSTANT, 4, 5, 9]);
+        let frozen = freeze(&words, &[42]).unwrap();
+        let mut want = header.to_vec();
+        want.extend_from_slice(&[(4 << 16) | OP_CONSTANT, 4, 5, 42]);
+        assert_eq!(frozen, want);
+        // A 64-bit one is refused, as is a module whose last instruction runs past its end.
+        let mut wide = header.to_vec();
+        wide.extend_from_slice(&[(4 << 16) | reflect::OP_DECORATE, 5, DEC_SPEC_ID, 0]);
+        wide.extend_from_slice(&[(5 << 16) | OP_SPEC_CONSTANT, 4, 5, 9, 0]);
+        assert!(freeze(&wide, &[42]).unwrap_err().contains("wider than 32 bits"));
+        let cut = &words[..words.len() - 1];
+        assert!(freeze(cut, &[42]).unwrap_err().contains("could not be walked"));
+    }
+}
