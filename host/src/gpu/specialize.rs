@@ -4,13 +4,13 @@
 //! feature a scene may use, each behind a specialization constant
 //! (shaders/layout.h `SPEC_*`), and Mesa's lavapipe turns all of that into
 //! NIR and optimises it before the constants let it drop what a scene does
-//! not use: 55-90 ms for recursiveSpheres4's render kernel on Debian 12's
-//! lavapipe (only LLVM's machine code is in Mesa's own cache). Here the
-//! constants are written into the SPIR-V as ordinary constants first
-//! (`freeze`) and spirv-opt removes the code they rule out
-//! (`SPECIALISE_PASSES`); the driver then gets a module half the size, and
-//! builds its pipeline in 35-40 ms (BENCHMARKS.md, "Specialised ahead").
-//! spirv-opt takes about half a second for that, so its result is kept in
+//! not use: 67-92 ms (median 81) for recursiveSpheres4's render kernel on
+//! Debian 12's lavapipe (only LLVM's machine code is in Mesa's own cache).
+//! Here the constants are written into the SPIR-V as ordinary constants
+//! first (`freeze`) and spirv-opt removes the code they rule out
+//! (`SPECIALISE_PASSES`); the driver then gets a module 60% of the size and
+//! builds its pipeline in 32-47 ms (median 43; BENCHMARKS.md, "Specialised
+//! ahead"). spirv-opt takes about 0.2 s for that, so its result is kept in
 //! the cache folder (cache.rs) and made once per kernel, constants and
 //! SPIR-V.
 //!
@@ -22,11 +22,15 @@
 //!
 //! The passes are the build's own (`SPIRV_OPT_PASSES`: none of them
 //! touches arithmetic) and a constant propagation, an instruction
-//! simplification and the dead-code passes after it. spirv-opt folds no
-//! floating-point instruction that carries NoContraction, which every float
-//! operation of the shared code does (`precise`, EXACTNESS.md); what it
-//! folds are the constants' booleans and the branches on them. The
-//! pictures are the driver's specialisation's bit for bit
+//! simplification and the dead-code passes after it, on the module as the
+//! driver would get it. On lavapipe that module declares SPV_KHR_float_controls'
+//! SignedZeroInfNanPreserve (float_controls.rs), under which spirv-opt
+//! folds no floating-point instruction at all (`IsFloatingPointFoldingAllowed`
+//! in SPIRV-Tools); elsewhere it folds none that carries NoContraction,
+//! which the shared code puts on its float arithmetic (`precise`,
+//! EXACTNESS.md). What it folds are the constants' booleans and the
+//! branches on them. The pictures are the driver's specialisation's bit
+//! for bit and every buffer the CPU build's
 //! (tests/cli.rs `specialised_kernels_give_the_drivers_bits`).
 
 use std::collections::HashMap;
