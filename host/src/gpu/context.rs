@@ -163,6 +163,10 @@ pub(crate) struct InstanceParts {
     pub(crate) instance: ash::Instance,
     /// The callback's user data points into this; it outlives the instance.
     messages: Sink,
+    /// The installed Khronos validation layer's spec version, enabled or
+    /// not (None: not installed): whether shader objects may be used under
+    /// it (shader_object::validated).
+    validation_layer: Option<u32>,
     pub(crate) entry: ash::Entry,
 }
 
@@ -295,10 +299,16 @@ impl InstanceParts {
             flags |= vk::InstanceCreateFlags::ENUMERATE_PORTABILITY_KHR;
         }
         let mut sync_validation = false;
+        let installed = unsafe { entry.enumerate_instance_layer_properties() };
+        let validation_layer = installed
+            .as_deref()
+            .unwrap_or_default()
+            .iter()
+            .find(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER))
+            .map(|l| l.spec_version);
         if validation {
-            let installed = unsafe { entry.enumerate_instance_layer_properties() }
-                .map_err(GpuError::vk("vkEnumerateInstanceLayerProperties"))?;
-            if !installed.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER)) {
+            installed.map_err(GpuError::vk("vkEnumerateInstanceLayerProperties"))?;
+            if validation_layer.is_none() {
                 return Err(GpuError::ValidationUnavailable {
                     what: "VK_LAYER_KHRONOS_validation is not installed (Debian package vulkan-validationlayers)"
                         .into(),
@@ -373,7 +383,7 @@ impl InstanceParts {
             }
             Err(e) => return Err(GpuError::vk("vkCreateInstance")(e)),
         };
-        let mut parts = InstanceParts { debug: None, instance, messages, entry };
+        let mut parts = InstanceParts { debug: None, instance, messages, validation_layer, entry };
         if validation {
             let loader = ash::ext::debug_utils::Instance::new(&parts.entry, &parts.instance);
             let messenger = unsafe { loader.create_debug_utils_messenger(&messenger_info, None) }
@@ -386,13 +396,7 @@ impl InstanceParts {
     /// Every physical device with its `DeviceInfo`, in enumeration order.
     fn physical_devices(&self) -> Result<Vec<Physical>, GpuError> {
         let handles = usable_devices(unsafe { self.instance.enumerate_physical_devices() })?;
-        // The installed validation layer's version, enabled or not: whether
-        // shader objects may be used under it (shader_object::validated).
-        let validation_layer = unsafe { self.entry.enumerate_instance_layer_properties() }
-            .unwrap_or_default()
-            .iter()
-            .find(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER))
-            .map(|l| l.spec_version);
+        let validation_layer = self.validation_layer;
         let mut out = Vec::with_capacity(handles.len());
         for (index, handle) in handles.into_iter().enumerate() {
             let props = unsafe { self.instance.get_physical_device_properties(handle) };
