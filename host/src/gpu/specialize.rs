@@ -10,7 +10,7 @@
 //! first (`freeze`) and spirv-opt removes the code they rule out
 //! (`SPECIALISE_PASSES`); the driver then gets a module 60% of the size and
 //! builds its pipeline in 32-47 ms (median 43; BENCHMARKS.md, "Specialised
-//! ahead"). spirv-opt takes about 0.2 s for that, so its result is kept in
+//! ahead"). spirv-opt takes about 0.1 s for that, so its result is kept in
 //! the cache folder (cache.rs) and made once per kernel, constants and
 //! SPIR-V.
 //!
@@ -20,10 +20,10 @@
 //! otherwise. Where spirv-opt cannot be run or fails, the driver
 //! specialises the kernel as before, and `render`'s kernel line says why.
 //!
-//! The passes are the build's own (`SPIRV_OPT_PASSES`: none of them
-//! touches arithmetic) and a constant propagation, an instruction
-//! simplification and the dead-code passes after it, on the module as the
-//! driver would get it. On lavapipe that module declares SPV_KHR_float_controls'
+//! The passes are a constant propagation, an instruction simplification
+//! and dead-code passes, on the module as the driver would get it (after
+//! the build's own passes, `SPIRV_OPT_PASSES`, which touch no
+//! arithmetic). On lavapipe that module declares SPV_KHR_float_controls'
 //! SignedZeroInfNanPreserve (float_controls.rs), under which spirv-opt
 //! folds no floating-point instruction at all (`IsFloatingPointFoldingAllowed`
 //! in SPIRV-Tools); elsewhere it folds none that carries NoContraction,
@@ -36,17 +36,22 @@
 use std::collections::HashMap;
 use std::io::Write;
 
-use super::{cache, reflect, SPIRV_OPT, SPIRV_OPT_PASSES};
+use super::{cache, reflect, SPIRV_OPT};
 
 /// Specialised SPIR-V in the cache folder: `.spv` files, the newest 128
 /// kept (about 200 KB each with their keys; the whole test suite makes 38).
 const CACHE: cache::Kind = cache::Kind { extension: "spv", keep: 128 };
 const MAGIC: &[u8] = b"raycast specialised SPIR-V 1\n";
 
-/// spirv-opt's passes after `SPIRV_OPT_PASSES`, on the frozen module:
-/// constants propagated and the branches, blocks, functions and code they
-/// leave unreachable removed.
+/// spirv-opt's passes on the frozen module, which has had the build's
+/// (`SPIRV_OPT_PASSES`, run on every kernel: build.rs, and
+/// `glsl_to_spirv` for `--shaders`): constants propagated and the branches,
+/// blocks, functions and code they leave unreachable removed; the bindings
+/// and the constants not frozen kept. (The build's passes again before
+/// them make the same module in twice the time.)
 pub const SPECIALISE_PASSES: &[&str] = &[
+    "--preserve-bindings",
+    "--preserve-spec-constants",
     "--ccp",
     "--simplify-instructions",
     "--eliminate-dead-branches",
@@ -107,7 +112,7 @@ impl Specialised {
 /// that failed: the caller builds from `words` with the constants as
 /// specialization info.
 pub(crate) fn specialise(name: &str, words: &[u32], constants: &[u32]) -> (Option<Vec<u32>>, Specialised) {
-    let passes = SPIRV_OPT_PASSES.iter().chain(SPECIALISE_PASSES).copied().collect::<Vec<_>>().join(" ");
+    let passes = SPECIALISE_PASSES.join(" ");
     let key = cache::key(&[
         MAGIC,
         passes.as_bytes(),
@@ -175,7 +180,7 @@ pub(crate) fn freeze(words: &[u32], constants: &[u32]) -> Result<Vec<u32>, Strin
     Ok(out)
 }
 
-/// `frozen` through spirv-opt (`SPIRV_OPT_PASSES` and `SPECIALISE_PASSES`):
+/// `frozen` through spirv-opt (`SPECIALISE_PASSES`):
 /// the module on its standard input, the result through a temporary file
 /// (spirv-opt writes its warnings to standard output).
 fn optimise(name: &str, frozen: &[u32]) -> Result<Vec<u32>, String> {
@@ -188,7 +193,6 @@ fn optimise(name: &str, frozen: &[u32]) -> Result<Vec<u32>, String> {
     ));
     let result = (|| {
         let mut child = std::process::Command::new(SPIRV_OPT)
-            .args(SPIRV_OPT_PASSES)
             .args(SPECIALISE_PASSES)
             .arg("-")
             .arg("-o")
