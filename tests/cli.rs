@@ -314,9 +314,7 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
     // A cache file cut short, and one whose binary has a changed byte (its checksum no longer holds):
     // each compiled again and written anew.
     let bytes = std::fs::read(&files[0]).unwrap();
-    let mut flipped = bytes.clone();
-    *flipped.last_mut().unwrap() ^= 1;
-    for (what, damaged) in [("cut short", &bytes[..bytes.len() / 3]), ("a byte changed", &flipped[..])] {
+    for (what, damaged) in common::damaged(&bytes) {
         std::fs::write(&files[0], damaged).unwrap();
         let (picture, kernel) = render("damaged", &[]);
         same(&picture, what);
@@ -392,9 +390,7 @@ fn specialised_kernels_give_the_drivers_bits() {
     assert!(kernel.contains("(SPIR-V specialised ahead, kept by a run before)"), "{kernel}");
     // A file cut short, and one with a changed byte (its checksum no longer holds): each made again.
     let bytes = std::fs::read(&files[0]).unwrap();
-    let mut flipped = bytes.clone();
-    *flipped.last_mut().unwrap() ^= 1;
-    for (what, damaged) in [("cut short", &bytes[..bytes.len() / 3]), ("a byte changed", &flipped[..])] {
+    for (what, damaged) in common::damaged(&bytes) {
         std::fs::write(&files[0], damaged).unwrap();
         let (png, kernel) = render("damaged", "1", cache_text, None);
         same(&png, what);

@@ -37,6 +37,14 @@ pub fn cache_files(dir: &Path, ext: &str) -> Vec<PathBuf> {
     files
 }
 
+/// A cache file's bytes damaged two ways, each named: cut short, and with
+/// its last byte changed (its checksum no longer holds).
+pub fn damaged(bytes: &[u8]) -> [(&'static str, Vec<u8>); 2] {
+    let mut flipped = bytes.to_vec();
+    *flipped.last_mut().unwrap() ^= 1;
+    [("cut short", bytes[..bytes.len() / 3].to_vec()), ("a byte changed", flipped)]
+}
+
 /// `raycast ARGS` with `env` added to the environment, validation on
 /// (RAYCAST_VALIDATION=1: any validation message fails the command), and
 /// the tests' own shader-binary cache.

@@ -18,6 +18,11 @@
 //! checked the module as compiled, and only those the device reports
 //! (`shaderSignedZeroInfNanPreserveFloat32`, `shaderDenormPreserveFloat32`).
 
+use super::spirv::{
+    checked_instructions, CAPABILITY_DENORM_PRESERVE, CAPABILITY_SIGNED_ZERO_INF_NAN_PRESERVE, MODE_DENORM_PRESERVE,
+    MODE_SIGNED_ZERO_INF_NAN_PRESERVE, OP_CAPABILITY, OP_ENTRY_POINT, OP_EXECUTION_MODE, OP_EXTENSION,
+};
+
 /// Which modes a device's kernels get.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Modes {
@@ -25,34 +30,7 @@ pub(crate) struct Modes {
     pub preserve_denorms: bool,
 }
 
-/// SPIR-V opcodes, capability and execution mode (SPIR-V 1.6 spec, 3.x).
-const OP_EXTENSION: u32 = 10;
-const OP_CAPABILITY: u32 = 17;
-const OP_ENTRY_POINT: u32 = 15;
-const OP_EXECUTION_MODE: u32 = 16;
-const CAPABILITY_DENORM_PRESERVE: u32 = 4464;
-const MODE_DENORM_PRESERVE: u32 = 4459;
-const CAPABILITY_SIGNED_ZERO_INF_NAN_PRESERVE: u32 = 4466;
-const MODE_SIGNED_ZERO_INF_NAN_PRESERVE: u32 = 4461;
 const EXTENSION: &str = "SPV_KHR_float_controls";
-
-/// The module's instructions: (word offset, opcode, word count).
-fn instructions(words: &[u32]) -> Result<Vec<(usize, u32, usize)>, String> {
-    if words.len() < 5 || words[0] != 0x0723_0203 {
-        return Err("not a SPIR-V module (no magic number)".into());
-    }
-    let mut out = Vec::new();
-    let mut at = 5;
-    while at < words.len() {
-        let count = (words[at] >> 16) as usize;
-        if count == 0 || at + count > words.len() {
-            return Err(format!("instruction at word {at} has a bad word count {count}"));
-        }
-        out.push((at, words[at] & 0xffff, count));
-        at += count;
-    }
-    Ok(out)
-}
 
 /// A literal string as SPIR-V words: UTF-8, NUL-terminated, padded to 4 bytes.
 fn string_words(s: &str) -> Vec<u32> {
@@ -78,23 +56,22 @@ pub(crate) fn add_modes(words: &[u32], modes: Modes) -> Result<Vec<u32>, String>
     if wanted.is_empty() {
         return Ok(words.to_vec());
     }
-    let instructions = instructions(words)?;
+    let instructions = checked_instructions(words)?;
     let has = |op: u32, operand: usize, value: u32| {
-        instructions.iter().any(|&(at, o, count)| o == op && count > operand && words[at + operand] == value)
+        instructions.iter().any(|&(_, o, ops)| o == op && ops.get(operand - 1) == Some(&value))
     };
     let missing: Vec<(u32, u32)> = wanted.into_iter().filter(|&(_, mode)| !has(OP_EXECUTION_MODE, 2, mode)).collect();
     if missing.is_empty() {
         return Ok(words.to_vec());
     }
     let name = string_words(EXTENSION);
-    let has_extension =
-        instructions.iter().any(|&(at, op, count)| op == OP_EXTENSION && words[at + 1..at + count] == name[..]);
+    let has_extension = instructions.iter().any(|&(_, op, ops)| op == OP_EXTENSION && ops == &name[..]);
     // Capabilities come first, then extensions; entry points before execution modes.
-    let last_capability = instructions.iter().rfind(|i| i.1 == OP_CAPABILITY).map(|i| i.0 + i.2);
+    let last_capability = instructions.iter().rfind(|i| i.1 == OP_CAPABILITY).map(|i| i.0 + 1 + i.2.len());
     let entry_points: Vec<(usize, u32)> = instructions
         .iter()
-        .filter(|i| i.1 == OP_ENTRY_POINT && i.2 >= 3)
-        .map(|&(at, _, count)| (at + count, words[at + 2]))
+        .filter(|i| i.1 == OP_ENTRY_POINT && i.2.len() >= 2)
+        .map(|&(at, _, ops)| (at + 1 + ops.len(), ops[1]))
         .collect();
     let (Some(after_capabilities), Some(&(after_entry_points, _))) = (last_capability, entry_points.last()) else {
         return Err("a module without OpCapability or OpEntryPoint".into());

@@ -32,6 +32,7 @@ mod present;
 pub mod reflect;
 mod shader_object;
 mod specialize;
+mod spirv;
 #[cfg(test)]
 mod tests;
 

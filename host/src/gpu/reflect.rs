@@ -5,6 +5,10 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use naga::{AddressSpace, ArraySize, Handle, Module, ShaderStage, StorageAccess, Type, TypeInner};
 
+use super::spirv::{
+    self, instructions, CLASS_STORAGE_BUFFER, CLASS_UNIFORM, DEC_BINDING, DEC_NON_READABLE, DEC_NON_WRITABLE, DEC_SET,
+    OP_DECORATE, OP_MEMBER_DECORATE, OP_TYPE_POINTER, OP_TYPE_STRUCT, OP_VARIABLE,
+};
 use super::{GpuError, ImageBinding};
 use crate::layout::{BindingLayout, BufferShape, StructLayout};
 
@@ -87,47 +91,9 @@ pub(crate) fn shape_label(shape: &BufferShape) -> String {
     }
 }
 
-const OP_TYPE_POINTER: u32 = 32;
-const OP_VARIABLE: u32 = 59;
-pub(super) const OP_DECORATE: u32 = 71;
-const OP_MEMBER_DECORATE: u32 = 72;
-const OP_TYPE_STRUCT: u32 = 30;
-const DEC_NON_WRITABLE: u32 = 24;
-pub(super) const DEC_NON_READABLE: u32 = 25;
-pub(super) const DEC_BINDING: u32 = 33;
-const DEC_SET: u32 = 34;
-const CLASS_UNIFORM: u32 = 2;
-const CLASS_STORAGE_BUFFER: u32 = 12;
-
 /// Whether a variable of this storage class is a buffer (uniform or storage block).
 fn buffer_class(class: u32) -> bool {
     class == CLASS_STORAGE_BUFFER || class == CLASS_UNIFORM
-}
-
-/// A SPIR-V module's words in this machine's order, or None where it does
-/// not start with SPIR-V's magic number (naga says what is wrong with it).
-pub(super) fn spirv_words(spirv: &[u8]) -> Option<Vec<u32>> {
-    const MAGIC: u32 = 0x0723_0203;
-    let mut words: Vec<u32> = spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    if words.first() == Some(&MAGIC.swap_bytes()) {
-        words.iter_mut().for_each(|w| *w = w.swap_bytes());
-    }
-    (words.len() >= 5 && words[0] == MAGIC).then_some(words)
-}
-
-/// The module's instructions after its header: each one's first word's
-/// index, its opcode and its operands. Stops at a malformed length.
-pub(super) fn instructions(words: &[u32]) -> impl Iterator<Item = (usize, u32, &[u32])> {
-    let mut at = 5;
-    std::iter::from_fn(move || {
-        let (count, op) = ((*words.get(at)? >> 16) as usize, words[at] & 0xffff);
-        if count == 0 || at + count > words.len() {
-            return None;
-        }
-        let item = (at, op, &words[at + 1..at + count]);
-        at += count;
-        Some(item)
-    })
 }
 
 /// The module as naga is given it: without the `NonReadable` decoration of
@@ -138,7 +104,7 @@ pub(super) fn instructions(words: &[u32]) -> impl Iterator<Item = (usize, u32, &
 /// check reads it from the SPIR-V itself ([`spirv_storage_access`]); the
 /// driver gets the module unchanged.
 fn for_naga(spirv: &[u8]) -> std::borrow::Cow<'_, [u8]> {
-    let Some(words) = spirv_words(spirv) else { return spirv.into() };
+    let Some(words) = spirv::words(spirv) else { return spirv.into() };
     let buffers: BTreeSet<u32> = instructions(&words)
         .filter_map(|(_, op, ops)| match (op, ops) {
             (OP_VARIABLE, [_, id, class, ..]) if buffer_class(*class) => Some(*id),
@@ -172,7 +138,7 @@ fn for_naga(spirv: &[u8]) -> std::borrow::Cow<'_, [u8]> {
 /// the members' access ORed together, ANDed with the variable's.
 fn spirv_storage_access(spirv: &[u8]) -> BTreeMap<(u32, u32), StorageAccess> {
     let mut out = BTreeMap::new();
-    let Some(words) = spirv_words(spirv) else { return out };
+    let Some(words) = spirv::words(spirv) else { return out };
 
     let denied = |dec: u32| match dec {
         DEC_NON_WRITABLE => StorageAccess::STORE,

@@ -36,7 +36,11 @@
 use std::collections::HashMap;
 use std::io::Write;
 
-use super::{cache, reflect, SPIRV_OPT};
+use super::spirv::{
+    self, checked_instructions, DEC_SPEC_ID, OP_CONSTANT, OP_CONSTANT_FALSE, OP_CONSTANT_TRUE, OP_DECORATE,
+    OP_SPEC_CONSTANT, OP_SPEC_CONSTANT_FALSE, OP_SPEC_CONSTANT_TRUE,
+};
+use super::{cache, SPIRV_OPT};
 
 /// Specialised SPIR-V in the cache folder: `.spv` files, the newest 128
 /// kept (about 200 KB each with their keys; the whole test suite makes 38).
@@ -60,14 +64,6 @@ pub const SPECIALISE_PASSES: &[&str] = &[
     "--merge-blocks",
     "--cfg-cleanup",
 ];
-
-const OP_CONSTANT_TRUE: u32 = 41;
-const OP_CONSTANT_FALSE: u32 = 42;
-const OP_CONSTANT: u32 = 43;
-const OP_SPEC_CONSTANT_TRUE: u32 = 48;
-const OP_SPEC_CONSTANT_FALSE: u32 = 49;
-const OP_SPEC_CONSTANT: u32 = 50;
-const DEC_SPEC_ID: u32 = 1;
 
 /// Whether pipelines on a device are specialised ahead: on a device that
 /// runs on the CPU (`cpu`), unless RAYCAST_SPECIALIZE says otherwise: 0
@@ -122,7 +118,7 @@ pub(crate) fn specialise(name: &str, words: &[u32], constants: &[u32]) -> (Optio
     ]);
     let file = cache::cache_dir().map(|d| cache::file_for(&d, CACHE, name, &key));
     if let Some(kept) = file.as_deref().and_then(|f| cache::read(f, &key)) {
-        if let Some(spirv) = reflect::spirv_words(&kept) {
+        if let Some(spirv) = spirv::words(&kept) {
             return (Some(spirv), Specialised::Kept);
         }
     }
@@ -141,41 +137,38 @@ pub(crate) fn specialise(name: &str, words: &[u32], constants: &[u32]) -> (Optio
 /// `constants.len()` made an ordinary constant of that value
 /// (`constants[id]`: a bool is 0 or not, a 32-bit scalar the word itself),
 /// and those SpecId decorations removed. An error for a module it cannot
-/// walk or a constant wider than 32 bits.
+/// walk (`spirv::checked_instructions`) or a constant wider than 32 bits.
 pub(crate) fn freeze(words: &[u32], constants: &[u32]) -> Result<Vec<u32>, String> {
+    let instructions = checked_instructions(words)?;
     let value = |id: &u32| constants.get(*id as usize).copied();
-    let spec_ids: HashMap<u32, u32> = reflect::instructions(words)
-        .filter_map(|(_, op, ops)| match (op, ops) {
-            (reflect::OP_DECORATE, [target, DEC_SPEC_ID, id]) if value(id).is_some() => Some((*target, *id)),
+    let spec_ids: HashMap<u32, u32> = instructions
+        .iter()
+        .filter_map(|(_, op, ops)| match (*op, *ops) {
+            (OP_DECORATE, [target, DEC_SPEC_ID, id]) if value(id).is_some() => Some((*target, *id)),
             _ => None,
         })
         .collect();
     let frozen = |result: &u32| spec_ids.get(result).and_then(value);
     let mut out = Vec::with_capacity(words.len());
-    out.extend_from_slice(&words[..5.min(words.len())]);
-    let mut end = 5;
-    for (at, op, ops) in reflect::instructions(words) {
-        end = at + 1 + ops.len();
-        let whole = &words[at..end];
+    out.extend_from_slice(&words[..5]);
+    for (at, op, ops) in instructions {
+        let count = words[at] & 0xffff_0000;
         match (op, ops) {
-            (reflect::OP_DECORATE, [target, DEC_SPEC_ID, _]) if spec_ids.contains_key(target) => {}
+            (OP_DECORATE, [target, DEC_SPEC_ID, _]) if spec_ids.contains_key(target) => {}
             (OP_SPEC_CONSTANT_TRUE | OP_SPEC_CONSTANT_FALSE, [_, result]) if frozen(result).is_some() => {
                 let op = if frozen(result) != Some(0) { OP_CONSTANT_TRUE } else { OP_CONSTANT_FALSE };
-                out.push((whole[0] & 0xffff_0000) | op);
+                out.push(count | op);
                 out.extend_from_slice(ops);
             }
             (OP_SPEC_CONSTANT, [ty, result, _]) if frozen(result).is_some() => {
-                out.extend_from_slice(&[(whole[0] & 0xffff_0000) | OP_CONSTANT, *ty, *result]);
+                out.extend_from_slice(&[count | OP_CONSTANT, *ty, *result]);
                 out.extend(frozen(result));
             }
             (OP_SPEC_CONSTANT, [_, result, ..]) if frozen(result).is_some() => {
                 return Err(format!("specialization constant %{result} is wider than 32 bits"));
             }
-            _ => out.extend_from_slice(whole),
+            _ => out.extend_from_slice(&words[at..at + 1 + ops.len()]),
         }
-    }
-    if words.len() < 5 || end != words.len() {
-        return Err("the SPIR-V could not be walked to its end".into());
     }
     Ok(out)
 }
@@ -215,7 +208,7 @@ fn optimise(name: &str, frozen: &[u32]) -> Result<Vec<u32>, String> {
         }
         written.map_err(|e| format!("cannot give {SPIRV_OPT} the SPIR-V: {e}"))?;
         let bytes = std::fs::read(&out).map_err(|e| format!("cannot read {SPIRV_OPT}'s result: {e}"))?;
-        reflect::spirv_words(&bytes).ok_or_else(|| format!("{SPIRV_OPT} wrote no SPIR-V"))
+        spirv::words(&bytes).ok_or_else(|| format!("{SPIRV_OPT} wrote no SPIR-V"))
     })();
     let _ = std::fs::remove_file(&out);
     result
@@ -227,18 +220,18 @@ mod tests {
 
     /// The render kernel as lavapipe gets it (every kernel's constants are bools).
     fn render_words() -> Vec<u32> {
-        reflect::spirv_words(super::super::kernel_spirv("render_uniform").unwrap()).unwrap()
+        spirv::words(super::super::kernel_spirv("render_uniform").unwrap()).unwrap()
     }
 
     /// The spec constants of `words` by SpecId: (opcode, value word if any).
     fn spec_constants(words: &[u32]) -> Vec<(u32, u32)> {
-        let ids: HashMap<u32, u32> = reflect::instructions(words)
+        let ids: HashMap<u32, u32> = spirv::instructions(words)
             .filter_map(|(_, op, ops)| match (op, ops) {
-                (reflect::OP_DECORATE, [target, DEC_SPEC_ID, id]) => Some((*target, *id)),
+                (OP_DECORATE, [target, DEC_SPEC_ID, id]) => Some((*target, *id)),
                 _ => None,
             })
             .collect();
-        let mut found: Vec<(u32, u32)> = reflect::instructions(words)
+        let mut found: Vec<(u32, u32)> = spirv::instructions(words)
             .filter_map(|(_, op, ops)| match (op, ops) {
                 (OP_SPEC_CONSTANT_TRUE | OP_SPEC_CONSTANT_FALSE | OP_SPEC_CONSTANT, [_, result, ..]) => {
                     ids.get(result).map(|id| (*id, op))
@@ -260,15 +253,15 @@ mod tests {
         let after = spec_constants(&frozen);
         assert_eq!(after, before[3..].to_vec(), "only SpecIds 0, 1 and 2 frozen");
         // Each frozen constant is now an OpConstantTrue/False of its own result id, per its value.
-        let results: Vec<(u32, u32)> = reflect::instructions(&words)
+        let results: Vec<(u32, u32)> = spirv::instructions(&words)
             .filter_map(|(_, op, ops)| match (op, ops) {
-                (reflect::OP_DECORATE, [target, DEC_SPEC_ID, id]) if *id < 3 => Some((*id, *target)),
+                (OP_DECORATE, [target, DEC_SPEC_ID, id]) if *id < 3 => Some((*id, *target)),
                 _ => None,
             })
             .collect();
         assert_eq!(results.len(), 3);
         for (id, result) in results {
-            let op = reflect::instructions(&frozen)
+            let op = spirv::instructions(&frozen)
                 .find_map(|(_, op, ops)| (ops.get(1) == Some(&result)).then_some(op))
                 .unwrap_or_else(|| panic!("%{result} gone"));
             let want = if id == 1 { OP_CONSTANT_FALSE } else { OP_CONSTANT_TRUE };
@@ -285,7 +278,7 @@ mod tests {
         // A hand-made module's tail: OpDecorate %5 SpecId 0; %5 = OpSpecConstant %4 9.
         let header = [0x0723_0203, 0x0001_0300, 0, 10, 0];
         let mut words = header.to_vec();
-        words.extend_from_slice(&[(4 << 16) | reflect::OP_DECORATE, 5, DEC_SPEC_ID, 0]);
+        words.extend_from_slice(&[(4 << 16) | OP_DECORATE, 5, DEC_SPEC_ID, 0]);
         words.extend_from_slice(&[(4 << 16) | OP_SPEC_CONSTANT, 4, 5, 9]);
         let frozen = freeze(&words, &[42]).unwrap();
         let mut want = header.to_vec();
@@ -293,10 +286,10 @@ mod tests {
         assert_eq!(frozen, want);
         // A 64-bit one is refused, as is a module whose last instruction runs past its end.
         let mut wide = header.to_vec();
-        wide.extend_from_slice(&[(4 << 16) | reflect::OP_DECORATE, 5, DEC_SPEC_ID, 0]);
+        wide.extend_from_slice(&[(4 << 16) | OP_DECORATE, 5, DEC_SPEC_ID, 0]);
         wide.extend_from_slice(&[(5 << 16) | OP_SPEC_CONSTANT, 4, 5, 9, 0]);
         assert!(freeze(&wide, &[42]).unwrap_err().contains("wider than 32 bits"));
         let cut = &words[..words.len() - 1];
-        assert!(freeze(cut, &[42]).unwrap_err().contains("could not be walked"));
+        assert!(freeze(cut, &[42]).unwrap_err().contains("bad word count"));
     }
 }

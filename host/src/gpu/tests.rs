@@ -444,8 +444,8 @@ fn check_layouts_reports_shape_and_name_mismatches() {
 /// glslang 15 (Debian 13) writes for a `writeonly buffer`, where Debian 12's
 /// glslang 11 decorates the members only.
 fn with_variable_non_readable(spv: &[u8], bindings: &[u32]) -> Vec<u8> {
-    use reflect::{instructions, spirv_words, DEC_BINDING, DEC_NON_READABLE, OP_DECORATE};
-    let words = spirv_words(spv).unwrap();
+    use super::spirv::{instructions, words, DEC_BINDING, DEC_NON_READABLE, OP_DECORATE};
+    let words = words(spv).unwrap();
     let mut out = words[..5].to_vec();
     let mut planted = 0;
     for (at, op, ops) in instructions(&words) {
