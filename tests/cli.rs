@@ -397,6 +397,22 @@ fn specialised_kernels_give_the_drivers_bits() {
         assert!(kernel.contains("(SPIR-V specialised ahead by spirv-opt, kept for the next run)"), "{what}: {kernel}");
         assert_eq!(std::fs::read(&files[0]).unwrap(), bytes, "{what}: the file written again");
     }
+    // A kept module the driver refuses (its OpEntryPoint taken out, the file's checksum made anew): the kernel
+    // is built as compiled, the line says why, the file is removed. Validation off: the layer would report it.
+    common::rewrite_cache_file(&files[0], |words| common::without_instruction(&words, 15));
+    let env = [("RAYCAST_SPECIALIZE", "1"), ("RAYCAST_SHADER_OBJECTS", "0"), ("RAYCAST_CACHE_DIR", cache_text)];
+    let png = out_dir().join("specialised-refused.png");
+    let o = raycast(
+        &["render", scene, "--width", "64", "--height", "48", "-o", png.to_str().unwrap()],
+        &[env.as_slice(), &[("RAYCAST_VALIDATION", "0")]].concat(),
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("(specialised by the driver: it refused the specialised SPIR-V: "), "{out}");
+    same(&std::fs::read(&png).unwrap(), "refused");
+    assert!(common::cache_files(&cache, "spv").is_empty(), "the refused file removed");
+    let (_, kernel) = render("after-refused", "1", cache_text, None);
+    assert!(kernel.contains("(SPIR-V specialised ahead by spirv-opt, kept for the next run)"), "{kernel}");
     // No spirv-opt (a PATH without it, an empty cache): the driver specialises, and the line says why.
     let empty = out_dir().join("specialised-no-tools");
     let _ = std::fs::remove_dir_all(&empty);

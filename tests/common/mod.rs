@@ -45,6 +45,37 @@ pub fn damaged(bytes: &[u8]) -> [(&'static str, Vec<u8>); 2] {
     [("cut short", bytes[..bytes.len() / 3].to_vec()), ("a byte changed", flipped)]
 }
 
+/// Rewrites what the cache file `file` keeps (SPIR-V) with `edit`, its
+/// checksum made anew, so that raycast takes the edited module as its own.
+/// The file format and its FNV-1a checksum written here a second time, as
+/// a check of host/src/gpu/cache.rs: [key length u64][key][checksum u64][kept].
+pub fn rewrite_cache_file(file: &Path, edit: impl Fn(Vec<u32>) -> Vec<u32>) {
+    let bytes = std::fs::read(file).unwrap();
+    let key_len = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    let kept = &bytes[8 + key_len + 8..];
+    let words = edit(kept.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect());
+    let kept: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    let sum = kept.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3));
+    let mut out = bytes[..8 + key_len].to_vec();
+    out.extend_from_slice(&sum.to_le_bytes());
+    out.extend_from_slice(&kept);
+    std::fs::write(file, out).unwrap();
+}
+
+/// A SPIR-V module's words without its instructions of opcode `op`.
+pub fn without_instruction(words: &[u32], op: u32) -> Vec<u32> {
+    let mut out = words[..5].to_vec();
+    let mut at = 5;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        if words[at] & 0xffff != op {
+            out.extend_from_slice(&words[at..at + count]);
+        }
+        at += count.max(1);
+    }
+    out
+}
+
 /// `raycast ARGS` with `env` added to the environment, validation on
 /// (RAYCAST_VALIDATION=1: any validation message fails the command), and
 /// the tests' own shader-binary cache.

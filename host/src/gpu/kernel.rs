@@ -138,27 +138,47 @@ impl Kernel {
             kernel.source = Some(source);
             return Ok(kernel);
         }
-        if ctx.inner.specialise_ahead && !constants.is_empty() {
-            let (specialised, how) = specialize::specialise(name, &words, constants);
-            if let Some(specialised) = specialised {
-                words = specialised;
+        // The pipeline of `code` (SPIR-V words) with `specialization`; where the constants are in the
+        // SPIR-V already (specialised ahead) the driver finds none of them and ignores it.
+        let build = |code: &[u32]| {
+            let info = vk::ShaderModuleCreateInfo::default().code(code);
+            let module =
+                unsafe { d.create_shader_module(&info, None) }.map_err(GpuError::vk("vkCreateShaderModule"))?;
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(c"main")
+                .specialization_info(&specialization);
+            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(kernel.pipeline_layout)];
+            let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+            unsafe { d.destroy_shader_module(module, None) };
+            result.map(|p| p[0]).map_err(|(_, e)| GpuError::vk("vkCreateComputePipelines")(e))
+        };
+        let ahead = if ctx.inner.specialise_ahead && !constants.is_empty() {
+            Some(specialize::specialise(name, &words, constants))
+        } else {
+            None
+        };
+        kernel.pipeline = match ahead {
+            None => build(&words)?,
+            Some((None, how)) => {
+                kernel.specialised = Some(how);
+                build(&words)?
             }
-            kernel.specialised = Some(how);
-        }
-        // Where the constants are in the SPIR-V already the driver finds none of them: it ignores `specialization`.
-        let info = vk::ShaderModuleCreateInfo::default().code(&words);
-        let module = unsafe { d.create_shader_module(&info, None) }.map_err(GpuError::vk("vkCreateShaderModule"))?;
-        let stage = vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::COMPUTE)
-            .module(module)
-            .name(c"main")
-            .specialization_info(&specialization);
-        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(kernel.pipeline_layout)];
-        let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
-        unsafe { d.destroy_shader_module(module, None) };
-        kernel.pipeline = match result {
-            Ok(p) => p[0],
-            Err((_, e)) => return Err(GpuError::vk("vkCreateComputePipelines")(e)),
+            Some((Some(specialised), how)) => match build(&specialised) {
+                Ok(pipeline) => {
+                    kernel.specialised = Some(how);
+                    pipeline
+                }
+                // A driver that refuses the specialised module gets the kernel as built, its constants to
+                // apply; what was kept is removed, so the next run makes it again.
+                Err(e) => {
+                    specialize::forget(name, &words, constants);
+                    kernel.specialised =
+                        Some(Specialised::ByTheDriver(format!("it refused the specialised SPIR-V: {e}")));
+                    build(&words)?
+                }
+            },
         };
         Ok(kernel)
     }

@@ -17,8 +17,10 @@
 //! Done for pipelines on a device that runs on the CPU (`chosen`; a GPU's
 //! driver keeps its own cache of pipelines, and shader objects keep the
 //! driver's own result, shader_object.rs), unless RAYCAST_SPECIALIZE says
-//! otherwise. Where spirv-opt cannot be run or fails, the driver
-//! specialises the kernel as before, and `render`'s kernel line says why.
+//! otherwise. Where spirv-opt cannot be run or fails, or the driver
+//! refuses its module (which is then removed from the cache: `forget`),
+//! the driver specialises the kernel as before, and `render`'s kernel line
+//! says why.
 //!
 //! The passes are a constant propagation, an instruction simplification
 //! and dead-code passes, on the module as the driver would get it (after
@@ -108,15 +110,7 @@ impl Specialised {
 /// that failed: the caller builds from `words` with the constants as
 /// specialization info.
 pub(crate) fn specialise(name: &str, words: &[u32], constants: &[u32]) -> (Option<Vec<u32>>, Specialised) {
-    let passes = SPECIALISE_PASSES.join(" ");
-    let key = cache::key(&[
-        MAGIC,
-        passes.as_bytes(),
-        name.as_bytes(),
-        bytemuck::cast_slice(constants),
-        bytemuck::cast_slice(words),
-    ]);
-    let file = cache::cache_dir().map(|d| cache::file_for(&d, CACHE, name, &key));
+    let (key, file) = cache_entry(name, words, constants);
     if let Some(kept) = file.as_deref().and_then(|f| cache::read(f, &key)) {
         if let Some(spirv) = spirv::words(&kept) {
             return (Some(spirv), Specialised::Kept);
@@ -131,6 +125,28 @@ pub(crate) fn specialise(name: &str, words: &[u32], constants: &[u32]) -> (Optio
         }
         Err(why) => (None, Specialised::ByTheDriver(why)),
     }
+}
+
+/// Removes what `specialise` kept for this kernel, if anything: for a
+/// module the driver refused (the kernel is then built as it was).
+pub(crate) fn forget(name: &str, words: &[u32], constants: &[u32]) {
+    if let (_, Some(file)) = cache_entry(name, words, constants) {
+        let _ = std::fs::remove_file(file);
+    }
+}
+
+/// The cache key of a kernel's specialisation and its file (None: no cache folder).
+fn cache_entry(name: &str, words: &[u32], constants: &[u32]) -> (Vec<u8>, Option<std::path::PathBuf>) {
+    let passes = SPECIALISE_PASSES.join(" ");
+    let key = cache::key(&[
+        MAGIC,
+        passes.as_bytes(),
+        name.as_bytes(),
+        bytemuck::cast_slice(constants),
+        bytemuck::cast_slice(words),
+    ]);
+    let file = cache::cache_dir().map(|d| cache::file_for(&d, CACHE, name, &key));
+    (key, file)
 }
 
 /// `words` with each specialization constant whose SpecId is below
