@@ -421,6 +421,20 @@ fn specialised_kernels_give_the_drivers_bits() {
     let (png, kernel) = render("no-spirv-opt", "1", empty, Some(empty));
     same(&png, "without spirv-opt");
     assert!(kernel.contains("(specialised by the driver: cannot run spirv-opt"), "{kernel}");
+    // A spirv-opt that fails: its first line of complaint in the kernel line, the driver's picture.
+    let tools = out_dir().join("specialised-failing-tools");
+    let _ = std::fs::remove_dir_all(&tools);
+    std::fs::create_dir_all(&tools).unwrap();
+    let fake = tools.join("spirv-opt");
+    std::fs::write(&fake, "#!/bin/sh\necho 'error: planted failure' >&2\nexit 1\n").unwrap();
+    std::fs::set_permissions(&fake, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
+    let tools = tools.to_str().unwrap();
+    let (png, kernel) = render("failing-spirv-opt", "1", tools, Some(tools));
+    same(&png, "with a failing spirv-opt");
+    assert!(
+        kernel.contains("(specialised by the driver: spirv-opt failed (exit status: 1): error: planted failure)"),
+        "{kernel}"
+    );
     // Each feature kept and left out: every buffer the CPU build's, bit for bit; each set of constants its own file.
     let configs: [&[&str]; 6] = [
         &[scene, "--spp", "2"],

@@ -36,7 +36,7 @@
 //! (tests/cli.rs `specialised_kernels_give_the_drivers_bits`).
 
 use std::collections::HashMap;
-use std::io::Write;
+use std::io::Read;
 
 use super::spirv::{
     self, checked_instructions, DEC_SPEC_ID, OP_CONSTANT, OP_CONSTANT_FALSE, OP_CONSTANT_TRUE, OP_DECORATE,
@@ -189,43 +189,64 @@ pub(crate) fn freeze(words: &[u32], constants: &[u32]) -> Result<Vec<u32>, Strin
     Ok(out)
 }
 
-/// `frozen` through spirv-opt (`SPECIALISE_PASSES`):
-/// the module on its standard input, the result through a temporary file
-/// (spirv-opt writes its warnings to standard output).
+/// How long spirv-opt may take before it is stopped (it takes about 0.1 s).
+const SPIRV_OPT_LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// `frozen` through spirv-opt (`SPECIALISE_PASSES`), through temporary files
+/// (spirv-opt writes its warnings to standard output, so its result cannot
+/// go there); stopped after `SPIRV_OPT_LIMIT`.
 fn optimise(name: &str, frozen: &[u32]) -> Result<Vec<u32>, String> {
     // Unique per call: threads may specialise kernels of the same name at once.
     static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let out = std::env::temp_dir().join(format!(
-        "raycast-{}-{}-{name}-specialised.spv",
-        std::process::id(),
-        CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-    ));
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let temp =
+        |what: &str| std::env::temp_dir().join(format!("raycast-{}-{call}-{name}-{what}.spv", std::process::id()));
+    let (input, out) = (temp("frozen"), temp("specialised"));
     let result = (|| {
+        std::fs::write(&input, bytemuck::cast_slice::<u32, u8>(frozen))
+            .map_err(|e| format!("cannot write {}: {e}", input.display()))?;
         let mut child = std::process::Command::new(SPIRV_OPT)
             .args(SPECIALISE_PASSES)
-            .arg("-")
+            .arg(&input)
             .arg("-o")
             .arg(&out)
-            .stdin(std::process::Stdio::piped())
-            .stdout(std::process::Stdio::piped())
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::piped())
             .spawn()
             .map_err(|e| format!("cannot run {SPIRV_OPT} (Debian package spirv-tools): {e}"))?;
-        let mut stdin = child.stdin.take().expect("piped");
-        let input: Vec<u8> = bytemuck::cast_slice(frozen).to_vec();
-        // Written from a thread while its output is drained, so that neither side waits on a full pipe.
-        let writer = std::thread::spawn(move || stdin.write_all(&input));
-        let output = child.wait_with_output().map_err(|e| format!("{SPIRV_OPT}: {e}"))?;
-        let written = writer.join().unwrap_or_else(|_| Err(std::io::Error::other("writer panicked")));
-        if !output.status.success() {
-            let said = String::from_utf8_lossy(&output.stderr);
+        let mut stderr = child.stderr.take();
+        let said = std::thread::spawn(move || {
+            let mut text = String::new();
+            if let Some(e) = stderr.as_mut() {
+                let _ = e.read_to_string(&mut text);
+            }
+            text
+        });
+        let start = std::time::Instant::now();
+        let status = loop {
+            match child.try_wait() {
+                Ok(Some(status)) => break status,
+                Ok(None) if start.elapsed() < SPIRV_OPT_LIMIT => {
+                    std::thread::sleep(std::time::Duration::from_millis(2))
+                }
+                Ok(None) => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    return Err(format!("{SPIRV_OPT} took more than {} s and was stopped", SPIRV_OPT_LIMIT.as_secs()));
+                }
+                Err(e) => return Err(format!("{SPIRV_OPT}: {e}")),
+            }
+        };
+        let said = said.join().unwrap_or_default();
+        if !status.success() {
             let first = said.lines().find(|l| !l.trim().is_empty()).unwrap_or("no message");
-            return Err(format!("{SPIRV_OPT} failed ({}): {first}", output.status));
+            return Err(format!("{SPIRV_OPT} failed ({status}): {first}"));
         }
-        written.map_err(|e| format!("cannot give {SPIRV_OPT} the SPIR-V: {e}"))?;
         let bytes = std::fs::read(&out).map_err(|e| format!("cannot read {SPIRV_OPT}'s result: {e}"))?;
         spirv::words(&bytes).ok_or_else(|| format!("{SPIRV_OPT} wrote no SPIR-V"))
     })();
+    let _ = std::fs::remove_file(&input);
     let _ = std::fs::remove_file(&out);
     result
 }
