@@ -222,6 +222,10 @@ struct Row {
     /// CPU rows: the CPU's frame median over the GPU's, and whether their pictures are identical.
     cpu_over_gpu: Option<f64>,
     identical: Option<bool>,
+    /// GPU rows: the time to build the scene's kernel (pipeline or shader
+    /// object; zero where an earlier scene's is the same) and how it was
+    /// built (`Kernel::how_built`).
+    kernel_build: Option<(Duration, Option<String>)>,
 }
 
 /// The median of `values` (the mean of the middle two for an even count);
@@ -332,7 +336,8 @@ impl Row {
                 "\"load_ms\":{},\"build_ms\":{},\"warmup\":{},\"frames\":{},",
                 "\"frame_ms_median\":{},\"frame_ms_min\":{},\"frame_ms_max\":{},\"dispatch_ms_median\":{},",
                 "\"primary_rays_per_frame\":{},\"primary_mrays_per_s\":{},\"all_rays_per_frame\":{},\"all_mrays_per_s\":{},",
-                "\"host_peak_bytes\":{},\"device_bytes\":{},\"cpu_over_gpu\":{},\"identical_to_gpu\":{}}}"
+                "\"host_peak_bytes\":{},\"device_bytes\":{},\"cpu_over_gpu\":{},\"identical_to_gpu\":{},",
+                "\"kernel_build_ms\":{}}}"
             ),
             json_str(&self.scene),
             json_str(self.backend),
@@ -364,6 +369,7 @@ impl Row {
             self.device_bytes.map_or("null".into(), |b| b.to_string()),
             json_num(self.cpu_over_gpu.map(|r| (r * 1e3).round() / 1e3)),
             self.identical.map_or("null".into(), |b| b.to_string()),
+            json_num(self.kernel_build.as_ref().map(|(t, _)| ms_f(*t))),
         )
     }
 
@@ -388,6 +394,14 @@ impl Row {
             mib(self.host_peak),
             self.device_bytes.map_or("- (no upload)".to_string(), |b| mib(Some(b)))
         );
+        match &self.kernel_build {
+            Some((t, _)) if t.is_zero() => s.push_str("\n       kernel: the one built for an earlier scene"),
+            Some((t, how)) => {
+                let how = how.as_ref().map(|h| format!(" ({h})")).unwrap_or_default();
+                let _ = write!(s, "\n       kernel built in {}{how}", ms(*t));
+            }
+            None => {}
+        }
         if let Some(r) = self.cpu_over_gpu {
             let _ = write!(s, "\n       cpu/gpu frame median {r:.2}");
         }
@@ -632,6 +646,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             device_bytes: None,
             cpu_over_gpu: None,
             identical: None,
+            kernel_build: None,
         };
         let peak = |since_reset: Option<u64>| match (load_peak, since_reset) {
             (Some(a), Some(b)) => Some(a.max(b)),
@@ -641,9 +656,12 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         let mut gpu_picture: Option<Picture> = None;
         if let (Some(g), Some(device)) = (&gpu, &gpu_device) {
             // Which kernel: the scene's arrays in uniform or in storage buffers (--scene-buffers).
-            let uniform = g.kernel_for(&loaded.data)?.name() == crate::render::UNIFORM_KERNEL;
+            let compiled_before = g.compile_time();
+            let kernel = g.kernel_for(&loaded.data)?;
+            let uniform = kernel.name() == crate::render::UNIFORM_KERNEL;
             let backend = if uniform { "gpu uniform" } else { "gpu storage" };
             let mut row = row(backend, device);
+            row.kernel_build = Some((g.compile_time() - compiled_before, kernel.how_built()));
             reset_peak_host();
             let timed = (|| {
                 for _ in 0..args.warmup {
@@ -830,6 +848,7 @@ mod tests {
             device_bytes: None,
             cpu_over_gpu: None,
             identical: None,
+            kernel_build: None,
         };
         let rows = [
             row("a", "gpu uniform", 100, 10),
@@ -864,6 +883,7 @@ mod tests {
             device_bytes: Some(2048),
             cpu_over_gpu: None,
             identical: None,
+            kernel_build: Some((Duration::from_micros(43_500), Some("SPIR-V specialised ahead".into()))),
         };
         let j = row.json(&RenderSettings::default(), 1);
         assert!(j.starts_with("{\"scene\":\"a \\\"b\\\"\",\"backend\":\"gpu\""), "{j}");
@@ -875,6 +895,7 @@ mod tests {
             "\"all_rays_per_frame\":4000000,\"all_mrays_per_s\":200,",
             "\"device_bytes\":2048",
             "\"cpu_over_gpu\":null",
+            "\"kernel_build_ms\":43.5}",
         ] {
             assert!(j.contains(needle), "{needle} in {j}");
         }

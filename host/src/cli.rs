@@ -714,20 +714,9 @@ fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Failure>
     let spec = crate::render::Specialization::of(data, &data.frame);
     // The device's division and square root corrected (raycast.glsl div_rn).
     let corrected = renderer.context().division().describe();
-    // A shader object (VK_EXT_shader_object): compiled, or from the binary a run before kept.
-    let object = match kernel.shader_source() {
-        None => "",
-        Some(crate::gpu::ShaderSource::Compiled { kept: true }) => {
-            " (a shader object, compiled; its binary kept for the next run)"
-        }
-        Some(crate::gpu::ShaderSource::Compiled { kept: false }) => {
-            " (a shader object, compiled; its binary could not be kept: no cache folder, or not writable)"
-        }
-        Some(crate::gpu::ShaderSource::Cached) => " (a shader object, from the binary a run before kept)",
-    };
-    // A pipeline specialised ahead of the driver (specialize.rs), or why not.
-    let ahead = kernel.specialised().map(|s| format!(" ({})", s.describe())).unwrap_or_default();
-    outln!("kernel: {}{corrected}{object}{ahead}, specialised for the scene: {}", kernel.name(), spec.describe());
+    // A shader object (compiled, or from the binary a run before kept), or a pipeline specialised ahead.
+    let how = kernel.how_built().map(|h| format!(" ({h})")).unwrap_or_default();
+    outln!("kernel: {}{corrected}{how}, specialised for the scene: {}", kernel.name(), spec.describe());
     Ok(())
 }
 

@@ -199,6 +199,23 @@ impl Kernel {
         self.specialised.as_ref()
     }
 
+    /// How it was built, where that is worth saying (`render`'s kernel line,
+    /// `bench`): a shader object compiled or from a kept binary, or a
+    /// pipeline specialised ahead (or why not); None for a pipeline built
+    /// as everywhere.
+    pub fn how_built(&self) -> Option<String> {
+        let object = |how: &str| Some(format!("a shader object, {how}"));
+        match (self.source, &self.specialised) {
+            (Some(ShaderSource::Compiled { kept: true }), _) => object("compiled; its binary kept for the next run"),
+            (Some(ShaderSource::Compiled { kept: false }), _) => {
+                object("compiled; its binary could not be kept: no cache folder, or not writable")
+            }
+            (Some(ShaderSource::Cached), _) => object("from the binary a run before kept"),
+            (None, Some(specialised)) => Some(specialised.describe()),
+            (None, None) => None,
+        }
+    }
+
     /// Records binding the kernel (its pipeline or shader object) for dispatch.
     pub(crate) fn bind(&self, cmd: vk::CommandBuffer) {
         let d = &self.inner.device;
