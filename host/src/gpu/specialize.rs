@@ -47,6 +47,8 @@ use super::{cache, SPIRV_OPT};
 /// Specialised SPIR-V in the cache folder: `.spv` files, the newest 128
 /// kept (about 200 KB each with their keys; the whole test suite makes 38).
 const CACHE: cache::Kind = cache::Kind { extension: "spv", keep: 128 };
+/// The first part of every key; its number goes up whenever `freeze` or
+/// the file's content changes meaning (the passes are in the key already).
 const MAGIC: &[u8] = b"raycast specialised SPIR-V 1\n";
 
 /// spirv-opt's passes on the frozen module, which has had the build's
