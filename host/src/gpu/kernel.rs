@@ -187,18 +187,6 @@ impl Kernel {
         &self.name
     }
 
-    /// None for a pipeline; for a shader object, whether it was compiled
-    /// or made from the binary a run before kept (shader_object.rs).
-    pub fn shader_source(&self) -> Option<ShaderSource> {
-        self.source
-    }
-
-    /// For a pipeline on a device that specialises ahead (specialize.rs),
-    /// how its constants were applied; else None.
-    pub fn specialised(&self) -> Option<&Specialised> {
-        self.specialised.as_ref()
-    }
-
     /// How it was built, where that is worth saying (`render`'s kernel line,
     /// `bench`): a shader object compiled or from a kept binary, or a
     /// pipeline specialised ahead (or why not); None for a pipeline built

@@ -51,5 +51,5 @@ pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};
 pub use kernel::Kernel;
 pub use present::{PresentMode, Swapchain};
-pub use shader_object::ShaderSource;
-pub use specialize::Specialised;
+pub(crate) use shader_object::ShaderSource;
+pub(crate) use specialize::Specialised;
