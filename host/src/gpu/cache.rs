@@ -71,7 +71,10 @@ pub(crate) fn write(file: &Path, kind: Kind, key: &[u8], kept: &[u8]) -> std::io
     bytes.extend_from_slice(key);
     bytes.extend_from_slice(&fnv1a(kept).to_le_bytes());
     bytes.extend_from_slice(kept);
-    let tmp = file.with_extension(format!("tmp{}", std::process::id()));
+    // Beside it (a rename within the folder), unique to this process and call; not of its kind.
+    let name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let unique = super::environment::temp_file(&format!("{name}.tmp"));
+    let tmp = dir.join(unique.file_name().unwrap_or_default());
     std::fs::write(&tmp, &bytes)?;
     std::fs::rename(&tmp, file)?;
     let mut files: Vec<(std::time::SystemTime, PathBuf)> = std::fs::read_dir(dir)?

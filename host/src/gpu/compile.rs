@@ -12,12 +12,8 @@ pub fn compile_kernel(src: &Path, division: Division) -> Result<Vec<u8>, String>
         return Err(format!("kernel source {} does not exist", src.display()));
     }
     let include = src.parent().unwrap_or(Path::new("."));
-    // Unique per call: threads may compile kernels of the same name at once.
-    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let out = std::env::temp_dir().join(format!(
-        "raycast-{}-{}-{}.spv",
-        std::process::id(),
-        CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+    let out = super::environment::temp_file(&format!(
+        "{}.spv",
         src.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
     ));
     let result = glsl_to_spirv(src, include, &out, division)

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use ash::vk;
 
+use super::environment;
 use super::float_controls;
 use super::image::layout_barrier;
 use super::present::Surface;
@@ -444,11 +445,8 @@ impl InstanceParts {
             // CORRECT_DIVISION correct (raycast.glsl div_rn).
             // RAYCAST_INEXACT_DIVISION=0 or 1 overrides, to measure the
             // correction's cost.
-            let inexact_division = match std::env::var("RAYCAST_INEXACT_DIVISION").as_deref() {
-                Ok("1") => true,
-                Ok("0") => false,
-                _ => props.device_type != vk::PhysicalDeviceType::CPU,
-            };
+            let inexact_division = environment::switch("RAYCAST_INEXACT_DIVISION")
+                .unwrap_or(props.device_type != vk::PhysicalDeviceType::CPU);
             let yes_no = |b: bool, yes: &str, no: &str| if b { yes.to_string() } else { no.to_string() };
             let arithmetic = [
                 yes_no(
@@ -520,11 +518,8 @@ impl Drop for InstanceParts {
 /// The residuals RAYCAST_FMA_RESIDUALS forces past the fma probe: 1 fma's,
 /// 0 Dekker's (`GpuContext::division`); None when it is unset or another value.
 pub fn forced_residuals() -> Option<Division> {
-    match std::env::var("RAYCAST_FMA_RESIDUALS").as_deref() {
-        Ok("1") => Some(Division::CorrectedFma),
-        Ok("0") => Some(Division::Corrected),
-        _ => None,
-    }
+    environment::switch("RAYCAST_FMA_RESIDUALS")
+        .map(|fma| if fma { Division::CorrectedFma } else { Division::Corrected })
 }
 
 impl GpuContext {

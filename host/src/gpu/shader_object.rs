@@ -61,11 +61,7 @@ pub enum ShaderSource {
 /// cache of pipelines, and this path has not been run on a GPU), unless
 /// RAYCAST_SHADER_OBJECTS says otherwise: 0 never, 1 wherever offered.
 pub(crate) fn chosen(offered: bool, cpu: bool) -> bool {
-    match std::env::var("RAYCAST_SHADER_OBJECTS").as_deref() {
-        Ok("0") => false,
-        Ok("1") => offered,
-        _ => offered && cpu,
-    }
+    offered && super::environment::switch("RAYCAST_SHADER_OBJECTS").unwrap_or(cpu)
 }
 
 /// The first Khronos validation layer taken to validate shader objects:

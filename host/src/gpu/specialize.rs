@@ -73,11 +73,7 @@ pub const SPECIALISE_PASSES: &[&str] = &[
 /// runs on the CPU (`cpu`), unless RAYCAST_SPECIALIZE says otherwise: 0
 /// never, 1 on every device.
 pub(crate) fn chosen(cpu: bool) -> bool {
-    match std::env::var("RAYCAST_SPECIALIZE").as_deref() {
-        Ok("0") => false,
-        Ok("1") => true,
-        _ => cpu,
-    }
+    super::environment::switch("RAYCAST_SPECIALIZE").unwrap_or(cpu)
 }
 
 /// How a kernel's specialization constants were applied, for its pipeline.
@@ -198,11 +194,7 @@ const SPIRV_OPT_LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
 /// (spirv-opt writes its warnings to standard output, so its result cannot
 /// go there); stopped after `SPIRV_OPT_LIMIT`.
 fn optimise(name: &str, frozen: &[u32]) -> Result<Vec<u32>, String> {
-    // Unique per call: threads may specialise kernels of the same name at once.
-    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let temp =
-        |what: &str| std::env::temp_dir().join(format!("raycast-{}-{call}-{name}-{what}.spv", std::process::id()));
+    let temp = |what: &str| super::environment::temp_file(&format!("{name}-{what}.spv"));
     let (input, out) = (temp("frozen"), temp("specialised"));
     let result = (|| {
         std::fs::write(&input, bytemuck::cast_slice::<u32, u8>(frozen))
