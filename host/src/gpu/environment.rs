@@ -89,6 +89,27 @@ pub(crate) fn own_driver_choice(message: &str) -> bool {
         && message.contains("env var 'VK_LOADER_DRIVERS_")
 }
 
+/// An on/off override in the environment: Some(false) when `var` is "0",
+/// Some(true) when it is "1", None when unset or anything else (the
+/// default rule applies). RAYCAST_SHADER_OBJECTS, RAYCAST_SPECIALIZE,
+/// RAYCAST_INEXACT_DIVISION and RAYCAST_FMA_RESIDUALS read this way.
+pub(crate) fn switch(var: &str) -> Option<bool> {
+    match std::env::var(var).as_deref() {
+        Ok("0") => Some(false),
+        Ok("1") => Some(true),
+        _ => None,
+    }
+}
+
+/// A path in the temporary folder for one call's file, unique to this
+/// process and call (threads may work on files of the same name at once):
+/// raycast-PID-N-NAME.
+pub(crate) fn temp_file(name: &str) -> std::path::PathBuf {
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    std::env::temp_dir().join(format!("raycast-{}-{call}-{name}", std::process::id()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -125,25 +146,4 @@ mod tests {
         assert!(!own("loader_scan_for_implicit_layers: Implicit layer VkLayer_X ignored because it was disabled by env var 'VK_LOADER_LAYERS_DISABLE'"));
         assert!(!own("Validation Error: [ VUID-vkCmdDispatch-None-02697 ] Driver state is invalid"));
     }
-}
-
-/// An on/off override in the environment: Some(false) when `var` is "0",
-/// Some(true) when it is "1", None when unset or anything else (the
-/// default rule applies). RAYCAST_SHADER_OBJECTS, RAYCAST_SPECIALIZE,
-/// RAYCAST_INEXACT_DIVISION and RAYCAST_FMA_RESIDUALS read this way.
-pub(crate) fn switch(var: &str) -> Option<bool> {
-    match std::env::var(var).as_deref() {
-        Ok("0") => Some(false),
-        Ok("1") => Some(true),
-        _ => None,
-    }
-}
-
-/// A path in the temporary folder for one call's file, unique to this
-/// process and call (threads may work on files of the same name at once):
-/// raycast-PID-N-NAME.
-pub(crate) fn temp_file(name: &str) -> std::path::PathBuf {
-    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    std::env::temp_dir().join(format!("raycast-{}-{call}-{name}", std::process::id()))
 }
