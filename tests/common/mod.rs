@@ -94,8 +94,9 @@ pub fn text(o: &Output) -> (String, String) {
 }
 
 /// The kernel a `render` or `check` names in its first `kernel:` line, up to
-/// the parenthesis a shader object adds or the comma before what it was
-/// specialised for: `render_uniform with CORRECT_DIVISION`.
+/// the parenthesis that says how it was built (a shader object, a pipeline
+/// specialised ahead) or the comma before what it was specialised for:
+/// `render_uniform with CORRECT_DIVISION`.
 pub fn kernel_name(stdout: &str) -> Option<&str> {
     let line = stdout.lines().find_map(|l| l.strip_prefix("kernel: "))?;
     Some(line[..line.find([',', '(']).unwrap_or(line.len())].trim_end())
