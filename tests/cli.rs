@@ -14,6 +14,13 @@ fn out_dir() -> PathBuf {
     d
 }
 
+/// A cache folder (RAYCAST_CACHE_DIR) of its own for one test, emptied.
+fn empty_cache(name: &str) -> PathBuf {
+    let cache = out_dir().join(name);
+    let _ = std::fs::remove_dir_all(&cache);
+    cache
+}
+
 /// `raycast ARGS` run in `dir`, emptied first: what it writes by default lands there.
 fn raycast_in(dir: &Path, args: &[&str]) -> Output {
     let _ = std::fs::remove_dir_all(dir);
@@ -265,8 +272,7 @@ fn unwritable_output() {
 /// shader objects.
 #[test]
 fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
-    let cache = out_dir().join("shader-object-cache");
-    let _ = std::fs::remove_dir_all(&cache);
+    let cache = empty_cache("shader-object-cache");
     let cache_text = cache.to_str().unwrap();
     let scene = repo().join("scenes/default.xml");
     // `render` of the default scene at 64x48 with `flags`, validation off unless `env` says otherwise.
@@ -346,8 +352,7 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
 /// Shader objects off: they keep the driver's own result instead.
 #[test]
 fn specialised_kernels_give_the_drivers_bits() {
-    let cache = out_dir().join("specialised-cache");
-    let _ = std::fs::remove_dir_all(&cache);
+    let cache = empty_cache("specialised-cache");
     let cache_text = cache.to_str().unwrap();
     let scene = repo().join("scenes/default.xml");
     let scene = scene.to_str().unwrap();
