@@ -126,14 +126,63 @@ pub const SPIRV_OPT_PASSES: &[&str] = &[
 /// Optimizes the SPIR-V file `spv` in place (`SPIRV_OPT_PASSES`); the error
 /// carries spirv-opt's messages.
 pub fn optimize_spirv(spv: &std::path::Path) -> Result<(), String> {
-    let output = std::process::Command::new(SPIRV_OPT)
-        .args(SPIRV_OPT_PASSES)
-        .arg(spv)
-        .arg("-o")
-        .arg(spv)
-        .output()
-        .map_err(|e| format!("cannot run {SPIRV_OPT} (Debian package spirv-tools): {e}"))?;
+    let mut command = std::process::Command::new(SPIRV_OPT);
+    command.args(SPIRV_OPT_PASSES).arg(spv).arg("-o").arg(spv);
+    let output = run_tool(SPIRV_OPT, "spirv-tools", command, TOOL_LIMIT)?;
     tool_result(SPIRV_OPT, spv, &output)
+}
+
+/// How long glslang or spirv-opt may take on one kernel before it is
+/// stopped: each takes well under a second; a tool that hangs must not
+/// hang the build, `--shaders` or a render with it.
+pub const TOOL_LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// Runs `command` (the tool `tool`, from the Debian package `package`)
+/// with no input, its output and messages collected, and stops it after
+/// `limit` (`TOOL_LIMIT`). The error says which, where it cannot be run or
+/// was stopped; a tool that ran and failed is Ok, its status in the output.
+pub fn run_tool(
+    tool: &str,
+    package: &str,
+    mut command: std::process::Command,
+    limit: std::time::Duration,
+) -> Result<std::process::Output, String> {
+    use std::io::Read;
+    use std::process::Stdio;
+    let mut child = command
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot run {tool} (Debian package {package}): {e}"))?;
+    // Read on threads of their own, so that a tool that fills one pipe
+    // while we wait on the other cannot stall.
+    fn drain<R: Read + Send + 'static>(pipe: Option<R>) -> std::thread::JoinHandle<Vec<u8>> {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_end(&mut bytes);
+            }
+            bytes
+        })
+    }
+    let (stdout, stderr) = (drain(child.stdout.take()), drain(child.stderr.take()));
+    let start = std::time::Instant::now();
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(status)) => break status,
+            Ok(None) if start.elapsed() < limit => std::thread::sleep(std::time::Duration::from_millis(2)),
+            Ok(None) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(format!("{tool} took more than {:.1} s and was stopped", limit.as_secs_f64()));
+            }
+            Err(e) => return Err(format!("{tool}: {e}")),
+        }
+    };
+    let stdout = stdout.join().unwrap_or_default();
+    let stderr = stderr.join().unwrap_or_default();
+    Ok(std::process::Output { status, stdout, stderr })
 }
 
 /// Ok when `tool` succeeded on `path`, else its messages.
@@ -159,10 +208,9 @@ pub fn glsl_to_spirv(
     spv: &std::path::Path,
     division: Division,
 ) -> Result<(), String> {
-    let output = std::process::Command::new(GLSLANG)
-        .args(glslang_args(src, include, spv, division))
-        .output()
-        .map_err(|e| format!("cannot run {GLSLANG} (Debian package glslang-tools): {e}"))?;
+    let mut command = std::process::Command::new(GLSLANG);
+    command.args(glslang_args(src, include, spv, division));
+    let output = run_tool(GLSLANG, "glslang-tools", command, TOOL_LIMIT)?;
     tool_result(GLSLANG, src, &output)?;
     optimize_spirv(spv)
 }

@@ -36,13 +36,12 @@
 //! (tests/cli.rs `specialised_kernels_give_the_drivers_bits`).
 
 use std::collections::HashMap;
-use std::io::Read;
 
 use super::spirv::{
     self, checked_instructions, DEC_SPEC_ID, OP_CONSTANT, OP_CONSTANT_FALSE, OP_CONSTANT_TRUE, OP_DECORATE,
     OP_SPEC_CONSTANT, OP_SPEC_CONSTANT_FALSE, OP_SPEC_CONSTANT_TRUE,
 };
-use super::{cache, SPIRV_OPT};
+use super::{cache, run_tool, SPIRV_OPT, TOOL_LIMIT};
 
 /// Specialised SPIR-V in the cache folder: `.spv` files, the newest 128
 /// kept (about 200 KB each with their keys; the whole test suite makes 38).
@@ -187,55 +186,22 @@ pub(crate) fn freeze(words: &[u32], constants: &[u32]) -> Result<Vec<u32>, Strin
     Ok(out)
 }
 
-/// How long spirv-opt may take before it is stopped (it takes about 0.1 s).
-const SPIRV_OPT_LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
-
 /// `frozen` through spirv-opt (`SPECIALISE_PASSES`), through temporary files
 /// (spirv-opt writes its warnings to standard output, so its result cannot
-/// go there); stopped after `SPIRV_OPT_LIMIT`.
+/// go there); stopped after `TOOL_LIMIT` (it takes about 0.1 s).
 fn optimise(name: &str, frozen: &[u32]) -> Result<Vec<u32>, String> {
     let temp = |what: &str| super::environment::temp_file(&format!("{name}-{what}.spv"));
     let (input, out) = (temp("frozen"), temp("specialised"));
     let result = (|| {
         std::fs::write(&input, bytemuck::cast_slice::<u32, u8>(frozen))
             .map_err(|e| format!("cannot write {}: {e}", input.display()))?;
-        let mut child = std::process::Command::new(SPIRV_OPT)
-            .args(SPECIALISE_PASSES)
-            .arg(&input)
-            .arg("-o")
-            .arg(&out)
-            .stdin(std::process::Stdio::null())
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .map_err(|e| format!("cannot run {SPIRV_OPT} (Debian package spirv-tools): {e}"))?;
-        let mut stderr = child.stderr.take();
-        let said = std::thread::spawn(move || {
-            let mut text = String::new();
-            if let Some(e) = stderr.as_mut() {
-                let _ = e.read_to_string(&mut text);
-            }
-            text
-        });
-        let start = std::time::Instant::now();
-        let status = loop {
-            match child.try_wait() {
-                Ok(Some(status)) => break status,
-                Ok(None) if start.elapsed() < SPIRV_OPT_LIMIT => {
-                    std::thread::sleep(std::time::Duration::from_millis(2))
-                }
-                Ok(None) => {
-                    let _ = child.kill();
-                    let _ = child.wait();
-                    return Err(format!("{SPIRV_OPT} took more than {} s and was stopped", SPIRV_OPT_LIMIT.as_secs()));
-                }
-                Err(e) => return Err(format!("{SPIRV_OPT}: {e}")),
-            }
-        };
-        let said = said.join().unwrap_or_default();
-        if !status.success() {
+        let mut command = std::process::Command::new(SPIRV_OPT);
+        command.args(SPECIALISE_PASSES).arg(&input).arg("-o").arg(&out);
+        let output = run_tool(SPIRV_OPT, "spirv-tools", command, TOOL_LIMIT)?;
+        if !output.status.success() {
+            let said = String::from_utf8_lossy(&output.stderr);
             let first = said.lines().find(|l| !l.trim().is_empty()).unwrap_or("no message");
-            return Err(format!("{SPIRV_OPT} failed ({status}): {first}"));
+            return Err(format!("{SPIRV_OPT} failed ({}): {first}", output.status));
         }
         let bytes = std::fs::read(&out).map_err(|e| format!("cannot read {SPIRV_OPT}'s result: {e}"))?;
         spirv::words(&bytes).ok_or_else(|| format!("{SPIRV_OPT} wrote no SPIR-V"))

@@ -683,3 +683,29 @@ fn context_and_kernel_can_be_shared_between_threads() {
     send_sync::<Kernel>();
     send_sync::<GpuError>();
 }
+
+#[test]
+fn a_tool_that_hangs_is_stopped() {
+    // Without the limit this would wait 30 s and then succeed.
+    let mut sleep = Command::new("sleep");
+    sleep.arg("30");
+    let e = run_tool("sleep", "coreutils", sleep, Duration::from_millis(200)).unwrap_err();
+    assert_eq!(e, "sleep took more than 0.2 s and was stopped");
+}
+
+#[test]
+fn a_tool_is_read_on_both_pipes_at_once() {
+    // More than a pipe holds (64 KiB), on standard output and then on standard error:
+    // read one pipe after the other, the tool would stall on the second and be stopped.
+    let mut chatty = Command::new("sh");
+    chatty.args(["-c", "head -c 300000 /dev/zero; head -c 200000 /dev/zero >&2; exit 3"]);
+    let out = run_tool("sh", "dash", chatty, Duration::from_secs(20)).unwrap();
+    assert_eq!((out.stdout.len(), out.stderr.len(), out.status.code()), (300_000, 200_000, Some(3)));
+}
+
+#[test]
+fn a_tool_that_is_not_installed_is_named_with_its_package() {
+    let missing = Command::new("raycast-no-such-tool");
+    let e = run_tool("raycast-no-such-tool", "no-such-package", missing, TOOL_LIMIT).unwrap_err();
+    assert!(e.starts_with("cannot run raycast-no-such-tool (Debian package no-such-package): "), "{e}");
+}
