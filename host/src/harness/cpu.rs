@@ -15,6 +15,9 @@ use super::glsl::{Function, ShaderInfo};
 
 /// The C++ compiler (Debian: g++ through the c++ alternative).
 const CXX: &str = "c++";
+/// How long one build of a case library may take before it is stopped
+/// (a few seconds on a 2-core machine): a compiler that hangs fails the run.
+const CXX_LIMIT: std::time::Duration = std::time::Duration::from_secs(600);
 /// The flags file shared with host/cpu/CMakeLists.txt.
 const EXACTNESS_FLAGS: &str = include_str!("../../cpu/exactness-flags.txt");
 
@@ -84,10 +87,11 @@ impl CpuLibrary {
                 cmd.arg(format!("-I{}", dir.display()));
             }
             cmd.arg("-o").arg(&tmp).arg(&cpp);
-            let out = cmd.output().map_err(|e| format!("cannot run {CXX} (Debian package g++): {e}"))?;
+            let described = format!("{cmd:?}");
+            let out = crate::gpu::run_tool(CXX, "g++", cmd, CXX_LIMIT)?;
             if !out.status.success() {
                 return Err(format!(
-                    "the C++ build of {} failed ({cmd:?}):\n{}{}",
+                    "the C++ build of {} failed ({described}):\n{}{}",
                     functions.iter().map(|f| f.name.as_str()).collect::<Vec<_>>().join(", "),
                     String::from_utf8_lossy(&out.stdout),
                     String::from_utf8_lossy(&out.stderr)
