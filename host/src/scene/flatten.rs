@@ -622,9 +622,10 @@ mod tests {
         assert_eq!(s.flat_primitives().len(), 187);
         assert!(s.flat_primitives().iter().all(|p| p.shape == Shape::Cone));
         assert_eq!(s.materials.len(), 187);
-        // Without assets folders the corpus textures are not found: warnings only.
+        // Without assets folders the corpus textures are found in the corpus
+        // root, the folder above the scene's, with a warning at each use.
         let s = load(&root.join("test_efficiency/recursiveSpheres4.xml"), &ParseOptions::default(), &limits).unwrap();
         assert_eq!(s.warnings.len(), 4);
-        assert!(s.warnings.iter().all(|w| w.message.contains("not found")));
+        assert!(s.warnings.iter().all(|w| w.message.contains("found 1 folder above the scene's")), "{:?}", s.warnings);
     }
 }

@@ -172,6 +172,11 @@ fn sat_u32(v: usize) -> u32 {
     u32::try_from(v).unwrap_or(u32::MAX)
 }
 
+/// How many folders above a scene's own a relative image path is looked
+/// for in, after the scene's folder and the assets folders: a corpus root
+/// is one or two above its scenes.
+const FOLDERS_ABOVE: usize = 3;
+
 fn parse_text(text: &str, file: Arc<PathBuf>, opts: &ParseOptions) -> Result<SceneFile, SceneError> {
     // A UTF-8 byte-order mark is invisible in editors: drop it so columns on
     // line 1 match what the user sees.
@@ -1293,8 +1298,9 @@ impl<'a> Ctx<'a> {
     }
 
     /// Where an image is: relative paths against the XML file's folder, then
-    /// each assets folder; absolute paths as they are, else their file name
-    /// in those folders. With what to warn about, if anything.
+    /// each assets folder, then the `FOLDERS_ABOVE` folders above the XML
+    /// file's (with a warning); absolute paths as they are, else their file
+    /// name in the first folders. With what to warn about, if anything.
     fn lookup(&self, el: &str, file: &str) -> (Option<PathBuf>, Option<String>) {
         let p = Path::new(file);
         let mut dirs = vec![self.base_dir.clone()];
@@ -1323,10 +1329,28 @@ impl<'a> Ctx<'a> {
                 }
                 tried.push(c);
             }
+            // The course's paths are relative to the corpus root, a folder
+            // that holds the scene's (corpus/test_x/scene.xml names
+            // image/y.png): the folders above the scene's, nearest first.
+            let scene_dir = std::fs::canonicalize(&self.base_dir).unwrap_or_else(|_| self.base_dir.clone());
+            for (up, above) in scene_dir.ancestors().enumerate().skip(1).take(FOLDERS_ABOVE) {
+                let c = above.join(p);
+                if c.is_file() {
+                    let folders = if up == 1 { "folder" } else { "folders" };
+                    let msg = format!(
+                        "<{el}> file \"{file}\" found {up} {folders} above the scene's, in \"{}\" (the format's paths are relative to the corpus root): using it; --assets {} says so and quiets this",
+                        above.display(),
+                        above.display()
+                    );
+                    return (Some(c), Some(msg));
+                }
+            }
         }
         let tried: Vec<String> = tried.iter().map(|t| format!("\"{}\"", t.display())).collect();
+        let above =
+            if p.is_absolute() { String::new() } else { format!(" and the {FOLDERS_ABOVE} folders above the scene's") };
         let msg = format!(
-            "<{el}> file \"{file}\" not found (tried {}): pass the folder that holds it with --assets DIR, or render with --no-textures",
+            "<{el}> file \"{file}\" not found (tried {}{above}): pass the folder that holds it with --assets DIR, or render with --no-textures",
             tried.join(", ")
         );
         (None, Some(msg))
@@ -1712,6 +1736,30 @@ mod tests {
         let m = &w[0].message;
         assert!(m.contains("not found") && m.contains(&scene_dir.join("image/missing.png").display().to_string()));
         assert!(m.contains(&assets.join("image/missing.png").display().to_string()), "{m}");
+        assert!(m.contains("and the 3 folders above the scene's)"), "{m}");
+        // In a folder above the scene's (a corpus root: paths relative to it),
+        // after the scene's folder and the assets: used, with a warning
+        // naming the folder; the scene's own folder and the assets first.
+        let root = dir.canonicalize().unwrap();
+        std::fs::create_dir_all(root.join("image")).unwrap();
+        std::fs::write(root.join("image/up.png"), b"x").unwrap();
+        std::fs::write(root.join("image/a.png"), b"x").unwrap();
+        let (r, w) = tex("image/up.png");
+        assert_eq!(r, Some(root.join("image/up.png")));
+        assert_eq!(w.len(), 1);
+        let m = &w[0].message;
+        assert!(m.contains(&format!("found 1 folder above the scene's, in \"{}\"", root.display())), "{m}");
+        assert!(m.contains(&format!("--assets {} says so", root.display())), "{m}");
+        let (r, w) = tex("image/a.png");
+        assert_eq!((r, w.len()), (Some(assets.join("image/a.png")), 0));
+        // No further than FOLDERS_ABOVE: a scene four folders below the image.
+        let deep = root.join("scenes/a/b/c");
+        std::fs::create_dir_all(&deep).unwrap();
+        let xml = prim("cube", "<texture file=\"image/up.png\"/>");
+        let f = parse_str(&xml, &deep.join("s.xml"), &opts()).unwrap();
+        assert_eq!(first_prim(&f).1.texture.as_ref().unwrap().resolved, None);
+        let f = parse_str(&xml, &root.join("scenes/a/b/s.xml"), &opts()).unwrap();
+        assert_eq!(first_prim(&f).1.texture.as_ref().unwrap().resolved, Some(root.join("image/up.png")));
         let _ = std::fs::remove_dir_all(&dir);
     }
 
