@@ -48,7 +48,18 @@ fn raycast(args: &[&str]) -> Output {
 
 /// `raycast preview ARGS` in a window: under `xvfb-run -a` (a private X
 /// server), which is how CI runs it.
+/// The device draws (`--backend gpu`) unless `args` say who does: these
+/// tests are of the device's preview kernel, which `--backend auto`, the
+/// default, leaves to the CPU build on lavapipe.
 fn preview(args: &[&str]) -> Output {
+    if args.contains(&"--backend") {
+        return preview_as_given(args);
+    }
+    preview_as_given(&[args, &["--backend", "gpu"]].concat())
+}
+
+/// `raycast preview ARGS` as they are (`preview`).
+fn preview_as_given(args: &[&str]) -> Output {
     let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let mut cmd = Command::new("xvfb-run");
     cmd.args(["-a", "-s", "-screen 0 1280x1024x24", env!("CARGO_BIN_EXE_raycast"), "preview"])
@@ -182,8 +193,8 @@ fn first_frame_without_the_uniform_kernel_is_the_render() {
 /// frames (jittered samples summed the same way), and after two frames
 /// that steer (smaller frames, which `--moving` times) and two at rest.
 /// `--backend auto` takes the CPU build where the device is of type CPU
-/// (lavapipe) and the device elsewhere; `--backend cpu` with `--shaders`
-/// (which only the device's kernel follows) is a usage error.
+/// (lavapipe) and the device elsewhere, and is the default; `--backend cpu`
+/// with `--shaders` (which only the device's kernel follows) is a usage error.
 #[test]
 fn the_cpu_build_draws_the_devices_samples() {
     for (frames, extra) in [(1, &[][..]), (8, &[][..]), (4, &["--moving", "2"][..])] {
@@ -194,10 +205,14 @@ fn the_cpu_build_draws_the_devices_samples() {
     }
     let o = preview(&["--width", "32", "--height", "24", "--frames", "1", "--backend", "auto"]);
     assert_clean(&o, "preview --backend auto");
-    let gpu = preview(&["--width", "32", "--height", "24", "--frames", "1"]);
+    let gpu = preview(&["--width", "32", "--height", "24", "--frames", "1", "--backend", "gpu"]);
     let line =
         |o: &Output| String::from_utf8_lossy(&o.stdout).lines().find(|l| l.starts_with("device: ")).map(str::to_string);
     let (auto, device) = (line(&o).unwrap_or_default(), line(&gpu).unwrap_or_default());
+    // auto is the default.
+    let default = preview_as_given(&["--width", "32", "--height", "24", "--frames", "1"]);
+    assert_clean(&default, "preview without --backend");
+    assert_eq!(line(&default).unwrap_or_default(), auto, "the default backend is not auto's choice");
     if device.contains(" (cpu, Vulkan") {
         let name = device["device: ".len()..].split(" (cpu, Vulkan").next().unwrap();
         assert!(

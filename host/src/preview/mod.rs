@@ -62,10 +62,10 @@ pub struct PreviewArgs {
     /// Who draws the samples: the Vulkan device, or the C++ build of the
     /// shared GLSL on every core (the same pixels; the device still shows
     /// them), or auto: the CPU build where the device runs on the CPU
-    /// (lavapipe, where it is the faster), the device with --shaders. An
-    /// edited shader hands the drawing to the device (the CPU build cannot
-    /// follow it); B in the window switches who draws.
-    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    /// (lavapipe, where it is the faster), the device otherwise and with
+    /// --shaders. An edited shader hands the drawing to the device (the CPU
+    /// build cannot follow it); B in the window switches who draws.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
     pub backend: Backend,
     /// Shader folder to watch and recompile preview.comp from [default: the source tree's shaders/].
     #[arg(long, value_name = "DIR")]
