@@ -14,11 +14,13 @@ fn out_dir() -> PathBuf {
     d
 }
 
-/// A cache folder (RAYCAST_CACHE_DIR) of its own for one test, emptied.
-fn empty_cache(name: &str) -> PathBuf {
-    let cache = out_dir().join(name);
-    let _ = std::fs::remove_dir_all(&cache);
-    cache
+/// A folder of its own for one test (a RAYCAST_CACHE_DIR, a PATH of
+/// planted tools), emptied.
+fn empty_dir(name: &str) -> PathBuf {
+    let dir = out_dir().join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }
 
 /// `raycast ARGS` run in `dir`, emptied first: what it writes by default lands there.
@@ -272,7 +274,7 @@ fn unwritable_output() {
 /// shader objects.
 #[test]
 fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
-    let cache = empty_cache("shader-object-cache");
+    let cache = empty_dir("shader-object-cache");
     let cache_text = cache.to_str().unwrap();
     let scene = repo().join("scenes/default.xml");
     // `render` of the default scene at 64x48 with `flags`, validation off unless `env` says otherwise.
@@ -352,7 +354,7 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
 /// Shader objects off: they keep the driver's own result instead.
 #[test]
 fn specialised_kernels_give_the_drivers_bits() {
-    let cache = empty_cache("specialised-cache");
+    let cache = empty_dir("specialised-cache");
     let cache_text = cache.to_str().unwrap();
     let scene = repo().join("scenes/default.xml");
     let scene = scene.to_str().unwrap();
@@ -419,17 +421,13 @@ fn specialised_kernels_give_the_drivers_bits() {
     let (_, kernel) = render("after-refused", "1", cache_text, None);
     assert!(kernel.contains("(SPIR-V specialised ahead by spirv-opt, kept for the next run)"), "{kernel}");
     // No spirv-opt (a PATH without it, an empty cache): the driver specialises, and the line says why.
-    let empty = out_dir().join("specialised-no-tools");
-    let _ = std::fs::remove_dir_all(&empty);
-    std::fs::create_dir_all(&empty).unwrap();
+    let empty = empty_dir("specialised-no-tools");
     let empty = empty.to_str().unwrap();
     let (png, kernel) = render("no-spirv-opt", "1", empty, Some(empty));
     same(&png, "without spirv-opt");
     assert!(kernel.contains("(specialised by the driver: cannot run spirv-opt"), "{kernel}");
     // A spirv-opt that fails: its first line of complaint in the kernel line, the driver's picture.
-    let tools = out_dir().join("specialised-failing-tools");
-    let _ = std::fs::remove_dir_all(&tools);
-    std::fs::create_dir_all(&tools).unwrap();
+    let tools = empty_dir("specialised-failing-tools");
     let fake = tools.join("spirv-opt");
     std::fs::write(&fake, "#!/bin/sh\necho 'error: planted failure' >&2\nexit 1\n").unwrap();
     std::fs::set_permissions(&fake, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();

@@ -1,4 +1,6 @@
-// The one place that says how GLSL becomes SPIR-V: glslang, then spirv-opt.
+// The one place that says how GLSL becomes SPIR-V: glslang, then spirv-opt;
+// and how such a tool is run (`run_tool`: both pipes read, stopped after a
+// limit), which shader-test's C++ build uses too.
 // Included by build.rs (build time) and by the host (runtime recompiles);
 // CMakeLists.txt calls glslang with the same arguments and build.rs runs
 // spirv-opt on what it made.
