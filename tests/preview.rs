@@ -60,12 +60,18 @@ fn preview(args: &[&str]) -> Output {
 
 /// `raycast preview ARGS` as they are (`preview`).
 fn preview_as_given(args: &[&str]) -> Output {
+    preview_on("-screen 0 1280x1024x24", &[], args)
+}
+
+/// `raycast preview ARGS` with `env` under an X server started with `server` (Xvfb's options).
+fn preview_on(server: &str, env: &[(&str, &str)], args: &[&str]) -> Output {
     let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let mut cmd = Command::new("xvfb-run");
-    cmd.args(["-a", "-s", "-screen 0 1280x1024x24", env!("CARGO_BIN_EXE_raycast"), "preview"])
+    cmd.args(["-a", "-s", server, env!("CARGO_BIN_EXE_raycast"), "preview"])
         .args(args)
         .env("RAYCAST_VALIDATION", "1")
-        .env("RAYCAST_CACHE_DIR", common::shader_cache());
+        .env("RAYCAST_CACHE_DIR", common::shader_cache())
+        .envs(env.iter().copied());
     cmd.output().unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"))
 }
 
@@ -348,6 +354,32 @@ fn no_display_is_a_clear_error() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(err.contains("cannot open a window") && err.contains("xvfb-run"), "{}", text(&o));
     assert!(!err.contains("panicked"), "{}", text(&o));
+}
+
+/// The window's veto of a device, asked before its driver is: NVIDIA's
+/// crashes when asked to present to an X display without GLX (seen on an
+/// H100 under Xvfb), so the preview asks the display first and refuses with
+/// the reason. RAYCAST_WINDOW_NEEDS_GLX=1 applies that rule to lavapipe:
+/// refused where Xvfb runs without GLX, shown where it has GLX (the display
+/// is asked, not assumed), and the device's own rule (lavapipe needs no GLX)
+/// shows the picture on the display without GLX.
+#[test]
+fn a_display_without_glx_is_refused_for_a_driver_that_needs_it() {
+    let without_glx = "-screen 0 1280x1024x24 -extension GLX";
+    let needs = [("RAYCAST_WINDOW_NEEDS_GLX", "1")];
+    let o = preview_on(without_glx, &needs, &["--backend", "gpu", "--frames", "1"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        err.contains("cannot present to this window") && err.contains("has no GLX extension"),
+        "the refusal and its reason:\n{}",
+        text(&o)
+    );
+    assert!(!err.contains("panicked"), "{}", text(&o));
+    let o = preview_on("-screen 0 1280x1024x24 +extension GLX", &needs, &["--backend", "gpu", "--frames", "1"]);
+    assert_clean(&o, "RAYCAST_WINDOW_NEEDS_GLX=1 on a display with GLX");
+    let o = preview_on(without_glx, &[], &["--backend", "gpu", "--frames", "1"]);
+    assert_clean(&o, "lavapipe on a display without GLX");
 }
 
 /// A window larger than one storage buffer of the device holds (lavapipe:

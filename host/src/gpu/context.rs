@@ -77,6 +77,9 @@ pub struct DeviceInfo {
     pub kind: String,
     pub api_version: String,
     pub driver: String,
+    /// Which driver, where the device says (VK_KHR_driver_properties): the
+    /// window system's veto of `GpuContext::with_surface` reads it.
+    pub driver_id: Option<vk::DriverId>,
     /// How the kernels' arithmetic is made the CPU build's on this device
     /// (float_controls.rs, `GpuContext::division`), for people.
     pub arithmetic: String,
@@ -148,6 +151,9 @@ fn default_device(devices: &[Physical]) -> usize {
         .min_by_key(|(_, d)| d.rank)
         .map_or(0, |(i, _)| i)
 }
+
+/// The window system's veto of a device (`GpuContext::with_surface`): Some(why) it cannot present.
+type Veto<'a> = dyn Fn(&DeviceInfo) -> Option<String> + 'a;
 
 /// An open Vulkan device with one compute queue. Kernels made from it keep it alive.
 pub struct GpuContext {
@@ -405,15 +411,18 @@ impl InstanceParts {
                 &unsafe { self.instance.enumerate_device_extension_properties(handle) }
                     .map_err(GpuError::vk("vkEnumerateDeviceExtensionProperties"))?,
             );
-            let driver = if extensions.iter().any(|e| e.as_bytes() == ash::khr::driver_properties::NAME.to_bytes()) {
+            let (driver, driver_id) = if extensions
+                .iter()
+                .any(|e| e.as_bytes() == ash::khr::driver_properties::NAME.to_bytes())
+            {
                 let mut driver = vk::PhysicalDeviceDriverProperties::default();
                 let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
                 unsafe { self.instance.get_physical_device_properties2(handle, &mut props2) };
                 let name = driver.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
                 let info = driver.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-                format!("{name} {info}").trim().to_string()
+                (format!("{name} {info}").trim().to_string(), Some(driver.driver_id))
             } else {
-                format!("driver version {:#x}", props.driver_version)
+                (format!("driver version {:#x}", props.driver_version), None)
             };
             let (kind, rank) = match props.device_type {
                 vk::PhysicalDeviceType::DISCRETE_GPU => ("discrete GPU", 0),
@@ -471,6 +480,7 @@ impl InstanceParts {
                     kind: kind.to_string(),
                     api_version: version_string(props.api_version),
                     driver,
+                    driver_id,
                     arithmetic,
                     corrects_division: inexact_division,
                     shader_objects,
@@ -534,24 +544,36 @@ impl GpuContext {
     /// glfwGetRequiredInstanceExtensions), lets `create_surface` make the
     /// window's surface on it, and opens the selected (or best) device whose
     /// compute queue can present to that surface, with VK_KHR_swapchain.
+    /// `refuse` is the window system's veto, asked of each device before its
+    /// driver is (some drivers crash when asked about a surface they cannot
+    /// serve): Some(why) and the device cannot present; an error names why
+    /// when it is the one selected.
     pub fn with_surface(
         opts: &GpuOptions,
         instance_extensions: &[String],
         create_surface: impl FnOnce(vk::Instance) -> Result<vk::SurfaceKHR, String>,
+        refuse: impl Fn(&DeviceInfo) -> Option<String>,
     ) -> Result<GpuContext, GpuError> {
         let parts = InstanceParts::new_with(opts.validation, instance_extensions)?;
         let handle = create_surface(parts.instance.handle())
             .map_err(|e| GpuError::Presentation { what: format!("cannot create the window's Vulkan surface: {e}") })?;
         let surface = Surface { loader: ash::khr::surface::Instance::new(&parts.entry, &parts.instance), handle };
         // On an error below `surface` is dropped before `parts`: surface, then instance.
-        Self::open(opts, parts, Some(surface))
+        Self::open(opts, parts, Some((surface, &refuse)))
     }
 
-    fn open(opts: &GpuOptions, parts: InstanceParts, surface: Option<Surface>) -> Result<GpuContext, GpuError> {
+    fn open(opts: &GpuOptions, parts: InstanceParts, window: Option<(Surface, &Veto)>) -> Result<GpuContext, GpuError> {
         let mut devices = parts.physical_devices()?;
-        if let Some(surface) = &surface {
+        let mut refused: Vec<Option<String>> = vec![None; devices.len()];
+        let surface = window.as_ref().map(|(surface, _)| surface);
+        if let Some((surface, refuse)) = &window {
             // Only a compute family that can present counts, on a device with VK_KHR_swapchain.
-            for d in &mut devices {
+            for (d, refusal) in devices.iter_mut().zip(&mut refused) {
+                *refusal = refuse(&d.info);
+                if refusal.is_some() {
+                    d.compute_family = None;
+                    continue;
+                }
                 let swapchain = d.extensions.iter().any(|e| e.as_bytes() == ash::khr::swapchain::NAME.to_bytes());
                 let families = unsafe { parts.instance.get_physical_device_queue_family_properties(d.handle) };
                 d.compute_family = families
@@ -585,6 +607,11 @@ impl GpuContext {
         };
         let physical = devices.swap_remove(chosen);
         let Some(queue_family) = physical.compute_family else {
+            if let Some(why) = refused.swap_remove(chosen) {
+                return Err(GpuError::Presentation {
+                    what: format!("the Vulkan device {} cannot present to this window: {why}", physical.info.name),
+                });
+            }
             if surface.is_some() {
                 return Err(GpuError::Presentation {
                     what: format!(
@@ -660,7 +687,7 @@ impl GpuContext {
                 shader_objects,
                 specialise_ahead,
                 physical: physical.handle,
-                surface,
+                surface: window.map(|(surface, _)| surface),
                 parts,
             }),
         })

@@ -43,6 +43,7 @@ pub use context::{
     forced_residuals, list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuContext, GpuOptions,
     RunBuffers, RunTimings,
 };
+pub(crate) use environment::switch;
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
 pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
 pub use error::GpuError;

@@ -13,7 +13,7 @@ use glfw::{Action, Key, MouseButton, WindowEvent};
 use crate::cli::{check_validation, load_scene, parse_device, scene_failure, validation_wanted, Backend, Failure};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
-use crate::gpu::{FrameStatus, GpuContext, GpuOptions, PresentMode};
+use crate::gpu::{DeviceInfo, FrameStatus, GpuContext, GpuOptions, PresentMode};
 use crate::image_io::{self, Rgb8};
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
@@ -24,6 +24,32 @@ use super::reload::{Reload, ShaderFolder, WatchConfig, Watcher, KERNEL_FILE};
 use super::renderer::{PreviewKernels, PreviewRenderer};
 use super::{PresentArg, PreviewArgs};
 use crate::scene::CameraControl;
+
+/// Why the window cannot take `device`'s pictures, asked before its driver
+/// is (`GpuContext::with_surface`'s veto). NVIDIA's Vulkan driver looks for
+/// GLX on an X display ("Xlib: extension "GLX" missing") and, where there is
+/// none, crashes when asked whether it can present there (a null call in
+/// libnvidia-eglcore; driver 580.159.04, an H100 under Xvfb without GLX,
+/// 2026-11-27): such a display is refused for it. RAYCAST_WINDOW_NEEDS_GLX=1
+/// applies the rule to every device (how the suite tests it on lavapipe), 0
+/// to none.
+fn window_refuses(device: &DeviceInfo) -> Option<String> {
+    let forced = crate::gpu::switch("RAYCAST_WINDOW_NEEDS_GLX");
+    let nvidia = device.driver_id == Some(vk::DriverId::NVIDIA_PROPRIETARY);
+    if !forced.unwrap_or(nvidia) || super::x11::display_has_extension(c"GLX") != Ok(false) {
+        return None;
+    }
+    let needs = if forced == Some(true) {
+        "which RAYCAST_WINDOW_NEEDS_GLX=1 asks for every device"
+    } else {
+        "which NVIDIA's Vulkan driver needs to present there (it crashes without it; RAYCAST_WINDOW_NEEDS_GLX=0 tries anyway)"
+    };
+    Some(format!(
+        "the X display {} has no GLX extension, {needs}; run the preview on a display with GLX, render \
+         headless with `raycast render`, or choose another device with --device",
+        std::env::var("DISPLAY").unwrap_or_default()
+    ))
+}
 
 /// Samples per pixel after which an interactive preview stops drawing until something changes.
 const MAX_SAMPLES: u32 = 1024;
@@ -114,22 +140,38 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         validation: validation_wanted(args.validate),
         ..GpuOptions::default()
     };
-    let context = Arc::new(GpuContext::with_surface(&options, &instance_extensions, |instance| {
-        let mut surface: glfw::ffi::VkSurfaceKHR = std::ptr::null_mut();
-        // SAFETY: `instance` is a live VkInstance with the extensions GLFW asked for.
-        let result = unsafe {
-            window.create_window_surface(
-                instance.as_raw() as usize as glfw::ffi::VkInstance,
-                std::ptr::null(),
-                &mut surface,
-            )
-        };
-        if result != 0 {
-            return Err(format!("glfwCreateWindowSurface failed with {:?}", vk::Result::from_raw(result)));
-        }
-        Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
-    })?);
+    let refused = std::cell::RefCell::new(Vec::new());
+    let veto = |device: &DeviceInfo| {
+        let why = window_refuses(device)?;
+        refused.borrow_mut().push((device.index, device.name.clone(), why.clone()));
+        Some(why)
+    };
+    let context = Arc::new(GpuContext::with_surface(
+        &options,
+        &instance_extensions,
+        |instance| {
+            let mut surface: glfw::ffi::VkSurfaceKHR = std::ptr::null_mut();
+            // SAFETY: `instance` is a live VkInstance with the extensions GLFW asked for.
+            let result = unsafe {
+                window.create_window_surface(
+                    instance.as_raw() as usize as glfw::ffi::VkInstance,
+                    std::ptr::null(),
+                    &mut surface,
+                )
+            };
+            if result != 0 {
+                return Err(format!("glfwCreateWindowSurface failed with {:?}", vk::Result::from_raw(result)));
+            }
+            Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
+        },
+        veto,
+    )?);
     let info = context.info().clone();
+    for (index, name, why) in refused.into_inner() {
+        if index != info.index {
+            errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); using {}", info.name);
+        }
+    }
     // Who draws the samples (--backend): the CPU build, and why, or the device.
     let cpu_why = match args.backend {
         Backend::Cpu => Some(String::new()),
