@@ -2,6 +2,7 @@
 //! screenshots. Frames come from `PreviewRenderer`; this file decides what
 //! to draw (camera, size, output mode, sample) and when.
 
+use std::ffi::CStr;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -25,29 +26,44 @@ use super::renderer::{PreviewKernels, PreviewRenderer};
 use super::{PresentArg, PreviewArgs};
 use crate::scene::CameraControl;
 
+/// The X extensions one of which NVIDIA's Vulkan driver presents through:
+/// its own X driver's GLX (NV-GLX) or DRI3 (XWayland, PRIME offload).
+const NVIDIA_PRESENTS_THROUGH: [&CStr; 2] = [c"NV-GLX", c"DRI3"];
+
 /// Why the window cannot take `device`'s pictures, asked before its driver
-/// is (`GpuContext::with_surface`'s veto). NVIDIA's Vulkan driver looks for
-/// GLX on an X display ("Xlib: extension "GLX" missing") and, where there is
-/// none, crashes when asked whether it can present there (a null call in
-/// libnvidia-eglcore; driver 580.159.04, an H100 under Xvfb without GLX,
-/// 2026-11-27): such a display is refused for it. RAYCAST_WINDOW_NEEDS_GLX=1
-/// applies the rule to every device (how the suite tests it on lavapipe), 0
-/// to none.
+/// is (`GpuContext::with_surface`'s veto). NVIDIA's Vulkan driver crashes
+/// when asked to present to an X display that has neither of
+/// NVIDIA_PRESENTS_THROUGH (a call through a null pointer in
+/// libnvidia-eglcore while the device is opened for the window; driver
+/// 580.159.04 on an H100 under Xvfb, with and without GLX, 2026-11-27): such
+/// a display is refused for it. RAYCAST_PRESENT_CHECK=1 applies the rule to
+/// every device (how the suite tests it on lavapipe), 0 to none.
 fn window_refuses(device: &DeviceInfo) -> Option<String> {
-    let forced = crate::gpu::switch("RAYCAST_WINDOW_NEEDS_GLX");
+    let forced = crate::gpu::switch("RAYCAST_PRESENT_CHECK");
     let nvidia = device.driver_id == Some(vk::DriverId::NVIDIA_PROPRIETARY);
-    if !forced.unwrap_or(nvidia) || super::x11::display_has_extension(c"GLX") != Ok(false) {
+    if !forced.unwrap_or(nvidia) {
         return None;
     }
-    let needs = if forced == Some(true) {
-        "which RAYCAST_WINDOW_NEEDS_GLX=1 asks for every device"
+    let why = if forced == Some(true) {
+        "which RAYCAST_PRESENT_CHECK=1 asks of every device"
     } else {
-        "which NVIDIA's Vulkan driver needs to present there (it crashes without it; RAYCAST_WINDOW_NEEDS_GLX=0 tries anyway)"
+        "one of which NVIDIA's Vulkan driver presents through (it crashes when asked to present without them; \
+         RAYCAST_PRESENT_CHECK=0 tries anyway)"
     };
+    let display = std::env::var("DISPLAY").unwrap_or_default();
+    refusal(|name| super::x11::display_has_extension(None, name), &display, why)
+}
+
+/// The refusal of `window_refuses` where the display (`has`) says it has
+/// none of NVIDIA_PRESENTS_THROUGH; nothing where it has one or cannot say.
+fn refusal(has: impl Fn(&CStr) -> Result<bool, String>, display: &str, why: &str) -> Option<String> {
+    if NVIDIA_PRESENTS_THROUGH.iter().any(|name| has(name) != Ok(false)) {
+        return None;
+    }
     Some(format!(
-        "the X display {} has no GLX extension, {needs}; run the preview on a display with GLX, render \
-         headless with `raycast render`, or choose another device with --device",
-        std::env::var("DISPLAY").unwrap_or_default()
+        "the X display {display} has neither NV-GLX (NVIDIA's X driver) nor DRI3, {why}; run the preview on a \
+         desktop whose X server runs on the GPU, render headless with `raycast render`, or choose another device \
+         with --device"
     ))
 }
 
@@ -1092,7 +1108,8 @@ impl Preview {
 
 #[cfg(test)]
 mod tests {
-    use super::{band_rows, jitter, motion_scale, PixelCost};
+    use super::{band_rows, jitter, motion_scale, refusal, PixelCost};
+    use std::ffi::CStr;
 
     /// The median of the last five: a spike leaves it, a lasting change moves it on the third frame.
     #[test]
@@ -1122,6 +1139,21 @@ mod tests {
         assert_eq!(band_rows(Some(2690.0 / (512.0 * 384.0)), 512, 384), 16);
         // Slower than a work group's rows in the budget: one work group anyway.
         assert_eq!(band_rows(Some(1.0), 512, 384), 8);
+    }
+
+    /// NVIDIA's driver is refused only a display that says it has neither
+    /// NV-GLX nor DRI3; one that has either, or cannot be asked, is tried.
+    #[test]
+    fn a_display_is_refused_only_without_both_ways_to_present() {
+        let display = |present: &'static [&'static str]| {
+            move |name: &CStr| Ok(present.iter().any(|p| p.as_bytes() == name.to_bytes()))
+        };
+        let refused = refusal(display(&["GLX", "BIG-REQUESTS"]), ":7", "why");
+        let m = refused.expect("neither NV-GLX nor DRI3: refused");
+        assert!(m.contains("X display :7 has neither NV-GLX") && m.contains("why;"), "{m}");
+        assert_eq!(refusal(display(&["DRI3"]), ":7", "why"), None, "DRI3 (XWayland, PRIME)");
+        assert_eq!(refusal(display(&["NV-GLX", "GLX"]), ":7", "why"), None, "NVIDIA's X driver");
+        assert_eq!(refusal(|_: &CStr| Err("no libX11".to_string()), ":7", "why"), None, "cannot ask: tried");
     }
 
     #[test]

@@ -8,16 +8,17 @@ type OpenDisplay = unsafe extern "C" fn(*const c_char) -> *mut c_void;
 type QueryExtension = unsafe extern "C" fn(*mut c_void, *const c_char, *mut c_int, *mut c_int, *mut c_int) -> c_int;
 type CloseDisplay = unsafe extern "C" fn(*mut c_void) -> c_int;
 
-/// Whether the X display of `$DISPLAY` offers the extension `name` (XQueryExtension);
-/// an error where libX11 cannot be loaded or the display opened.
-pub fn display_has_extension(name: &CStr) -> Result<bool, String> {
+/// Whether the X display `display` (None: `$DISPLAY`'s) offers the extension
+/// `name` (XQueryExtension); an error where libX11 cannot be loaded or the
+/// display opened.
+pub fn display_has_extension(display: Option<&CStr>, name: &CStr) -> Result<bool, String> {
     // SAFETY: libX11's initialisers are safe to run; the symbols are used with their C signatures.
     unsafe {
         let lib = libloading::Library::new("libX11.so.6").map_err(|e| format!("cannot load libX11.so.6: {e}"))?;
         let open: libloading::Symbol<OpenDisplay> = lib.get(b"XOpenDisplay\0").map_err(|e| e.to_string())?;
         let query: libloading::Symbol<QueryExtension> = lib.get(b"XQueryExtension\0").map_err(|e| e.to_string())?;
         let close: libloading::Symbol<CloseDisplay> = lib.get(b"XCloseDisplay\0").map_err(|e| e.to_string())?;
-        let display = open(std::ptr::null());
+        let display = open(display.map_or(std::ptr::null(), CStr::as_ptr));
         if display.is_null() {
             return Err("cannot open the X display".into());
         }
@@ -25,5 +26,34 @@ pub fn display_has_extension(name: &CStr) -> Result<bool, String> {
         let has = query(display, name.as_ptr(), &mut opcode, &mut event, &mut error) != 0;
         close(display);
         Ok(has)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+
+    /// An Xvfb of its own (the Debian package the preview's tests need):
+    /// it has BIG-REQUESTS, as every X server, and neither NV-GLX nor DRI3
+    /// (the display the preview refuses NVIDIA's driver), nor a made-up name.
+    #[test]
+    fn asks_the_display() {
+        let mut xvfb = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-nolisten", "tcp", "-screen", "0", "64x64x24"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb (Debian package xvfb) runs");
+        let mut line = String::new();
+        BufReader::new(xvfb.stdout.take().expect("piped")).read_line(&mut line).expect("Xvfb says its display");
+        let display = std::ffi::CString::new(format!(":{}", line.trim())).expect("a display name");
+        let has = |name: &CStr| display_has_extension(Some(&display), name);
+        let answers = (has(c"BIG-REQUESTS"), has(c"NV-GLX"), has(c"DRI3"), has(c"NO-SUCH-EXTENSION-RAYCAST"));
+        let _ = xvfb.kill();
+        let _ = xvfb.wait();
+        assert_eq!(answers, (Ok(true), Ok(false), Ok(false), Ok(false)), "display {display:?}");
+        assert!(display_has_extension(Some(c":9999"), c"BIG-REQUESTS").is_err(), "no display there");
     }
 }
