@@ -51,13 +51,14 @@ fn window_refuses(device: &DeviceInfo) -> Option<String> {
          RAYCAST_PRESENT_CHECK=0 tries anyway)"
     };
     let display = std::env::var("DISPLAY").unwrap_or_default();
-    refusal(|name| super::x11::display_has_extension(None, name), &display, why)
+    refusal(super::x11::display_extensions(None, &NVIDIA_PRESENTS_THROUGH), &display, why)
 }
 
-/// The refusal of `window_refuses` where the display (`has`) says it has
-/// none of NVIDIA_PRESENTS_THROUGH; nothing where it has one or cannot say.
-fn refusal(has: impl Fn(&CStr) -> Result<bool, String>, display: &str, why: &str) -> Option<String> {
-    if NVIDIA_PRESENTS_THROUGH.iter().any(|name| has(name) != Ok(false)) {
+/// The refusal of `window_refuses` where the display answered that it has
+/// none of NVIDIA_PRESENTS_THROUGH (`answers`, in that order); nothing where
+/// it has one or could not be asked.
+fn refusal(answers: Result<Vec<bool>, String>, display: &str, why: &str) -> Option<String> {
+    if !answers.is_ok_and(|has| has.len() == NVIDIA_PRESENTS_THROUGH.len() && has.iter().all(|h| !h)) {
         return None;
     }
     Some(format!(
@@ -1109,7 +1110,6 @@ impl Preview {
 #[cfg(test)]
 mod tests {
     use super::{band_rows, jitter, motion_scale, refusal, PixelCost};
-    use std::ffi::CStr;
 
     /// The median of the last five: a spike leaves it, a lasting change moves it on the third frame.
     #[test]
@@ -1145,15 +1145,12 @@ mod tests {
     /// NV-GLX nor DRI3; one that has either, or cannot be asked, is tried.
     #[test]
     fn a_display_is_refused_only_without_both_ways_to_present() {
-        let display = |present: &'static [&'static str]| {
-            move |name: &CStr| Ok(present.iter().any(|p| p.as_bytes() == name.to_bytes()))
-        };
-        let refused = refusal(display(&["GLX", "BIG-REQUESTS"]), ":7", "why");
-        let m = refused.expect("neither NV-GLX nor DRI3: refused");
+        // Answers for NVIDIA_PRESENTS_THROUGH: NV-GLX, DRI3.
+        let m = refusal(Ok(vec![false, false]), ":7", "why").expect("neither NV-GLX nor DRI3: refused");
         assert!(m.contains("X display :7 has neither NV-GLX") && m.contains("why;"), "{m}");
-        assert_eq!(refusal(display(&["DRI3"]), ":7", "why"), None, "DRI3 (XWayland, PRIME)");
-        assert_eq!(refusal(display(&["NV-GLX", "GLX"]), ":7", "why"), None, "NVIDIA's X driver");
-        assert_eq!(refusal(|_: &CStr| Err("no libX11".to_string()), ":7", "why"), None, "cannot ask: tried");
+        assert_eq!(refusal(Ok(vec![false, true]), ":7", "why"), None, "DRI3 (XWayland, PRIME)");
+        assert_eq!(refusal(Ok(vec![true, false]), ":7", "why"), None, "NVIDIA's X driver");
+        assert_eq!(refusal(Err("no libX11".to_string()), ":7", "why"), None, "cannot ask: tried");
     }
 
     #[test]
