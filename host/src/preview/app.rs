@@ -61,12 +61,12 @@ fn refusal(answers: Result<Vec<bool>, String>, display: &str, why: &str) -> Opti
     if !answers.is_ok_and(|has| has.len() == NVIDIA_PRESENTS_THROUGH.len() && has.iter().all(|h| !h)) {
         return None;
     }
-    Some(format!(
-        "the X display {display} has neither NV-GLX (NVIDIA's X driver) nor DRI3, {why}; run the preview on a \
-         desktop whose X server runs on the GPU, render headless with `raycast render`, or choose another device \
-         with --device"
-    ))
+    Some(format!("the X display {display} has neither NV-GLX (NVIDIA's X driver) nor DRI3, {why}"))
 }
+
+/// What to do where the selected device cannot present (`window_refuses`).
+const REFUSED_ADVICE: &str = "run the preview on a desktop whose X server runs on the GPU, render headless with \
+                              `raycast render`, or choose another device with --device";
 
 /// Samples per pixel after which an interactive preview stops drawing until something changes.
 const MAX_SAMPLES: u32 = 1024;
@@ -160,8 +160,9 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let refused = std::cell::RefCell::new(Vec::new());
     let veto = |device: &DeviceInfo| {
         let why = window_refuses(device)?;
-        refused.borrow_mut().push((device.index, device.name.clone(), why.clone()));
-        Some(why)
+        let advice = format!("{why}; {REFUSED_ADVICE}");
+        refused.borrow_mut().push((device.index, device.name.clone(), why));
+        Some(advice)
     };
     let context = Arc::new(GpuContext::with_surface(
         &options,
@@ -1147,7 +1148,7 @@ mod tests {
     fn a_display_is_refused_only_without_both_ways_to_present() {
         // Answers for NVIDIA_PRESENTS_THROUGH: NV-GLX, DRI3.
         let m = refusal(Ok(vec![false, false]), ":7", "why").expect("neither NV-GLX nor DRI3: refused");
-        assert!(m.contains("X display :7 has neither NV-GLX") && m.contains("why;"), "{m}");
+        assert!(m.starts_with("the X display :7 has neither NV-GLX") && m.ends_with("nor DRI3, why"), "{m}");
         assert_eq!(refusal(Ok(vec![false, true]), ":7", "why"), None, "DRI3 (XWayland, PRIME)");
         assert_eq!(refusal(Ok(vec![true, false]), ":7", "why"), None, "NVIDIA's X driver");
         assert_eq!(refusal(Err("no libX11".to_string()), ":7", "why"), None, "cannot ask: tried");
