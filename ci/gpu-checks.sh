@@ -18,6 +18,9 @@
 #   orbit        `render --orbit 6` of recursiveSpheres4 on the device and the CPU build: the
 #                same PNG files byte for byte
 #   conformance  the course's reference renders, under each case's stated rule
+#   preview-xvfb the preview under an Xvfb of its own (where Xvfb is installed or carried;
+#                skipped and said so otherwise): a window, or the refusal of a device that
+#                cannot present there (NVIDIA's driver: neither NV-GLX nor DRI3), never a crash
 # Exit status: the number of failed steps (0 when all pass).
 set -u
 device=NVIDIA
@@ -70,6 +73,24 @@ orbit() {
   [ "$differ" = 0 ]
 }
 step orbit orbit
+preview_xvfb() {
+  command -v Xvfb >/dev/null || { echo "preview-xvfb: no Xvfb on PATH: skipped"; return 0; }
+  local fifo out rc display
+  fifo="$(mktemp -u)"; mkfifo "$fifo"
+  Xvfb -displayfd 3 -noreset -nolisten tcp -screen 0 1280x1024x24 3>"$fifo" 2>/dev/null &
+  local xvfb=$!
+  read -r -t 10 display <"$fifo"; rm -f "$fifo"
+  [ -n "$display" ] || { kill $xvfb 2>/dev/null; echo "preview-xvfb: Xvfb did not start"; return 1; }
+  out="$(DISPLAY=":$display" timeout 60 "$raycast" preview --device "$device" --frames 2 2>&1)"; rc=$?
+  kill $xvfb 2>/dev/null; wait $xvfb 2>/dev/null
+  echo "$out" | tail -3
+  if [ $rc = 0 ]; then echo "preview-xvfb: the window showed the picture"; return 0; fi
+  if [ $rc = 1 ] && grep -q "cannot present to this window" <<<"$out"; then
+    echo "preview-xvfb: the device was refused with the reason (exit 1), as it cannot present there"; return 0
+  fi
+  echo "preview-xvfb: exit $rc (a crash is 128 + its signal)"; return 1
+}
+step preview-xvfb preview_xvfb
 step conformance "$raycast" conformance "$corpus" --device "$device" --validate --out-dir "$logs/conformance"
 
 if [ ${#failed[@]} = 0 ]; then
