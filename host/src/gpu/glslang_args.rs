@@ -142,7 +142,9 @@ pub const TOOL_LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
 /// Runs `command` (the tool `tool`, from the Debian package `package`)
 /// with no input, its output and messages collected, and stops it after
 /// `limit` (`TOOL_LIMIT`). The error says which, where it cannot be run or
-/// was stopped; a tool that ran and failed is Ok, its status in the output.
+/// was stopped, or where it exited but a process it started kept its output
+/// open past `limit` (not waited for further); a tool that ran and failed is
+/// Ok, its status in the output.
 pub fn run_tool(
     tool: &str,
     package: &str,
@@ -158,17 +160,20 @@ pub fn run_tool(
         .spawn()
         .map_err(|e| format!("cannot run {tool} (Debian package {package}): {e}"))?;
     // Read on threads of their own, so that a tool that fills one pipe
-    // while we wait on the other cannot stall.
-    fn drain<R: Read + Send + 'static>(pipe: Option<R>) -> std::thread::JoinHandle<Vec<u8>> {
+    // while we wait on the other cannot stall; each sends what it read, by
+    // pipe (0 stdout, 1 stderr), at the pipe's end.
+    let (sender, read) = std::sync::mpsc::channel::<(usize, Vec<u8>)>();
+    fn drain<R: Read + Send + 'static>(pipe: Option<R>, which: usize, sender: std::sync::mpsc::Sender<(usize, Vec<u8>)>) {
         std::thread::spawn(move || {
             let mut bytes = Vec::new();
             if let Some(mut p) = pipe {
                 let _ = p.read_to_end(&mut bytes);
             }
-            bytes
-        })
+            let _ = sender.send((which, bytes));
+        });
     }
-    let (stdout, stderr) = (drain(child.stdout.take()), drain(child.stderr.take()));
+    drain(child.stdout.take(), 0, sender.clone());
+    drain(child.stderr.take(), 1, sender);
     let start = std::time::Instant::now();
     let status = loop {
         match child.try_wait() {
@@ -182,8 +187,21 @@ pub fn run_tool(
             Err(e) => return Err(format!("{tool}: {e}")),
         }
     };
-    let stdout = stdout.join().unwrap_or_default();
-    let stderr = stderr.join().unwrap_or_default();
+    // The pipes end when every process holding them has: the tool, and any
+    // it left running with them (waited for until `limit`, no longer).
+    let mut pipes = [Vec::new(), Vec::new()];
+    for _ in 0..2 {
+        match read.recv_timeout(limit.saturating_sub(start.elapsed())) {
+            Ok((which, bytes)) => pipes[which] = bytes,
+            Err(_) => {
+                return Err(format!(
+                    "{tool} exited ({status}), but a process it started kept its output open for more than {:.1} s",
+                    limit.as_secs_f64()
+                ))
+            }
+        }
+    }
+    let [stdout, stderr] = pipes;
     Ok(std::process::Output { status, stdout, stderr })
 }
 

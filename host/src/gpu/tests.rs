@@ -704,6 +704,16 @@ fn a_tool_is_read_on_both_pipes_at_once() {
 }
 
 #[test]
+fn a_tool_that_leaves_its_output_held_open_is_not_waited_for() {
+    // The tool exits at once, but the sleep it leaves behind holds its standard output
+    // for 5 s: without the limit on the pipes, this would wait that long and succeed.
+    let mut leaver = Command::new("sh");
+    leaver.args(["-c", "sleep 5 & echo started"]);
+    let e = run_tool("sh", "dash", leaver, Duration::from_millis(300)).unwrap_err();
+    assert_eq!(e, "sh exited (exit status: 0), but a process it started kept its output open for more than 0.3 s");
+}
+
+#[test]
 fn a_tool_that_is_not_installed_is_named_with_its_package() {
     let missing = Command::new("raycast-no-such-tool");
     let e = run_tool("raycast-no-such-tool", "no-such-package", missing, TOOL_LIMIT).unwrap_err();
