@@ -14,19 +14,23 @@ fn out_dir() -> PathBuf {
     d
 }
 
+/// `dir`, made and emptied.
+fn emptied(dir: &Path) {
+    let _ = std::fs::remove_dir_all(dir);
+    std::fs::create_dir_all(dir).unwrap();
+}
+
 /// A folder of its own for one test (a RAYCAST_CACHE_DIR, a PATH of
 /// planted tools), emptied.
 fn empty_dir(name: &str) -> PathBuf {
     let dir = out_dir().join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    emptied(&dir);
     dir
 }
 
 /// `raycast ARGS` run in `dir`, emptied first: what it writes by default lands there.
 fn raycast_in(dir: &Path, args: &[&str]) -> Output {
-    let _ = std::fs::remove_dir_all(dir);
-    std::fs::create_dir_all(dir).unwrap();
+    emptied(dir);
     raycast_at(dir, args)
 }
 

@@ -12,7 +12,7 @@
 //! | `reload.rs` | the watcher thread: scene and shader reloads off the render thread |
 //! | `renderer.rs` | which buffer goes to which binding of preview.comp; the CPU build's samples (`--backend cpu`) |
 //! | `layout.rs` | Rust mirrors of shaders/preview.h |
-//! | `x11.rs` | whether the X display has an extension (the window's veto of a device) |
+//! | `x11.rs` | which of some extensions the X display has (the window's veto of a device) |
 
 mod app;
 pub mod layout;
