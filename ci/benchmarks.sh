@@ -51,6 +51,10 @@
 #   ci/benchmarks.sh settings [--rounds N] 'VAR=V ...' 'VAR=V ...' SCENE...
 #                                       the same table for two environments of `render` on
 #                                       one driver (RAYCAST_SHADER_OBJECTS=1 against =0).
+#   ci/benchmarks.sh builds [--rounds N] OLD NEW SCENE...
+#                                       the same table for two raycast binaries in turn
+#                                       (OLD: a build of an earlier commit, copied aside),
+#                                       with each round's pair: how often NEW was faster.
 #   ci/benchmarks.sh unpack-driver DEB DIR
 #                                       unpacks a driver package (mesa-vulkan-drivers_*.deb)
 #                                       into DIR without installing it and writes DIR/icd.json
@@ -231,7 +235,7 @@ drivers() {
   echo "- A: $("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
   echo "- B: $(VK_DRIVER_FILES="$icd" "$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
   echo
-  ab_rows "$rounds" "" "VK_DRIVER_FILES=$icd" "$@"
+  ab_rows "$rounds" "" "VK_DRIVER_FILES=$icd" "$RAYCAST" "$RAYCAST" "$@"
 }
 
 settings() {
@@ -240,25 +244,45 @@ settings() {
   a="$1" b="$2"; shift 2
   echo "\`ci/benchmarks.sh settings --rounds $rounds '$a' '$b' $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, \`$a\`, and B, \`$b\`, in the environment, in turn, $rounds rounds after one untimed: the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s compile and dispatch steps, and whether the two PNGs are the same bytes. Device: $("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')."
   echo
-  ab_rows "$rounds" "$a" "$b" "$@"
+  ab_rows "$rounds" "$a" "$b" "$RAYCAST" "$RAYCAST" "$@"
 }
 
-# ROUNDS A_ENV B_ENV SCENE...: the table of `drivers` and `settings`, `render` of each
-# scene with A's and B's VAR=VALUE words (space-separated) in its environment, in turn.
+builds() {
+  local rounds=5 a b
+  if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
+  a="$1" b="$2"; shift 2
+  [ -x "$a" ] && [ -x "$b" ] || { echo "builds: OLD and NEW must be raycast binaries ($a, $b)" >&2; exit 2; }
+  echo "\`ci/benchmarks.sh builds --rounds $rounds OLD NEW $*\`: \`render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, OLD (\`$a\`), and B, NEW (\`$b\`), in turn, $rounds rounds after one untimed: the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s compile and dispatch steps, whether the two PNGs are the same bytes, and in how many rounds B's whole command was the shorter. Device: $("$b" devices | head -1 | sed 's/^[0-9]*: //')."
+  echo
+  ab_rows "$rounds" "" "" "$a" "$b" "$@"
+}
+
+# ROUNDS A_ENV B_ENV A_BIN B_BIN SCENE...: the table of `drivers`, `settings` and
+# `builds`, `render` of each scene by A_BIN with A's VAR=VALUE words (space-separated)
+# in its environment and by B_BIN with B's, in turn (`builds` adds each round's pair).
 ab_rows() {
-  local rounds="$1" a_env="$2" b_env="$3" s file tmp r v out t c d
-  shift 3
+  local rounds="$1" a_env="$2" b_env="$3" a_bin="$4" b_bin="$5" s file tmp r v out t c d bin
+  shift 5
+  local pairs=false
+  [ "$a_bin" = "$b_bin" ] || pairs=true
   tmp="$(mktemp -d)"
-  echo "| scene | whole, A | whole, B | compile, A | compile, B | dispatch, A | dispatch, B | B ÷ A, dispatch | same PNG |"
-  echo "|---|---|---|---|---|---|---|---|---|"
+  if $pairs; then
+    echo "| scene | whole, A | whole, B | compile, A | compile, B | dispatch, A | dispatch, B | B ÷ A, dispatch | same PNG | B's whole shorter |"
+    echo "|---|---|---|---|---|---|---|---|---|---|"
+  else
+    echo "| scene | whole, A | whole, B | compile, A | compile, B | dispatch, A | dispatch, B | B ÷ A, dispatch | same PNG |"
+    echo "|---|---|---|---|---|---|---|---|---|"
+  fi
   for s in "$@"; do
     file="$(scene_file "$s" "$tmp")"
     local -A walls=() compiles=() dispatches=()
+    local shorter=0
     for ((r = -1; r < rounds; r++)); do
+      local a_wall=""
       for v in A B; do
         local env=()
-        if [ $v = A ]; then read -r -a env <<<"$a_env"; else read -r -a env <<<"$b_env"; fi
-        out="$(env "${env[@]}" /usr/bin/time -f 'TIME %e' "$RAYCAST" render "$file" --assets "$CORPUS" -o "$tmp/$v.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+        if [ $v = A ]; then read -r -a env <<<"$a_env"; bin="$a_bin"; else read -r -a env <<<"$b_env"; bin="$b_bin"; fi
+        out="$(env "${env[@]}" /usr/bin/time -f 'TIME %e' "$bin" render "$file" --assets "$CORPUS" -o "$tmp/$v.png" 2>&1)" || { echo "$out" >&2; exit 1; }
         [ "$r" -ge 0 ] || continue
         t="$(sed -n 's/^TIME \([0-9.]*\)/\1/p' <<<"$out")"
         c="$(sed -n 's/^time: .*compile \([0-9.]*\) ms.*/\1/p' <<<"$out")"
@@ -266,6 +290,7 @@ ab_rows() {
         walls[$v]+="$t "
         compiles[$v]+="$c "
         dispatches[$v]+="$d "
+        if [ $v = A ]; then a_wall="$t"; elif awk -v a="$a_wall" -v b="$t" 'BEGIN { exit !(b < a) }'; then shorter=$((shorter + 1)); fi
       done
     done
     local med=() list
@@ -274,7 +299,9 @@ ab_rows() {
     done
     local same=no
     cmp -s "$tmp/A.png" "$tmp/B.png" && same=yes
-    echo "| ${s##*/} | ${med[0]} s | ${med[1]} s | ${med[2]} ms | ${med[3]} ms | ${med[4]} ms | ${med[5]} ms | $(awk -v a="${med[4]}" -v b="${med[5]}" 'BEGIN { printf "%.2f", b / a }') | $same |"
+    local row="| ${s##*/} | ${med[0]} s | ${med[1]} s | ${med[2]} ms | ${med[3]} ms | ${med[4]} ms | ${med[5]} ms | $(awk -v a="${med[4]}" -v b="${med[5]}" 'BEGIN { printf "%.2f", b / a }') | $same |"
+    if $pairs; then row+=" $shorter of $rounds |"; fi
+    echo "$row"
   done
   rm -rf "$tmp"
 }
@@ -324,6 +351,7 @@ case "${1:-}" in
   checks) shift; checks "$@"; exit ;;
   drivers) shift; drivers "$@"; exit ;;
   settings) shift; settings "$@"; exit ;;
+  builds) shift; builds "$@"; exit ;;
   unpack-driver) shift; unpack_driver "$@"; exit ;;
   passes) shift; passes "$@"; exit ;;
   preview) shift; preview_rates "$@"; exit ;;

@@ -526,13 +526,18 @@ impl GpuRenderer {
             };
             let groups = [f.width.div_ceil(layout::WORKGROUP_SIZE), rows.div_ceil(layout::WORKGROUP_SIZE), 1];
             // One sample of every pixel per dispatch (render.comp).
-            let (bytes, t) = self.context.run_passes(&kernel, &buffers, groups, f.spp.max(1))?;
-            // Read as records wherever the bytes lie (a Vec<u8> promises no alignment).
-            let band: Vec<PixelOut> =
-                bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned).collect();
+            // The band's records copied once, from where the device left them.
+            let before = pixels.len();
+            let read = |bytes: &[u8]| {
+                // Read as records wherever the bytes lie (a mapping's alignment is the driver's).
+                pixels.extend(
+                    bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned::<PixelOut>),
+                );
+            };
+            let ((), t) = self.context.run_passes_read(&kernel, &buffers, groups, f.spp.max(1), read)?;
             // Every pixel the kernel covers counts at least its camera ray, far
             // fewer than the sentinel.
-            let unwritten = band.iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();
+            let unwritten = pixels[before..].iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();
             if unwritten > 0 {
                 return Err(GpuError::BadRun {
                     kernel: "render".into(),
@@ -542,7 +547,6 @@ impl GpuRenderer {
                     ),
                 });
             }
-            pixels.extend_from_slice(&band);
             timings.upload += t.upload;
             timings.dispatch += t.dispatch;
             timings.readback += t.readback;
