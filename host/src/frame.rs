@@ -303,6 +303,57 @@ fn rgb(c: [f32; 3]) -> Vec4 {
     [c[0], c[1], c[2], 0.0]
 }
 
+/// The largest magnitude an f32 holds; beyond it a finite f64 becomes an
+/// infinity, and a primitive, light or camera would drop out of the
+/// picture without a word.
+const F32_LIMIT: f64 = f32::MAX as f64;
+
+/// The farthest a positioned light may be from the origin: the shader
+/// squares a light's distance in f32 (raycast.glsl, `dot3(d, d)`), which
+/// overflows beyond about 1.8e19, and such a light lights nothing.
+const LIGHT_REACH: f64 = 1.0e19;
+
+/// An error where `m` (a transform as `what` names it, from `loc`) or its
+/// inverse has an entry beyond f32: the device and the CPU build compute
+/// in f32, and would see an infinity.
+fn check_f32_transform(m: &DMat4, inverse: &DMat4, loc: &dyn std::fmt::Display, what: &str) -> Result<(), String> {
+    let beyond = |m: &DMat4| m.to_cols_array().iter().any(|x| x.abs() > F32_LIMIT);
+    if beyond(m) || beyond(inverse) {
+        return Err(format!(
+            "{loc}: error: {what} is out of range for the renderer's 32-bit floats: it or its inverse has an entry beyond \
+             about 3.4e38 (a scale or translation that large, or a scale that small)"
+        ));
+    }
+    Ok(())
+}
+
+/// The scene's camera and positioned lights within what the renderer's
+/// 32-bit floats can compute with (`F32_LIMIT`, `LIGHT_REACH`).
+fn check_f32_range(scene: &Scene) -> Result<(), String> {
+    let p = scene.camera.pos;
+    if p.abs().max_element() > F32_LIMIT {
+        return Err(format!(
+            "{}: error: the camera's <pos> ({:e}, {:e}, {:e}) is out of range for the renderer's 32-bit floats (beyond about 3.4e38)",
+            scene.path.display(),
+            p.x,
+            p.y,
+            p.z
+        ));
+    }
+    for l in scene.lights.iter().filter(|l| l.kind != LightKind::Directional) {
+        let distance = l.position.length();
+        if distance > LIGHT_REACH {
+            return Err(format!(
+                "{}: error: this light is {distance:.3e} units from the origin: the renderer squares a light's distance in \
+                 32-bit floats, which overflows beyond about 1.8e19, so it would light nothing; for light from far \
+                 away, use type=\"directional\"",
+                l.loc
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn mat4(m: &DMat4) -> Mat4 {
     let c = m.to_cols_array_2d();
     c.map(|col| col.map(|x| x as f32))
@@ -339,6 +390,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
     let mut notes = Vec::new();
     let mut table = TextureTable::default();
 
+    check_f32_range(scene)?;
     let start = std::time::Instant::now();
     let packed = pack_groups(scene)?;
     let build_time = start.elapsed();
@@ -673,6 +725,12 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
             layout::NO_HIT - 1
         ));
     }
+    for p in groups.iter().flat_map(|g| &g.primitives) {
+        check_f32_transform(&p.world_from_object, &p.object_from_world, &p.loc, "this primitive's transform")?;
+    }
+    for i in groups.iter().flat_map(|g| &g.instances) {
+        check_f32_transform(&i.parent_from_group, &i.group_from_parent, &i.loc, "this master's placement")?;
+    }
     let post = scene.groups_children_first();
     let mut prim_base = vec![0u32; n];
     let mut inst_base = vec![0u32; n];
@@ -763,7 +821,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                     let sphere_area = 4.0 * std::f64::consts::PI * sphere.1 * sphere.1;
                     let boxed = || {
                         let (q_lo, q_hi) = box_steps((lo, hi), (ilo, ihi)).ok_or_else(|| {
-                            format!("{}: this master's box cannot be written in steps of its leaf's (coordinates beyond about 1e38?)", inst.loc)
+                            format!("{}: error: this master's box cannot be written in steps of its leaf's (coordinates beyond about 1e38?)", inst.loc)
                         })?;
                         Ok::<_, String>(instance_record(q_lo, q_hi, item))
                     };
@@ -1137,5 +1195,68 @@ mod tests {
         }
         let first_red = data.primitives.iter().map(|p| p.material).collect::<Vec<_>>();
         assert_eq!(first_red[0], first_red[2], "the two plain red ones share one");
+    }
+
+    /// Numbers the file writes as finite but the renderer's f32 cannot
+    /// hold (or, for a light's distance, square) are errors at the element,
+    /// not an infinity that drops it from the picture; just inside, they render.
+    #[test]
+    fn values_beyond_f32_are_errors_where_written() {
+        let scene_with = |camera: &str, light: &str, block: &str| {
+            format!(
+                r#"<scenefile><cameradata>{camera}<look x="0" y="0" z="-1"/><up x="0" y="1" z="0"/><heightangle v="45"/></cameradata>
+<lightdata><id v="0"/><color r="1" g="1" b="1"/>{light}</lightdata>
+<object type="tree" name="inner"><transblock><object type="primitive" name="cube"/></transblock></object>
+<object type="tree" name="root">{block}</object></scenefile>"#
+            )
+        };
+        let near_camera = r#"<pos x="0" y="0" z="5"/>"#;
+        let near_light = r#"<position x="1" y="2" z="3"/>"#;
+        let sphere = |transform: &str| {
+            format!(r#"<transblock>{transform}<object type="primitive" name="sphere"/></transblock>"#)
+        };
+        let master =
+            |transform: &str| format!(r#"<transblock>{transform}<object type="master" name="inner"/></transblock>"#);
+        let outcome =
+            |xml: String| build(&crate::scene::from_xml(&xml, "t.xml"), &RenderSettings::default()).map(|_| ());
+        // Just inside: a translation of 1e38, a scale of 1e-38 (its inverse 1e38), a light 1e18 away, a camera at 1e38.
+        for ok in [
+            scene_with(near_camera, near_light, &sphere(r#"<translate x="1e38" y="0" z="0"/>"#)),
+            scene_with(near_camera, near_light, &master(r#"<scale x="1e-38" y="1" z="1"/>"#)),
+            scene_with(near_camera, r#"<position x="1e18" y="0" z="0"/>"#, &sphere("")),
+            scene_with(r#"<pos x="0" y="0" z="1e38"/>"#, near_light, &sphere("")),
+        ] {
+            outcome(ok).unwrap_or_else(|e| panic!("{e}"));
+        }
+        for (xml, at, says) in [
+            (
+                scene_with(near_camera, near_light, &sphere(r#"<translate x="1e39" y="0" z="0"/>"#)),
+                "t.xml:4:",
+                "this primitive's transform is out of range for the renderer's 32-bit floats",
+            ),
+            (
+                scene_with(near_camera, near_light, &sphere(r#"<scale x="1e-45" y="1" z="1"/>"#)),
+                "t.xml:4:",
+                "this primitive's transform is out of range",
+            ),
+            (
+                scene_with(near_camera, near_light, &master(r#"<translate x="0" y="-1e39" z="0"/>"#)),
+                "t.xml:4:",
+                "this master's placement is out of range",
+            ),
+            (
+                scene_with(near_camera, r#"<position x="0" y="0" z="-2e19"/>"#, &sphere("")),
+                "t.xml:2:",
+                "this light is 2.000e19 units from the origin",
+            ),
+            (
+                scene_with(r#"<pos x="1e39" y="0" z="0"/>"#, near_light, &sphere("")),
+                "t.xml: error: the camera's <pos>",
+                "beyond about 3.4e38",
+            ),
+        ] {
+            let e = outcome(xml).expect_err(says);
+            assert!(e.starts_with(at) && e.contains(says), "{e}\nwanted {at}… {says}");
+        }
     }
 }
