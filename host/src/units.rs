@@ -17,6 +17,21 @@ pub fn fmt_bytes(bytes: u64) -> String {
     format!("{number} {} ({bytes} bytes)", UNITS[unit])
 }
 
+/// A coordinate as a message shows it: `0.25`, `-3` as written, or
+/// `1e-300` and `1e39` where the plain form would run to hundreds of digits.
+pub(crate) fn fmt_number(x: f64) -> String {
+    if x == 0.0 || (1e-4..1e16).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A vector as a message shows it: `(0, 1e-300, 0)`.
+pub(crate) fn fmt_vector(v: glam::DVec3) -> String {
+    format!("({}, {}, {})", fmt_number(v.x), fmt_number(v.y), fmt_number(v.z))
+}
+
 /// `1234567` → `1,234,567`.
 pub(crate) fn thousands(n: u64) -> String {
     let s = n.to_string();
@@ -56,5 +71,14 @@ mod tests {
         assert_eq!(fmt_bytes(16), "16 bytes");
         assert_eq!(fmt_bytes(2 << 30), "2 GiB (2147483648 bytes)");
         assert_eq!(fmt_bytes(3_435_973_836), "3.2 GiB (3435973836 bytes)");
+    }
+
+    #[test]
+    fn numbers_short_at_either_end() {
+        let v = glam::DVec3::new(0.0, 1e-300, -0.25);
+        assert_eq!(fmt_vector(v), "(0, 1e-300, -0.25)");
+        assert_eq!(fmt_number(1e39), "1e39");
+        assert_eq!(fmt_number(-3.0), "-3");
+        assert_eq!(fmt_number(123456.5), "123456.5");
     }
 }

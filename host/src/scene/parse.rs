@@ -8,6 +8,7 @@
 //! is a warning.
 
 use super::model::*;
+use crate::units::fmt_vector;
 use glam::{DMat4, DVec3};
 use roxmltree::{Attribute, Document, Node as XNode, ParsingOptions};
 use std::collections::HashMap;
@@ -573,6 +574,17 @@ impl<'a> Ctx<'a> {
         Ok(DVec3::new(self.req_num(n, "x", e)?, self.req_num(n, "y", e)?, self.req_num(n, "z", e)?))
     }
 
+    /// `xyz` for a point the renderer takes as it is (the camera's
+    /// position): each coordinate within f32's range, where the device
+    /// and the CPU build compute (beyond it, an infinity).
+    fn xyz_f32(&mut self, n: XNode) -> R<DVec3> {
+        let v = self.xyz(n)?;
+        for (name, x) in [("x", v.x), ("y", v.y), ("z", v.z)] {
+            self.to_f32(n, name, x)?;
+        }
+        Ok(v)
+    }
+
     /// `<e r g b/>`.
     fn rgb(&mut self, n: XNode) -> R<[f32; 3]> {
         self.check_attrs(n, &["r", "g", "b"]);
@@ -771,7 +783,7 @@ impl<'a> Ctx<'a> {
         for c in self.elements(n) {
             let name = c.tag_name().name();
             match name {
-                "pos" => cam.pos = self.xyz(c)?,
+                "pos" => cam.pos = self.xyz_f32(c)?,
                 "focus" | "look" => {
                     let v = self.xyz(c)?;
                     if let Some((prev, _)) = aim {
@@ -860,8 +872,9 @@ impl<'a> Ctx<'a> {
                 return Err(self.err(
                     loc,
                     format!(
-                        "{which}: the up vector ({}, {}, {}) is parallel to the look direction ({}, {}, {}), so the camera's roll is undefined; choose an up that is not along the look direction",
-                        cam.up.x, cam.up.y, cam.up.z, cam.look.x, cam.look.y, cam.look.z
+                        "{which}: the up vector {} is parallel to the look direction {}, so the camera's roll is undefined; choose an up that is not along the look direction",
+                        fmt_vector(cam.up),
+                        fmt_vector(cam.look)
                     ),
                 ));
             }
@@ -1558,6 +1571,12 @@ mod tests {
         }
         let e = camera("<aspectratio v=\"0\"/>").unwrap_err();
         assert_eq!(at(&e), (3, 14));
+        // A position finite here but beyond the renderer's f32: at its attribute.
+        let e = camera("<pos x=\"0\" y=\"-1e39\" z=\"0\"/>").unwrap_err();
+        assert_eq!(at(&e), (3, 12), "{e}");
+        assert!(e.message.contains("attribute `y` of <pos> is too large"), "{e}");
+        let e = camera("<pos x=\"0\" y=\"1e-300\" z=\"1e38\"/><look x=\"0\" y=\"1e-300\" z=\"0\"/>").unwrap_err();
+        assert!(e.message.contains("parallel to the look direction (0, 1e-300, 0)"), "numbers short: {e}");
     }
 
     #[test]
