@@ -1312,27 +1312,46 @@ impl<'a> Ctx<'a> {
 
     /// Where an image is: relative paths against the XML file's folder, then
     /// each assets folder, then the `FOLDERS_ABOVE` folders above the XML
-    /// file's (with a warning); absolute paths as they are, else their file
-    /// name in the first folders. With what to warn about, if anything.
+    /// file's (with a warning); absolute paths as they are, else (with a
+    /// warning) their trailing parts, longest first, in those folders: a
+    /// scene written on the course's machines names
+    /// /course/cs123/data/image/x.png, which a corpus root holds as
+    /// image/x.png. With what to warn about, if anything.
     fn lookup(&self, el: &str, file: &str) -> (Option<PathBuf>, Option<String>) {
         let p = Path::new(file);
         let mut dirs = vec![self.base_dir.clone()];
         dirs.extend(self.opts.assets.iter().cloned());
+        let scene_dir = std::fs::canonicalize(&self.base_dir).unwrap_or_else(|_| self.base_dir.clone());
+        // The course's paths are relative to the corpus root, a folder that
+        // holds the scene's (corpus/test_x/scene.xml names image/y.png): the
+        // folders above the scene's, nearest first.
+        let above: Vec<&Path> = scene_dir.ancestors().skip(1).take(FOLDERS_ABOVE).collect();
         let mut tried: Vec<PathBuf> = Vec::new();
         if p.is_absolute() {
             if p.is_file() {
                 return (Some(p.to_path_buf()), None);
             }
             tried.push(p.to_path_buf());
-            if let Some(name) = p.file_name() {
-                for d in &dirs {
-                    let c = d.join(name);
+            let parts: Vec<&std::ffi::OsStr> = p
+                .components()
+                .filter_map(|c| match c {
+                    std::path::Component::Normal(part) => Some(part),
+                    _ => None,
+                })
+                .collect();
+            for k in 0..parts.len() {
+                let trailing: PathBuf = parts[k..].iter().collect();
+                for d in dirs.iter().map(PathBuf::as_path).chain(above.iter().copied()) {
+                    let c = d.join(&trailing);
                     if c.is_file() {
                         let msg = format!("<{el}> file \"{file}\" does not exist; using \"{}\" instead", c.display());
                         return (Some(c), Some(msg));
                     }
-                    tried.push(c);
                 }
+            }
+            // The message names the file name in the first folders.
+            if let Some(name) = parts.last() {
+                tried.extend(dirs.iter().map(|d| d.join(name)));
             }
         } else {
             for d in &dirs {
@@ -1342,26 +1361,25 @@ impl<'a> Ctx<'a> {
                 }
                 tried.push(c);
             }
-            // The course's paths are relative to the corpus root, a folder
-            // that holds the scene's (corpus/test_x/scene.xml names
-            // image/y.png): the folders above the scene's, nearest first.
-            let scene_dir = std::fs::canonicalize(&self.base_dir).unwrap_or_else(|_| self.base_dir.clone());
-            for (up, above) in scene_dir.ancestors().enumerate().skip(1).take(FOLDERS_ABOVE) {
-                let c = above.join(p);
+            for (up, folder) in above.iter().enumerate().map(|(i, a)| (i + 1, a)) {
+                let c = folder.join(p);
                 if c.is_file() {
                     let folders = if up == 1 { "folder" } else { "folders" };
                     let msg = format!(
                         "<{el}> file \"{file}\" found {up} {folders} above the scene's, in \"{}\" (the format's paths are relative to the corpus root): using it; --assets {} says so and quiets this",
-                        above.display(),
-                        above.display()
+                        folder.display(),
+                        folder.display()
                     );
                     return (Some(c), Some(msg));
                 }
             }
         }
         let tried: Vec<String> = tried.iter().map(|t| format!("\"{}\"", t.display())).collect();
-        let above =
-            if p.is_absolute() { String::new() } else { format!(" and the {FOLDERS_ABOVE} folders above the scene's") };
+        let above = if p.is_absolute() {
+            format!(", and its trailing folders in those and the {FOLDERS_ABOVE} folders above the scene's")
+        } else {
+            format!(" and the {FOLDERS_ABOVE} folders above the scene's")
+        };
         let msg = format!(
             "<{el}> file \"{file}\" not found (tried {}{above}): pass the folder that holds it with --assets DIR, or render with --no-textures",
             tried.join(", ")
@@ -1771,6 +1789,25 @@ mod tests {
         assert!(m.contains(&format!("--assets {} says so", root.display())), "{m}");
         let (r, w) = tex("image/a.png");
         assert_eq!((r, w.len()), (Some(assets.join("image/a.png")), 0));
+        // Absolute and absent, its trailing folders in a folder above the
+        // scene's: the longest that is there wins, with a warning.
+        let (r, w) = tex("/course/cs123/data/image/up.png");
+        assert_eq!(r, Some(root.join("image/up.png")));
+        assert!(
+            w[0].message.contains(&format!("using \"{}\" instead", root.join("image/up.png").display())),
+            "{}",
+            w[0]
+        );
+        let (r, w) = tex("/course/cs123/data/image/a.png");
+        assert_eq!(r, Some(assets.join("image/a.png")), "the assets before the folders above: {w:?}");
+        let (r, w) = tex("/course/cs123/data/image/gone.png");
+        assert_eq!(r, None);
+        assert!(
+            w[0].message.contains("and its trailing folders in those and the 3 folders above the scene's"),
+            "{}",
+            w[0]
+        );
+        assert!(w[0].message.contains(&assets.join("gone.png").display().to_string()), "{}", w[0]);
         // No further than FOLDERS_ABOVE: a scene four folders below the image.
         let deep = root.join("scenes/a/b/c");
         std::fs::create_dir_all(&deep).unwrap();
