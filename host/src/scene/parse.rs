@@ -1380,8 +1380,16 @@ impl<'a> Ctx<'a> {
         } else {
             format!(" and the {FOLDERS_ABOVE} folders above the scene's")
         };
+        // A mistyped --assets shows here, where it matters.
+        let missing: String = self
+            .opts
+            .assets
+            .iter()
+            .filter(|d| !d.is_dir())
+            .map(|d| format!("; --assets {} is not a folder", d.display()))
+            .collect();
         let msg = format!(
-            "<{el}> file \"{file}\" not found (tried {}{above}): pass the folder that holds it with --assets DIR, or render with --no-textures",
+            "<{el}> file \"{file}\" not found (tried {}{above}){missing}: pass the folder that holds it with --assets DIR, or render with --no-textures",
             tried.join(", ")
         );
         (None, Some(msg))
@@ -1800,6 +1808,11 @@ mod tests {
         );
         let (r, w) = tex("/course/cs123/data/image/a.png");
         assert_eq!(r, Some(assets.join("image/a.png")), "the assets before the folders above: {w:?}");
+        let typo = ParseOptions { assets: vec![assets.clone(), dir.join("asets")] };
+        let f = parse_str(&prim("cube", "<texture file=\"image/gone.png\"/>"), &xml_path, &typo).unwrap();
+        let m = &f.warnings[0].message;
+        assert!(m.contains(&format!("; --assets {} is not a folder:", dir.join("asets").display())), "{m}");
+        assert!(!m.contains(&format!("--assets {} is not", assets.display())), "{m}");
         let (r, w) = tex("/course/cs123/data/image/gone.png");
         assert_eq!(r, None);
         assert!(
