@@ -14,7 +14,8 @@ use super::{Case, Expected, Rule, SceneBuffers};
 const CASE_KEYS: [&str; 8] = ["name", "function", "inputs", "expected", "same_as_cpu", "rule", "scene", "cpu"];
 
 /// The cases of one file. `shown` is how the file is named in locations
-/// (`tests/shaders/cone.toml`). Errors read `file:line: error: …`.
+/// (`tests/shaders/cone.toml`). Errors read `file:line: error: …` (TOML's
+/// own, `file:line:column: error: …`).
 pub fn load(path: &Path, shown: &str, info: &ShaderInfo) -> Result<Vec<Case>, String> {
     let text = crate::bounded::read_text(path).map_err(|e| format!("{shown}: error: cannot read it: {e}"))?;
     parse(&text, shown, info)
@@ -23,11 +24,14 @@ pub fn load(path: &Path, shown: &str, info: &ShaderInfo) -> Result<Vec<Case>, St
 /// [`load`] for text already read.
 pub fn parse(text: &str, shown: &str, info: &ShaderInfo) -> Result<Vec<Case>, String> {
     let doc: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-        let line = e.span().map(|s| line_of(text, s.start));
-        match line {
-            Some(l) => format!("{shown}:{l}: error: {}", e.message()),
-            None => format!("{shown}: error: {}", e.message()),
-        }
+        // Where, as line:column (the column in characters, from 1).
+        let at = e.span().map(|s| {
+            let before = text.get(..s.start).unwrap_or("");
+            let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+            format!(":{}:{column}", line_of(text, s.start))
+        });
+        let message = e.message().trim().replace('\n', "; ");
+        format!("{shown}{}: error: {message} (a case file is TOML: [[case]] tables)", at.unwrap_or_default())
     })?;
     let header_lines = |header: &str| -> Vec<usize> {
         text.lines().enumerate().filter(|(_, l)| l.trim_start().starts_with(header)).map(|(i, _)| i + 1).collect()
@@ -360,6 +364,17 @@ scene = "one_cube"
         let e = parse("[[case]]\nfunction = \"dot3\"\ninputs = { a = [1, 2, 3], b = [1, 2, 3] }\nexpected = 14\nrule = \"close\"\n", "t.toml", &i).unwrap_err();
         assert!(e.contains("rule \"close\""), "{e}");
         let e = parse("[[case]\n", "t.toml", &i).unwrap_err();
-        assert!(e.starts_with("t.toml:1: error: "), "{e}");
+        assert!(
+            e.starts_with("t.toml:1:7: error: ")
+                && !e.contains('\n')
+                && e.ends_with("(a case file is TOML: [[case]] tables)"),
+            "{e}"
+        );
+        // Not TOML at all (JSON): where TOML's reading stopped, by line and column.
+        let e = parse("{\n  \"cases\": [1, 2]\n}\n", "t.json", &i).unwrap_err();
+        assert!(e.starts_with("t.json:1:1: error: "), "{e}");
+        let e = parse("# a comment\n[[case]]\nfunction = \"dot3\"\ninputs = { a = [1, 2, 3] b = 2 }\n", "t.toml", &i)
+            .unwrap_err();
+        assert!(e.starts_with("t.toml:4:26: error: "), "{e}");
     }
 }
