@@ -2181,7 +2181,7 @@ mod tests {
         // Absolute texture path: a warning (not found), the scene still loads.
         let f = ok(&prim("cube", "<texture file=\"/course/cs123/data/image/x.png\"/>"));
         assert_eq!(first_prim(&f).1.texture.as_ref().unwrap().resolved, None);
-        warned_at(&f, 5, 1, "<texture> file \"/course/cs123/data/image/x.png\" not found (tried \"/course/cs123/data/image/x.png\", \"/nonexistent-dir/x.png\")");
+        warned_at(&f, 5, 1, "<texture> file \"/course/cs123/data/image/x.png\" not found (tried \"/course/cs123/data/image/x.png\", \"/nonexistent-dir/x.png\", and its trailing folders in those and the 3 folders above the scene's)");
         // A rotate without angle.
         bad_at(
             &block("  <rotate x=\"1\" y=\"0\" z=\"0\"/>\n<object type=\"primitive\" name=\"cube\"/>"),
