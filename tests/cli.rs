@@ -246,6 +246,14 @@ fn unwritable_output() {
     assert_eq!(o.status.code(), Some(0), "{:?}", text(&o));
     let bytes = std::fs::read(&bare).unwrap();
     assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG: {:?}", &bytes[..bytes.len().min(8)]);
+    // A write that fails as it happens (a full disk: /dev/full), not said to have been written.
+    if Path::new("/dev/full").exists() {
+        let o = raycast(&["render", "--backend", "cpu", "--width", "16", "--height", "12", "-o", "/dev/full"], &[]);
+        assert_fails(&o, 1, "cannot write /dev/full: No space left on device");
+        assert!(!text(&o).0.contains("wrote"), "{:?}", text(&o));
+    } else {
+        eprintln!("SKIP: no /dev/full here to fill");
+    }
     for args in [
         vec!["check", "-o", "/nonexistent-dir/d.png"],
         vec!["compare", "a.png", "b.png", "-o", "/nonexistent-dir/d.png"],

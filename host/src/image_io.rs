@@ -20,17 +20,22 @@ impl Rgb8 {
 }
 
 /// Writes PNG whatever the name's extension (`check_output_path` refuses
-/// other image extensions before the work).
+/// other image extensions before the work). Encoded in memory, then
+/// written in one call whose every error is reported: the image crate's
+/// own file writer flushes its buffer as it is dropped, where an error (a
+/// full disk; `-o /dev/full`) was lost and the command said it wrote the
+/// picture.
 pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
-    image::save_buffer_with_format(
-        path,
+    let mut bytes = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut bytes),
         &image.data,
         image.width,
         image.height,
         image::ExtendedColorType::Rgb8,
-        image::ImageFormat::Png,
     )
-    .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    std::fs::write(path, &bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 /// Whether a picture could be written to `path`, asked before the work that
