@@ -251,6 +251,14 @@ fn unwritable_output() {
         let o = raycast(&["render", "--backend", "cpu", "--width", "16", "--height", "12", "-o", "/dev/full"], &[]);
         assert_fails(&o, 1, "cannot write /dev/full: No space left on device");
         assert!(!text(&o).0.contains("wrote"), "{:?}", text(&o));
+        // The scene `gen` writes to a full standard output.
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .args(["gen", "recursive-spheres", "--depth", "2"])
+            .stdout(full)
+            .output()
+            .unwrap();
+        assert_fails(&o, 1, "cannot write the scene to standard output: No space left on device");
     } else {
         eprintln!("SKIP: no /dev/full here to fill");
     }

@@ -153,7 +153,13 @@ pub(crate) fn run(args: &GenArgs) -> Result<(), Failure> {
     }
     .map_err(|e| Failure(format!("raycast: error: {e}"), 2))?;
     match &args.output {
-        None => std::io::stdout().lock().write_all(xml.as_bytes())?,
+        None => {
+            // Flushed here, where its error can be told (at exit it would be lost).
+            let mut out = std::io::stdout().lock();
+            out.write_all(xml.as_bytes())
+                .and_then(|()| out.flush())
+                .map_err(|e| format!("cannot write the scene to standard output: {e}"))?;
+        }
         Some(path) => {
             std::fs::write(path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
             let expanded = args.family.expanded_count(args.depth);
