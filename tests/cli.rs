@@ -259,6 +259,14 @@ fn unwritable_output() {
             .output()
             .unwrap();
         assert_fails(&o, 1, "cannot write the scene to standard output: No space left on device");
+        // A report for programs (--json) likewise; status lines are let go.
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_raycast"))
+            .args(["info", "--json"])
+            .stdout(full)
+            .output()
+            .unwrap();
+        assert_fails(&o, 1, "cannot write to standard output: No space left on device");
     } else {
         eprintln!("SKIP: no /dev/full here to fill");
     }

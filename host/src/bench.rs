@@ -724,7 +724,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         }
         if args.json {
             for row in &rows {
-                outln!("{}", row.json(&settings, args.warmup));
+                crate::emit_line(&row.json(&settings, args.warmup))?;
             }
         } else if args.markdown {
             for row in &rows {

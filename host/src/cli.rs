@@ -366,12 +366,12 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
                 agrees(&pixel)
             )
         });
-        outln!(
+        crate::emit_line(&format!(
             "{{\"scene\":{},\"pixel\":[{x},{y}],\"sample\":{},\"spp\":{spp},\"rays\":{rays},\"steps\":[{}],\"render\":{render_json}}}",
             crate::units::json_str(&args.scene.as_deref().map_or(DEFAULT_SCENE_NAME.to_string(), |s| s.display().to_string())),
             args.sample,
             crate::trace::json(&p.scene, &steps).join(",")
-        );
+        ))?;
     } else {
         outln!("pixel ({x}, {y}), sample {} of {spp}:", args.sample);
         for line in crate::trace::describe(&p.scene, &steps) {
@@ -421,7 +421,7 @@ fn info(args: &InfoArgs) -> Result<(), Failure> {
         match described {
             Ok(info) => {
                 if args.json {
-                    outln!("{}", info.json());
+                    crate::emit_line(&info.json())?;
                 } else {
                     out!("{}", info.text());
                 }
@@ -1339,14 +1339,14 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
     }
     if args.json {
         let path = |p: &Path| crate::units::json_str(&p.display().to_string());
-        outln!(
+        crate::emit_line(&format!(
             "{{\"actual\":{},\"expected\":{},{},\"max_percent\":{},\"passes\":{passes},\"diff_image\":{}}}",
             path(&args.actual),
             path(&args.expected),
             diff.json_fields(),
             args.max_percent,
             args.output.as_deref().map_or("null".to_string(), path)
-        );
+        ))?;
     } else {
         outln!("{diff}");
         if let Some(path) = &args.output {

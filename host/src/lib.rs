@@ -32,6 +32,16 @@ macro_rules! out {
     }};
 }
 
+/// A line of a command's product on stdout (`--json`): written and
+/// flushed, its error returned (`cannot write to standard output: …`),
+/// where `outln!` lets status lines go: a report a program reads is not
+/// lost while the command says it succeeded.
+pub(crate) fn emit_line(text: &str) -> Result<(), String> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{text}").and_then(|()| out.flush()).map_err(|e| format!("cannot write to standard output: {e}"))
+}
+
 /// `eprintln!`, going on when stderr is closed (`outln!`).
 macro_rules! errln {
     ($($arg:tt)*) => {{
