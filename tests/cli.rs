@@ -251,21 +251,15 @@ fn unwritable_output() {
         let o = raycast(&["render", "--backend", "cpu", "--width", "16", "--height", "12", "-o", "/dev/full"], &[]);
         assert_fails(&o, 1, "cannot write /dev/full: No space left on device");
         assert!(!text(&o).0.contains("wrote"), "{:?}", text(&o));
-        // The scene `gen` writes to a full standard output.
-        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_raycast"))
-            .args(["gen", "recursive-spheres", "--depth", "2"])
-            .stdout(full)
-            .output()
-            .unwrap();
+        // raycast with its standard output on /dev/full.
+        let on_full_stdout = |args: &[&str]| {
+            let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+            std::process::Command::new(env!("CARGO_BIN_EXE_raycast")).args(args).stdout(full).output().unwrap()
+        };
+        // The scene `gen` writes there; a report for programs (--json) likewise (status lines are let go).
+        let o = on_full_stdout(&["gen", "recursive-spheres", "--depth", "2"]);
         assert_fails(&o, 1, "cannot write the scene to standard output: No space left on device");
-        // A report for programs (--json) likewise; status lines are let go.
-        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_raycast"))
-            .args(["info", "--json"])
-            .stdout(full)
-            .output()
-            .unwrap();
+        let o = on_full_stdout(&["info", "--json"]);
         assert_fails(&o, 1, "cannot write to standard output: No space left on device");
     } else {
         eprintln!("SKIP: no /dev/full here to fill");
