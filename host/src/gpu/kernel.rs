@@ -73,8 +73,9 @@ impl Kernel {
     /// naga's checks run beside the driver's build, on another thread: the
     /// kernel is returned only when they pass (a mismatch is still an error
     /// before anything runs), and the build no longer waits for them (5 ms
-    /// of lavapipe's 45 ms kernel for recursiveSpheres4). The driver only
-    /// ever sees SPIR-V that glslang made.
+    /// of lavapipe's 45 ms kernel for recursiveSpheres4). What the driver
+    /// is given meanwhile is glslang's SPIR-V (spirv-opt's where specialised
+    /// ahead), never a file of unknown make.
     pub fn specialized(
         ctx: &GpuContext,
         name: &str,
