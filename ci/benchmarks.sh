@@ -230,7 +230,7 @@ drivers() {
   if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
   icd="$1"; shift
   [ -f "$icd" ] || { echo "drivers: no driver manifest $icd (ci/benchmarks.sh unpack-driver DEB DIR writes one)" >&2; exit 2; }
-  echo "\`ci/benchmarks.sh drivers --rounds $rounds ICD.json $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, the driver the loader finds, and B, \`VK_DRIVER_FILES=ICD.json\`, in turn, $rounds rounds after one untimed (each builds its kernels once; Mesa caches them): the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s compile and dispatch steps, and whether the two PNGs are the same bytes."
+  echo "\`ci/benchmarks.sh drivers --rounds $rounds ICD.json $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, the driver the loader finds, and B, \`VK_DRIVER_FILES=ICD.json\`, in turn, $rounds rounds after one untimed (each builds its kernels once; Mesa caches them): the medians of the whole command (its wall time to the ms, \`date +%s%N\` before and after) and of \`render\`'s compile and dispatch steps, and whether the two PNGs are the same bytes."
   echo
   echo "- A: $("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
   echo "- B: $(VK_DRIVER_FILES="$icd" "$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')"
@@ -242,7 +242,7 @@ settings() {
   local rounds=5 a b
   if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
   a="$1" b="$2"; shift 2
-  echo "\`ci/benchmarks.sh settings --rounds $rounds '$a' '$b' $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, \`$a\`, and B, \`$b\`, in the environment, in turn, $rounds rounds after one untimed: the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s compile and dispatch steps, and whether the two PNGs are the same bytes. Device: $("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')."
+  echo "\`ci/benchmarks.sh settings --rounds $rounds '$a' '$b' $*\`: \`$RAYCAST render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, \`$a\`, and B, \`$b\`, in the environment, in turn, $rounds rounds after one untimed: the medians of the whole command (its wall time to the ms, \`date +%s%N\` before and after) and of \`render\`'s compile and dispatch steps, and whether the two PNGs are the same bytes. Device: $("$RAYCAST" devices | head -1 | sed 's/^[0-9]*: //')."
   echo
   ab_rows "$rounds" "$a" "$b" "$RAYCAST" "$RAYCAST" "$@"
 }
@@ -252,7 +252,7 @@ builds() {
   if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
   a="$1" b="$2"; shift 2
   [ -x "$a" ] && [ -x "$b" ] || { echo "builds: OLD and NEW must be raycast binaries ($a, $b)" >&2; exit 2; }
-  echo "\`ci/benchmarks.sh builds --rounds $rounds OLD NEW $*\`: \`render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, OLD (\`$a\`), and B, NEW (\`$b\`), in turn, $rounds rounds after one untimed: the medians of the whole command (\`/usr/bin/time\`) and of \`render\`'s compile and dispatch steps, whether the two PNGs are the same bytes, and in how many rounds B's whole command was the shorter. Device: $("$b" devices | head -1 | sed 's/^[0-9]*: //')."
+  echo "\`ci/benchmarks.sh builds --rounds $rounds OLD NEW $*\`: \`render SCENE --assets $CORPUS\` (512x384, shadows, reflections and textures on) with A, OLD (\`$a\`), and B, NEW (\`$b\`), in turn, $rounds rounds after one untimed: the medians of the whole command (its wall time to the ms, \`date +%s%N\` before and after) and of \`render\`'s compile and dispatch steps, whether the two PNGs are the same bytes, and in how many rounds B's whole command was the shorter. Device: $("$b" devices | head -1 | sed 's/^[0-9]*: //')."
   echo
   ab_rows "$rounds" "" "" "$a" "$b" "$@"
 }
@@ -282,9 +282,12 @@ ab_rows() {
       for v in A B; do
         local env=()
         if [ $v = A ]; then read -r -a env <<<"$a_env"; bin="$a_bin"; else read -r -a env <<<"$b_env"; bin="$b_bin"; fi
-        out="$(env "${env[@]}" /usr/bin/time -f 'TIME %e' "$bin" render "$file" --assets "$CORPUS" -o "$tmp/$v.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+        local t0 t1
+        t0="$(date +%s%N)"
+        out="$(env "${env[@]}" "$bin" render "$file" --assets "$CORPUS" -o "$tmp/$v.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+        t1="$(date +%s%N)"
         [ "$r" -ge 0 ] || continue
-        t="$(sed -n 's/^TIME \([0-9.]*\)/\1/p' <<<"$out")"
+        t="$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", (b - a) / 1e9 }')"
         c="$(sed -n 's/^time: .*compile \([0-9.]*\) ms.*/\1/p' <<<"$out")"
         d="$(sed -n 's/^time: .*dispatch \([0-9.]*\) ms.*/\1/p' <<<"$out")"
         walls[$v]+="$t "
