@@ -84,16 +84,26 @@ impl Kernel {
         images: &[ImageBinding],
         constants: &[u32],
     ) -> Result<Kernel, GpuError> {
-        let (reflection, built) = std::thread::scope(|s| {
-            let checked = s.spawn(|| reflect::reflect(name, spirv, expected, images));
-            let built = Kernel::build(ctx, name, spirv, expected, images, constants);
-            (checked.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)), built)
-        });
-        // The checks' error first; a kernel built from SPIR-V that failed them is destroyed as `built` drops.
-        let reflection = reflection?;
-        let mut kernel = built?;
-        kernel.workgroup_size = reflection.workgroup_size;
-        Ok(kernel)
+        let check = || reflect::reflect(name, spirv, expected, images);
+        let build = || Kernel::build(ctx, name, spirv, expected, images, constants);
+        // The checks' error first; a kernel built from SPIR-V that failed them is destroyed as it drops.
+        let finish = |reflection: Result<reflect::Reflection, GpuError>, built: Result<Kernel, GpuError>| {
+            let reflection = reflection?;
+            let mut kernel = built?;
+            kernel.workgroup_size = reflection.workgroup_size;
+            Ok(kernel)
+        };
+        std::thread::scope(|s| match std::thread::Builder::new().spawn_scoped(s, check) {
+            Ok(checking) => {
+                let built = build();
+                finish(checking.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)), built)
+            }
+            // No thread to be had (a process at its limit): the checks first, as before.
+            Err(_) => {
+                let reflection = check()?;
+                finish(Ok(reflection), build())
+            }
+        })
     }
 
     /// The pipeline (or shader object) of `specialized`, before naga's
