@@ -13,7 +13,6 @@ use crate::scene::{Material, Node, SceneFile, Shape, TransBlock};
 use clap::{Args, ValueEnum};
 use glam::DMat4;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::PathBuf;
 
 /// Depths `gen` accepts: depth 12 already expands to 73 million primitives.
@@ -153,13 +152,7 @@ pub(crate) fn run(args: &GenArgs) -> Result<(), Failure> {
     }
     .map_err(|e| Failure(format!("raycast: error: {e}"), 2))?;
     match &args.output {
-        None => {
-            // Flushed here, where its error can be told (at exit it would be lost).
-            let mut out = std::io::stdout().lock();
-            out.write_all(xml.as_bytes())
-                .and_then(|()| out.flush())
-                .map_err(|e| format!("cannot write the scene to standard output: {e}"))?;
-        }
+        None => crate::emit(&xml).map_err(|e| format!("cannot write the scene to standard output: {e}"))?,
         Some(path) => {
             std::fs::write(path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
             let expanded = args.family.expanded_count(args.depth);

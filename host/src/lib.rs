@@ -32,14 +32,20 @@ macro_rules! out {
     }};
 }
 
-/// A line of a command's product on stdout (`--json`): written and
-/// flushed, its error returned (`cannot write to standard output: …`),
-/// where `outln!` lets status lines go: a report a program reads is not
-/// lost while the command says it succeeded.
-pub(crate) fn emit_line(text: &str) -> Result<(), String> {
+/// A command's product on stdout (`gen`'s scene, a `--json` report):
+/// written and flushed here, its error returned, where `outln!` lets
+/// status lines go (and the flush at exit would lose it): what a program
+/// reads is not lost while the command says it succeeded.
+pub(crate) fn emit(text: &str) -> std::io::Result<()> {
     use std::io::Write as _;
     let mut out = std::io::stdout().lock();
-    writeln!(out, "{text}").and_then(|()| out.flush()).map_err(|e| format!("cannot write to standard output: {e}"))
+    out.write_all(text.as_bytes())?;
+    out.flush()
+}
+
+/// [`emit`] of one line (`--json`), its error as `cannot write to standard output: …`.
+pub(crate) fn emit_line(text: &str) -> Result<(), String> {
+    emit(&format!("{text}\n")).map_err(|e| format!("cannot write to standard output: {e}"))
 }
 
 /// `eprintln!`, going on when stderr is closed (`outln!`).
