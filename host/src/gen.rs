@@ -92,7 +92,8 @@ Construction (corpus test_efficiency/recursiveSpheres1..4.xml; --depth N has N l
   k mod 3 = 0, 1, 2; specular 1, shininess 25, texture image/marsTexture.png
   (relative to the corpus root: render with --assets <corpus>) blended 0.75.
   recursive-spheres --depth 1..4 writes the corpus files recursiveSpheres1..4.xml
-  (depth 4 byte for byte; 1..3 add the aperture and focal length of depth 4).
+  (depth 4 byte for byte but a final newline the corpus file lacks; 1..3 add the
+  aperture and focal length of depth 4).
 
   recursive-cones, recursive-cubes: the same placements with no rotation, every cone
   upright and every cube axis-aligned, as the corpus's recursiveCones4 and
