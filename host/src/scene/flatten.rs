@@ -65,6 +65,25 @@ fn check_invertible(m: &DMat4) -> Result<(), &'static str> {
     Ok(())
 }
 
+/// The inverse of a primitive's or master's combined transform, once it is
+/// invertible ([`check_invertible`]) and both it and its inverse fit the
+/// renderer's 32-bit floats: an entry beyond f32's range (`<translate
+/// x="1e39">`, `<scale x="1e-45">`) would become an infinity on the device
+/// and drop the shape from the picture without a word. `what` names the
+/// shape for the message.
+fn renderable_inverse(ctm: &DMat4, what: &str) -> Result<DMat4, String> {
+    check_invertible(ctm).map_err(|why| format!("{why}: the combined transform of this {what} cannot be inverted"))?;
+    let inverse = ctm.inverse();
+    let beyond = |m: &DMat4| m.to_cols_array().iter().any(|x| x.abs() > f64::from(f32::MAX));
+    if beyond(ctm) || beyond(&inverse) {
+        return Err(format!(
+            "the combined transform of this {what} is out of range for the renderer's 32-bit floats: it or its \
+             inverse has an entry beyond about 3.4e38 (a scale or translation that large, or a scale that small)"
+        ));
+    }
+    Ok(inverse)
+}
+
 /// Groups `file.trees[file.root]` and the masters it places.
 pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneError> {
     let err = |loc: Option<SourceLoc>, message: String| SceneError { loc, file: file.path.clone(), message };
@@ -167,16 +186,11 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                     if counts[*tree] == 0 {
                         continue;
                     }
-                    if let Err(why) = check_invertible(&ctm) {
-                        return Err(err(
-                            Some(b.loc.clone()),
-                            format!("{why}: the combined transform of this master cannot be inverted"),
-                        ));
-                    }
+                    let inverse = renderable_inverse(&ctm, "master").map_err(|e| err(Some(b.loc.clone()), e))?;
                     group.instances.push(Instance {
                         group: child,
                         parent_from_group: ctm,
-                        group_from_parent: ctm.inverse(),
+                        group_from_parent: inverse,
                         id_offset: next_id,
                         loc: loc.clone(),
                     });
@@ -193,12 +207,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                         }
                         continue;
                     }
-                    if let Err(why) = check_invertible(&ctm) {
-                        return Err(err(
-                            Some(b.loc.clone()),
-                            format!("{why}: the combined transform of this primitive cannot be inverted"),
-                        ));
-                    }
+                    let inverse = renderable_inverse(&ctm, "primitive").map_err(|e| err(Some(b.loc.clone()), e))?;
                     let key = material as *const Material;
                     let index = match material_of.get(&key) {
                         Some(&i) => i,
@@ -215,7 +224,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                         shape: shape.clone(),
                         material: index,
                         world_from_object: ctm,
-                        object_from_world: ctm.inverse(),
+                        object_from_world: inverse,
                         id_offset: next_id,
                         loc: loc.clone(),
                     });
@@ -422,6 +431,27 @@ mod tests {
         let e = flat_err(&doc("", body));
         assert_eq!(at(&e), (4, 1));
         assert!(e.message.contains("out of range") && e.message.contains("the combined transform"), "{e}");
+        // Invertible in f64 but beyond the renderer's f32 (an infinity on the
+        // device, the shape gone from the picture): a translation of 1e39, a
+        // scale of 1e-45 (its inverse 1e45), a master placed at -1e39; just
+        // inside, 1e38 and 1e-38, they load.
+        let f32_range = "is out of range for the renderer's 32-bit floats";
+        for (t, what) in [
+            ("<translate x=\"1e39\" y=\"0\" z=\"0\"/>", "primitive"),
+            ("<scale x=\"1e-45\" y=\"1\" z=\"1\"/>", "primitive"),
+        ] {
+            let e = flat_err(&doc("", &cube_block(t)));
+            assert_eq!(at(&e), (3, 1), "{e}");
+            assert!(e.message.contains(&format!("the combined transform of this {what} {f32_range}")), "{e}");
+        }
+        let inner = "<object type=\"tree\" name=\"inner\"><transblock><object type=\"primitive\" name=\"cube\"/></transblock></object>\n";
+        let placed = |t: &str| format!("<transblock>{t}<object type=\"master\" name=\"inner\"/></transblock>");
+        let e = flat_err(&doc(inner, &placed("<translate x=\"0\" y=\"-1e39\" z=\"0\"/>")));
+        assert_eq!(at(&e), (4, 1), "{e}");
+        assert!(e.message.contains(&format!("the combined transform of this master {f32_range}")), "{e}");
+        assert!(one("<translate x=\"1e38\" y=\"0\" z=\"0\"/>").object_from_world.is_finite());
+        assert!(one("<scale x=\"1e-38\" y=\"1\" z=\"1\"/>").object_from_world.is_finite());
+        scene(&doc(inner, &placed("<scale x=\"1e-38\" y=\"1\" z=\"1\"/>")));
         // A degenerate shear (dependent columns) in a matrix.
         let e = flat_err(&doc(
             "",
