@@ -8,7 +8,7 @@
 //! is a warning.
 
 use super::model::*;
-use crate::units::fmt_vector;
+use crate::units::{fmt_number, fmt_vector};
 use glam::{DMat4, DVec3};
 use roxmltree::{Attribute, Document, Node as XNode, ParsingOptions};
 use std::collections::HashMap;
@@ -811,7 +811,8 @@ impl<'a> Ctx<'a> {
                         return Err(self.err(
                             self.aloc(&a),
                             format!(
-                                "<heightangle> is {v} degrees (expected more than 0 and less than 180: the full vertical field of view)"
+                                "<heightangle> is {} degrees (expected more than 0 and less than 180: the full vertical field of view)",
+                                fmt_number(v)
                             ),
                         ));
                     }
@@ -823,7 +824,7 @@ impl<'a> Ctx<'a> {
                         let a = self.req_attr(c, "v", "v")?;
                         return Err(self.err(
                             self.aloc(&a),
-                            format!("<aspectratio> is {v} (expected a positive width/height ratio)"),
+                            format!("<aspectratio> is {} (expected a positive width/height ratio)", fmt_number(v)),
                         ));
                     }
                     cam.aspect_ratio = Some(v);
@@ -908,7 +909,8 @@ impl<'a> Ctx<'a> {
                     let v = self.v(c)?;
                     if v.fract() != 0.0 || v < i32::MIN as f64 || v > i32::MAX as f64 {
                         let a = self.req_attr(c, "v", "v")?;
-                        return Err(self.err(self.aloc(&a), format!("light <id> is {v} (expected a whole number)")));
+                        return Err(self
+                            .err(self.aloc(&a), format!("light <id> is {} (expected a whole number)", fmt_number(v))));
                     }
                     light.id = v as i32;
                 }
@@ -1137,7 +1139,10 @@ impl<'a> Ctx<'a> {
         if m[3] != [0.0, 0.0, 0.0, 1.0] {
             let msg = format!(
                 "<matrix> row3 is {} {} {} {}, not 0 0 0 1: a projective transform; it is used as written",
-                m[3][0], m[3][1], m[3][2], m[3][3]
+                fmt_number(m[3][0]),
+                fmt_number(m[3][1]),
+                fmt_number(m[3][2]),
+                fmt_number(m[3][3])
             );
             self.warn(self.nloc(n), msg);
         }
@@ -1590,10 +1595,14 @@ mod tests {
         let e = camera("<look x=\"0\" y=\"-2\" z=\"0\"/>").unwrap_err();
         assert_eq!(at(&e), (3, 1));
         assert!(e.message.starts_with("<look>:"), "{e}");
-        for bad in ["0", "180", "-5", "200"] {
+        for (bad, shown) in [("0", "0"), ("180", "180"), ("-5", "-5"), ("200", "200"), ("1e30", "1e30")] {
             let e = camera(&format!("<heightangle v=\"{bad}\"/>")).unwrap_err();
             assert_eq!(at(&e), (3, 14), "{e}");
-            assert!(e.message.contains("expected more than 0 and less than 180"), "{e}");
+            assert!(
+                e.message
+                    .starts_with(&format!("<heightangle> is {shown} degrees (expected more than 0 and less than 180")),
+                "{e}"
+            );
         }
         let e = camera("<aspectratio v=\"0\"/>").unwrap_err();
         assert_eq!(at(&e), (3, 14));
@@ -1692,6 +1701,9 @@ mod tests {
         assert!(e.message.contains("has no <direction>"), "{e}");
         let e = light("<id v=\"1.5\"/>").unwrap_err();
         assert_eq!(at(&e), (3, 5));
+        // Numbers in messages are written short.
+        let e = light("<id v=\"1e-38\"/>").unwrap_err();
+        assert!(e.message.starts_with("light <id> is 1e-38 (expected a whole number)"), "{e}");
         let f = light("<type v=\"spot\"/><direction x=\"0\" y=\"-1\" z=\"0\"/>").unwrap();
         warned_at(&f, 2, 1, "spot light has no <angle>");
         // Light type absent means point.
