@@ -465,7 +465,8 @@ struct CompareArgs {
     actual: PathBuf,
     /// The picture it should match (PNG).
     expected: PathBuf,
-    /// A pixel differs when a channel is off by more than this (0 to 255).
+    /// A pixel differs when a colour channel (red, green or blue, at 8 bits;
+    /// alpha is not compared) is off by more than this (0 to 255).
     #[arg(long, default_value_t = 2, value_name = "N")]
     tolerance: u8,
     /// Fail (exit 4) when more than this percentage of pixels differ.
@@ -1330,8 +1331,21 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
     if let Some(path) = &args.output {
         image_io::check_output_path(path)?;
     }
-    let actual = image_io::read_png(&args.actual)?;
-    let expected = image_io::read_png(&args.expected)?;
+    let read = |path: &Path| {
+        let (rgb, translucent) = image_io::read_png_counting_alpha(path)?;
+        if translucent > 0 {
+            eprintln!(
+                "raycast: warning: {}: {} of {} pixels are not opaque; compare reads the colour channels only (alpha is \
+                 not compared)",
+                path.display(),
+                crate::units::thousands(translucent as u64),
+                crate::units::thousands(u64::from(rgb.width) * u64::from(rgb.height))
+            );
+        }
+        Ok::<_, String>(rgb)
+    };
+    let actual = read(&args.actual)?;
+    let expected = read(&args.expected)?;
     let diff = image_io::compare(&actual, &expected, args.tolerance)?;
     let passes = diff.fraction() * 100.0 <= args.max_percent;
     if let Some(path) = &args.output {

@@ -62,9 +62,18 @@ pub fn check_output_path(path: &Path) -> Result<(), String> {
 }
 
 pub fn read_png(path: &Path) -> Result<Rgb8, String> {
+    read_png_counting_alpha(path).map(|(rgb, _)| rgb)
+}
+
+/// A picture as 8-bit RGB (16-bit, grey and palette pictures converted;
+/// alpha dropped) and how many of its pixels were not opaque, so that a
+/// caller can say their alpha was not compared.
+pub fn read_png_counting_alpha(path: &Path) -> Result<(Rgb8, usize), String> {
     let img = image::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let translucent =
+        if img.color().has_alpha() { img.to_rgba16().pixels().filter(|p| p.0[3] != u16::MAX).count() } else { 0 };
     let rgb = img.to_rgb8();
-    Ok(Rgb8 { width: rgb.width(), height: rgb.height(), data: rgb.into_raw() })
+    Ok((Rgb8 { width: rgb.width(), height: rgb.height(), data: rgb.into_raw() }, translucent))
 }
 
 /// Result of comparing an actual picture with an expected one: pixels whose
@@ -221,6 +230,27 @@ mod tests {
         assert!(d.to_string().starts_with("2 of 8 pixels (25.0000%) differ by more than 2/255"), "{d}");
         assert_eq!(d.diff_image.pixel(0, 0), [0, 0, 0]);
         assert_ne!(d.diff_image.pixel(2, 1), [0, 0, 0]);
+    }
+
+    /// Grey, 16-bit and RGBA pictures are read as 8-bit RGB; the pixels
+    /// whose alpha is not opaque are counted (compare says it ignores them).
+    #[test]
+    fn pictures_of_other_kinds_read_as_rgb() {
+        let dir = std::env::temp_dir().join(format!("raycast-image-io-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let rgba = dir.join("rgba.png");
+        let mut img = image::RgbaImage::from_pixel(3, 2, image::Rgba([10, 20, 30, 255]));
+        img.put_pixel(1, 1, image::Rgba([40, 50, 60, 0]));
+        img.put_pixel(2, 0, image::Rgba([70, 80, 90, 254]));
+        img.save(&rgba).unwrap();
+        let (rgb, translucent) = read_png_counting_alpha(&rgba).unwrap();
+        assert_eq!((rgb.width, rgb.height, translucent), (3, 2, 2));
+        assert_eq!((rgb.pixel(0, 0), rgb.pixel(1, 1)), ([10, 20, 30], [40, 50, 60]));
+        let grey16 = dir.join("grey16.png");
+        image::ImageBuffer::<image::Luma<u16>, _>::from_pixel(2, 2, image::Luma([0x8080u16])).save(&grey16).unwrap();
+        let (rgb, translucent) = read_png_counting_alpha(&grey16).unwrap();
+        assert_eq!((rgb.pixel(1, 1), translucent), ([128, 128, 128], 0));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
