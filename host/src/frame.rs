@@ -275,18 +275,24 @@ impl TextureTable {
         if let Some(&i) = self.index.get(path) {
             return Ok(i);
         }
-        let image = image::open(path)
-            .map_err(|e| format!("{}: error: cannot read texture {}: {e}", t.loc, path.display()))?
-            .to_rgba8();
-        let (width, height) = image.dimensions();
+        let cannot =
+            |e: &dyn std::fmt::Display| format!("{}: error: cannot read texture {}: {e}", t.loc, path.display());
+        let reader = || -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, String> {
+            image::ImageReader::open(path).map_err(|e| cannot(&e))?.with_guessed_format().map_err(|e| cannot(&e))
+        };
+        // The size from the header first: a picture too large for the
+        // texture table is told so before it is decoded into memory.
+        let (width, height) = reader()?.into_dimensions().map_err(|e| cannot(&e))?;
         let total = self.texels.len() as u64 + u64::from(width) * u64::from(height);
         if width == 0 || height == 0 || total > MAX_TEXELS {
             return Err(format!(
-                "{}: error: texture {} ({width}x{height}) does not fit: all textures together may hold at most {MAX_TEXELS} texels",
+                "{}: error: texture {} ({width}x{height}) does not fit: all textures together may hold at most {} texels",
                 t.loc,
-                path.display()
+                path.display(),
+                crate::units::thousands(MAX_TEXELS)
             ));
         }
+        let image = reader()?.decode().map_err(|e| cannot(&format!("{e} ({width}x{height})")))?.to_rgba8();
         let i = self.textures.len() as i32;
         self.textures.push(layout::Texture { offset: self.texels.len() as u32, width, height, pad0: 0 });
         self.texels.extend(image.pixels().map(|p| layout::Texel { rgba: u32::from_le_bytes(p.0) }));
@@ -1161,6 +1167,62 @@ mod tests {
         }
         let first_red = data.primitives.iter().map(|p| p.material).collect::<Vec<_>>();
         assert_eq!(first_red[0], first_red[2], "the two plain red ones share one");
+    }
+
+    /// A texture is measured from its header before it is decoded: one
+    /// whose header claims 60000x60000 texels is refused with its size (it
+    /// was the image crate's "Memory limit exceeded"); a truncated one names
+    /// the file; a small one loads.
+    #[test]
+    fn textures_are_measured_before_they_are_decoded() {
+        let dir = std::env::temp_dir().join(format!("raycast-frame-tex-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let chunk = |kind: &[u8], data: &[u8]| {
+            let mut c = (data.len() as u32).to_be_bytes().to_vec();
+            let body = [kind, data].concat();
+            c.extend_from_slice(&body);
+            c.extend_from_slice(&crc32(&body).to_be_bytes());
+            c
+        };
+        let header = |w: u32, h: u32| {
+            let ihdr = [&w.to_be_bytes()[..], &h.to_be_bytes()[..], &[8, 2, 0, 0, 0]].concat();
+            [&b"\x89PNG\r\n\x1a\n"[..], &chunk(b"IHDR", &ihdr)].concat()
+        };
+        let texture = |name: &str, bytes: &[u8]| {
+            let path = dir.join(name);
+            std::fs::write(&path, bytes).unwrap();
+            let loc = crate::scene::SourceLoc { file: std::sync::Arc::new("t.xml".into()), line: 3, col: 7 };
+            TextureRef { file: name.into(), resolved: Some(path), repeat_u: 1.0, repeat_v: 1.0, loc }
+        };
+        let mut table = TextureTable::default();
+        // One zero byte as a stored zlib block: the header is read up to the first IDAT.
+        let idat = chunk(b"IDAT", &[0x78, 0x01, 0x01, 0x01, 0x00, 0xfe, 0xff, 0x00, 0x00, 0x01, 0x00, 0x01]);
+        let huge = [header(60000, 60000), idat, chunk(b"IEND", b"")].concat();
+        let e = table.add(&texture("huge.png", &huge)).unwrap_err();
+        assert!(
+            e.starts_with("t.xml:3:7: error: texture ") && e.contains("huge.png (60000x60000) does not fit"),
+            "{e}"
+        );
+        let e = table.add(&texture("cut.png", &header(4, 4)[..20])).unwrap_err();
+        assert!(e.starts_with("t.xml:3:7: error: cannot read texture ") && e.contains("cut.png"), "{e}");
+        let small = dir.join("small.png");
+        image::RgbImage::from_pixel(3, 2, image::Rgb([1, 2, 3])).save(&small).unwrap();
+        let small = std::fs::read(&small).unwrap();
+        assert_eq!(table.add(&texture("small2.png", &small)), Ok(0));
+        assert_eq!((table.textures[0].width, table.textures[0].height, table.texels.len()), (3, 2, 6));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The CRC of PNG chunks (ISO 3309), for the test's hand-made headers.
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 != 0 { 0xedb8_8320 ^ (c >> 1) } else { c >> 1 };
+            }
+        }
+        !c
     }
 
     /// Lights whose distance the renderer's f32 cannot square are errors at
