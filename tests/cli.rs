@@ -950,6 +950,11 @@ fn render_settings_out_of_range() {
         2,
         "--depth-range 0,NaN is out of range",
     );
+    assert_fails(
+        &raycast(&["render", "--aov", "depth", "--depth-range", "1e39,2e39"], &[]),
+        2,
+        "1e39 is beyond what the renderer's 32-bit floats hold",
+    );
     assert_fails(&raycast(&["render", "--depth-range", "1,2"], &[]), 2, "--depth-range is for --aov depth");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "0"], &[]), 2, "--cost-max 0 is out of range");
     // A small cost picture of the default scene, with `extra` options.

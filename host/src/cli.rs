@@ -177,7 +177,14 @@ impl RenderOptions {
 fn parse_depth_range(s: &str) -> Result<[f32; 2], String> {
     let wrong = || format!("{s:?} is not NEAR,FAR (two distances, say 2,12)");
     let (near, far) = s.split_once(',').ok_or_else(wrong)?;
-    let parse = |t: &str| t.trim().parse::<f32>().map_err(|_| wrong());
+    let parse = |t: &str| {
+        let x = t.trim().parse::<f64>().map_err(|_| wrong())?;
+        // A distance the picture's 32-bit floats cannot hold is told as written, not as "inf".
+        if x.is_finite() && !(x as f32).is_finite() {
+            return Err(format!("{s:?}: {} is beyond what the renderer's 32-bit floats hold (about 3.4e38)", t.trim()));
+        }
+        Ok(x as f32)
+    };
     Ok([parse(near)?, parse(far)?])
 }
 
