@@ -955,6 +955,11 @@ fn render_settings_out_of_range() {
         2,
         "1e39 is beyond what the renderer's 32-bit floats hold",
     );
+    assert_fails(
+        &raycast(&["render", "--aov", "depth", "--depth-range", "-1,5"], &[]),
+        2,
+        "--depth-range -1,5 is out of range",
+    );
     assert_fails(&raycast(&["render", "--depth-range", "1,2"], &[]), 2, "--depth-range is for --aov depth");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "0"], &[]), 2, "--cost-max 0 is out of range");
     // A small cost picture of the default scene, with `extra` options.
@@ -1488,6 +1493,8 @@ fn trace_follows_one_pixel() {
     assert_fails(&raycast(&["trace", "--pixel", "600,10"], &[]), 2, "--pixel 600,10 is outside the 512x384 picture");
     assert_fails(&raycast(&["trace"], &[]), 2, "--pixel");
     assert_fails(&raycast(&["trace", "--pixel", "1"], &[]), 2, "\"1\" is not X,Y");
+    // A negative pixel reaches the parser (not clap's "unexpected argument '-1'").
+    assert_fails(&raycast(&["trace", "--pixel", "-1,0"], &[]), 2, "\"-1,0\" is not X,Y");
     assert_fails(&raycast(&["trace", "--pixel", "1,1", "--device", "0"], &[]), 2, "trace runs the CPU build");
     assert_fails(&raycast(&["trace", "--pixel", "1,1", "--aov", "depth"], &[]), 2, "trace follows the colour's rays");
     assert_fails(&raycast(&["trace", "no/such.xml", "--pixel", "1,1"], &[]), 1, "no/such.xml");

@@ -73,7 +73,7 @@ pub struct RenderOptions {
     pub aov: Aov,
     /// With `--aov depth`: the distances from the eye drawn white and black
     /// [default: the scene's bounding sphere, nearest to farthest]
-    #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range)]
+    #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range, allow_hyphen_values = true)]
     pub depth_range: Option<[f32; 2]>,
     /// With `--aov cost` or `cost-all`: the passes drawn dark red (and beyond) [default: 64, cost-all 256]
     #[arg(long, value_name = "N")]
@@ -261,7 +261,7 @@ struct CheckArgs {
     /// tree's shaders/), compared bit for bit. Tells a difference that
     /// follows the code from one that follows the whole-frame kernel, and
     /// lets instrumentation of DIR run on both sides. Repeatable; one scene.
-    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true)]
     pixel: Vec<(u32, u32)>,
 }
 
@@ -280,7 +280,7 @@ struct TraceArgs {
     #[arg(value_name = "SCENE")]
     scene: Option<PathBuf>,
     /// The pixel: X columns from the left, Y rows from the top.
-    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true)]
     pixel: (u32, u32),
     /// Which of the pixel's `--spp` samples (0 is the pixel centre when there is one).
     #[arg(long, default_value_t = 0, value_name = "S")]
