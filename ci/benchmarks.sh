@@ -64,6 +64,13 @@ source "$(dirname "$0")/common.sh"
 cd "$ROOT"
 RAYCAST=build/raycast
 export CORPUS="${RAYCAST_CORPUS:-../shared/corpus/cs1230}"
+# The usual place written as the file writes it: an absolute RAYCAST_CORPUS
+# that is ../shared/corpus/cs1230 would otherwise put this machine's paths
+# into every command line of the file (and into its diff).
+if [ "$CORPUS" != ../shared/corpus/cs1230 ] && [ -d ../shared/corpus/cs1230 ] && [ -d "$CORPUS" ] \
+  && [ "$(cd "$CORPUS" && pwd -P)" = "$(cd ../shared/corpus/cs1230 && pwd -P)" ]; then
+  CORPUS=../shared/corpus/cs1230
+fi
 
 machine() {
   local commit
