@@ -89,7 +89,19 @@
 #define SPEC_BOX_RECORDS 16      // an instance record holds a box
 #define SPEC_SPHERE_RECORDS 17   // an instance record holds a sphere (RECORD_SPHERE)
 #define SPEC_AOVS 18             // frame.aov other than AOV_COLOR (and the walk's pass count)
-#define SPEC_COUNT 19
+// Not a feature left out, a form chosen: the walk keeps each instance
+// level's ray, first id and instance in arrays indexed by the lane's level,
+// which lavapipe reads and writes lane by lane (a scalar loop over the 8
+// lanes for every word), or in registers: each access a select over the
+// scene's REGISTER_LEVELS levels, constant indices once the loops over them
+// unroll (raycast.glsl, walk). A kernel specialised for a scene has them in
+// registers, as many as the scene nests (render::Specialization; 0.79 to
+// 0.86 of the dispatch at every depth of the recursive spheres, BENCHMARKS.md
+// "The walk's levels in registers"); the C++ build and a kernel not
+// specialised, in arrays.
+#define SPEC_LEVELS_IN_REGISTERS 19 // a bool
+#define SPEC_REGISTER_LEVELS 20     // a count: the levels the walk keeps, 1 to MAX_LEVELS
+#define SPEC_COUNT 21
 
 // Primitive.shape
 #define SHAPE_CUBE 0u

@@ -771,6 +771,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         vec4 leaf_lo = vec4(0.0f); // the leaf's box: its instances' boxes are in steps of it
         vec4 leaf_hi = vec4(0.0f);
         uint level = 0u;
+        uint level_first = 0u; // level_first_id[level]
         Ray lr = r;
         // A primitive index, not a leaf's item range. A scene has one kind
         // of walk or the other (frame.node_count), and its kernel keeps
@@ -785,22 +786,55 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             top = top - 1;
             uint entry = stack[top] & STACK_ENTRY_MASK;
             level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
-            lr.origin = level_origin[level];
-            lr.direction = level_direction[level];
+            if (LEVELS_IN_REGISTERS) {
+                // A select over the scene's levels: once the loop unrolls,
+                // every index is a constant and the arrays are registers
+                // (layout.h, SPEC_LEVELS_IN_REGISTERS).
+                lr.origin = level_origin[0];
+                lr.direction = level_direction[0];
+                level_first = level_first_id[0];
+                for (uint l = 1u; l < REGISTER_LEVELS; l++) {
+                    if (level == l) {
+                        lr.origin = level_origin[l];
+                        lr.direction = level_direction[l];
+                        level_first = level_first_id[l];
+                    }
+                }
+            } else {
+                lr.origin = level_origin[level];
+                lr.direction = level_direction[level];
+                level_first = level_first_id[level];
+            }
             if (HAS_INSTANCES && (entry & ITEM_INSTANCE) != 0u) {
                 // Enter the instance: its group's ray one level down.
                 uint k = entry & (ITEM_INSTANCE - 1u);
                 Ray inner = ray_through(instance_at(k).object_from_parent, lr);
                 uint child = level + 1u;
-                if (((unsaved >> child) & 1u) != 0u) {
-                    best_instance[child] = level_instance[child];
-                    unsaved = unsaved & ~(1u << child);
+                uint child_first = level_first + instance_at(k).id_offset;
+                if (LEVELS_IN_REGISTERS) {
+                    for (uint l = 1u; l < REGISTER_LEVELS; l++) {
+                        if (child == l) {
+                            if (((unsaved >> l) & 1u) != 0u) {
+                                best_instance[l] = level_instance[l];
+                            }
+                            level_origin[l] = inner.origin;
+                            level_direction[l] = inner.direction;
+                            level_first_id[l] = child_first;
+                            level_instance[l] = k;
+                        }
+                    }
+                } else {
+                    if (((unsaved >> child) & 1u) != 0u) {
+                        best_instance[child] = level_instance[child];
+                    }
+                    level_origin[child] = inner.origin;
+                    level_direction[child] = inner.direction;
+                    level_first_id[child] = child_first;
+                    level_instance[child] = k;
                 }
-                level_origin[child] = inner.origin;
-                level_direction[child] = inner.direction;
-                level_first_id[child] = level_first_id[level] + instance_at(k).id_offset;
-                level_instance[child] = k;
+                unsaved = unsaved & ~(1u << child);
                 level = child;
+                level_first = child_first;
                 lr = inner;
                 entry = instance_at(k).root;
             }
@@ -848,7 +882,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             leaf_lo = node.lo;
             leaf_hi = node.hi;
         }
-        uint first_id = level_first_id[level];
+        uint first_id = level_first;
         uint best_before = best.id;
         if (HAS_SEVERAL_PRIMITIVE_LEAVES) {
             for (uint n = 0u; n < prim_count; n++) {
@@ -915,9 +949,20 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         Primitive hit_primitive = primitive_at(best.item);
         precise vec3 n_world = transform_normal(hit_primitive.object_from_world, best.n_object);
         if (HAS_INSTANCES) {
-            for (uint l = best_level; l > 0u; l--) {
-                uint placed = (((unsaved >> l) & 1u) != 0u) ? level_instance[l] : best_instance[l];
-                n_world = transform_normal(instance_at(placed).object_from_parent, n_world);
+            if (LEVELS_IN_REGISTERS) {
+                // The same order, deepest first, over the scene's levels.
+                for (uint i = 1u; i < REGISTER_LEVELS; i++) {
+                    uint l = REGISTER_LEVELS - i;
+                    if (l <= best_level) {
+                        uint placed = (((unsaved >> l) & 1u) != 0u) ? level_instance[l] : best_instance[l];
+                        n_world = transform_normal(instance_at(placed).object_from_parent, n_world);
+                    }
+                }
+            } else {
+                for (uint l = best_level; l > 0u; l--) {
+                    uint placed = (((unsaved >> l) & 1u) != 0u) ? level_instance[l] : best_instance[l];
+                    n_world = transform_normal(instance_at(placed).object_from_parent, n_world);
+                }
             }
         }
         best.normal = unit(n_world);

@@ -108,6 +108,11 @@ layout(constant_id = SPEC_FLAT_LIST) const bool HAS_FLAT_LIST = true;
 layout(constant_id = SPEC_BOX_RECORDS) const bool HAS_BOX_RECORDS = true;
 layout(constant_id = SPEC_SPHERE_RECORDS) const bool HAS_SPHERE_RECORDS = true;
 layout(constant_id = SPEC_AOVS) const bool HAS_AOVS = true;
+// The walk's form (layout.h): its levels in arrays unless LEVELS_IN_REGISTERS,
+// then REGISTER_LEVELS of them in registers (used only in comparisons with
+// a variable, for naga's sake as above).
+layout(constant_id = SPEC_LEVELS_IN_REGISTERS) const bool LEVELS_IN_REGISTERS = false;
+layout(constant_id = SPEC_REGISTER_LEVELS) const uint REGISTER_LEVELS = 1u;
 
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };

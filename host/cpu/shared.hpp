@@ -109,6 +109,12 @@ const bool HAS_FLAT_LIST = true;
 const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
 const bool HAS_AOVS = true;
+// The walk's levels in arrays (layout.h, SPEC_LEVELS_IN_REGISTERS): the
+// CPU build is compiled once for every scene, so it cannot hold a scene's
+// count of levels; the device's register form computes the same bits
+// (`raycast check`).
+const bool LEVELS_IN_REGISTERS = false;
+const uint REGISTER_LEVELS = 1u;
 
 // Internal linkage: each translation unit has its own copy, so GCC may
 // inline a function called once (sphere_hit in walk) without keeping an

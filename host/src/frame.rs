@@ -228,6 +228,9 @@ pub struct FrameData {
     /// inner nodes' children at `first` and `first + 1`); u32::MAX for a
     /// group with nothing to draw. Empty without a hierarchy.
     pub group_roots: Vec<u32>,
+    /// The levels the walk enters: 1 (the root group) and the deepest
+    /// nesting of masters under it; at most layout::MAX_LEVELS.
+    pub levels: u32,
     /// Primitives the scene expands to (every instance counted).
     pub expanded: u64,
     /// Time to build the hierarchies and pack the groups.
@@ -491,6 +494,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         leaf_items: packed.leaf_items,
         instances: packed.instances,
         group_roots: packed.group_roots,
+        levels: packed.levels,
         expanded: scene.primitive_count(),
         build_time,
         notes,
@@ -508,6 +512,8 @@ struct Packed {
     instances: Vec<layout::Instance>,
     /// Each group's root node, the scene's root group first; empty without a hierarchy.
     group_roots: Vec<u32>,
+    /// The walk's levels: 1 and the deepest nesting of masters under the root.
+    levels: u32,
 }
 
 fn shape_code(shape: &Shape) -> u32 {
@@ -892,14 +898,22 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
             leaf_items: vec![],
             instances: vec![],
             group_roots: vec![],
+            levels: 1,
         });
     }
     if n == 1 && p_total as usize <= SMALL_SCENE {
         // A few primitives and no instances: testing them in order is cheaper
         // than walking a hierarchy, and computes exactly the same.
-        return Ok(Packed { primitives, nodes: vec![], leaf_items: vec![], instances: vec![], group_roots: vec![] });
+        return Ok(Packed {
+            primitives,
+            nodes: vec![],
+            leaf_items: vec![],
+            instances: vec![],
+            group_roots: vec![],
+            levels: 1,
+        });
     }
-    Ok(Packed { primitives, nodes, leaf_items, instances, group_roots: group_root })
+    Ok(Packed { primitives, nodes, leaf_items, instances, group_roots: group_root, levels: levels[0] + 1 })
 }
 
 #[cfg(test)]

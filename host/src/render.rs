@@ -151,39 +151,58 @@ fn fits_images(sizes: &[(u32, &str, usize)]) -> Result<(), String> {
 }
 
 /// What a kernel built for a scene keeps of the shaders' code: one bool per
-/// specialization constant (shaders/layout.h SPEC_*), false for what the
-/// scene and its frame flags can never reach.
+/// feature's specialization constant (shaders/layout.h SPEC_CUBES to
+/// SPEC_AOVS), false for what the scene and its frame flags can never
+/// reach; and the walk's form (SPEC_LEVELS_IN_REGISTERS, SPEC_REGISTER_LEVELS).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Specialization([bool; layout::SPEC_COUNT as usize]);
+pub struct Specialization {
+    keeps: [bool; FEATURES],
+    /// The walk's levels kept in registers, so many, or None: in arrays.
+    register_levels: Option<u32>,
+}
+
+/// The constants that turn a feature's code on or off: those before the walk's form.
+const FEATURES: usize = layout::SPEC_LEVELS_IN_REGISTERS as usize;
 
 impl Specialization {
-    /// Everything kept: the shaders' defaults, what the CPU build runs.
-    pub const ALL: Specialization = Specialization([true; layout::SPEC_COUNT as usize]);
+    /// Everything kept, the levels in arrays: the shaders' defaults, what the CPU build runs.
+    pub const ALL: Specialization = Specialization { keeps: [true; FEATURES], register_levels: None };
 
     /// What rendering `data` with `frame` can reach.
     pub fn of(data: &FrameData, frame: &layout::Frame) -> Specialization {
         SceneFeatures::of(data).specialization(frame)
     }
 
-    /// The constants' values for `Kernel::specialized`.
+    /// The constants' values for `Kernel::specialized`, by constant_id.
     pub fn constants(&self) -> [u32; layout::SPEC_COUNT as usize] {
-        self.0.map(u32::from)
+        let mut values = [0u32; layout::SPEC_COUNT as usize];
+        for (value, &keep) in values.iter_mut().zip(&self.keeps) {
+            *value = u32::from(keep);
+        }
+        values[layout::SPEC_LEVELS_IN_REGISTERS as usize] = u32::from(self.register_levels.is_some());
+        values[layout::SPEC_REGISTER_LEVELS as usize] = self.register_levels.unwrap_or(1);
+        values
     }
 
     /// What the kernel keeps and what it leaves out, for people:
     /// "keeps spheres, instances, …; leaves out cubes, …".
     pub fn describe(&self) -> String {
         let names = |on: bool| -> Vec<&str> {
-            SPEC_NAMES.iter().filter(|(id, _)| self.0[*id as usize] == on).map(|(_, name)| *name).collect()
+            SPEC_NAMES.iter().filter(|(id, _)| self.keeps[*id as usize] == on).map(|(_, name)| *name).collect()
         };
         let (kept, out) = (names(true), names(false));
         let list = |v: &[&str]| if v.is_empty() { "nothing".to_string() } else { v.join(", ") };
-        format!("keeps {}; leaves out {}", list(&kept), list(&out))
+        let levels = match self.register_levels {
+            Some(1) => "; the walk's one level in registers".to_string(),
+            Some(n) => format!("; the walk's {n} levels in registers"),
+            None => String::new(),
+        };
+        format!("keeps {}; leaves out {}{levels}", list(&kept), list(&out))
     }
 }
 
 /// The specialization constants by name, for `Specialization::describe`.
-const SPEC_NAMES: [(u32, &str); layout::SPEC_COUNT as usize] = [
+const SPEC_NAMES: [(u32, &str); FEATURES] = [
     (layout::SPEC_CUBES, "cubes"),
     (layout::SPEC_CONES, "cones"),
     (layout::SPEC_CYLINDERS, "cylinders"),
@@ -236,6 +255,8 @@ pub struct SceneFeatures {
     /// (RECORD_SPHERE): the walk's two tests of an instance's bound.
     box_records: bool,
     sphere_records: bool,
+    /// The levels the walk enters (FrameData::levels).
+    levels: u32,
 }
 
 impl SceneFeatures {
@@ -260,6 +281,7 @@ impl SceneFeatures {
             hierarchy: !data.nodes.is_empty(),
             box_records: record_kind(data, 0),
             sphere_records: record_kind(data, layout::RECORD_SPHERE),
+            levels: data.levels,
         }
     }
 
@@ -267,7 +289,7 @@ impl SceneFeatures {
     pub fn specialization(&self, frame: &layout::Frame) -> Specialization {
         let flag = |f: u32| frame.flags & f != 0;
         let textures = self.textured && flag(layout::FLAG_TEXTURES);
-        let mut on = [false; layout::SPEC_COUNT as usize];
+        let mut on = [false; FEATURES];
         for (id, value) in [
             (layout::SPEC_CUBES, self.cubes),
             (layout::SPEC_CONES, self.cones),
@@ -293,7 +315,9 @@ impl SceneFeatures {
         ] {
             on[id as usize] = value;
         }
-        Specialization(on)
+        // The walk's levels in registers, as many as the scene has (layout.h).
+        let register_levels = Some(self.levels.clamp(1, layout::MAX_LEVELS));
+        Specialization { keeps: on, register_levels }
     }
 }
 
@@ -581,9 +605,9 @@ mod tests {
         crate::frame::build(&scene, settings).unwrap()
     }
 
-    /// The constants that are on, by SPEC_* name.
+    /// The features' constants that are on, by SPEC_* name.
     fn on(s: Specialization) -> Vec<u32> {
-        (0..layout::SPEC_COUNT).filter(|&id| s.constants()[id as usize] == 1).collect()
+        (0..FEATURES as u32).filter(|&id| s.constants()[id as usize] == 1).collect()
     }
 
     /// A constant is on exactly when the scene and the flags can reach its
@@ -637,7 +661,8 @@ mod tests {
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
-             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs"
+             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs; \
+             the walk's 2 levels in registers"
         );
         // An AOV other than colour keeps its code.
         for aov in [Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost, Aov::CostAll] {
@@ -662,9 +687,30 @@ mod tests {
         let s = on(Specialization::of(&d, &d.frame));
         assert!(s.contains(&layout::SPEC_BOX_RECORDS) && !s.contains(&layout::SPEC_SPHERE_RECORDS), "{s:?}");
         assert!(Specialization::ALL.describe().ends_with("leaves out nothing"));
-        // Every constant has its name, once.
+        // Every feature's constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
         ids.sort();
-        assert_eq!(ids, (0..layout::SPEC_COUNT).collect::<Vec<_>>());
+        assert_eq!(ids, (0..FEATURES as u32).collect::<Vec<_>>());
+    }
+
+    /// A kernel specialised for a scene keeps the walk's levels in
+    /// registers, as many as the scene nests (layout.h); `ALL`, in arrays.
+    #[test]
+    fn specialization_chooses_the_walks_form_by_the_levels() {
+        let levels = |depth: u32| {
+            let options = crate::gen::GenOptions { texture: None };
+            let xml = crate::gen::generate(crate::gen::Family::RecursiveSpheres, depth, &options).unwrap();
+            let d = data(&xml, &RenderSettings::default());
+            let c = Specialization::of(&d, &d.frame).constants();
+            (d.levels, c[layout::SPEC_LEVELS_IN_REGISTERS as usize], c[layout::SPEC_REGISTER_LEVELS as usize])
+        };
+        // Depth N: the root and N - 1 masters nested.
+        assert_eq!(levels(1), (1, 1, 1));
+        assert_eq!(levels(4), (4, 1, 4));
+        assert_eq!(levels(10), (10, 1, 10));
+        let d = data(&crate::scene::row_of_cubes_xml(20), &RenderSettings::default());
+        assert_eq!(d.levels, 1);
+        assert!(Specialization::of(&d, &d.frame).describe().ends_with("; the walk's one level in registers"));
+        assert_eq!(Specialization::ALL.constants()[layout::SPEC_LEVELS_IN_REGISTERS as usize], 0);
     }
 }
