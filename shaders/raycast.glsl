@@ -789,7 +789,10 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             if (LEVELS_IN_REGISTERS) {
                 // A select over the scene's levels: once the loop unrolls,
                 // every index is a constant and the arrays are registers
-                // (layout.h, SPEC_LEVELS_IN_REGISTERS).
+                // (layout.h, SPEC_LEVELS_IN_REGISTERS). The two forms are
+                // written apart on purpose: one loop for both, its bounds
+                // a select on the constant, did not unroll on lavapipe and
+                // ran 1.17 to 1.26 times as long.
                 lr.origin = level_origin[0];
                 lr.direction = level_direction[0];
                 level_first = level_first_id[0];
