@@ -95,8 +95,8 @@
 // lanes for every word), or in registers: each access a select over the
 // scene's REGISTER_LEVELS levels, constant indices once the loops over them
 // unroll (raycast.glsl, walk). A kernel specialised for a scene has them in
-// registers, as many as the scene nests (render::Specialization; 0.79 to
-// 0.86 of the dispatch at every depth of the recursive spheres, BENCHMARKS.md
+// registers, as many as the scene nests (render::Specialization; 0.78 to
+// 0.90 of the dispatch at every depth of the recursive spheres, BENCHMARKS.md
 // "The walk's levels in registers"); the C++ build and a kernel not
 // specialised, in arrays.
 #define SPEC_LEVELS_IN_REGISTERS 19 // a bool
