@@ -315,8 +315,11 @@ impl SceneFeatures {
         ] {
             on[id as usize] = value;
         }
-        // The walk's levels in registers, as many as the scene has (layout.h).
-        let register_levels = Some(self.levels.clamp(1, layout::MAX_LEVELS));
+        // The walk's levels in registers, as many as the scene has (layout.h;
+        // frame.rs refuses a scene nested MAX_LEVELS deep or more, and a
+        // count below the scene's would drop its deeper levels).
+        debug_assert!((1..=layout::MAX_LEVELS).contains(&self.levels), "{} levels", self.levels);
+        let register_levels = Some(self.levels.max(1));
         Specialization { keeps: on, register_levels }
     }
 }
