@@ -180,7 +180,7 @@ fn parse_depth_range(s: &str) -> Result<[f32; 2], String> {
     let parse = |t: &str| {
         let x = t.trim().parse::<f64>().map_err(|_| wrong())?;
         // A distance the picture's 32-bit floats cannot hold is told as written, not as "inf".
-        if x.is_finite() && !(x as f32).is_finite() {
+        if x.is_finite() && !crate::units::f32_holds(x) {
             return Err(format!("{s:?}: {} is beyond what the renderer's 32-bit floats hold (about 3.4e38)", t.trim()));
         }
         Ok(x as f32)

@@ -17,6 +17,13 @@ pub fn fmt_bytes(bytes: u64) -> String {
     format!("{number} {} ({bytes} bytes)", UNITS[unit])
 }
 
+/// Whether `x` stays finite as the renderer's f32 (`x as f32`, as the host
+/// packs its numbers): beyond about 3.4e38 it becomes an infinity, which
+/// drops a shape or light from the picture without a word.
+pub(crate) fn f32_holds(x: f64) -> bool {
+    (x as f32).is_finite()
+}
+
 /// A coordinate as a message shows it: `0.25`, `-3` as written, or
 /// `1e-300` and `1e39` where the plain form would run to hundreds of digits.
 pub(crate) fn fmt_number(x: f64) -> String {

@@ -31,8 +31,8 @@ pub fn load(path: &Path, opts: &ParseOptions, limits: &FlattenLimits) -> Result<
 /// Why a transform cannot be inverted reliably, if it cannot: entries not
 /// finite; a determinant that is zero, overflows or underflows; or columns
 /// so nearly dependent that the determinant of the normalised columns is
-/// below 1e-12.
-fn check_invertible(m: &DMat4) -> Result<(), &'static str> {
+/// below 1e-12. Else the inverse.
+fn check_invertible(m: &DMat4) -> Result<DMat4, &'static str> {
     if !m.is_finite() {
         return Err("transform is not finite (an overflow?)");
     }
@@ -59,10 +59,11 @@ fn check_invertible(m: &DMat4) -> Result<(), &'static str> {
     if conditioning.is_nan() || conditioning < 1e-12 {
         return Err("transform is singular (a scale of 0?)");
     }
-    if !m.inverse().is_finite() {
+    let inverse = m.inverse();
+    if !inverse.is_finite() {
         return Err("transform is out of range (a scale too large or too small?)");
     }
-    Ok(())
+    Ok(inverse)
 }
 
 /// The inverse of a primitive's or master's combined transform, once it is
@@ -72,9 +73,9 @@ fn check_invertible(m: &DMat4) -> Result<(), &'static str> {
 /// and drop the shape from the picture without a word. `what` names the
 /// shape for the message.
 fn renderable_inverse(ctm: &DMat4, what: &str) -> Result<DMat4, String> {
-    check_invertible(ctm).map_err(|why| format!("{why}: the combined transform of this {what} cannot be inverted"))?;
-    let inverse = ctm.inverse();
-    let beyond = |m: &DMat4| m.to_cols_array().iter().any(|x| x.abs() > f64::from(f32::MAX));
+    let inverse = check_invertible(ctm)
+        .map_err(|why| format!("{why}: the combined transform of this {what} cannot be inverted"))?;
+    let beyond = |m: &DMat4| m.to_cols_array().iter().any(|&x| !crate::units::f32_holds(x));
     if beyond(ctm) || beyond(&inverse) {
         return Err(format!(
             "the combined transform of this {what} is out of range for the renderer's 32-bit floats: it or its \

@@ -524,9 +524,8 @@ impl<'a> Ctx<'a> {
     }
 
     fn to_f32(&self, n: XNode, name: &str, v: f64) -> R<f32> {
-        let f = v as f32;
-        if f.is_finite() {
-            return Ok(f);
+        if crate::units::f32_holds(v) {
+            return Ok(v as f32);
         }
         let loc = match Self::attr(n, name) {
             Some(a) => self.aloc(&a),
