@@ -73,7 +73,7 @@ fn default_scene_renders_to_png() {
     if out.contains("(cpu, Vulkan") {
         assert!(out.contains("hint: ") && out.contains("`--backend cpu`"), "no hint of the CPU backend:\n{out}");
     }
-    let img = raycast::image_io::read_png(&png).unwrap();
+    let img = raycast::image_io::read_picture(&png).unwrap();
     assert_eq!((img.width, img.height), (512, 384));
     // All four primitives are lit in different colours: many distinct colours,
     // and the background (a miss) is black.
@@ -90,7 +90,7 @@ fn normal_aov_at_another_size() {
     let o =
         raycast(&["render", "--aov", "normal", "--width", "100", "--height", "60", "-o", png.to_str().unwrap()], &[]);
     assert!(o.status.success(), "{:?}", text(&o));
-    let img = raycast::image_io::read_png(&png).unwrap();
+    let img = raycast::image_io::read_picture(&png).unwrap();
     assert_eq!((img.width, img.height), (100, 60));
     // The floor's top face faces +y: (0, 1, 0) -> (127, 255, 127).
     assert_eq!(img.pixel(50, 55), [127, 255, 127]);
@@ -201,7 +201,7 @@ fn closed_stdout_is_no_panic() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(o.status.code(), Some(0), "{err}");
-    assert!(raycast::image_io::read_png(&png).is_ok(), "no picture at {}", png.display());
+    assert!(raycast::image_io::read_picture(&png).is_ok(), "no picture at {}", png.display());
 }
 
 /// A picture too large for the memory the CPU build can have (16384 x
@@ -311,7 +311,7 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
         let (out, err) = text(&o);
         assert!(o.status.success(), "{name}: {out}{err}");
         let kernel = out.lines().find(|l| l.starts_with("kernel: ")).unwrap_or_else(|| panic!("{out}")).to_string();
-        (raycast::image_io::read_png(&png).unwrap(), kernel)
+        (raycast::image_io::read_picture(&png).unwrap(), kernel)
     };
     let render = |name: &str, env: &[(&str, &str)]| render_with(name, &[], env);
     let (pipeline, kernel) = render("pipeline", &[("RAYCAST_SHADER_OBJECTS", "0")]);
@@ -547,8 +547,10 @@ fn several_scenes_render_on_one_device() {
         let alone = out_dir().join(format!("alone-{name}"));
         let o = raycast(&["render", scene.to_str().unwrap(), "-o", alone.to_str().unwrap()], &[]);
         assert!(o.status.success(), "{:?}", text(&o));
-        let (a, b) =
-            (raycast::image_io::read_png(&dir.join(name)).unwrap(), raycast::image_io::read_png(&alone).unwrap());
+        let (a, b) = (
+            raycast::image_io::read_picture(&dir.join(name)).unwrap(),
+            raycast::image_io::read_picture(&alone).unwrap(),
+        );
         let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
         assert_eq!(diff.differing, 0, "{name}: {diff}");
     }
@@ -599,7 +601,7 @@ fn a_picture_beyond_one_storage_buffer_renders_in_bands() {
     let o = raycast(&[&["render", "--backend", "cpu", "-o", cpu.to_str().unwrap()][..], &size].concat(), &[]);
     assert!(o.status.success(), "{:?}", text(&o));
     // Rule: bit-exact.
-    let (a, b) = (raycast::image_io::read_png(&gpu).unwrap(), raycast::image_io::read_png(&cpu).unwrap());
+    let (a, b) = (raycast::image_io::read_picture(&gpu).unwrap(), raycast::image_io::read_picture(&cpu).unwrap());
     let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
     assert_eq!(diff.differing, 0, "{diff}");
 }
@@ -614,7 +616,7 @@ fn cpu_backend_writes_the_same_png_as_the_device() {
     assert!(o.status.success(), "{out}{err}");
     assert!(out.contains("device: CPU build of the shared GLSL"), "{out}");
     // Rule: bit-exact.
-    let (a, b) = (raycast::image_io::read_png(&gpu).unwrap(), raycast::image_io::read_png(&cpu).unwrap());
+    let (a, b) = (raycast::image_io::read_picture(&gpu).unwrap(), raycast::image_io::read_picture(&cpu).unwrap());
     let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
     assert_eq!(diff.differing, 0, "{diff}");
 }
@@ -645,8 +647,8 @@ fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
         assert!(!out.contains("hint:"), "{out}");
         // Rule: bit-exact.
         let diff = raycast::image_io::compare(
-            &raycast::image_io::read_png(&auto).unwrap(),
-            &raycast::image_io::read_png(&gpu).unwrap(),
+            &raycast::image_io::read_picture(&auto).unwrap(),
+            &raycast::image_io::read_picture(&gpu).unwrap(),
             0,
         )
         .unwrap();
@@ -674,8 +676,8 @@ fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
         "{out}"
     );
     let diff = raycast::image_io::compare(
-        &raycast::image_io::read_png(&none).unwrap(),
-        &raycast::image_io::read_png(&gpu).unwrap(),
+        &raycast::image_io::read_picture(&none).unwrap(),
+        &raycast::image_io::read_picture(&gpu).unwrap(),
         0,
     )
     .unwrap();
@@ -984,7 +986,7 @@ fn feature_flags_change_the_picture() {
         args.extend_from_slice(extra);
         let o = raycast(&args, &[]);
         assert!(o.status.success(), "{:?}", text(&o));
-        raycast::image_io::read_png(&png).unwrap()
+        raycast::image_io::read_picture(&png).unwrap()
     };
     let all = render("all", &[]);
     let differing = |other: &raycast::image_io::Rgb8| raycast::image_io::compare(&all, other, 0).unwrap().differing;
@@ -1128,7 +1130,8 @@ fn pixels_beyond_lavapipes_loop_budget_are_finished_on_the_cpu_or_refused() {
     );
     assert!(o.status.success(), "{:?}", text(&o));
     // Rule: bit-exact, the finished picture against the CPU build's.
-    let (a, b) = (raycast::image_io::read_png(&device_png).unwrap(), raycast::image_io::read_png(&cpu_png).unwrap());
+    let (a, b) =
+        (raycast::image_io::read_picture(&device_png).unwrap(), raycast::image_io::read_picture(&cpu_png).unwrap());
     let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
     assert_eq!(diff.differing, 0, "{diff}");
 
@@ -1224,9 +1227,9 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
         assert_eq!(kernel_name(&text(&o).0), Some(kernel), "--scene-buffers {choice}: {:?}", text(&o));
     }
     // Rule: bit-exact.
-    let uniform = raycast::image_io::read_png(&png("uniform")).unwrap();
+    let uniform = raycast::image_io::read_picture(&png("uniform")).unwrap();
     for other in ["images", "storage"] {
-        let b = raycast::image_io::read_png(&png(other)).unwrap();
+        let b = raycast::image_io::read_picture(&png(other)).unwrap();
         assert_eq!(raycast::image_io::compare(&uniform, &b, 0).unwrap().differing, 0, "uniform against {other}");
     }
 
@@ -1264,8 +1267,8 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
         assert_eq!(kernel_name(&text(&o).0), Some(kernel), "{:?}", text(&o));
     }
     let (a, b) = (
-        raycast::image_io::read_png(&png("flat-uniform")).unwrap(),
-        raycast::image_io::read_png(&png("flat-storage")).unwrap(),
+        raycast::image_io::read_picture(&png("flat-uniform")).unwrap(),
+        raycast::image_io::read_picture(&png("flat-storage")).unwrap(),
     );
     let d = raycast::image_io::compare(&a, &b, 0).unwrap();
     assert_eq!(d.differing, 0, "rule: bit-exact; {d:?}");
@@ -1385,7 +1388,7 @@ fn orbit_renders_a_turntable() {
     let o = raycast(&[&["render", "-o", plain.to_str().unwrap()][..], &small].concat(), &[]);
     assert!(o.status.success(), "{:?}", text(&o));
 
-    let read = |p: &Path| raycast::image_io::read_png(p).unwrap_or_else(|e| panic!("{e}"));
+    let read = |p: &Path| raycast::image_io::read_picture(p).unwrap_or_else(|e| panic!("{e}"));
     let differing = |a: &Path, b: &Path| raycast::image_io::compare(&read(a), &read(b), 0).unwrap().differing;
     assert_eq!(differing(&dir.join("default-000.png"), &plain), 0, "the first picture is the scene's camera");
     for f in &files {
@@ -1442,7 +1445,7 @@ fn gen_flat_writes_every_instance_out() {
         let o = raycast(&[&["render"][..], &args, &size, &["-o", png.to_str().unwrap()]].concat(), &[]);
         assert!(o.status.success(), "{:?}", text(&o));
     }
-    let read = |p: &PathBuf| raycast::image_io::read_png(p).unwrap();
+    let read = |p: &PathBuf| raycast::image_io::read_picture(p).unwrap();
     let same = raycast::image_io::compare(&read(&a), &read(&b), 0).unwrap();
     assert_eq!(same.differing, 0, "flat file, device against the CPU build: {same}");
     let near = raycast::image_io::compare(&read(&a), &read(&c), 2).unwrap();

@@ -99,7 +99,7 @@ fn screenshot(scene: Option<&Path>, size: [u32; 2], frames: u32, name: &str, ext
     let o = preview(&args);
     assert_clean(&o, &format!("preview of {name}"));
     assert!(String::from_utf8_lossy(&o.stdout).contains("wrote "), "{}", text(&o));
-    image_io::read_png(&png).unwrap()
+    image_io::read_picture(&png).unwrap()
 }
 
 /// `raycast render` of the same scene and size. `extra`: more flags for it.
@@ -115,7 +115,7 @@ fn render(scene: Option<&Path>, size: [u32; 2], name: &str, extra: &[&str]) -> R
     }
     let o = raycast(&args);
     assert_clean(&o, &format!("render of {name}"));
-    image_io::read_png(&png).unwrap()
+    image_io::read_picture(&png).unwrap()
 }
 
 /// Rule: bit-exact. `extra`: more flags for the preview; `both`: flags for
@@ -502,7 +502,7 @@ fn moving_frames_report_their_rate_and_the_frame_at_rest_is_full_size() {
     let line =
         out.lines().find(|l| l.starts_with("at rest: ")).unwrap_or_else(|| panic!("no at-rest line:\n{}", text(&o)));
     assert!(line.starts_with("at rest: 2 frames at 96x64: median ") && line.ends_with(" frames a second"), "{line}");
-    let shot = image_io::read_png(&png).unwrap();
+    let shot = image_io::read_picture(&png).unwrap();
     assert_eq!((shot.width, shot.height), (96, 64), "the frame at rest is the full picture");
     // --moving needs --frames.
     let o = raycast(&["preview", "--moving", "3"]);
@@ -547,7 +547,7 @@ fn a_click_prints_the_pixel_and_its_rays() {
     assert!(!camera.contains("from (4.5, 3.2, 6.5)"), "the scene's eye, not the turned camera's: {camera}");
     let sample =
         out.lines().find(|l| l.trim_start().starts_with("sample colour")).unwrap_or_else(|| panic!("{}", text(&o)));
-    let shot = image_io::read_png(&png).unwrap();
+    let shot = image_io::read_picture(&png).unwrap();
     let k = (200 * shot.width as usize + 256) * 3;
     let rgb = &shot.data[k..k + 3];
     assert!(

@@ -468,9 +468,9 @@ struct ConformanceArgs {
 
 #[derive(Args, Debug)]
 struct CompareArgs {
-    /// The picture to judge (PNG).
+    /// The picture to judge (PNG, JPEG, BMP or PNM, told by its content).
     actual: PathBuf,
-    /// The picture it should match (PNG).
+    /// The picture it should match (PNG, JPEG, BMP or PNM).
     expected: PathBuf,
     /// A pixel differs when a colour channel (red, green or blue, at 8 bits;
     /// alpha is not compared) is off by more than this (0 to 255).
@@ -1339,7 +1339,7 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
         image_io::check_output_path(path)?;
     }
     let read = |path: &Path| {
-        let (rgb, translucent) = image_io::read_png_counting_alpha(path)?;
+        let (rgb, translucent) = image_io::read_picture_counting_alpha(path)?;
         if translucent > 0 {
             eprintln!(
                 "raycast: warning: {}: {} of {} pixels are not opaque; compare reads the colour channels only (alpha is \

@@ -146,7 +146,7 @@ pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
 /// same with the paths of the actual / expected / diff images written there.
 pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, f64, f64), String> {
     let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
-    let expected = image_io::read_png(&case.reference)?;
+    let expected = image_io::read_picture(&case.reference)?;
     let diff = image_io::compare(&actual, &expected, TOLERANCE)?;
 
     let ref_name = case.reference.file_stem().unwrap_or_default().to_string_lossy().into_owned();

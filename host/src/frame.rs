@@ -4,6 +4,7 @@
 //! once, in f64, and handed to both backends as the same f32 bits.
 
 use crate::bvh::{self, Aabb};
+use crate::image_io;
 use crate::layout::{self, Mat4, Vec4};
 use crate::scene::{scene_bounds, Bounds, Camera, LightKind, Scene, Shape, TextureRef};
 use glam::{DMat4, DVec3, DVec4};
@@ -278,14 +279,10 @@ impl TextureTable {
         if let Some(&i) = self.index.get(path) {
             return Ok(i);
         }
-        let cannot =
-            |e: &dyn std::fmt::Display| format!("{}: error: cannot read texture {}: {e}", t.loc, path.display());
-        let reader = || -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, String> {
-            image::ImageReader::open(path).map_err(|e| cannot(&e))?.with_guessed_format().map_err(|e| cannot(&e))
-        };
+        let cannot = |e: String| format!("{}: error: cannot read texture {}: {e}", t.loc, path.display());
         // The size from the header first: a picture too large for the
         // texture table is told so before it is decoded into memory.
-        let (width, height) = reader()?.into_dimensions().map_err(|e| cannot(&e))?;
+        let (width, height) = image_io::picture_size(path).map_err(cannot)?;
         let total = self.texels.len() as u64 + u64::from(width) * u64::from(height);
         if width == 0 || height == 0 || total > MAX_TEXELS {
             return Err(format!(
@@ -295,7 +292,7 @@ impl TextureTable {
                 crate::units::thousands(MAX_TEXELS)
             ));
         }
-        let image = reader()?.decode().map_err(|e| cannot(&format!("{e} ({width}x{height})")))?.to_rgba8();
+        let image = image_io::decode_picture(path).map_err(|e| cannot(format!("{e} ({width}x{height})")))?.to_rgba8();
         let i = self.textures.len() as i32;
         self.textures.push(layout::Texture { offset: self.texels.len() as u32, width, height, pad0: 0 });
         self.texels.extend(image.pixels().map(|p| layout::Texel { rgba: u32::from_le_bytes(p.0) }));
@@ -1186,22 +1183,12 @@ mod tests {
     /// A texture is measured from its header before it is decoded: one
     /// whose header claims 60000x60000 texels is refused with its size (it
     /// was the image crate's "Memory limit exceeded"); a truncated one names
-    /// the file; a small one loads.
+    /// the file (and its size, where its header was whole); small ones load,
+    /// their format told by their content.
     #[test]
     fn textures_are_measured_before_they_are_decoded() {
         let dir = std::env::temp_dir().join(format!("raycast-frame-tex-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let chunk = |kind: &[u8], data: &[u8]| {
-            let mut c = (data.len() as u32).to_be_bytes().to_vec();
-            let body = [kind, data].concat();
-            c.extend_from_slice(&body);
-            c.extend_from_slice(&crc32(&body).to_be_bytes());
-            c
-        };
-        let header = |w: u32, h: u32| {
-            let ihdr = [&w.to_be_bytes()[..], &h.to_be_bytes()[..], &[8, 2, 0, 0, 0]].concat();
-            [&b"\x89PNG\r\n\x1a\n"[..], &chunk(b"IHDR", &ihdr)].concat()
-        };
         let texture = |name: &str, bytes: &[u8]| {
             let path = dir.join(name);
             std::fs::write(&path, bytes).unwrap();
@@ -1209,34 +1196,34 @@ mod tests {
             TextureRef { file: name.into(), resolved: Some(path), repeat_u: 1.0, repeat_v: 1.0, loc }
         };
         let mut table = TextureTable::default();
-        // One zero byte as a stored zlib block: the header is read up to the first IDAT.
-        let idat = chunk(b"IDAT", &[0x78, 0x01, 0x01, 0x01, 0x00, 0xfe, 0xff, 0x00, 0x00, 0x01, 0x00, 0x01]);
-        let huge = [header(60000, 60000), idat, chunk(b"IEND", b"")].concat();
-        let e = table.add(&texture("huge.png", &huge)).unwrap_err();
+        // A PPM header alone: its size is read, its pixels never.
+        let e = table.add(&texture("huge.ppm", b"P6\n60000 60000\n255\n")).unwrap_err();
         assert!(
-            e.starts_with("t.xml:3:7: error: texture ") && e.contains("huge.png (60000x60000) does not fit"),
+            e.starts_with("t.xml:3:7: error: texture ") && e.contains("huge.ppm (60000x60000) does not fit"),
             "{e}"
         );
-        let e = table.add(&texture("cut.png", &header(4, 4)[..20])).unwrap_err();
-        assert!(e.starts_with("t.xml:3:7: error: cannot read texture ") && e.contains("cut.png"), "{e}");
+        let e = table.add(&texture("header.ppm", b"P6\n4")).unwrap_err();
+        assert!(e.starts_with("t.xml:3:7: error: cannot read texture ") && e.contains("header.ppm"), "{e}");
+        // Its header whole, its pixels cut short: told with the size.
+        let e = table.add(&texture("cut.ppm", b"P6\n4 4\n255\n\x01\x02")).unwrap_err();
+        assert!(
+            e.starts_with("t.xml:3:7: error: cannot read texture ") && e.contains("cut.ppm") && e.ends_with("(4x4)"),
+            "{e}"
+        );
         let small = dir.join("small.png");
         image::RgbImage::from_pixel(3, 2, image::Rgb([1, 2, 3])).save(&small).unwrap();
         let small = std::fs::read(&small).unwrap();
         assert_eq!(table.add(&texture("small2.png", &small)), Ok(0));
         assert_eq!((table.textures[0].width, table.textures[0].height, table.texels.len()), (3, 2, 6));
+        // Other formats, told by their content: a BMP under a .png name.
+        let bmp = dir.join("small.bmp");
+        image::RgbImage::from_pixel(2, 2, image::Rgb([4, 5, 6])).save(&bmp).unwrap();
+        assert_eq!(table.add(&texture("bmp.png", &std::fs::read(&bmp).unwrap())), Ok(1));
+        assert_eq!(
+            table.texels[6..].iter().map(|t| t.rgba).collect::<Vec<_>>(),
+            vec![u32::from_le_bytes([4, 5, 6, 255]); 4]
+        );
         let _ = std::fs::remove_dir_all(&dir);
-    }
-
-    /// The CRC of PNG chunks (ISO 3309), for the test's hand-made headers.
-    fn crc32(bytes: &[u8]) -> u32 {
-        let mut c = !0u32;
-        for &b in bytes {
-            c ^= u32::from(b);
-            for _ in 0..8 {
-                c = if c & 1 != 0 { 0xedb8_8320 ^ (c >> 1) } else { c >> 1 };
-            }
-        }
-        !c
     }
 
     /// Lights whose distance the renderer's f32 cannot square are errors at

@@ -61,19 +61,84 @@ pub fn check_output_path(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
-pub fn read_png(path: &Path) -> Result<Rgb8, String> {
-    read_png_counting_alpha(path).map(|(rgb, _)| rgb)
+/// The most pixels a picture read whole may have (`read_picture`: compare,
+/// the conformance references): the largest picture raycast renders,
+/// `frame::MAX_IMAGE_SIDE` squared (16384 × 16384).
+pub const MAX_PICTURE_PIXELS: u64 = crate::frame::MAX_IMAGE_SIDE as u64 * crate::frame::MAX_IMAGE_SIDE as u64;
+
+/// The picture formats raycast reads (the image crate's features in
+/// host/Cargo.toml), for messages.
+pub const PICTURE_FORMATS: &str = "PNG, JPEG, BMP and PNM (PPM, PGM, PBM)";
+
+/// A picture file opened with its format told by its content, whatever its
+/// name's extension says (a PNG named .jpg is read as PNG).
+fn picture_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, String> {
+    image::ImageReader::open(path).and_then(|r| r.with_guessed_format()).map_err(|e| e.to_string())
+}
+
+/// The image crate's error, with the formats raycast reads where the
+/// picture's is not one of them.
+fn picture_error(e: image::ImageError) -> String {
+    match e {
+        image::ImageError::Unsupported(_) => format!("{e}; raycast reads {PICTURE_FORMATS} pictures"),
+        _ => e.to_string(),
+    }
+}
+
+/// A picture file's width and height from its header alone, before it is
+/// decoded (a picture too large can be refused with its size). Errors are
+/// the reason; the caller names the file.
+pub fn picture_size(path: &Path) -> Result<(u32, u32), String> {
+    picture_reader(path)?.into_dimensions().map_err(picture_error)
+}
+
+/// A picture file decoded whole, its format told by its content. The
+/// caller has measured it (`picture_size`) and decided that it fits, so
+/// the decoder's own memory limit is lifted. Errors are the reason; the
+/// caller names the file.
+pub fn decode_picture(path: &Path) -> Result<image::DynamicImage, String> {
+    let mut reader = picture_reader(path)?;
+    reader.no_limits();
+    reader.decode().map_err(picture_error)
+}
+
+pub fn read_picture(path: &Path) -> Result<Rgb8, String> {
+    read_picture_counting_alpha(path).map(|(rgb, _)| rgb)
 }
 
 /// A picture as 8-bit RGB (16-bit, grey and palette pictures converted;
 /// alpha dropped) and how many of its pixels were not opaque, so that a
-/// caller can say their alpha was not compared.
-pub fn read_png_counting_alpha(path: &Path) -> Result<(Rgb8, usize), String> {
-    let img = image::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let translucent =
-        if img.color().has_alpha() { img.to_rgba16().pixels().filter(|p| p.0[3] != u16::MAX).count() } else { 0 };
+/// caller can say their alpha was not compared. At most
+/// `MAX_PICTURE_PIXELS`, told with the picture's size before it is decoded.
+pub fn read_picture_counting_alpha(path: &Path) -> Result<(Rgb8, usize), String> {
+    let cannot = |e: String| format!("cannot read {}: {e}", path.display());
+    let (width, height) = picture_size(path).map_err(cannot)?;
+    if u64::from(width) * u64::from(height) > MAX_PICTURE_PIXELS {
+        let side = crate::frame::MAX_IMAGE_SIDE;
+        return Err(cannot(format!(
+            "the picture is {width}x{height}, more than the {} pixels ({side}x{side}) of the largest picture raycast renders",
+            crate::units::thousands(MAX_PICTURE_PIXELS)
+        )));
+    }
+    let img = decode_picture(path).map_err(cannot)?;
+    let translucent = translucent_pixels(&img);
     let rgb = img.to_rgb8();
     Ok((Rgb8 { width: rgb.width(), height: rgb.height(), data: rgb.into_raw() }, translucent))
+}
+
+/// How many of a picture's pixels are not opaque (0 without alpha), read
+/// in the picture's own type.
+fn translucent_pixels(img: &image::DynamicImage) -> usize {
+    use image::DynamicImage as D;
+    match img {
+        D::ImageLumaA8(i) => i.pixels().filter(|p| p.0[1] != u8::MAX).count(),
+        D::ImageRgba8(i) => i.pixels().filter(|p| p.0[3] != u8::MAX).count(),
+        D::ImageLumaA16(i) => i.pixels().filter(|p| p.0[1] != u16::MAX).count(),
+        D::ImageRgba16(i) => i.pixels().filter(|p| p.0[3] != u16::MAX).count(),
+        D::ImageRgba32F(i) => i.pixels().filter(|p| p.0[3] != 1.0).count(),
+        other if other.color().has_alpha() => other.to_rgba32f().pixels().filter(|p| p.0[3] != 1.0).count(),
+        _ => 0,
+    }
 }
 
 /// Result of comparing an actual picture with an expected one: pixels whose
@@ -243,13 +308,61 @@ mod tests {
         img.put_pixel(1, 1, image::Rgba([40, 50, 60, 0]));
         img.put_pixel(2, 0, image::Rgba([70, 80, 90, 254]));
         img.save(&rgba).unwrap();
-        let (rgb, translucent) = read_png_counting_alpha(&rgba).unwrap();
+        let (rgb, translucent) = read_picture_counting_alpha(&rgba).unwrap();
         assert_eq!((rgb.width, rgb.height, translucent), (3, 2, 2));
         assert_eq!((rgb.pixel(0, 0), rgb.pixel(1, 1)), ([10, 20, 30], [40, 50, 60]));
         let grey16 = dir.join("grey16.png");
         image::ImageBuffer::<image::Luma<u16>, _>::from_pixel(2, 2, image::Luma([0x8080u16])).save(&grey16).unwrap();
-        let (rgb, translucent) = read_png_counting_alpha(&grey16).unwrap();
+        let (rgb, translucent) = read_picture_counting_alpha(&grey16).unwrap();
         assert_eq!((rgb.pixel(1, 1), translucent), ([128, 128, 128], 0));
+        let grey_alpha16 = dir.join("grey-alpha16.png");
+        let mut img = image::ImageBuffer::<image::LumaA<u16>, _>::from_pixel(2, 2, image::LumaA([0x8080u16, u16::MAX]));
+        img.put_pixel(0, 1, image::LumaA([0, 0xfffe]));
+        img.save(&grey_alpha16).unwrap();
+        let (rgb, translucent) = read_picture_counting_alpha(&grey_alpha16).unwrap();
+        assert_eq!((rgb.pixel(1, 1), rgb.pixel(0, 1), translucent), ([128, 128, 128], [0, 0, 0], 1));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Pictures are read by their content, whatever their names say: a PNG
+    /// named .jpg, a JPEG, a BMP; a picture beyond `MAX_PICTURE_PIXELS` is
+    /// refused with its size before it is decoded; a format raycast does
+    /// not read is named with the ones it does.
+    #[test]
+    fn pictures_are_read_by_their_content() {
+        let dir = std::env::temp_dir().join(format!("raycast-image-io-formats-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let img = image::RgbImage::from_fn(16, 8, |x, y| image::Rgb([(x * 16) as u8, (y * 32) as u8, 100]));
+        let png_as_jpg = dir.join("png.jpg");
+        img.write_to(
+            &mut std::io::BufWriter::new(std::fs::File::create(&png_as_jpg).unwrap()),
+            image::ImageFormat::Png,
+        )
+        .unwrap();
+        assert_eq!(read_picture(&png_as_jpg).unwrap().data, img.as_raw().clone());
+        let bmp = dir.join("a.bmp");
+        img.save(&bmp).unwrap();
+        assert_eq!(read_picture(&bmp).unwrap().data, img.as_raw().clone());
+        // JPEG is lossy: a solid colour comes back within a step or two.
+        let jpg = dir.join("a.jpg");
+        image::RgbImage::from_pixel(16, 8, image::Rgb([200, 40, 90])).save(&jpg).unwrap();
+        let back = read_picture(&jpg).unwrap();
+        assert_eq!((back.width, back.height), (16, 8));
+        assert!(
+            back.data.chunks(3).all(|p| p.iter().zip([200u8, 40, 90]).all(|(a, b)| a.abs_diff(b) <= 2)),
+            "{back:?}"
+        );
+        let huge = dir.join("huge.png");
+        std::fs::write(&huge, b"P6\n20000 16384\n255\n").unwrap();
+        let e = read_picture(&huge).unwrap_err();
+        assert!(
+            e.contains("huge.png: the picture is 20000x16384, more than the 268,435,456 pixels (16384x16384)"),
+            "{e}"
+        );
+        let gif = dir.join("a.gif");
+        std::fs::write(&gif, b"GIF89a\x01\x00\x01\x00\x00\x00\x00;").unwrap();
+        let e = read_picture(&gif).unwrap_err();
+        assert!(e.contains("a.gif") && e.contains(PICTURE_FORMATS), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
