@@ -73,6 +73,9 @@ pub const PICTURE_FORMATS: &str = "PNG, JPEG, BMP and PNM (PPM, PGM, PBM)";
 /// A picture file opened with its format told by its content, whatever its
 /// name's extension says (a PNG named .jpg is read as PNG).
 fn picture_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, String> {
+    if std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() == 0) {
+        return Err("the file is empty".into());
+    }
     image::ImageReader::open(path).and_then(|r| r.with_guessed_format()).map_err(|e| e.to_string())
 }
 
@@ -81,6 +84,9 @@ fn picture_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<s
 fn picture_error(e: image::ImageError) -> String {
     match e {
         image::ImageError::Unsupported(_) => format!("{e}; raycast reads {PICTURE_FORMATS} pictures"),
+        image::ImageError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "the file ends before its picture does (cut short?)".into()
+        }
         _ => e.to_string(),
     }
 }
@@ -359,6 +365,13 @@ mod tests {
             e.contains("huge.png: the picture is 20000x16384, more than the 268,435,456 pixels (16384x16384)"),
             "{e}"
         );
+        let empty = dir.join("empty.png");
+        std::fs::write(&empty, b"").unwrap();
+        assert_eq!(read_picture(&empty).unwrap_err(), format!("cannot read {}: the file is empty", empty.display()));
+        let cut = dir.join("cut.bmp");
+        std::fs::write(&cut, &std::fs::read(&bmp).unwrap()[..20]).unwrap();
+        let e = read_picture(&cut).unwrap_err();
+        assert!(e.ends_with("cut.bmp: the file ends before its picture does (cut short?)"), "{e}");
         let gif = dir.join("a.gif");
         std::fs::write(&gif, b"GIF89a\x01\x00\x01\x00\x00\x00\x00;").unwrap();
         let e = read_picture(&gif).unwrap_err();
