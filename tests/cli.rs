@@ -936,6 +936,34 @@ fn missing_texture_is_an_error_naming_the_element_unless_textures_are_off() {
     assert!(o.status.success(), "{:?}", text(&o));
 }
 
+/// Textures whose texels exceed one storage buffer of the device
+/// (lavapipe's hold 128 MiB: 33,554,432 texels; 5800x5800 is 33,640,000)
+/// are refused by name, with what to do, not as a kernel binding to render
+/// smaller; the CPU build renders the scene. Skipped visibly on a device
+/// whose storage buffers hold them.
+#[test]
+fn textures_beyond_one_storage_buffer_are_told_by_name() {
+    let scene = common::big_texture_scene(&out_dir().join("big-texture"));
+    let size = ["--width", "64", "--height", "48"];
+    let o = raycast(&[&["render", scene.to_str().unwrap(), "-o", "/dev/null"][..], &size].concat(), &[]);
+    let (out, err) = text(&o);
+    if o.status.success() {
+        println!("skipped: this device's storage buffers hold 134,560,000 bytes of texels: {out}");
+    } else {
+        assert_fails(
+            &o,
+            1,
+            "the storage buffer of the texels needs 128.3 MiB (134560000 bytes), more than this device's",
+        );
+        assert!(err.contains("use smaller textures, render with --no-textures, or render with --backend cpu"), "{err}");
+    }
+    let o = raycast(
+        &[&["render", scene.to_str().unwrap(), "--backend", "cpu", "-o", "/dev/null"][..], &size].concat(),
+        &[],
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+}
+
 #[test]
 fn render_settings_out_of_range() {
     assert_fails(&raycast(&["render", "--spp", "0"], &[]), 2, "--spp 0 is out of range");

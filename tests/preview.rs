@@ -381,6 +381,28 @@ fn a_display_the_driver_cannot_present_to_is_refused() {
     assert_clean(&preview_on(server, &[], &["--backend", "gpu", "--frames", "1"]), "lavapipe on the same display");
 }
 
+/// Textures beyond one storage buffer of the device (lavapipe: 128 MiB of
+/// texels) are refused by name; the advice is the preview's (it keeps them
+/// on the device whoever draws), with the CPU build drawing too.
+#[test]
+fn textures_beyond_one_storage_buffer_are_told_by_name() {
+    let scene = common::big_texture_scene(&out_dir().join("big-texture"));
+    let o = preview_as_given(&[scene.to_str().unwrap(), "--width", "64", "--height", "48", "--frames", "1"]);
+    if !text(&o).contains("llvmpipe") {
+        println!("skipped: the device is not lavapipe, whose buffer limit this test knows: {}", text(&o));
+        return;
+    }
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        err.contains("the storage buffer of the texels needs 128.3 MiB")
+            && err.contains("the preview keeps them on the device whoever draws")
+            && !err.contains("panicked"),
+        "{}",
+        text(&o)
+    );
+}
+
 /// A window larger than one storage buffer of the device holds (lavapipe:
 /// 128 MiB of 32-byte pixel records) is refused with the sizes, and the
 /// message says where larger pictures go.

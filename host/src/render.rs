@@ -137,6 +137,48 @@ pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result
     fits_images(&sizes)
 }
 
+/// What to do about textures too large for one storage buffer, in `render`, `check` and `bench`.
+pub const RENDER_TEXEL_ADVICE: &str =
+    "use smaller textures, render with --no-textures, or render with --backend cpu (the CPU build has no such limit)";
+/// The same in the preview, which keeps the textures on the device whoever
+/// draws (B) and while they are off (T).
+pub const PREVIEW_TEXEL_ADVICE: &str = "use smaller textures: the preview keeps them on the device whoever draws (B) \
+     and while they are off (T); `raycast render --backend cpu` has no such limit";
+
+/// Each of `data`'s arrays that a kernel binds as a storage buffer (every
+/// one in the storage kernels; the textures and their texels in the uniform
+/// ones, whose other arrays are images) within one storage buffer of the
+/// device: an error naming the array and what to do, where the run's own
+/// check would name a binding and say to render a smaller image.
+/// `texel_advice` is what to do about textures too large (the preview
+/// keeps them on the device whoever draws: `PREVIEW_TEXEL_ADVICE`).
+pub fn check_storage_arrays(
+    ctx: &GpuContext,
+    data: &FrameData,
+    uniform: bool,
+    texel_advice: &'static str,
+) -> Result<(), GpuError> {
+    let (range, most) = (ctx.max_storage_buffer_range(), ctx.max_storage_bytes());
+    for (binding, what, bytes) in data.scene_buffers() {
+        let len = bytes.len() as u64;
+        if len <= most || (uniform && layout::UNIFORM_KERNEL_IMAGES.contains(&binding)) {
+            continue;
+        }
+        return Err(GpuError::TooLarge {
+            what: format!("the storage buffer of {what}"),
+            bytes: len,
+            limit: most,
+            limit_name: if len > range { "maxStorageBufferRange" } else { "maxMemoryAllocationSize" },
+            advice: if binding == layout::BINDING_TEXELS {
+                texel_advice
+            } else {
+                "render it with --backend cpu (the CPU build has no such limit) or on a device with larger storage buffers"
+            },
+        });
+    }
+    Ok(())
+}
+
 /// `fits_uniform` on (binding, what, bytes) of each scene buffer.
 fn fits_images(sizes: &[(u32, &str, usize)]) -> Result<(), String> {
     let max = layout::UNIFORM_KERNEL_IMAGE_BYTES;
@@ -523,6 +565,7 @@ impl GpuRenderer {
         let kernel = self.kernel_for(data)?;
         // A uniform block's buffer holds its whole declared array (zeros past the scene's own).
         let uniform = kernel.name() == UNIFORM_KERNEL;
+        check_storage_arrays(&self.context, data, uniform, RENDER_TEXEL_ADVICE)?;
         let scene: Vec<(u32, std::borrow::Cow<[u8]>)> = data
             .scene_buffers()
             .into_iter()

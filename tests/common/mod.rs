@@ -10,6 +10,21 @@ pub fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
+/// A scene in `dir` (made afresh) whose one sphere has a 5800x5800
+/// texture: 33,640,000 texels, beyond lavapipe's storage buffers (128 MiB,
+/// 33,554,432 texels). The picture is one grey, so its PNG is small.
+pub fn big_texture_scene(dir: &Path) -> PathBuf {
+    let _ = std::fs::remove_dir_all(dir);
+    std::fs::create_dir_all(dir).unwrap();
+    let side = 5800u32;
+    let picture = raycast::image_io::Rgb8 { width: side, height: side, data: vec![90; (side * side * 3) as usize] };
+    raycast::image_io::write_png(&dir.join("big.png"), &picture).unwrap();
+    let xml = std::fs::read_to_string(repo().join("tests/scenes/missing_texture.xml")).unwrap();
+    let scene = dir.join("big.xml");
+    std::fs::write(&scene, xml.replace("no/such/texture.png", "big.png")).unwrap();
+    scene
+}
+
 /// A fresh copy of the source tree's shaders/ at `dir`, to plant changes in.
 pub fn copy_of_shaders(dir: &Path) -> PathBuf {
     let _ = std::fs::remove_dir_all(dir);

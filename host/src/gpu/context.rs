@@ -13,7 +13,7 @@ use super::image::layout_barrier;
 use super::present::Surface;
 use super::shader_object;
 use super::specialize;
-use super::{fma_probe, Division, GpuError, ImageFormat, Kernel};
+use super::{fma_probe, Division, GpuError, ImageFormat, Kernel, LESS_DATA};
 use crate::layout::IMAGE_WIDTH;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -900,6 +900,7 @@ impl Inner {
                     bytes: buffer_size(len),
                     limit: uniform_range,
                     limit_name: "maxUniformBufferRange",
+                    advice: LESS_DATA,
                 });
             }
         }
@@ -1112,6 +1113,7 @@ impl Inner {
                 bytes: w.max(rows),
                 limit: max,
                 limit_name: "maxImageDimension2D (texels)",
+                advice: LESS_DATA,
             });
         }
         let features = unsafe { self.parts.instance.get_physical_device_format_properties(self.physical, DATA_FORMAT) }
@@ -1151,7 +1153,13 @@ impl Inner {
     pub(crate) fn check_storage_size(&self, bytes: u64, what: impl Fn() -> String) -> Result<(), GpuError> {
         let range = self.limits.max_storage_buffer_range as u64;
         if bytes > range {
-            return Err(GpuError::TooLarge { what: what(), bytes, limit: range, limit_name: "maxStorageBufferRange" });
+            return Err(GpuError::TooLarge {
+                what: what(),
+                bytes,
+                limit: range,
+                limit_name: "maxStorageBufferRange",
+                advice: LESS_DATA,
+            });
         }
         if bytes > self.max_allocation {
             return Err(GpuError::TooLarge {
@@ -1159,6 +1167,7 @@ impl Inner {
                 bytes,
                 limit: self.max_allocation,
                 limit_name: "maxMemoryAllocationSize",
+                advice: LESS_DATA,
             });
         }
         Ok(())

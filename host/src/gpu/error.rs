@@ -9,6 +9,9 @@ use ash::vk;
 
 use super::DeviceInfo;
 
+/// `GpuError::TooLarge`'s advice where nothing more specific is known.
+pub const LESS_DATA: &str = "use less data (e.g. render a smaller image)";
+
 /// An error of the gpu part. `Display` gives one actionable paragraph.
 #[derive(Debug)]
 #[non_exhaustive]
@@ -29,8 +32,9 @@ pub enum GpuError {
     Vk { call: &'static str, result: vk::Result },
     /// No memory type could hold a buffer.
     OutOfMemory { what: String, bytes: u64, detail: String },
-    /// A buffer exceeds a device limit (`limit_name`, e.g. maxStorageBufferRange).
-    TooLarge { what: String, bytes: u64, limit: u64, limit_name: &'static str },
+    /// A buffer exceeds a device limit (`limit_name`, e.g. maxStorageBufferRange);
+    /// `advice` says what to do (`LESS_DATA` where nothing more specific is known).
+    TooLarge { what: String, bytes: u64, limit: u64, limit_name: &'static str, advice: &'static str },
     /// The dispatch asks for more work groups than the device allows.
     TooManyGroups { groups: [u32; 3], limit: [u32; 3] },
     /// The fence did not signal within the timeout.
@@ -126,10 +130,9 @@ impl fmt::Display for GpuError {
                  (e.g. render a smaller image) or select a device with more memory",
                 fmt_bytes(*bytes)
             ),
-            GpuError::TooLarge { what, bytes, limit, limit_name } => write!(
+            GpuError::TooLarge { what, bytes, limit, limit_name, advice } => write!(
                 f,
-                "{what} needs {}, more than this device's {limit_name} of {}; use less data \
-                 (e.g. render a smaller image)",
+                "{what} needs {}, more than this device's {limit_name} of {}; {advice}",
                 fmt_bytes(*bytes),
                 fmt_bytes(*limit)
             ),

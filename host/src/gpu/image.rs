@@ -8,7 +8,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::context::Inner;
-use super::{GpuContext, GpuError};
+use super::{GpuContext, GpuError, LESS_DATA};
 
 /// The one storage-image format: `layout(rgba8) uniform image2D` in GLSL.
 pub(crate) const FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -85,6 +85,7 @@ impl StorageImage {
                 bytes: u64::from(width.max(height)),
                 limit: u64::from(max),
                 limit_name: "maxImageDimension2D (pixels)",
+                advice: LESS_DATA,
             });
         }
         let (image, memory, view) = create_image(

@@ -46,7 +46,7 @@ pub use context::{
 pub(crate) use environment::switch;
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
 pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
-pub use error::GpuError;
+pub use error::{GpuError, LESS_DATA};
 pub use fma_probe::fma_rounds_once;
 pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};

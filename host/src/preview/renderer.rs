@@ -94,6 +94,7 @@ impl SceneBuffers {
     /// kernels include one) and the scene fits it, else for preview.comp.
     fn new(ctx: &GpuContext, data: &FrameData, has_uniform: bool) -> Result<SceneBuffers, GpuError> {
         let uniform = has_uniform && crate::render::fits_uniform(ctx, data, preview_uniform_images().len()).is_ok();
+        crate::render::check_storage_arrays(ctx, data, uniform, crate::render::PREVIEW_TEXEL_ADVICE)?;
         let mut images = Vec::new();
         let mut buffers = Vec::new();
         for &(binding, what, bytes) in &data.scene_buffers() {
