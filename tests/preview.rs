@@ -64,15 +64,37 @@ fn preview_as_given(args: &[&str]) -> Output {
 }
 
 /// `raycast preview ARGS` with `env` under an X server started with `server` (Xvfb's options).
+/// xvfb-run now and then fails to remove its temporary folder after a
+/// preview that ended at once, and exits 5 ("problem while cleaning up
+/// temporary directory") in place of the preview's own status: seen once in
+/// CI, and here in 2 of 235 runs with the server resetting as its last
+/// client leaves, 0 of 235 with `-noreset`. So the server runs with
+/// `-noreset`, and a run that xvfb-run's clean-up failed is repeated (twice
+/// at most).
 fn preview_on(server: &str, env: &[(&str, &str)], args: &[&str]) -> Output {
     let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
-    let mut cmd = Command::new("xvfb-run");
-    cmd.args(["-a", "-s", server, env!("CARGO_BIN_EXE_raycast"), "preview"])
-        .args(args)
-        .env("RAYCAST_VALIDATION", "1")
-        .env("RAYCAST_CACHE_DIR", common::shader_cache())
-        .envs(env.iter().copied());
-    cmd.output().unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"))
+    let server = format!("{server} -noreset");
+    let run = || {
+        Command::new("xvfb-run")
+            .args(["-a", "-s", &server, env!("CARGO_BIN_EXE_raycast"), "preview"])
+            .args(args)
+            .env("RAYCAST_VALIDATION", "1")
+            .env("RAYCAST_CACHE_DIR", common::shader_cache())
+            .envs(env.iter().copied())
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"))
+    };
+    let cleanup_failed = |o: &Output| {
+        o.status.code() == Some(5) && String::from_utf8_lossy(&o.stderr).contains("problem while cleaning up")
+    };
+    let mut o = run();
+    for _ in 0..2 {
+        if !cleanup_failed(&o) {
+            break;
+        }
+        o = run();
+    }
+    o
 }
 
 /// Asserts exit 0, no panic and no validation message.

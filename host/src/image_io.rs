@@ -108,6 +108,7 @@ pub fn decode_picture(path: &Path) -> Result<image::DynamicImage, String> {
     reader.decode().map_err(picture_error)
 }
 
+/// `read_picture_counting_alpha`'s picture alone.
 pub fn read_picture(path: &Path) -> Result<Rgb8, String> {
     read_picture_counting_alpha(path).map(|(rgb, _)| rgb)
 }
