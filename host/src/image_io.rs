@@ -80,10 +80,13 @@ fn picture_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<s
 }
 
 /// The image crate's error, with the formats raycast reads where the
-/// picture's is not one of them.
+/// picture's is not one of them (not where a format raycast reads has a
+/// feature its decoder lacks: a BMP's unusual bit fields, say).
 fn picture_error(e: image::ImageError) -> String {
     match e {
-        image::ImageError::Unsupported(_) => format!("{e}; raycast reads {PICTURE_FORMATS} pictures"),
+        image::ImageError::Unsupported(ref u) if matches!(u.kind(), image::error::UnsupportedErrorKind::Format(_)) => {
+            format!("{e}; raycast reads {PICTURE_FORMATS} pictures")
+        }
         image::ImageError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
             "the file ends before its picture does (cut short?)".into()
         }
