@@ -158,23 +158,17 @@ pub fn check_storage_arrays(
     uniform: bool,
     texel_advice: &'static str,
 ) -> Result<(), GpuError> {
-    let (range, most) = (ctx.max_storage_buffer_range(), ctx.max_storage_bytes());
     for (binding, what, bytes) in data.scene_buffers() {
-        let len = bytes.len() as u64;
-        if len <= most || (uniform && layout::UNIFORM_KERNEL_IMAGES.contains(&binding)) {
+        if uniform && layout::UNIFORM_KERNEL_IMAGES.contains(&binding) {
             continue;
         }
-        return Err(GpuError::TooLarge {
-            what: format!("the storage buffer of {what}"),
-            bytes: len,
-            limit: most,
-            limit_name: if len > range { "maxStorageBufferRange" } else { "maxMemoryAllocationSize" },
-            advice: if binding == layout::BINDING_TEXELS {
-                texel_advice
-            } else {
-                "render it with --backend cpu (the CPU build has no such limit) or on a device with larger storage buffers"
-            },
-        });
+        let advice = if binding == layout::BINDING_TEXELS {
+            texel_advice
+        } else {
+            "render it with --backend cpu (the CPU build has no such limit) or on a device with larger storage buffers"
+        };
+        ctx.check_storage_size(bytes.len() as u64, || format!("the storage buffer of {what}"))
+            .map_err(|e| e.with_advice(advice))?;
     }
     Ok(())
 }

@@ -752,6 +752,12 @@ impl GpuContext {
         self.max_storage_buffer_range().min(self.inner.max_allocation)
     }
 
+    /// Fails when a storage buffer of `bytes` exceeds maxStorageBufferRange
+    /// or maxMemoryAllocationSize (`what` names it in the error).
+    pub fn check_storage_size(&self, bytes: u64, what: impl Fn() -> String) -> Result<(), GpuError> {
+        self.inner.check_storage_size(bytes, what)
+    }
+
     /// The most work groups one dispatch may have, per dimension.
     pub fn max_compute_work_group_count(&self) -> [u32; 3] {
         self.inner.limits.max_compute_work_group_count

@@ -82,6 +82,19 @@ impl GpuError {
     }
 }
 
+impl GpuError {
+    /// A `TooLarge` with `advice` in place of its own (a caller that knows
+    /// what the buffer holds knows better what to do); other errors as they are.
+    pub fn with_advice(self, advice: &'static str) -> GpuError {
+        match self {
+            GpuError::TooLarge { what, bytes, limit, limit_name, .. } => {
+                GpuError::TooLarge { what, bytes, limit, limit_name, advice }
+            }
+            other => other,
+        }
+    }
+}
+
 impl fmt::Display for GpuError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
