@@ -404,12 +404,17 @@ fn a_display_the_driver_cannot_present_to_is_refused() {
 }
 
 /// Textures beyond one storage buffer of the device (lavapipe: 128 MiB of
-/// texels) are refused by name; the advice is the preview's (it keeps them
-/// on the device whoever draws), with the CPU build drawing too.
+/// texels). With the device drawing (`--backend gpu`) they are refused by
+/// name, with the preview's advice. With the CPU build drawing (`--backend
+/// auto`, the default, on lavapipe) the scene stays off the device and is
+/// previewed: a note says why, B (the device to draw) and K (an edit the
+/// device would draw) say it cannot and leave the CPU build drawing, and
+/// the picture after them, one sample, is `render --backend cpu`'s.
 #[test]
-fn textures_beyond_one_storage_buffer_are_told_by_name() {
+fn textures_beyond_one_storage_buffer() {
     let scene = common::big_texture_scene(&out_dir().join("big-texture"));
-    let o = preview_as_given(&[scene.to_str().unwrap(), "--width", "64", "--height", "48", "--frames", "1"]);
+    let s = scene.to_str().unwrap();
+    let o = preview(&[s, "--width", "64", "--height", "48", "--frames", "1"]);
     if !text(&o).contains("llvmpipe") {
         println!("skipped: the device is not lavapipe, whose buffer limit this test knows: {}", text(&o));
         return;
@@ -418,11 +423,28 @@ fn textures_beyond_one_storage_buffer_are_told_by_name() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(
         err.contains("the storage buffer of the texels needs 128.3 MiB")
-            && err.contains("the preview keeps them on the device whoever draws")
+            && err.contains("use smaller textures, or preview with --backend cpu")
             && !err.contains("panicked"),
         "{}",
         text(&o)
     );
+
+    let png = out_dir().join("big-texture-preview.png");
+    let _ = std::fs::remove_file(&png);
+    let args = [s, "--width", "64", "--height", "48", "--frames", "3", "--keys", "2:B,3:K"];
+    let o = preview_as_given(&[&args[..], &["--screenshot", png.to_str().unwrap()]].concat());
+    assert_clean(&o, "the CPU build drawing");
+    let err = String::from_utf8_lossy(&o.stderr);
+    for said in [
+        "raycast: preview: note: the storage buffer of the texels needs 128.3 MiB",
+        "the CPU build draws the samples; with smaller textures the device could draw them too (B)",
+        "raycast: preview: error: cannot switch who draws: the storage buffer of the texels",
+        "raycast: preview: the reloaded kernel cannot draw this scene on llvmpipe",
+    ] {
+        assert!(err.contains(said), "{said:?} missing: {}", text(&o));
+    }
+    let expected = render(Some(&scene), [64, 48], "big-texture", &["--backend", "cpu"]);
+    assert_bit_exact(&image_io::read_picture(&png).unwrap(), &expected, "big-texture", "the CPU build's preview");
 }
 
 /// A window larger than one storage buffer of the device holds (lavapipe:

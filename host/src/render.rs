@@ -137,36 +137,51 @@ pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result
     fits_images(&sizes)
 }
 
-/// What to do about textures too large for one storage buffer, in `render`, `check` and `bench`.
-pub const RENDER_TEXEL_ADVICE: &str =
-    "use smaller textures, render with --no-textures, or render with --backend cpu (the CPU build has no such limit)";
-/// The same in the preview, which keeps the textures on the device whoever
-/// draws (B) and while they are off (T).
-pub const PREVIEW_TEXEL_ADVICE: &str = "use smaller textures: the preview keeps them on the device whoever draws (B) \
-     and while they are off (T); `raycast render --backend cpu` has no such limit";
+/// What to do about a scene array too large for one storage buffer of the
+/// device: about the textures' texels, and about any other array.
+#[derive(Clone, Copy, Debug)]
+pub struct StorageAdvice {
+    pub texels: &'static str,
+    pub other: &'static str,
+}
+
+/// In `render`, `check` and `bench`.
+pub const RENDER_STORAGE_ADVICE: StorageAdvice = StorageAdvice {
+    texels: "use smaller textures, render with --no-textures, or render with --backend cpu (the CPU build has no such \
+             limit)",
+    other: "render it with --backend cpu (the CPU build has no such limit) or on a device with larger storage buffers",
+};
+/// In the preview while the device draws the samples (it keeps the
+/// textures there while they are off, T).
+pub const PREVIEW_DEVICE_STORAGE_ADVICE: StorageAdvice = StorageAdvice {
+    texels: "use smaller textures, or preview with --backend cpu (the CPU build draws the samples and the device only \
+             shows them)",
+    other: "preview it with --backend cpu (the CPU build draws the samples and the device only shows them) or on a \
+            device with larger storage buffers",
+};
+/// In the preview while the CPU build draws the samples: it goes on, and
+/// the device cannot take the drawing over (B).
+pub const PREVIEW_CPU_STORAGE_ADVICE: StorageAdvice = StorageAdvice {
+    texels: "the CPU build draws the samples; with smaller textures the device could draw them too (B)",
+    other: "the CPU build draws the samples; a device with larger storage buffers could draw them too (B)",
+};
 
 /// Each of `data`'s arrays that a kernel binds as a storage buffer (every
 /// one in the storage kernels; the textures and their texels in the uniform
 /// ones, whose other arrays are images) within one storage buffer of the
-/// device: an error naming the array and what to do, where the run's own
+/// device: an error naming the array and `advice`, where the run's own
 /// check would name a binding and say to render a smaller image.
-/// `texel_advice` is what to do about textures too large (the preview
-/// keeps them on the device whoever draws: `PREVIEW_TEXEL_ADVICE`).
 pub fn check_storage_arrays(
     ctx: &GpuContext,
     data: &FrameData,
     uniform: bool,
-    texel_advice: &'static str,
+    advice: StorageAdvice,
 ) -> Result<(), GpuError> {
     for (binding, what, bytes) in data.scene_buffers() {
         if uniform && layout::UNIFORM_KERNEL_IMAGES.contains(&binding) {
             continue;
         }
-        let advice = if binding == layout::BINDING_TEXELS {
-            texel_advice
-        } else {
-            "render it with --backend cpu (the CPU build has no such limit) or on a device with larger storage buffers"
-        };
+        let advice = if binding == layout::BINDING_TEXELS { advice.texels } else { advice.other };
         ctx.check_storage_size(bytes.len() as u64, || format!("the storage buffer of {what}"))
             .map_err(|e| e.with_advice(advice))?;
     }
@@ -559,7 +574,7 @@ impl GpuRenderer {
         let kernel = self.kernel_for(data)?;
         // A uniform block's buffer holds its whole declared array (zeros past the scene's own).
         let uniform = kernel.name() == UNIFORM_KERNEL;
-        check_storage_arrays(&self.context, data, uniform, RENDER_TEXEL_ADVICE)?;
+        check_storage_arrays(&self.context, data, uniform, RENDER_STORAGE_ADVICE)?;
         let scene: Vec<(u32, std::borrow::Cow<[u8]>)> = data
             .scene_buffers()
             .into_iter()

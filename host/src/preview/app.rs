@@ -14,7 +14,7 @@ use glfw::{Action, Key, MouseButton, WindowEvent};
 use crate::cli::{check_validation, load_scene, parse_device, scene_failure, validation_wanted, Backend, Failure};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
-use crate::gpu::{DeviceInfo, FrameStatus, GpuContext, GpuOptions, PresentMode};
+use crate::gpu::{DeviceInfo, FrameStatus, GpuContext, GpuError, GpuOptions, PresentMode};
 use crate::image_io::{self, Rgb8};
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
@@ -225,6 +225,9 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         PresentArg::Immediate => PresentMode::Immediate,
     };
     let renderer = PreviewRenderer::new(context.clone(), kernel, &data, size, window_size, mode, cpu)?;
+    if let Some(why) = renderer.device_cannot_draw() {
+        errln!("raycast: preview: note: {why}");
+    }
     let sc = renderer.swapchain();
     if sc.mode() != sc.requested_mode() {
         errln!("raycast: note: the window does not offer --present-mode {}; using fifo", sc.requested_mode().name());
@@ -745,7 +748,9 @@ impl Preview {
     /// else the CPU build (the same pixels; on lavapipe the faster); the
     /// samples start over. A failure keeps who drew and shows in the title.
     fn switch_drawing(&mut self) {
-        let switched = if self.renderer.cpu_threads().is_some() {
+        let switched = if let Some(why) = self.renderer.device_cannot_draw() {
+            Err(why.to_string())
+        } else if self.renderer.cpu_threads().is_some() {
             self.renderer.draw_on_device().map_err(|e| e.to_string())
         } else {
             CpuRenderer::new().and_then(|cpu| self.renderer.draw_on_cpu(cpu).map_err(|e| e.to_string()))
@@ -948,7 +953,16 @@ impl Preview {
                 for note in &data.notes {
                     errln!("raycast: note: {note}");
                 }
-                self.renderer.set_scene(&data)?;
+                // An array beyond a storage buffer of the drawing device:
+                // the last good scene stays, as after a parse error.
+                if let Err(e @ GpuError::TooLarge { .. }) = self.renderer.set_scene(&data) {
+                    self.reload_failed(&format!(
+                        "raycast: preview: error: {} cannot draw the reloaded {}: {e}",
+                        self.device,
+                        scene.path.display()
+                    ));
+                    return Ok(());
+                }
                 let new_camera = scene.camera != self.scene.camera;
                 self.bounds = scene_bounds(&scene);
                 if new_camera {
@@ -969,7 +983,13 @@ impl Preview {
                 Ok(()) => {
                     errln!("raycast: preview: reloaded the kernel ({KERNEL_FILE})");
                     self.shader_edited = true;
-                    if self.renderer.cpu_threads().is_some() {
+                    if let Some(why) = self.renderer.device_cannot_draw() {
+                        errln!(
+                            "raycast: preview: the reloaded kernel cannot draw this scene on {}: {why}; the CPU build \
+                             goes on drawing the code raycast was built with",
+                            self.device
+                        );
+                    } else if self.renderer.cpu_threads().is_some() {
                         self.renderer.draw_on_device()?;
                         errln!(
                             "raycast: preview: {} draws from now on: the CPU build is the code raycast was built with \

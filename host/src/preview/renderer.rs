@@ -75,7 +75,10 @@ impl PreviewKernels {
 
 /// The scene's arrays (FrameData::scene_buffers) on the device, by
 /// binding: each array once, as a data image where preview_uniform.comp
-/// draws the scene and reads it as one, else as a buffer.
+/// draws the scene and reads it as one, else as a buffer. Where the CPU
+/// build draws and an array is beyond one storage buffer of the device,
+/// every array is bound empty instead (the kernel only shows the CPU
+/// build's pixels), and the device cannot draw this scene.
 struct SceneBuffers {
     buffers: Vec<(u32, Buffer)>,
     /// When preview_uniform.comp draws the scene: the arrays it reads from
@@ -87,14 +90,40 @@ struct SceneBuffers {
     uniform: bool,
     /// What the kernel for it needs (with the frame's flags).
     features: SceneFeatures,
+    /// Why the arrays are bound empty: the array beyond a storage buffer of
+    /// the device, and its size (`check_storage_arrays`).
+    left_off: Option<String>,
 }
 
 impl SceneBuffers {
     /// `data`'s arrays for the uniform kernel when `has_uniform` (the
     /// kernels include one) and the scene fits it, else for preview.comp.
-    fn new(ctx: &GpuContext, data: &FrameData, has_uniform: bool) -> Result<SceneBuffers, GpuError> {
+    /// With `host_draws`, an array beyond one storage buffer leaves them all
+    /// off the device (`left_off`); without, it is the error.
+    fn new(ctx: &GpuContext, data: &FrameData, has_uniform: bool, host_draws: bool) -> Result<SceneBuffers, GpuError> {
         let uniform = has_uniform && crate::render::fits_uniform(ctx, data, preview_uniform_images().len()).is_ok();
-        crate::render::check_storage_arrays(ctx, data, uniform, crate::render::PREVIEW_TEXEL_ADVICE)?;
+        let features = SceneFeatures::of(data);
+        let advice = if host_draws {
+            crate::render::PREVIEW_CPU_STORAGE_ADVICE
+        } else {
+            crate::render::PREVIEW_DEVICE_STORAGE_ADVICE
+        };
+        if let Err(e) = crate::render::check_storage_arrays(ctx, data, uniform, advice) {
+            if !host_draws || !matches!(e, GpuError::TooLarge { .. }) {
+                return Err(e);
+            }
+            let mut buffers = Vec::new();
+            for &(binding, what, _) in &data.scene_buffers() {
+                buffers.push((binding, Buffer::new(ctx, 0, false, what)?));
+            }
+            return Ok(SceneBuffers {
+                buffers,
+                images: Vec::new(),
+                uniform: false,
+                features,
+                left_off: Some(e.to_string()),
+            });
+        }
         let mut images = Vec::new();
         let mut buffers = Vec::new();
         for &(binding, what, bytes) in &data.scene_buffers() {
@@ -109,7 +138,7 @@ impl SceneBuffers {
                 buffers.push((binding, Buffer::with_data(ctx, &bytes, what)?));
             }
         }
-        Ok(SceneBuffers { buffers, images, uniform, features: SceneFeatures::of(data) })
+        Ok(SceneBuffers { buffers, images, uniform, features, left_off: None })
     }
 }
 
@@ -266,7 +295,7 @@ impl PreviewRenderer {
             preview: Buffer::new(ctx, std::mem::size_of::<PreviewFrame>(), false, "the preview frame")?,
             status: Buffer::new(ctx, std::mem::size_of::<PreviewStatus>(), true, "the status word")?,
             frame_size: size,
-            scene: SceneBuffers::new(ctx, data, kernels.uniform.is_some())?,
+            scene: SceneBuffers::new(ctx, data, kernels.uniform.is_some(), cpu.is_some())?,
             picture: PictureBuffers::new(ctx, size)?,
             swapchain: Swapchain::new(ctx, window, mode)?,
             kernel: Built::only(None),
@@ -335,8 +364,11 @@ impl PreviewRenderer {
     pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), String>, GpuError> {
         self.frames.wait()?;
         let relayout = kernels.uniform.is_some() != self.kernels.uniform.is_some();
-        let scene =
-            if relayout { Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some())?) } else { None };
+        let scene = if relayout {
+            Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some(), self.host.is_some())?)
+        } else {
+            None
+        };
         let uniform = scene.as_ref().map_or(self.scene.uniform, |s| s.uniform);
         let built = match self.kernel.current_key() {
             Some(key) => {
@@ -361,7 +393,7 @@ impl PreviewRenderer {
     pub fn set_scene(&mut self, data: &FrameData) -> Result<(), GpuError> {
         self.frames.wait()?;
         self.set = None;
-        self.scene = SceneBuffers::new(&self.context, data, self.kernels.uniform.is_some())?;
+        self.scene = SceneBuffers::new(&self.context, data, self.kernels.uniform.is_some(), self.host.is_some())?;
         Ok(())
     }
 
@@ -391,10 +423,18 @@ impl PreviewRenderer {
         self.host.as_ref().map(|h| h.cpu.threads)
     }
 
+    /// Why the device cannot draw the scene (an array beyond one of its
+    /// storage buffers, found while the CPU build draws): `draw_on_device`
+    /// may not be called then.
+    pub fn device_cannot_draw(&self) -> Option<&str> {
+        self.scene.left_off.as_deref()
+    }
+
     /// From now on the kernel draws the samples, not the CPU build (which
     /// cannot follow an edited shader). The running sums stay with the CPU
     /// build: start the samples over.
     pub fn draw_on_device(&mut self) -> Result<(), GpuError> {
+        assert!(self.scene.left_off.is_none(), "the scene's arrays are on the device");
         self.frames.wait()?;
         self.host = None;
         Ok(())
