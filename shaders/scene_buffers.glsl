@@ -9,11 +9,25 @@
 // instance_at(i) (macros:
 // glslang 11 runs out of memory on this shader when they are functions
 // returning the structs).
-#ifdef SCENE_UNIFORM
-// The uniform kernels (render_uniform.comp and preview_uniform.comp): the
-// frame as a uniform block (std140 lays it out as std430 does), the arrays
-// as rgba32ui storage images of the same bytes (layout.h, IMAGE_WIDTH).
+// The frame: in the uniform kernels (render_uniform.comp and
+// preview_uniform.comp) a uniform block (std140 lays it out as std430
+// does), or with FRAME_IN_STORAGE a storage buffer, as in the others.
+// Lavapipe 22.3 folds a uniform block's values that steer branches into
+// the kernel and builds it again at every dispatch (its "inlined
+// uniforms"; Mesa's shader cache on disk serves the builds it has seen):
+// for render's few dispatches the folded kernel is the faster, for the
+// preview's one a frame it cost a build whenever the frame was new to the
+// cache (~200 ms a frame with it cold: BENCHMARKS.md, "The preview"), so
+// preview_uniform.comp keeps its frame in a storage buffer.
+#if defined(SCENE_UNIFORM) && !defined(FRAME_IN_STORAGE)
 layout(std140, binding = BINDING_FRAME) uniform FrameBlock { Frame frame; };
+#else
+layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
+#endif
+
+#ifdef SCENE_UNIFORM
+// The uniform kernels: the arrays as rgba32ui storage images of the same
+// bytes (layout.h, IMAGE_WIDTH).
 layout(binding = BINDING_PRIMITIVES, rgba32ui) readonly uniform uimage2D primitive_texels;
 layout(binding = BINDING_MATERIALS, rgba32ui) readonly uniform uimage2D material_texels;
 layout(binding = BINDING_NODES, rgba32ui) readonly uniform uimage2D node_texels;
@@ -52,7 +66,6 @@ layout(binding = BINDING_LEAF_ITEMS, rgba32ui) readonly uniform uimage2D leaf_it
              SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).z, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).w)
 layout(binding = BINDING_LIGHTS, rgba32ui) readonly uniform uimage2D light_texels;
 #else
-layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
 layout(std430, binding = BINDING_PRIMITIVES) readonly buffer PrimitiveBlock { Primitive primitives[]; };
 layout(std430, binding = BINDING_MATERIALS) readonly buffer MaterialBlock { Material materials[]; };
 layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { Light lights[]; };

@@ -453,13 +453,15 @@ pub fn uniform_kernel_images() -> Vec<crate::gpu::ImageBinding> {
 }
 
 /// The scene's buffer bindings in render_uniform.comp and
-/// preview_uniform.comp: the frame as a uniform block, the textures and
+/// preview_uniform.comp: the frame as a uniform block where
+/// `frame_uniform` (render_uniform.comp; preview_uniform.comp keeps it in a
+/// storage buffer, scene_buffers.glsl's FRAME_IN_STORAGE), the textures and
 /// texels as in `scene_bindings` (the arrays are images).
-pub fn uniform_kernel_scene_bindings() -> Vec<BindingLayout> {
+pub fn uniform_kernel_scene_bindings(frame_uniform: bool) -> Vec<BindingLayout> {
     let mut b: Vec<BindingLayout> =
         scene_bindings().into_iter().filter(|b| !UNIFORM_KERNEL_IMAGES.contains(&b.binding)).collect();
     for binding in &mut b {
-        if binding.binding == BINDING_FRAME {
+        if binding.binding == BINDING_FRAME && frame_uniform {
             binding.shape = BufferShape::UniformSingle(Frame::layout());
         }
     }
@@ -488,7 +490,7 @@ pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u
 /// The buffer bindings of render_uniform.comp: `render_bindings` with the
 /// scene as `uniform_kernel_scene_bindings`.
 pub fn render_uniform_bindings() -> Vec<BindingLayout> {
-    let mut b = uniform_kernel_scene_bindings();
+    let mut b = uniform_kernel_scene_bindings(true);
     b.extend(render_bindings().into_iter().filter(|r| r.binding == BINDING_PIXELS || r.binding == BINDING_SAMPLE_SUMS));
     b
 }

@@ -90,9 +90,10 @@ pub fn preview_bindings() -> Vec<BindingLayout> {
 }
 
 /// The buffer bindings of preview_uniform.comp: `preview_bindings` with the
-/// scene as render_uniform.comp's (`layout::uniform_kernel_scene_bindings`).
+/// scene as render_uniform.comp's (`layout::uniform_kernel_scene_bindings`)
+/// but for the frame, in a storage buffer.
 pub fn preview_uniform_bindings() -> Vec<BindingLayout> {
-    let mut b = crate::layout::uniform_kernel_scene_bindings();
+    let mut b = crate::layout::uniform_kernel_scene_bindings(false);
     b.extend(pixel_kernel_bindings().into_iter().filter(|p| p.binding == crate::layout::BINDING_PIXELS));
     with_preview_bindings(b)
 }
