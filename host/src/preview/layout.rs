@@ -133,6 +133,26 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e}"));
     }
 
+    /// The embedded preview_uniform kernel matches its mirrors, and they
+    /// bind no uniform block: Mesa 22.3's lavapipe builds a kernel again at
+    /// every dispatch when its branches read a uniform block's values (its
+    /// inlined uniforms), which cost a preview frame ~230 ms where Mesa's
+    /// shader cache was cold (scene_buffers.glsl, FRAME_IN_STORAGE).
+    #[test]
+    fn preview_uniform_kernel_binds_no_uniform_block() {
+        let spv = crate::render::kernel_spirv("preview_uniform").expect("build.rs embeds shaders/preview_uniform.comp");
+        reflect::check_layouts_with_images(
+            "preview_uniform",
+            spv,
+            &preview_uniform_bindings(),
+            &preview_uniform_images(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let uniform: Vec<u32> =
+            preview_uniform_bindings().iter().filter(|b| b.shape.is_uniform()).map(|b| b.binding).collect();
+        assert!(uniform.is_empty(), "uniform blocks at bindings {uniform:?}");
+    }
+
     /// A host that forgot the image, or calls it read-only, is told so.
     #[test]
     fn image_mismatches_are_named() {
