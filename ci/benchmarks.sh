@@ -82,24 +82,12 @@ machine() {
   commit="${RAYCAST_COMMIT:-$commit}"
   echo "\`ci/benchmarks.sh machine\`, $(date -u '+%Y-%m-%d %H:%M UTC'), commit $commit:"
   echo
-  echo "- CPU: $(cpu_line), \`nproc\` $(nproc)"
+  # raycast's own words for the CPU (cpu::host_cpu: family, model, vector width, caches).
+  echo "- CPU: $("$RAYCAST" devices 2>/dev/null | sed -n 's/^cpu: .* threads on //p'), \`nproc\` $(nproc)"
   echo "- memory: $(awk '/MemTotal/ { printf "%.1f GiB", $2 / 1048576 }' /proc/meminfo); kernel $(uname -r)"
   echo "- Vulkan device: $("$RAYCAST" devices | grep -m1 -i llvmpipe || "$RAYCAST" devices | head -1)"
   echo "- mesa-vulkan-drivers $(dpkg-query -W -f '${Version}' mesa-vulkan-drivers 2>/dev/null || echo '(not a Debian package)'); $(rustc --version 2>/dev/null || echo 'rustc unknown')"
   echo "- load average when the run began (other work on the machine slows every number): $(cut -d' ' -f1-3 /proc/loadavg)"
-}
-
-# The CPU as /proc/cpuinfo names it, with what tells two machines of one name
-# apart (a virtual machine's "AMD EPYC" has been Zen generations with and
-# without AVX-512, and every number here moves with it): family, model and
-# stepping, the widest vector instructions, the L2 and L3 caches.
-cpu_line() {
-  local field vectors
-  field() { grep -m1 "^$1[[:space:]]*:" /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//'; }
-  if grep -qw avx512f /proc/cpuinfo; then vectors=AVX-512
-  elif grep -qw avx2 /proc/cpuinfo; then vectors=AVX2
-  else vectors="no AVX2"; fi
-  echo "$(field 'model name') (family $(field 'cpu family'), model $(field model), stepping $(field stepping); $vectors; $(lscpu 2>/dev/null | awk -F: '/^L2 cache|^L3 cache/ { sub(/^ */, "", $2); printf "%s%s %s", sep, substr($1, 1, 2), $2; sep = ", " }'))"
 }
 
 # The scene file of SCENE (a file, or gen:FAMILY:DEPTH written into folder TMP by `raycast gen`).

@@ -115,6 +115,9 @@ fn devices_lists_lavapipe() {
         assert!(out.contains("default: device "), "{out}");
     }
     assert!(!out.contains("division correction:"), "{out}");
+    // The CPU build's line names the machine's CPU (cpu::host_cpu), last.
+    let cpu = out.lines().last().unwrap_or_default();
+    assert!(cpu.starts_with("cpu: the CPU build (--backend cpu), ") && cpu.contains(" threads on "), "{out}");
     let o = raycast(&["devices"], &[("RAYCAST_INEXACT_DIVISION", "1")]);
     let (out, err) = text(&o);
     assert!(
@@ -502,6 +505,16 @@ fn no_vulkan_device() {
             .unwrap();
         assert_fails(&o, 1, "no Vulkan device");
     }
+    // `devices` still names the CPU build, which needs no driver, before the error.
+    let o = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .arg("devices")
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .env("RAYCAST_VALIDATION", "0")
+        .env_remove("VK_ICD_FILENAMES")
+        .output()
+        .unwrap();
+    assert_fails(&o, 1, "no Vulkan device");
+    assert!(String::from_utf8_lossy(&o.stdout).starts_with("cpu: the CPU build (--backend cpu), "), "{o:?}");
 }
 
 #[test]

@@ -337,7 +337,7 @@ impl Row {
                 "\"frame_ms_median\":{},\"frame_ms_min\":{},\"frame_ms_max\":{},\"dispatch_ms_median\":{},",
                 "\"primary_rays_per_frame\":{},\"primary_mrays_per_s\":{},\"all_rays_per_frame\":{},\"all_mrays_per_s\":{},",
                 "\"host_peak_bytes\":{},\"device_bytes\":{},\"cpu_over_gpu\":{},\"identical_to_gpu\":{},",
-                "\"kernel_build_ms\":{}}}"
+                "\"kernel_build_ms\":{},\"host_cpu\":{},\"host_threads\":{}}}"
             ),
             json_str(&self.scene),
             json_str(self.backend),
@@ -370,6 +370,8 @@ impl Row {
             json_num(self.cpu_over_gpu.map(|r| (r * 1e3).round() / 1e3)),
             self.identical.map_or("null".into(), |b| b.to_string()),
             json_num(self.kernel_build.as_ref().map(|(t, _)| ms_f(*t))),
+            json_str(&crate::cpu::host_cpu()),
+            std::thread::available_parallelism().map_or(1, |n| n.get()),
         )
     }
 
@@ -895,7 +897,7 @@ mod tests {
             "\"all_rays_per_frame\":4000000,\"all_mrays_per_s\":200,",
             "\"device_bytes\":2048",
             "\"cpu_over_gpu\":null",
-            "\"kernel_build_ms\":43.5}",
+            "\"kernel_build_ms\":43.5,\"host_cpu\":\"",
         ] {
             assert!(j.contains(needle), "{needle} in {j}");
         }

@@ -573,7 +573,18 @@ pub(crate) fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
 }
 
 fn devices() -> Result<(), Failure> {
-    let (list, default) = gpu::list_devices_with_default()?;
+    // The CPU build renders without Vulkan: its line comes whatever the driver says.
+    let cpu_line = || {
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        outln!("cpu: the CPU build (--backend cpu), {threads} threads on {}", crate::cpu::host_cpu());
+    };
+    let (list, default) = match gpu::list_devices_with_default() {
+        Ok(found) => found,
+        Err(e) => {
+            cpu_line();
+            return Err(e.into());
+        }
+    };
     for d in &list {
         outln!("{}: {} ({}, Vulkan {}, driver {})", d.index, d.name, d.kind, d.api_version, d.driver);
         outln!("   arithmetic: {}", d.arithmetic);
@@ -608,6 +619,7 @@ fn devices() -> Result<(), Failure> {
             if d.runs_on_cpu() { "the CPU build instead, as this device runs on the CPU" } else { "this device" };
         outln!("default: device {} (without --device); --backend auto renders with {auto}", d.index);
     }
+    cpu_line();
     Ok(())
 }
 
