@@ -371,7 +371,7 @@ impl Row {
             self.identical.map_or("null".into(), |b| b.to_string()),
             json_num(self.kernel_build.as_ref().map(|(t, _)| ms_f(*t))),
             json_str(&crate::cpu::host_cpu()),
-            std::thread::available_parallelism().map_or(1, |n| n.get()),
+            crate::cpu::host_threads(),
         )
     }
 

@@ -575,8 +575,8 @@ pub(crate) fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
 fn devices() -> Result<(), Failure> {
     // The CPU build renders without Vulkan: its line comes whatever the driver says.
     let cpu_line = || {
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-        outln!("cpu: the CPU build (--backend cpu), {threads} threads on {}", crate::cpu::host_cpu());
+        let (threads, cpu) = (crate::cpu::host_threads(), crate::cpu::host_cpu());
+        outln!("cpu: the CPU build (--backend cpu), {threads} threads on {cpu}");
     };
     let (list, default) = match gpu::list_devices_with_default() {
         Ok(found) => found,

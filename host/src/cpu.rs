@@ -146,6 +146,11 @@ pub fn host_cpu() -> String {
     format!("{name} ({})", parts.join("; "))
 }
 
+/// The threads the CPU build renders on: one a core.
+pub fn host_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 /// Renders on the CPU with the shared GLSL built as C++.
 pub struct CpuRenderer {
     pub threads: usize,
@@ -155,8 +160,7 @@ impl CpuRenderer {
     /// Uses every core; checks the C++ struct layouts first.
     pub fn new() -> Result<CpuRenderer, String> {
         check_layouts()?;
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-        Ok(CpuRenderer { threads })
+        Ok(CpuRenderer { threads: host_threads() })
     }
 
     /// "CPU build of the shared GLSL (2 threads`why`)": the `device:` lines'

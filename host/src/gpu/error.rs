@@ -80,9 +80,7 @@ impl GpuError {
         };
         GpuError::NoDevice { detail: format!("{what}; {hint}") }
     }
-}
 
-impl GpuError {
     /// A `TooLarge` with `advice` in place of its own (a caller that knows
     /// what the buffer holds knows better what to do); other errors as they are.
     pub fn with_advice(self, advice: &'static str) -> GpuError {
