@@ -403,6 +403,48 @@ fn a_display_the_driver_cannot_present_to_is_refused() {
     assert_clean(&preview_on(server, &[], &["--backend", "gpu", "--frames", "1"]), "lavapipe on the same display");
 }
 
+/// A device apart from the window draws (`--window-device`: here the same
+/// lavapipe, opened twice; on a GPU machine under Xvfb, NVIDIA's driver
+/// draws and lavapipe shows). Rules (bit-exact screenshots): the pictures
+/// are those of the window's device drawing alone, at rest, steering
+/// (`--moving`), after B twice (the CPU build, then the device apart again)
+/// and after K (the shaders recompiled for the device apart); stdout names
+/// both devices. Where no device can present, an explicit --device is still
+/// refused with the reason.
+#[test]
+fn a_device_apart_from_the_window_draws() {
+    let apart = ["--device", "0", "--window-device", "0", "--backend", "gpu"];
+    let cases: [(&str, u32, &[&str]); 4] = [
+        ("apart-rest", 3, &[]),
+        ("apart-moving", 4, &["--moving", "2"]),
+        ("apart-keys", 4, &["--keys", "2:B,3:B,4:2"]),
+        ("apart-recompile", 3, &["--keys", "2:K"]),
+    ];
+    for (name, frames, extra) in cases {
+        let actual = screenshot(None, [64, 48], frames, name, &[&apart[..], extra].concat());
+        let alone =
+            screenshot(None, [64, 48], frames, &format!("{name}-alone"), &[&["--backend", "gpu"][..], extra].concat());
+        assert_bit_exact(&actual, &alone, name, "the device apart's picture is not the window's device's");
+    }
+    let o = preview(&[&apart[..], &["--width", "32", "--height", "24", "--frames", "1"]].concat());
+    assert_clean(&o, "a device apart");
+    let out = String::from_utf8_lossy(&o.stdout);
+    let device = out.lines().find(|l| l.starts_with("device: ")).unwrap_or_default();
+    let name = device.trim_start_matches("device: ").split(" (").next().unwrap_or_default();
+    assert!(
+        !name.is_empty() && device.contains("; the window through ") && device.matches(name).count() == 2,
+        "the device that draws, then the window's:\n{}",
+        text(&o)
+    );
+    let o =
+        preview_on("-screen 0 1280x1024x24", &[("RAYCAST_PRESENT_CHECK", "1")], &["--device", "0", "--frames", "1"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("cannot present to this window") && !err.contains("panicked"), "{}", text(&o));
+    let o = raycast(&["preview", "--window-device", "no such device", "--frames", "1"]);
+    assert!(o.status.code() != Some(0) && !String::from_utf8_lossy(&o.stderr).contains("panicked"), "{}", text(&o));
+}
+
 /// Textures beyond one storage buffer of the device (lavapipe: 128 MiB of
 /// texels). With the device drawing (`--backend gpu`) they are refused by
 /// name, with the preview's advice. With the CPU build drawing (`--backend
@@ -507,33 +549,26 @@ fn pixels_cut_short_are_reported_and_not_saved() {
     let planted = "    uint spin = 0u;\n    for (uint k = 0u; k < 70000u + preview.pad1; k++) {\n        spin = spin * 1664525u + k;\n    }\n    if (spin == 1u) {\n        rays = rays + 1u;\n    }\n";
     std::fs::write(&comp, source.replace(anchor, &format!("{planted}{anchor}"))).unwrap();
 
-    let png = out_dir().join("planted-loop.png");
-    let _ = std::fs::remove_file(&png);
-    let o = preview(&[
-        "--shaders",
-        dir.to_str().unwrap(),
-        "--width",
-        "24",
-        "--height",
-        "16",
-        "--frames",
-        "2",
-        "--screenshot",
-        png.to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!err.contains("panicked"), "{}", text(&o));
-    if common::device_loop_budget(&out_dir()).is_none() {
-        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-        assert!(!err.contains("short") && png.exists(), "{}", text(&o));
-        return;
+    // The window's device drawing, and a device apart (the same one, as
+    // --window-device makes it) whose count comes back with its pixels.
+    for apart in [&[][..], &["--device", "0", "--window-device", "0"]] {
+        let png = out_dir().join("planted-loop.png");
+        let _ = std::fs::remove_file(&png);
+        let args = ["--shaders", dir.to_str().unwrap(), "--width", "24", "--height", "16", "--frames", "2"];
+        let o = preview(&[&args[..], apart, &["--screenshot", png.to_str().unwrap()]].concat());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("panicked"), "{}", text(&o));
+        if common::device_loop_budget(&out_dir()).is_none() {
+            assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+            assert!(!err.contains("short") && png.exists(), "{}", text(&o));
+            continue;
+        }
+        assert_eq!(o.status.code(), Some(1), "{apart:?}: {}", text(&o));
+        assert!(err.contains("the picture is WRONG: the device cut 384 pixels short"), "{}", text(&o));
+        assert!(err.contains("cut 384 of 384 pixels short") && err.contains("nothing was written"), "{}", text(&o));
+        assert!(err.contains("Turn mirror reflections off (M, or --no-reflections)"), "{}", text(&o));
+        assert!(!png.exists(), "the screenshot was written");
     }
-    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(err.contains("the picture is WRONG: the device cut 384 pixels short"), "{}", text(&o));
-    assert!(err.contains("cut 384 of 384 pixels short") && err.contains("nothing was written"), "{}", text(&o));
-    assert!(err.contains("Turn mirror reflections off (M, or --no-reflections)"), "{}", text(&o));
-    assert!(!err.contains("panicked"), "{}", text(&o));
-    assert!(!png.exists(), "the screenshot was written");
 }
 
 /// `--moving N` turns the camera before each of the first N frames, as a

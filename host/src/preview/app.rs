@@ -14,7 +14,7 @@ use glfw::{Action, Key, MouseButton, WindowEvent};
 use crate::cli::{check_validation, load_scene, parse_device, scene_failure, validation_wanted, Backend, Failure};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
-use crate::gpu::{DeviceInfo, FrameStatus, GpuContext, GpuError, GpuOptions, PresentMode};
+use crate::gpu::{DeviceInfo, DeviceSelector, FrameStatus, GpuContext, GpuError, GpuOptions, PresentMode};
 use crate::image_io::{self, Rgb8};
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
@@ -164,57 +164,107 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         refused.borrow_mut().push((device.index, device.name.clone(), why));
         Some(advice)
     };
-    let context = Arc::new(GpuContext::with_surface(
-        &options,
-        &instance_extensions,
-        |instance| {
-            let mut surface: glfw::ffi::VkSurfaceKHR = std::ptr::null_mut();
-            // SAFETY: `instance` is a live VkInstance with the extensions GLFW asked for.
-            let result = unsafe {
-                window.create_window_surface(
-                    instance.as_raw() as usize as glfw::ffi::VkInstance,
-                    std::ptr::null(),
-                    &mut surface,
-                )
-            };
-            if result != 0 {
-                return Err(format!("glfwCreateWindowSurface failed with {:?}", vk::Result::from_raw(result)));
+    let open_window = |device: Option<DeviceSelector>| {
+        let options = GpuOptions { device, ..options.clone() };
+        GpuContext::with_surface(
+            &options,
+            &instance_extensions,
+            |instance| {
+                let mut surface: glfw::ffi::VkSurfaceKHR = std::ptr::null_mut();
+                // SAFETY: `instance` is a live VkInstance with the extensions GLFW asked for.
+                let result = unsafe {
+                    window.create_window_surface(
+                        instance.as_raw() as usize as glfw::ffi::VkInstance,
+                        std::ptr::null(),
+                        &mut surface,
+                    )
+                };
+                if result != 0 {
+                    return Err(format!("glfwCreateWindowSurface failed with {:?}", vk::Result::from_raw(result)));
+                }
+                Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
+            },
+            veto,
+        )
+    };
+    // The window's device, and the device that draws where that is another
+    // one (`apart`): the one --device names, or the best, when it cannot
+    // present to this window; with --window-device, always the --device one.
+    let device_draws = args.backend != Backend::Cpu;
+    let window_device = args.window_device.as_ref().map(|w| parse_device(&Some(w.clone())));
+    let (context, apart) = match window_device {
+        Some(window_device) => {
+            let context = open_window(window_device)?;
+            (context, device_draws.then(|| GpuContext::new(&options)).transpose()?)
+        }
+        None => match open_window(options.device.clone()) {
+            Err(e @ GpuError::Presentation { .. }) if device_draws && options.device.is_some() => {
+                // Shown through any device that can; a failure there is the first one's.
+                let context = open_window(None).map_err(|_| e)?;
+                (context, Some(GpuContext::new(&options)?))
             }
-            Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
+            Err(e) => return Err(e.into()),
+            Ok(context) if device_draws && options.device.is_none() => {
+                // The best device, where it is not the window's, draws; if it
+                // cannot be opened, the window's device draws, as before.
+                let best = crate::gpu::list_devices_with_default()?.1;
+                let apart = match (best != context.info().index).then(|| GpuContext::new(&options)) {
+                    Some(Err(e)) => {
+                        errln!("raycast: note: device {best} cannot draw ({e}); {} draws", context.info().name);
+                        None
+                    }
+                    opened => opened.transpose()?,
+                };
+                (context, apart)
+            }
+            Ok(context) => (context, None),
         },
-        veto,
-    )?);
+    };
+    let context = Arc::new(context);
     let info = context.info().clone();
+    // The device that draws, unless the CPU build does.
+    let drawing = apart.as_ref().map_or(&info, |a| a.info()).clone();
     for (index, name, why) in refused.into_inner() {
-        if index != info.index {
+        if index == drawing.index && apart.is_some() {
+            errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); it draws the samples and {} shows them", info.name);
+        } else if index != info.index {
             errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); using {}", info.name);
         }
     }
     // Who draws the samples (--backend): the CPU build, and why, or the device.
     let cpu_why = match args.backend {
         Backend::Cpu => Some(String::new()),
-        Backend::Auto if !compile_at_start && info.runs_on_cpu() => {
-            Some(format!("; --backend auto: {} runs on the CPU", info.name))
+        Backend::Auto if !compile_at_start && drawing.runs_on_cpu() => {
+            Some(format!("; --backend auto: {} runs on the CPU", drawing.name))
         }
         Backend::Gpu | Backend::Auto => None,
     };
+    // A device apart that runs on the CPU gives way to the CPU build (auto).
+    let apart = apart.filter(|_| cpu_why.is_none()).map(Arc::new);
     let cpu = cpu_why.as_ref().map(|_| CpuRenderer::new()).transpose()?;
-    match (&cpu, &cpu_why) {
-        (Some(c), Some(why)) => outln!("device: {}; the window through {}", c.summary(why), info.summary()),
+    match (&cpu, &cpu_why, &apart) {
+        (Some(c), Some(why), _) => outln!("device: {}; the window through {}", c.summary(why), info.summary()),
+        (_, _, Some(a)) => outln!("device: {}; the window through {}", a.info().summary(), info.summary()),
         _ => outln!("device: {}", info.summary()),
     }
     outln!("scene: {} ({} primitives, {} lights)", scene.path.display(), data.primitives.len(), data.lights.len());
 
     // A --shaders folder's kernel from the first frame on (so --frames and
     // --screenshot see it); a compile error ends the command.
-    let shaders = shaders.map(|dir| ShaderFolder { dir, division: context.division() });
+    let draws = apart.as_ref().unwrap_or(&context);
+    let shaders = shaders.map(|dir| ShaderFolder { dir, division: draws.division() });
     let kernel = match (&shaders, compile_at_start) {
         (Some(folder), true) => match folder.compile() {
             Reload::Kernel(kernel) => kernel,
             Reload::Failed(e) => return Err(Failure::from(format!("--shaders {}: {e}", folder.dir.display()))),
             Reload::Scene(_) => unreachable!("compile gives a kernel or a failure"),
         },
-        _ => PreviewKernels::embedded(&context)?,
+        _ => PreviewKernels::embedded(draws)?,
+    };
+    // With a device apart, those are its kernels; the window's device only shows.
+    let (kernel, apart_kernels) = match &apart {
+        Some(a) => (PreviewKernels::embedded(&context)?, Some((a.clone(), kernel))),
+        None => (kernel, None),
     };
     let (fw, fh) = window.get_framebuffer_size();
     let window_size = [fw.max(1) as u32, fh.max(1) as u32];
@@ -224,7 +274,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         PresentArg::Mailbox => PresentMode::Mailbox,
         PresentArg::Immediate => PresentMode::Immediate,
     };
-    let renderer = PreviewRenderer::new(context.clone(), kernel, &data, size, window_size, mode, cpu)?;
+    let renderer = PreviewRenderer::new(context.clone(), kernel, &data, size, window_size, mode, cpu, apart_kernels)?;
     if let Some(why) = renderer.device_cannot_draw() {
         errln!("raycast: preview: note: {why}");
     }
@@ -241,7 +291,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         shaders: shaders.clone(),
     });
 
-    let mut preview = Preview::new(scene, data, info.name.clone(), fixed_size, renderer);
+    let mut preview = Preview::new(scene, data, drawing.name.clone(), fixed_size, renderer);
     preview.moving_frames = args.moving;
     preview.click = args.click;
     preview.keys = args.keys.clone().map(|k| k.0).unwrap_or_default();
@@ -252,11 +302,11 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     preview.textures = !args.no_textures;
     if args.screenshot.is_none() && args.frames.is_none() {
         errln!("raycast: preview: F1 prints the controls, Esc quits");
-        if info.runs_on_cpu() && cpu_why.is_none() && !compile_at_start {
+        if drawing.runs_on_cpu() && cpu_why.is_none() && !compile_at_start {
             errln!(
                 "raycast: preview: hint: {} runs on the CPU; B (or --backend auto) lets the CPU build draw the samples \
                  natively: the same pixels, more frames a second (BENCHMARKS.md, \"The preview\")",
-                info.name
+                drawing.name
             );
         }
     }
@@ -273,7 +323,10 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     // what the validation layer said, then the device and the window.
     drop(preview);
     drop(watcher);
-    let messages = context.take_validation_messages();
+    let mut messages = context.take_validation_messages();
+    if let Some(a) = apart {
+        messages.extend(a.take_validation_messages());
+    }
     drop(context);
     drop(window);
     result?;

@@ -40,9 +40,16 @@ pub struct PreviewArgs {
     /// Window (and picture) height.
     #[arg(long, default_value_t = 384, value_name = "H")]
     pub height: u32,
-    /// Vulkan device: an index from `raycast devices` or part of its name.
+    /// Vulkan device that draws: an index from `raycast devices` or part of its name.
+    /// Where it cannot present to this window (NVIDIA's driver under Xvfb or VNC),
+    /// it draws and the first device that can present shows its pixels.
     #[arg(long, value_name = "NAME|INDEX")]
     pub device: Option<String>,
+    /// Vulkan device that shows the window, apart from the one that draws
+    /// (--device, or the CPU build): each frame's pixels come back through the
+    /// host to it. Without it, the drawing device shows them itself where it can.
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub window_device: Option<String>,
     /// Extra folder to find textures in, after the scene file's folder (repeatable).
     #[arg(long, value_name = "DIR")]
     pub assets: Vec<PathBuf>,

@@ -1,8 +1,8 @@
 //! The preview kernel on a device: its buffers and display image, a
 //! swapchain, and one frame at a time. Everything Vulkan is the gpu part's;
 //! this only says which buffer goes to which binding of preview.comp, and,
-//! when the CPU build draws the samples (`HostSamples`), hands their pixels
-//! to the kernel that shows them.
+//! when the CPU build (`HostSamples`) or another device (`apart`) draws the
+//! samples, hands their pixels to the kernel that shows them.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -265,19 +265,35 @@ pub struct PreviewRenderer {
     frame_size: [u32; 2],
     scene: SceneBuffers,
     picture: PictureBuffers,
-    swapchain: Swapchain,
+    /// None: a renderer apart from the window (`apart`), whose pixels another one shows.
+    swapchain: Option<Swapchain>,
     /// The kernel the scene and the last frame's flags needed, and its
     /// key, built when they change; beside it the last few it replaced.
     kernel: Built<KernelKey, Kernel>,
     kernels: PreviewKernels,
     /// The CPU build draws the samples (None: the kernel does).
     host: Option<HostSamples>,
+    /// The device that draws the samples where it is not the window's (one
+    /// that cannot present to it, or --window-device): the same kernel
+    /// there, without a window; each band's pixels come back through the
+    /// host and this renderer's kernel, built with HOST_PIXELS, shows them.
+    /// The CPU build draws instead while `host` is Some.
+    apart: Option<Box<Apart>>,
     context: Arc<GpuContext>,
+}
+
+/// The renderer of the device apart, and its time for the frame in flight.
+struct Apart {
+    renderer: PreviewRenderer,
+    drawn_in: Option<Duration>,
 }
 
 impl PreviewRenderer {
     /// Buffers for `data` and a `size` picture, a swapchain for a window of
-    /// `window` pixels; with `cpu`, the CPU build draws the samples.
+    /// `window` pixels; with `cpu`, the CPU build draws the samples; with
+    /// `apart`, another device (its context and kernels) draws them unless
+    /// the CPU build does.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         context: Arc<GpuContext>,
         kernels: PreviewKernels,
@@ -286,28 +302,60 @@ impl PreviewRenderer {
         window: [u32; 2],
         mode: PresentMode,
         cpu: Option<CpuRenderer>,
+        apart: Option<(Arc<GpuContext>, PreviewKernels)>,
+    ) -> Result<PreviewRenderer, GpuError> {
+        let apart = match apart {
+            Some((ctx, kernels)) => {
+                let renderer = PreviewRenderer::without_window(ctx, kernels, data, size, cpu.is_some())?;
+                Some(Box::new(Apart { renderer, drawn_in: None }))
+            }
+            None => None,
+        };
+        // The window's device shows the pixels of whoever else draws them.
+        let shows_only = cpu.is_some() || apart.is_some();
+        let mut r = PreviewRenderer::without_window(context, kernels, data, size, shows_only)?;
+        r.swapchain = Some(Swapchain::new(&r.context, window, mode)?);
+        r.host = cpu.map(|c| HostSamples::new(c, size));
+        r.apart = apart;
+        Ok(r)
+    }
+
+    /// Buffers for `data` and a `size` picture and no window; with
+    /// `others_draw`, an array beyond one storage buffer of the device is
+    /// left off it (`SceneBuffers::left_off`) instead of the error.
+    fn without_window(
+        context: Arc<GpuContext>,
+        kernels: PreviewKernels,
+        data: &FrameData,
+        size: [u32; 2],
+        others_draw: bool,
     ) -> Result<PreviewRenderer, GpuError> {
         let ctx = &*context;
-        let r = PreviewRenderer {
+        Ok(PreviewRenderer {
             set: None,
             frames: FrameLoop::new(ctx)?,
             frame: Buffer::new(ctx, std::mem::size_of::<Frame>(), false, "the frame")?,
             preview: Buffer::new(ctx, std::mem::size_of::<PreviewFrame>(), false, "the preview frame")?,
             status: Buffer::new(ctx, std::mem::size_of::<PreviewStatus>(), true, "the status word")?,
             frame_size: size,
-            scene: SceneBuffers::new(ctx, data, kernels.uniform.is_some(), cpu.is_some())?,
+            scene: SceneBuffers::new(ctx, data, kernels.uniform.is_some(), others_draw)?,
             picture: PictureBuffers::new(ctx, size)?,
-            swapchain: Swapchain::new(ctx, window, mode)?,
+            swapchain: None,
             kernel: Built::only(None),
             kernels,
-            host: cpu.map(|c| HostSamples::new(c, size)),
+            host: None,
+            apart: None,
             context: context.clone(),
-        };
-        Ok(r)
+        })
     }
 
     pub fn swapchain(&self) -> &Swapchain {
-        &self.swapchain
+        self.swapchain.as_ref().expect("PreviewRenderer::new makes the window's swapchain")
+    }
+
+    /// Whether this device only shows pixels others draw (HOST_PIXELS).
+    fn shows_only(&self) -> bool {
+        self.host.is_some() || self.apart.is_some()
     }
 
     /// The picture's width and height.
@@ -321,8 +369,9 @@ impl PreviewRenderer {
         // A kernel that shows the host's pixels is the same for every frame
         // (HOST_PIXELS leaves the rest out): switching a view or a flag
         // does not build another.
-        let spec = if self.host.is_some() { Specialization::ALL } else { self.scene.features.specialization(frame) };
-        let key = KernelKey { uniform: self.scene.uniform, spec, host_pixels: self.host.is_some() };
+        let shows_only = self.shows_only();
+        let spec = if shows_only { Specialization::ALL } else { self.scene.features.specialization(frame) };
+        let key = KernelKey { uniform: self.scene.uniform, spec, host_pixels: shows_only };
         if self.kernel.current_key() != Some(key) {
             self.frames.wait()?;
             self.set = None;
@@ -361,11 +410,28 @@ impl PreviewRenderer {
     /// and the inner error says why. When the new kernels add or drop
     /// preview_uniform.comp, the scene's arrays are laid out again for the
     /// kernel that now draws it.
+    /// With a device apart, they are its kernels (compiled for it): this
+    /// device only shows the pixels.
     pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), String>, GpuError> {
+        match &mut self.apart {
+            Some(apart) => apart.renderer.replace_kernels(kernels, data, self.host.is_some()),
+            None => {
+                let others_draw = self.shows_only();
+                self.replace_kernels(kernels, data, others_draw)
+            }
+        }
+    }
+
+    fn replace_kernels(
+        &mut self,
+        kernels: PreviewKernels,
+        data: &FrameData,
+        others_draw: bool,
+    ) -> Result<Result<(), String>, GpuError> {
         self.frames.wait()?;
         let relayout = kernels.uniform.is_some() != self.kernels.uniform.is_some();
         let scene = if relayout {
-            Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some(), self.host.is_some())?)
+            Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some(), others_draw)?)
         } else {
             None
         };
@@ -389,11 +455,21 @@ impl PreviewRenderer {
         Ok(Ok(()))
     }
 
-    /// Replaces the scene's buffers (a reloaded scene).
+    /// Replaces the scene's buffers (a reloaded scene), on the device apart
+    /// too; where it cannot take them, the old scene stays on both.
     pub fn set_scene(&mut self, data: &FrameData) -> Result<(), GpuError> {
+        if let Some(apart) = &mut self.apart {
+            apart.renderer.replace_scene(data, self.host.is_some())?;
+        }
+        let others_draw = self.shows_only();
+        self.replace_scene(data, others_draw)
+    }
+
+    fn replace_scene(&mut self, data: &FrameData, others_draw: bool) -> Result<(), GpuError> {
+        let scene = SceneBuffers::new(&self.context, data, self.kernels.uniform.is_some(), others_draw)?;
         self.frames.wait()?;
         self.set = None;
-        self.scene = SceneBuffers::new(&self.context, data, self.kernels.uniform.is_some(), self.host.is_some())?;
+        self.scene = scene;
         Ok(())
     }
 
@@ -401,6 +477,9 @@ impl PreviewRenderer {
     pub fn resize(&mut self, size: [u32; 2]) -> Result<(), GpuError> {
         if size == self.picture.size {
             return Ok(());
+        }
+        if let Some(apart) = &mut self.apart {
+            apart.renderer.resize(size)?;
         }
         self.frames.wait()?;
         self.set = None;
@@ -415,7 +494,10 @@ impl PreviewRenderer {
     /// A new window size: a new swapchain.
     pub fn resize_window(&mut self, window: [u32; 2]) -> Result<(), GpuError> {
         self.frames.wait()?;
-        self.swapchain.recreate(window)
+        match &mut self.swapchain {
+            Some(swapchain) => swapchain.recreate(window),
+            None => Ok(()),
+        }
     }
 
     /// The CPU build's threads when it draws the samples.
@@ -427,14 +509,17 @@ impl PreviewRenderer {
     /// storage buffers, found while the CPU build draws): `draw_on_device`
     /// may not be called then.
     pub fn device_cannot_draw(&self) -> Option<&str> {
-        self.scene.left_off.as_deref()
+        match &self.apart {
+            Some(apart) => apart.renderer.scene.left_off.as_deref(),
+            None => self.scene.left_off.as_deref(),
+        }
     }
 
     /// From now on the kernel draws the samples, not the CPU build (which
     /// cannot follow an edited shader). The running sums stay with the CPU
     /// build: start the samples over.
     pub fn draw_on_device(&mut self) -> Result<(), GpuError> {
-        assert!(self.scene.left_off.is_none(), "the scene's arrays are on the device");
+        assert!(self.device_cannot_draw().is_none(), "the scene's arrays are on the drawing device");
         self.frames.wait()?;
         self.host = None;
         Ok(())
@@ -478,6 +563,16 @@ impl PreviewRenderer {
                 .pixels
                 .write(band.start * std::mem::size_of::<PixelOut>(), bytemuck::cast_slice(&host.pixels[band]));
             host.drawn_in = Some(start.elapsed());
+        } else if let Some(apart) = &mut self.apart {
+            let start = Instant::now();
+            let r = &mut apart.renderer;
+            r.render(data, frame, preview, row_end, false)?;
+            r.wait()?;
+            let size = std::mem::size_of::<PixelOut>();
+            let band = preview.row_offset as usize * frame.width as usize * size
+                ..row_end as usize * frame.width as usize * size;
+            self.picture.pixels.write(band.start, &r.picture.pixels.read(band.start, band.len()));
+            apart.drawn_in = Some(start.elapsed());
         }
         self.prepare(frame)?;
         self.frame_size = [frame.width, frame.height];
@@ -488,15 +583,17 @@ impl PreviewRenderer {
         let wg = kernel.workgroup_size();
         let groups = [frame.width.div_ceil(wg[0]), (row_end - preview.row_offset).div_ceil(wg[1]), 1];
         let set = self.set.as_ref().expect("bound");
-        let swapchain = present.then_some(&mut self.swapchain);
+        let swapchain = self.swapchain.as_mut().filter(|_| present);
         self.frames.submit(kernel, set, groups, &self.picture.display, self.frame_size, swapchain)
     }
 
     /// Waits for the frame in flight; its dispatch time when the device has
-    /// timestamps, plus the CPU build's time when it drew the sample.
+    /// timestamps, plus the CPU build's or the device apart's time (its
+    /// dispatch and the pixels' way back) when it drew the sample.
     pub fn wait(&mut self) -> Result<Option<Duration>, GpuError> {
         let device = self.frames.wait()?;
-        match self.host.as_mut().and_then(|h| h.drawn_in.take()) {
+        let others = self.host.as_mut().map(|h| &mut h.drawn_in).or(self.apart.as_mut().map(|a| &mut a.drawn_in));
+        match others.and_then(Option::take) {
             Some(cpu) => Ok(Some(cpu + device.unwrap_or_default())),
             None => Ok(device),
         }
@@ -505,6 +602,9 @@ impl PreviewRenderer {
     /// How many pixels of the last frame the device cut short (Mesa's loop
     /// budget per invocation; raycast.glsl loop_budget_ok): they are wrong.
     pub fn cut_short(&mut self) -> Result<u32, GpuError> {
+        if let (None, Some(apart)) = (&self.host, &mut self.apart) {
+            return apart.renderer.cut_short();
+        }
         self.frames.wait()?;
         let status: PreviewStatus =
             bytemuck::pod_read_unaligned(&self.status.read(0, std::mem::size_of::<PreviewStatus>()));
