@@ -19,8 +19,10 @@
 #                same PNG files byte for byte
 #   conformance  the course's reference renders, under each case's stated rule
 #   preview-xvfb the preview under an Xvfb of its own (where Xvfb is installed or carried;
-#                skipped and said so otherwise): a window, or the refusal of a device that
-#                cannot present there (NVIDIA's driver: neither NV-GLX nor DRI3), never a crash
+#                skipped and said so otherwise): a window (the device drawing apart from it
+#                where another device, say a carried lavapipe, shows it), or the refusal of a
+#                device that cannot present there (NVIDIA's driver: neither NV-GLX nor DRI3)
+#                where none can, never a crash
 # Exit status: the number of failed steps (0 when all pass).
 set -u
 device=NVIDIA

@@ -222,25 +222,30 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     };
     let context = Arc::new(context);
     let info = context.info().clone();
-    // The device that draws, unless the CPU build does.
+    // Who draws the samples (--backend): the CPU build, and why, or the device.
+    let candidate = apart.as_ref().map_or(&info, |a| a.info());
+    let cpu_why = match args.backend {
+        Backend::Cpu => Some(String::new()),
+        Backend::Auto if !compile_at_start && candidate.runs_on_cpu() => {
+            Some(format!("; --backend auto: {} runs on the CPU", candidate.name))
+        }
+        Backend::Gpu | Backend::Auto => None,
+    };
+    // A device apart that runs on the CPU gives way to the CPU build (auto).
+    let apart = apart.filter(|_| cpu_why.is_none()).map(Arc::new);
+    // The device that draws when the CPU build does not (B).
     let drawing = apart.as_ref().map_or(&info, |a| a.info()).clone();
-    for (index, name, why) in refused.into_inner() {
+    let mut refused = refused.into_inner();
+    // A retry asks the veto again: each device once.
+    refused.sort_by_key(|r| r.0);
+    refused.dedup_by_key(|r| r.0);
+    for (index, name, why) in refused {
         if index == drawing.index && apart.is_some() {
             errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); it draws the samples and {} shows them", info.name);
         } else if index != info.index {
             errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); using {}", info.name);
         }
     }
-    // Who draws the samples (--backend): the CPU build, and why, or the device.
-    let cpu_why = match args.backend {
-        Backend::Cpu => Some(String::new()),
-        Backend::Auto if !compile_at_start && drawing.runs_on_cpu() => {
-            Some(format!("; --backend auto: {} runs on the CPU", drawing.name))
-        }
-        Backend::Gpu | Backend::Auto => None,
-    };
-    // A device apart that runs on the CPU gives way to the CPU build (auto).
-    let apart = apart.filter(|_| cpu_why.is_none()).map(Arc::new);
     let cpu = cpu_why.as_ref().map(|_| CpuRenderer::new()).transpose()?;
     match (&cpu, &cpu_why, &apart) {
         (Some(c), Some(why), _) => outln!("device: {}; the window through {}", c.summary(why), info.summary()),

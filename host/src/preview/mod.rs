@@ -10,7 +10,7 @@
 //! |---|---|
 //! | `app.rs` | the window, the render loop, keys and mouse, the title, picking |
 //! | `reload.rs` | the watcher thread: scene and shader reloads off the render thread |
-//! | `renderer.rs` | which buffer goes to which binding of preview.comp; the CPU build's samples (`--backend cpu`) |
+//! | `renderer.rs` | which buffer goes to which binding of preview.comp; the CPU build's samples (`--backend cpu`) and a device apart from the window's (`--window-device`) |
 //! | `layout.rs` | Rust mirrors of shaders/preview.h |
 //! | `x11.rs` | which of some extensions the X display has (the window's veto of a device) |
 
