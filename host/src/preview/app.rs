@@ -242,7 +242,8 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     for (index, name, why) in refused {
         if index == drawing.index && apart.is_some() {
             errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); it draws the samples and {} shows them", info.name);
-        } else if index != info.index {
+        } else if index != info.index && options.device.is_none() && args.window_device.is_none() {
+            // Only where raycast chose the device: one named needs no word about the others.
             errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); using {}", info.name);
         }
     }
