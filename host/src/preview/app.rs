@@ -64,9 +64,12 @@ fn refusal(answers: Result<Vec<bool>, String>, display: &str, why: &str) -> Opti
     Some(format!("the X display {display} has neither NV-GLX (NVIDIA's X driver) nor DRI3, {why}"))
 }
 
-/// What to do where the selected device cannot present (`window_refuses`).
-const REFUSED_ADVICE: &str = "run the preview on a desktop whose X server runs on the GPU, render headless with \
-                              `raycast render`, or choose another device with --device";
+/// What to do where no device can present (`window_refuses`): one that can
+/// shows the pixels of one that cannot.
+const REFUSED_ADVICE: &str = "install a Vulkan device that can present to this display (Debian's mesa-vulkan-drivers: \
+                              lavapipe) and the preview shows through it what this one draws (--window-device), run \
+                              the preview on a desktop whose X server runs on the GPU, or render headless with \
+                              `raycast render`";
 
 /// Samples per pixel after which an interactive preview stops drawing until something changes.
 const MAX_SAMPLES: u32 = 1024;
