@@ -525,15 +525,7 @@ impl GpuRenderer {
     /// specialised for the scene and its frame flags.
     pub fn kernel_for(&self, data: &FrameData) -> Result<Arc<Kernel>, GpuError> {
         let bad = |message: String| GpuError::BadRun { kernel: UNIFORM_KERNEL.into(), message };
-        let fits = fits_uniform(&self.context, data, layout::UNIFORM_KERNEL_IMAGES.len());
-        let want_uniform = match self.choice {
-            SceneBuffers::Storage => false,
-            SceneBuffers::Auto => fits.is_ok() && self.uniform.is_some(),
-            SceneBuffers::Uniform => {
-                fits.map_err(|e| bad(format!("{e}: use --scene-buffers storage or auto")))?;
-                true
-            }
-        };
+        let want_uniform = self.wants_uniform(data)?;
         let key = (want_uniform, Specialization::of(data, &data.frame));
         let mut kernels = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
         if let Some((_, k)) = kernels.iter().find(|(k, _)| *k == key) {
@@ -555,6 +547,24 @@ impl GpuRenderer {
         Ok(k)
     }
 
+    /// Whether `data` is drawn by render_uniform.comp (the choice made,
+    /// `set_scene_buffers`, and whether the scene fits it), known before
+    /// the kernel is built.
+    fn wants_uniform(&self, data: &FrameData) -> Result<bool, GpuError> {
+        let fits = fits_uniform(&self.context, data, layout::UNIFORM_KERNEL_IMAGES.len());
+        Ok(match self.choice {
+            SceneBuffers::Storage => false,
+            SceneBuffers::Auto => fits.is_ok() && self.uniform.is_some(),
+            SceneBuffers::Uniform => {
+                fits.map_err(|e| GpuError::BadRun {
+                    kernel: UNIFORM_KERNEL.into(),
+                    message: format!("{e}: use --scene-buffers storage or auto"),
+                })?;
+                true
+            }
+        })
+    }
+
     pub fn context(&self) -> &GpuContext {
         &self.context
     }
@@ -571,10 +581,11 @@ impl GpuRenderer {
     /// marked (RAYS_CUT_SHORT in `rays`): for `finish_cut_short`.
     pub fn render_marked(&self, data: &FrameData) -> Result<(Picture, GpuTimings), GpuError> {
         let f = &data.frame;
-        let kernel = self.kernel_for(data)?;
-        // A uniform block's buffer holds its whole declared array (zeros past the scene's own).
-        let uniform = kernel.name() == UNIFORM_KERNEL;
+        // An array beyond a storage buffer is refused before the kernel is built.
+        let uniform = self.wants_uniform(data)?;
         check_storage_arrays(&self.context, data, uniform, RENDER_STORAGE_ADVICE)?;
+        let kernel = self.kernel_for(data)?;
+        debug_assert_eq!(kernel.name() == UNIFORM_KERNEL, uniform, "kernel_for follows wants_uniform");
         let scene: Vec<(u32, std::borrow::Cow<[u8]>)> = data
             .scene_buffers()
             .into_iter()
