@@ -185,6 +185,22 @@ fn unknown_flag_is_a_usage_error() {
     assert_fails(&raycast(&["render", "--frobnicate"], &[]), 2, "--frobnicate");
 }
 
+/// An empty device name (an unset variable in a script) would match every
+/// device's name: a usage error wherever a device is named.
+#[test]
+fn an_empty_device_name_is_a_usage_error() {
+    let said = "empty: give an index from `raycast devices` or part of a device's name";
+    for args in [
+        &["render", "--device", ""][..],
+        &["check", "--device", " "],
+        &["shader-test", "--device", ""],
+        &["preview", "--device", ""],
+        &["preview", "--window-device", ""],
+    ] {
+        assert_fails(&raycast(args, &[]), 2, said);
+    }
+}
+
 /// Stdout closed by its reader (`raycast render | head -1`): the status
 /// lines are lost, the picture is written and the exit status is 0, where
 /// println! panicked on the broken pipe.

@@ -119,7 +119,7 @@ pub struct RenderOptions {
 pub struct KernelOptions {
     /// Vulkan device: an index from `raycast devices` or part of its name.
     #[arg(long, value_name = "NAME|INDEX")]
-    pub device: Option<String>,
+    pub device: Option<DeviceSelector>,
     /// Compile the device's kernel from DIR/render.comp at start-up instead of
     /// the one built in (the CPU build is always the built-in code).
     #[arg(long, value_name = "DIR")]
@@ -554,13 +554,6 @@ pub(crate) fn validation_wanted(flag: bool) -> bool {
     flag || std::env::var("RAYCAST_VALIDATION").is_ok_and(|v| v == "1")
 }
 
-pub(crate) fn parse_device(arg: &Option<String>) -> Option<DeviceSelector> {
-    arg.as_ref().map(|s| match s.parse::<usize>() {
-        Ok(i) => DeviceSelector::Index(i),
-        Err(_) => DeviceSelector::Name(s.clone()),
-    })
-}
-
 /// Fails with exit code 3 if the validation layer said anything.
 pub(crate) fn check_validation(messages: Vec<String>) -> Result<(), Failure> {
     if messages.is_empty() {
@@ -701,13 +694,13 @@ fn default_output(scene: Option<&Path>, suffix: &str, dir: Option<&Path>) -> Pat
 /// asked), built in or compiled from `shaders`, reading the scene as
 /// `--scene-buffers` says: for `render`, `check` and `bench`.
 pub(crate) fn open_renderer(
-    device: &Option<String>,
+    device: &Option<DeviceSelector>,
     validate: bool,
     shaders: Option<&Path>,
     buffers: SceneBuffers,
 ) -> Result<GpuRenderer, Failure> {
     let options =
-        GpuOptions { device: parse_device(device), validation: validation_wanted(validate), ..GpuOptions::default() };
+        GpuOptions { device: device.clone(), validation: validation_wanted(validate), ..GpuOptions::default() };
     let mut renderer = match shaders {
         Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
         None => GpuRenderer::new(&options)?,
@@ -1226,7 +1219,7 @@ fn isolated_pixels(
     let width = data.frame.width;
     let mut harness = Harness::new(&HarnessOptions {
         shaders: args.render.kernel.shaders.clone(),
-        device: parse_device(&args.render.kernel.device),
+        device: args.render.kernel.device.clone(),
         validation: validation_wanted(args.render.kernel.validate),
     })
     .map_err(|e| Failure(format!("raycast: error: --pixel: {e}"), 1))?;

@@ -51,6 +51,21 @@ impl std::fmt::Display for DeviceSelector {
     }
 }
 
+impl std::str::FromStr for DeviceSelector {
+    type Err = String;
+
+    /// `--device`'s words: an index from `raycast devices`, else part of a
+    /// device's name; an empty one (an unset variable in a script) would
+    /// match every name, so it is refused.
+    fn from_str(s: &str) -> Result<DeviceSelector, String> {
+        let s = s.trim();
+        if s.is_empty() {
+            return Err("empty: give an index from `raycast devices` or part of a device's name".into());
+        }
+        Ok(s.parse::<usize>().map_or_else(|_| DeviceSelector::Name(s.to_string()), DeviceSelector::Index))
+    }
+}
+
 /// Options of `GpuContext::new`.
 #[derive(Clone, Debug)]
 pub struct GpuOptions {

@@ -22,7 +22,7 @@ pub struct ShaderTestArgs {
     shaders: Option<PathBuf>,
     /// Vulkan device: an index from `raycast devices` or part of its name.
     #[arg(long, value_name = "NAME|INDEX")]
-    device: Option<String>,
+    device: Option<DeviceSelector>,
     /// Enable the Khronos validation layer; any message fails the command (exit 3).
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
@@ -40,10 +40,7 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
     let files = if args.files.is_empty() { default_files(&root).map_err(fail)? } else { args.files.clone() };
 
     let validation = args.validate || std::env::var("RAYCAST_VALIDATION").is_ok_and(|v| v == "1");
-    let device = args.device.as_ref().map(|s| match s.parse::<usize>() {
-        Ok(i) => DeviceSelector::Index(i),
-        Err(_) => DeviceSelector::Name(s.clone()),
-    });
+    let device = args.device.clone();
     let mut harness =
         Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation }).map_err(fail)?;
 

@@ -11,7 +11,7 @@ use ash::vk::{self, Handle};
 use glam::DVec3;
 use glfw::{Action, Key, MouseButton, WindowEvent};
 
-use crate::cli::{check_validation, load_scene, parse_device, scene_failure, validation_wanted, Backend, Failure};
+use crate::cli::{check_validation, load_scene, scene_failure, validation_wanted, Backend, Failure};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gpu::{DeviceInfo, DeviceSelector, FrameStatus, GpuContext, GpuError, GpuOptions, PresentMode};
@@ -156,7 +156,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     window.set_all_polling(true);
 
     let options = GpuOptions {
-        device: parse_device(&args.device),
+        device: args.device.clone(),
         validation: validation_wanted(args.validate),
         ..GpuOptions::default()
     };
@@ -194,7 +194,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     // one (`apart`): the one --device names, or the best, when it cannot
     // present to this window; with --window-device, always the --device one.
     let device_draws = args.backend != Backend::Cpu;
-    let window_device = args.window_device.as_ref().map(|w| parse_device(&Some(w.clone())));
+    let window_device = args.window_device.clone().map(Some);
     let (context, apart) = match window_device {
         Some(window_device) => {
             let context = open_window(window_device)?;

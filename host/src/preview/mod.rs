@@ -26,6 +26,7 @@ use clap::{Args, ValueEnum};
 
 use crate::cli::{Backend, Failure};
 use crate::frame::Aov;
+use crate::gpu::DeviceSelector;
 use crate::scene::FlattenLimits;
 
 /// `raycast preview` flags.
@@ -44,12 +45,12 @@ pub struct PreviewArgs {
     /// Where it cannot present to this window (NVIDIA's driver under Xvfb or VNC),
     /// it draws and the first device that can present shows its pixels.
     #[arg(long, value_name = "NAME|INDEX")]
-    pub device: Option<String>,
+    pub device: Option<DeviceSelector>,
     /// Vulkan device that shows the window, apart from the one that draws
     /// (--device, or the CPU build): each frame's pixels come back through the
     /// host to it. Without it, the drawing device shows them itself where it can.
     #[arg(long, value_name = "NAME|INDEX")]
-    pub window_device: Option<String>,
+    pub window_device: Option<DeviceSelector>,
     /// Extra folder to find textures in, after the scene file's folder (repeatable).
     #[arg(long, value_name = "DIR")]
     pub assets: Vec<PathBuf>,
