@@ -105,6 +105,14 @@ fn assert_clean(o: &Output, what: &str) {
     assert_eq!(o.status.code(), Some(0), "{what}: exit status\n{}", text(o));
 }
 
+/// Asserts that stderr says each of `said`.
+fn assert_says(o: &Output, said: &[&str]) {
+    let err = String::from_utf8_lossy(&o.stderr);
+    for s in said {
+        assert!(err.contains(s), "{s:?} missing: {}", text(o));
+    }
+}
+
 /// The preview's screenshot after `frames` frames of `scene` (None: the default scene).
 /// `extra`: more flags for the preview.
 fn screenshot(scene: Option<&Path>, size: [u32; 2], frames: u32, name: &str, extra: &[&str]) -> Rgb8 {
@@ -291,16 +299,16 @@ fn scripted_keys_switch_the_view_the_flags_and_who_draws() {
     // draws; so B after it goes back to the CPU build, which says it is not the edit.
     let o = preview(&["--width", "32", "--height", "24", "--frames", "3", "--backend", "cpu", "--keys", "2:K,3:B"]);
     assert_clean(&o, "K then B");
-    let err = String::from_utf8_lossy(&o.stderr);
-    for said in [
-        "recompiling the shaders of ",
-        "reloaded the kernel (preview.comp)",
-        "draws from now on: the CPU build is the code",
-        "CPU build (",
-        "draws: the code raycast was built with, not the edited shader",
-    ] {
-        assert!(err.contains(said), "{said:?} missing: {}", text(&o));
-    }
+    assert_says(
+        &o,
+        &[
+            "recompiling the shaders of ",
+            "reloaded the kernel (preview.comp)",
+            "draws from now on: the CPU build is the code",
+            "CPU build (",
+            "draws: the code raycast was built with, not the edited shader",
+        ],
+    );
     for bad in [
         &["--frames", "2", "--keys", "0:H"][..],
         &["--frames", "2", "--keys", "1:Q"],
@@ -476,15 +484,15 @@ fn textures_beyond_one_storage_buffer() {
     let args = [s, "--width", "64", "--height", "48", "--frames", "3", "--keys", "2:B,3:K"];
     let o = preview_as_given(&[&args[..], &["--screenshot", png.to_str().unwrap()]].concat());
     assert_clean(&o, "the CPU build drawing");
-    let err = String::from_utf8_lossy(&o.stderr);
-    for said in [
-        "raycast: preview: note: the storage buffer of the texels needs 128.3 MiB",
-        "the CPU build draws the samples; with smaller textures the device could draw them too (B)",
-        "raycast: preview: error: cannot switch who draws: the storage buffer of the texels",
-        "raycast: preview: the reloaded kernel cannot draw this scene on llvmpipe",
-    ] {
-        assert!(err.contains(said), "{said:?} missing: {}", text(&o));
-    }
+    assert_says(
+        &o,
+        &[
+            "raycast: preview: note: the storage buffer of the texels needs 128.3 MiB",
+            "the CPU build draws the samples; with smaller textures the device could draw them too (B)",
+            "raycast: preview: error: cannot switch who draws: the storage buffer of the texels",
+            "raycast: preview: the reloaded kernel cannot draw this scene on llvmpipe",
+        ],
+    );
     let expected = render(Some(&scene), [64, 48], "big-texture", &["--backend", "cpu"]);
     assert_bit_exact(&image_io::read_picture(&png).unwrap(), &expected, "big-texture", "the CPU build's preview");
 }
