@@ -190,39 +190,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
             veto,
         )
     };
-    // The window's device, and the device that draws where that is another
-    // one (`apart`): the one --device names, or the best, when it cannot
-    // present to this window; with --window-device, always the --device one.
-    let device_draws = args.backend != Backend::Cpu;
-    let window_device = args.window_device.clone().map(Some);
-    let (context, apart) = match window_device {
-        Some(window_device) => {
-            let context = open_window(window_device)?;
-            (context, device_draws.then(|| GpuContext::new(&options)).transpose()?)
-        }
-        None => match open_window(options.device.clone()) {
-            Err(e @ GpuError::Presentation { .. }) if device_draws && options.device.is_some() => {
-                // Shown through any device that can; a failure there is the first one's.
-                let context = open_window(None).map_err(|_| e)?;
-                (context, Some(GpuContext::new(&options)?))
-            }
-            Err(e) => return Err(e.into()),
-            Ok(context) if device_draws && options.device.is_none() => {
-                // The best device, where it is not the window's, draws; if it
-                // cannot be opened, the window's device draws, as before.
-                let best = crate::gpu::list_devices_with_default()?.1;
-                let apart = match (best != context.info().index).then(|| GpuContext::new(&options)) {
-                    Some(Err(e)) => {
-                        errln!("raycast: note: device {best} cannot draw ({e}); {} draws", context.info().name);
-                        None
-                    }
-                    opened => opened.transpose()?,
-                };
-                (context, apart)
-            }
-            Ok(context) => (context, None),
-        },
-    };
+    let (context, apart) = choose_devices(args, &options, open_window)?;
     let context = Arc::new(context);
     let info = context.info().clone();
     // Who draws the samples (--backend): the CPU build, and why, or the device.
@@ -340,6 +308,44 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     drop(window);
     result?;
     check_validation(messages)
+}
+
+/// The window's device, opened by `open_window` for the selector given, and
+/// the device that draws where that is another one (the device apart): the
+/// one --device names, or the best, where it cannot present to this window;
+/// with --window-device, always the --device one (unless the CPU build draws).
+fn choose_devices(
+    args: &PreviewArgs,
+    options: &GpuOptions,
+    open_window: impl Fn(Option<DeviceSelector>) -> Result<GpuContext, GpuError>,
+) -> Result<(GpuContext, Option<GpuContext>), Failure> {
+    let device_draws = args.backend != Backend::Cpu;
+    if let Some(window_device) = &args.window_device {
+        let context = open_window(Some(window_device.clone()))?;
+        return Ok((context, device_draws.then(|| GpuContext::new(options)).transpose()?));
+    }
+    Ok(match open_window(options.device.clone()) {
+        Err(e @ GpuError::Presentation { .. }) if device_draws && options.device.is_some() => {
+            // Shown through any device that can; a failure there is the first one's.
+            let context = open_window(None).map_err(|_| e)?;
+            (context, Some(GpuContext::new(options)?))
+        }
+        Err(e) => return Err(e.into()),
+        Ok(context) if device_draws && options.device.is_none() => {
+            // The best device, where it is not the window's, draws; if it
+            // cannot be opened, the window's device draws, as before.
+            let best = crate::gpu::list_devices_with_default()?.1;
+            let apart = match (best != context.info().index).then(|| GpuContext::new(options)) {
+                Some(Err(e)) => {
+                    errln!("raycast: note: device {best} cannot draw ({e}); {} draws", context.info().name);
+                    None
+                }
+                opened => opened.transpose()?,
+            };
+            (context, apart)
+        }
+        Ok(context) => (context, None),
+    })
 }
 
 /// The shader folder to watch, and whether to compile from it at start
