@@ -80,8 +80,18 @@ const ORBIT_DEG_PER_PIXEL: f64 = 0.3;
 const TITLE_INTERVAL: Duration = Duration::from_millis(250);
 /// After the camera's last move, frames stay at the motion resolution this long.
 const MOTION_HOLD: Duration = Duration::from_millis(300);
-/// While the camera moves, a frame should take at most this long (8 a second).
-const MOTION_FRAME_MS: f64 = 125.0;
+/// While the camera moves, a frame should take at most this long: 125 ms (8
+/// a second) where the CPU draws (lavapipe, the CPU build), where every
+/// pixel is dear, and 33 ms (30 a second) on a GPU, where a window's full
+/// size is usually within reach (on an H200, depth 10 with shadows at
+/// 1920x1080 took 95 ms a frame at full size: with 125 ms it steered at 10
+/// a second). At rest a slow sample is drawn in bands of the same budget.
+const MOTION_FRAME_MS: [f64; 2] = [125.0, 1000.0 / 30.0];
+
+/// The frame budget (MOTION_FRAME_MS) of a drawer that runs on the CPU or not.
+fn frame_budget_ms(on_cpu: bool) -> f64 {
+    MOTION_FRAME_MS[usize::from(!on_cpu)]
+}
 /// The most the motion resolution divides the width and height by: 2^(MAX_MOTION_STEPS / 4) = 8.
 const MAX_MOTION_STEPS: u32 = 12;
 /// Frames smaller than this do not update the cost per pixel.
@@ -268,7 +278,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         shaders: shaders.clone(),
     });
 
-    let mut preview = Preview::new(scene, data, drawing.name.clone(), fixed_size, renderer);
+    let mut preview = Preview::new(scene, data, &drawing, fixed_size, renderer);
     preview.moving_frames = args.moving;
     preview.click = args.click;
     preview.keys = args.keys.clone().map(|k| k.0).unwrap_or_default();
@@ -406,6 +416,8 @@ struct Preview {
     camera: CameraControl,
     /// The Vulkan device's name.
     device: String,
+    /// Whether that device runs on the CPU (lavapipe): the frame budget.
+    device_on_cpu: bool,
     /// A shader was reloaded: the device's kernel is no longer the code the
     /// CPU build was built from (so an edit hands the drawing to the device,
     /// and B back to the CPU build says so).
@@ -484,24 +496,24 @@ impl PixelCost {
 }
 
 /// The divisor of width and height that brings a frame of `pixels` pixels,
-/// at `ms_per_pixel`, within MOTION_FRAME_MS: the smallest of 1, 2^(1/4),
+/// at `ms_per_pixel`, within `budget_ms`: the smallest of 1, 2^(1/4),
 /// 2^(2/4), … (each step 29% fewer pixels; whole divisors went from 512x384
 /// straight to 256x192, a quarter, where 363x272 fits), 1 when the cost is
 /// not known yet, at most 2^(MAX_MOTION_STEPS / 4).
-fn motion_scale(ms_per_pixel: Option<f64>, pixels: u64) -> f64 {
+fn motion_scale(ms_per_pixel: Option<f64>, pixels: u64, budget_ms: f64) -> f64 {
     let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return 1.0 };
     let full_ms = cost * pixels as f64;
     // Dividing both sides by s = 2^(k/4) divides the pixels by s² = 2^(k/2).
-    let steps = (2.0 * (full_ms / MOTION_FRAME_MS).log2()).ceil();
+    let steps = (2.0 * (full_ms / budget_ms).log2()).ceil();
     2f64.powf(steps.clamp(0.0, f64::from(MAX_MOTION_STEPS)) / 4.0)
 }
 
 /// Rows of a `width`-pixel frame that one frame draws at `ms_per_pixel`
-/// within MOTION_FRAME_MS: a multiple of the work group's height (at least
+/// within `budget_ms`: a multiple of the work group's height (at least
 /// one), all `height` rows when they fit or the cost is not known yet.
-fn band_rows(ms_per_pixel: Option<f64>, width: u32, height: u32) -> u32 {
+fn band_rows(ms_per_pixel: Option<f64>, width: u32, height: u32, budget_ms: f64) -> u32 {
     let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return height };
-    let rows = (MOTION_FRAME_MS / (cost * f64::from(width.max(1)))).floor();
+    let rows = (budget_ms / (cost * f64::from(width.max(1)))).floor();
     if rows >= f64::from(height) {
         return height;
     }
@@ -540,7 +552,7 @@ fn jitter(i: u32) -> [f32; 2] {
 }
 
 impl Preview {
-    fn new(scene: Scene, data: FrameData, device: String, fixed_size: bool, renderer: PreviewRenderer) -> Preview {
+    fn new(scene: Scene, data: FrameData, device: &DeviceInfo, fixed_size: bool, renderer: PreviewRenderer) -> Preview {
         let bounds = scene_bounds(&scene);
         let camera = CameraControl::new(&scene.camera, bounds);
         Preview {
@@ -548,7 +560,8 @@ impl Preview {
             data,
             bounds,
             camera,
-            device,
+            device: device.name.clone(),
+            device_on_cpu: device.runs_on_cpu(),
             shader_edited: false,
             fixed_size,
             aov: Aov::Color,
@@ -689,12 +702,12 @@ impl Preview {
             }
             let frame = self.frame(scale);
             // At full size on a slow device, a sample is drawn a band of rows per frame (each
-            // within MOTION_FRAME_MS) and shown once whole, so input is never kept waiting
+            // within the frame budget) and shown once whole, so input is never kept waiting
             // for a long frame. Scripted runs and fast devices draw it whole.
             let rows = if scale > 1.0 || frames.is_some() {
                 frame.height
             } else {
-                band_rows(self.pixel_cost.estimate(), frame.width, frame.height)
+                band_rows(self.pixel_cost.estimate(), frame.width, frame.height, self.frame_budget_ms())
             };
             let band = [self.band_next, (self.band_next + rows).min(frame.height)];
             let whole = band[1] == frame.height;
@@ -884,7 +897,7 @@ impl Preview {
     /// The divisor of the picture's width and height for the next frame:
     /// 1 at rest and in scripted runs (but for --moving); while the camera moves (and for
     /// MOTION_HOLD after), the smallest that keeps a frame within
-    /// MOTION_FRAME_MS at the cost per pixel measured so far, at most 8
+    /// the frame budget at the cost per pixel measured so far, at most 8
     /// (`motion_scale`). A slow device (lavapipe) stays interactive while
     /// you steer; the picture sharpens once you stop.
     fn motion_scale(&self, at_rest: bool) -> f64 {
@@ -893,7 +906,12 @@ impl Preview {
             return 1.0;
         }
         let [w, h] = self.renderer.size();
-        motion_scale(self.pixel_cost.estimate(), u64::from(w) * u64::from(h))
+        motion_scale(self.pixel_cost.estimate(), u64::from(w) * u64::from(h), self.frame_budget_ms())
+    }
+
+    /// MOTION_FRAME_MS of whoever draws now: the CPU build, or the device.
+    fn frame_budget_ms(&self) -> f64 {
+        frame_budget_ms(self.renderer.cpu_threads().is_some() || self.device_on_cpu)
     }
 
     fn on_event(&mut self, event: WindowEvent, window: &mut glfw::PWindow) -> Result<(), Failure> {
@@ -1198,7 +1216,7 @@ impl Preview {
 
 #[cfg(test)]
 mod tests {
-    use super::{band_rows, jitter, motion_scale, refusal, PixelCost};
+    use super::{band_rows, frame_budget_ms, jitter, motion_scale, refusal, PixelCost};
 
     /// The median of the last five: a spike leaves it, a lasting change moves it on the third frame.
     #[test]
@@ -1222,12 +1240,15 @@ mod tests {
     #[test]
     fn bands_keep_a_frame_within_its_budget() {
         // Unknown cost, or the whole frame fits: all rows.
-        assert_eq!(band_rows(None, 512, 384), 384);
-        assert_eq!(band_rows(Some(1e-6), 512, 384), 384);
+        let cpu = frame_budget_ms(true);
+        assert_eq!(band_rows(None, 512, 384, cpu), 384);
+        assert_eq!(band_rows(Some(1e-6), 512, 384, cpu), 384);
         // 2.69 s for 512x384: 125 ms is 17.8 rows, so 16 (two work groups).
-        assert_eq!(band_rows(Some(2690.0 / (512.0 * 384.0)), 512, 384), 16);
+        assert_eq!(band_rows(Some(2690.0 / (512.0 * 384.0)), 512, 384, cpu), 16);
         // Slower than a work group's rows in the budget: one work group anyway.
-        assert_eq!(band_rows(Some(1.0), 512, 384), 8);
+        assert_eq!(band_rows(Some(1.0), 512, 384, cpu), 8);
+        // A GPU's 33 ms: 95 ms for 1920x1080 is 378.9 rows, so 376 (47 work groups).
+        assert_eq!(band_rows(Some(95.0 / (1920.0 * 1080.0)), 1920, 1080, frame_budget_ms(false)), 376);
     }
 
     /// NVIDIA's driver is refused only a display that says it has neither
@@ -1245,20 +1266,26 @@ mod tests {
     #[test]
     fn motion_scale_keeps_a_moving_frame_within_its_budget() {
         let pixels = 512 * 384;
+        let (cpu, gpu) = (frame_budget_ms(true), frame_budget_ms(false));
+        assert_eq!((cpu, gpu), (125.0, 1000.0 / 30.0), "8 frames a second on a CPU, 30 on a GPU");
         // Unknown cost, or a fast device: full resolution.
-        assert_eq!(motion_scale(None, pixels), 1.0);
-        assert_eq!(motion_scale(Some(f64::NAN), pixels), 1.0);
-        assert_eq!(motion_scale(Some(10.0 / pixels as f64), pixels), 1.0);
+        assert_eq!(motion_scale(None, pixels, cpu), 1.0);
+        assert_eq!(motion_scale(Some(f64::NAN), pixels, cpu), 1.0);
+        assert_eq!(motion_scale(Some(10.0 / pixels as f64), pixels, cpu), 1.0);
         // 2.69 s a frame: 2690 / 125 = 21.5 times the budget, s >= 4.64: 2^(9/4) = 4.76,
         // 108x81 pixels, about 120 ms.
-        assert_eq!(motion_scale(Some(2690.0 / pixels as f64), pixels), 2f64.powf(9.0 / 4.0));
+        assert_eq!(motion_scale(Some(2690.0 / pixels as f64), pixels, cpu), 2f64.powf(9.0 / 4.0));
         // 0.24 s (depth 6 without shadows on lavapipe): 2^(2/4), 363x272, about 120 ms.
-        assert_eq!(motion_scale(Some(240.0 / pixels as f64), pixels), 2f64.sqrt());
+        assert_eq!(motion_scale(Some(240.0 / pixels as f64), pixels, cpu), 2f64.sqrt());
         // Exactly at the budget stays; just over takes the next step.
-        assert_eq!(motion_scale(Some(125.0 * 4.0 / pixels as f64), pixels), 2.0);
-        assert_eq!(motion_scale(Some(125.0 * 4.01 / pixels as f64), pixels), 2f64.powf(5.0 / 4.0));
+        assert_eq!(motion_scale(Some(125.0 * 4.0 / pixels as f64), pixels, cpu), 2.0);
+        assert_eq!(motion_scale(Some(125.0 * 4.01 / pixels as f64), pixels, cpu), 2f64.powf(5.0 / 4.0));
         // Never beyond the cap.
-        assert_eq!(motion_scale(Some(1.0), pixels), 8.0);
+        assert_eq!(motion_scale(Some(1.0), pixels, cpu), 8.0);
+        // A GPU at 1920x1080, 95 ms a frame (depth 10 with shadows on an H200): 2.85 times
+        // its budget, s >= 1.69: 2^(4/4) = 2, 960x540, about 24 ms; at 512x384, 7.2 ms: whole.
+        assert_eq!(motion_scale(Some(95.0 / (1920.0 * 1080.0)), 1920 * 1080, gpu), 2.0);
+        assert_eq!(motion_scale(Some(7.2 / pixels as f64), pixels, gpu), 1.0);
     }
 
     #[test]
