@@ -574,7 +574,7 @@ impl PreviewRenderer {
             let size = std::mem::size_of::<PixelOut>();
             let band = preview.row_offset as usize * frame.width as usize * size
                 ..row_end as usize * frame.width as usize * size;
-            self.picture.pixels.write(band.start, &r.picture.pixels.read(band.start, band.len()));
+            r.picture.pixels.copy_to(band.start, &self.picture.pixels, band.start, band.len());
             apart.drawn_in = Some(dispatch.map_or_else(|| start.elapsed(), |d| d + copy.elapsed()));
         }
         self.prepare(frame)?;
