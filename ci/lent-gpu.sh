@@ -114,7 +114,7 @@ if ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
   ldconfig
 fi
 mkdir -p /tmp/extra
-for f in "\$here"/extra/*.deb; do dpkg -x "\$f" /tmp/extra; done
+for f in "\$here"/extra/*.deb; do [ -e "\$f" ] && dpkg -x "\$f" /tmp/extra; done
 [ -x /usr/bin/time ] || [ ! -d /tmp/extra/usr/bin ] || cp /tmp/extra/usr/bin/time /usr/bin/time 2>/dev/null || true
 drivers=""
 for f in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json; do
