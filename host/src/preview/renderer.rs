@@ -95,23 +95,38 @@ struct SceneBuffers {
     left_off: Option<String>,
 }
 
+/// What a device does with the scene: what its arrays on it are for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    /// Its kernel draws: an array beyond one storage buffer is the error.
+    Draws,
+    /// The CPU build draws, and the device may later (B, an edit): such an
+    /// array leaves them all off it (`left_off`).
+    MayDraw,
+    /// Another device draws (`apart`); this one only shows the pixels, and
+    /// the arrays stay off it.
+    ShowsOnly,
+}
+
 impl SceneBuffers {
-    /// `data`'s arrays for the uniform kernel when `has_uniform` (the
-    /// kernels include one) and the scene fits it, else for preview.comp.
-    /// With `host_draws`, an array beyond one storage buffer leaves them all
-    /// off the device (`left_off`); without, it is the error.
-    fn new(ctx: &GpuContext, data: &FrameData, has_uniform: bool, host_draws: bool) -> Result<SceneBuffers, GpuError> {
+    /// `data`'s arrays, as `role` wants them: for the uniform kernel when
+    /// `has_uniform` (the kernels include one) and the scene fits it, else
+    /// for preview.comp; or bound empty (`left_off`).
+    fn new(ctx: &GpuContext, data: &FrameData, has_uniform: bool, role: Role) -> Result<SceneBuffers, GpuError> {
         let uniform = has_uniform && crate::render::fits_uniform(ctx, data, preview_uniform_images().len()).is_ok();
         let features = SceneFeatures::of(data);
-        let advice = if host_draws {
-            crate::render::PREVIEW_CPU_STORAGE_ADVICE
-        } else {
-            crate::render::PREVIEW_DEVICE_STORAGE_ADVICE
+        let advice = match role {
+            Role::Draws => crate::render::PREVIEW_DEVICE_STORAGE_ADVICE,
+            Role::MayDraw | Role::ShowsOnly => crate::render::PREVIEW_CPU_STORAGE_ADVICE,
         };
-        if let Err(e) = crate::render::check_storage_arrays(ctx, data, uniform, advice) {
-            if !host_draws || !matches!(e, GpuError::TooLarge { .. }) {
-                return Err(e);
-            }
+        let checked = match role {
+            Role::ShowsOnly => Err("another device draws the scene".to_string()),
+            Role::Draws | Role::MayDraw => match crate::render::check_storage_arrays(ctx, data, uniform, advice) {
+                Err(e @ GpuError::TooLarge { .. }) if role == Role::MayDraw => Err(e.to_string()),
+                other => Ok(other?),
+            },
+        };
+        if let Err(left_off) = checked {
             let mut buffers = Vec::new();
             for &(binding, what, _) in &data.scene_buffers() {
                 buffers.push((binding, Buffer::new(ctx, 0, false, what)?));
@@ -121,7 +136,7 @@ impl SceneBuffers {
                 images: Vec::new(),
                 uniform: false,
                 features,
-                left_off: Some(e.to_string()),
+                left_off: Some(left_off),
             });
         }
         let mut images = Vec::new();
@@ -306,29 +321,32 @@ impl PreviewRenderer {
     ) -> Result<PreviewRenderer, GpuError> {
         let apart = match apart {
             Some((ctx, kernels)) => {
-                let renderer = PreviewRenderer::without_window(ctx, kernels, data, size, cpu.is_some())?;
+                let role = if cpu.is_some() { Role::MayDraw } else { Role::Draws };
+                let renderer = PreviewRenderer::without_window(ctx, kernels, data, size, role)?;
                 Some(Box::new(Apart { renderer, drawn_in: None }))
             }
             None => None,
         };
         // The window's device shows the pixels of whoever else draws them.
-        let shows_only = cpu.is_some() || apart.is_some();
-        let mut r = PreviewRenderer::without_window(context, kernels, data, size, shows_only)?;
+        let role = match (&apart, &cpu) {
+            (Some(_), _) => Role::ShowsOnly,
+            (None, Some(_)) => Role::MayDraw,
+            (None, None) => Role::Draws,
+        };
+        let mut r = PreviewRenderer::without_window(context, kernels, data, size, role)?;
         r.swapchain = Some(Swapchain::new(&r.context, window, mode)?);
         r.host = cpu.map(|c| HostSamples::new(c, size));
         r.apart = apart;
         Ok(r)
     }
 
-    /// Buffers for `data` and a `size` picture and no window; with
-    /// `others_draw`, an array beyond one storage buffer of the device is
-    /// left off it (`SceneBuffers::left_off`) instead of the error.
+    /// Buffers for `data` (as `role` wants them) and a `size` picture, and no window.
     fn without_window(
         context: Arc<GpuContext>,
         kernels: PreviewKernels,
         data: &FrameData,
         size: [u32; 2],
-        others_draw: bool,
+        role: Role,
     ) -> Result<PreviewRenderer, GpuError> {
         let ctx = &*context;
         Ok(PreviewRenderer {
@@ -338,7 +356,7 @@ impl PreviewRenderer {
             preview: Buffer::new(ctx, std::mem::size_of::<PreviewFrame>(), false, "the preview frame")?,
             status: Buffer::new(ctx, std::mem::size_of::<PreviewStatus>(), true, "the status word")?,
             frame_size: size,
-            scene: SceneBuffers::new(ctx, data, kernels.uniform.is_some(), others_draw)?,
+            scene: SceneBuffers::new(ctx, data, kernels.uniform.is_some(), role)?,
             picture: PictureBuffers::new(ctx, size)?,
             swapchain: None,
             kernel: Built::only(None),
@@ -356,6 +374,25 @@ impl PreviewRenderer {
     /// Whether this device only shows pixels others draw (HOST_PIXELS).
     fn shows_only(&self) -> bool {
         self.host.is_some() || self.apart.is_some()
+    }
+
+    /// What this device does with the scene now (the window's; the device
+    /// apart's is `apart_role`).
+    fn role(&self) -> Role {
+        match (&self.apart, &self.host) {
+            (Some(_), _) => Role::ShowsOnly,
+            (None, Some(_)) => Role::MayDraw,
+            (None, None) => Role::Draws,
+        }
+    }
+
+    /// What the device apart does with the scene now: draws it, unless the CPU build does.
+    fn apart_role(&self) -> Role {
+        if self.host.is_some() {
+            Role::MayDraw
+        } else {
+            Role::Draws
+        }
     }
 
     /// The picture's width and height.
@@ -414,10 +451,14 @@ impl PreviewRenderer {
     /// device only shows the pixels.
     pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), String>, GpuError> {
         match &mut self.apart {
-            Some(apart) => apart.renderer.replace_kernels(kernels, data, self.host.is_some()),
+            Some(_) => {
+                let role = self.apart_role();
+                let apart = self.apart.as_mut().expect("matched");
+                apart.renderer.replace_kernels(kernels, data, role)
+            }
             None => {
-                let others_draw = self.shows_only();
-                self.replace_kernels(kernels, data, others_draw)
+                let role = self.role();
+                self.replace_kernels(kernels, data, role)
             }
         }
     }
@@ -426,12 +467,12 @@ impl PreviewRenderer {
         &mut self,
         kernels: PreviewKernels,
         data: &FrameData,
-        others_draw: bool,
+        role: Role,
     ) -> Result<Result<(), String>, GpuError> {
         self.frames.wait()?;
         let relayout = kernels.uniform.is_some() != self.kernels.uniform.is_some();
         let scene = if relayout {
-            Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some(), others_draw)?)
+            Some(SceneBuffers::new(&self.context, data, kernels.uniform.is_some(), role)?)
         } else {
             None
         };
@@ -458,15 +499,16 @@ impl PreviewRenderer {
     /// Replaces the scene's buffers (a reloaded scene), on the device apart
     /// too; where it cannot take them, the old scene stays on both.
     pub fn set_scene(&mut self, data: &FrameData) -> Result<(), GpuError> {
+        let role = self.apart_role();
         if let Some(apart) = &mut self.apart {
-            apart.renderer.replace_scene(data, self.host.is_some())?;
+            apart.renderer.replace_scene(data, role)?;
         }
-        let others_draw = self.shows_only();
-        self.replace_scene(data, others_draw)
+        let role = self.role();
+        self.replace_scene(data, role)
     }
 
-    fn replace_scene(&mut self, data: &FrameData, others_draw: bool) -> Result<(), GpuError> {
-        let scene = SceneBuffers::new(&self.context, data, self.kernels.uniform.is_some(), others_draw)?;
+    fn replace_scene(&mut self, data: &FrameData, role: Role) -> Result<(), GpuError> {
+        let scene = SceneBuffers::new(&self.context, data, self.kernels.uniform.is_some(), role)?;
         self.frames.wait()?;
         self.set = None;
         self.scene = scene;
