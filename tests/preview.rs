@@ -449,8 +449,13 @@ fn a_device_apart_from_the_window_draws() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("cannot present to this window") && !err.contains("panicked"), "{}", text(&o));
-    let o = raycast(&["preview", "--window-device", "no such device", "--frames", "1"]);
-    assert!(o.status.code() != Some(0) && !String::from_utf8_lossy(&o.stderr).contains("panicked"), "{}", text(&o));
+    // A device not found is named by its option.
+    for args in [&["--window-device", "no such device"][..], &["--device", "no such device", "--window-device", "0"]] {
+        let o = preview(&[&["--frames", "1"][..], args].concat());
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", text(&o));
+        let said = format!("raycast: error: {}: no Vulkan device matches name \"no such device\"", args[0]);
+        assert_says(&o, &[&said]);
+    }
 }
 
 /// Textures beyond one storage buffer of the device (lavapipe: 128 MiB of

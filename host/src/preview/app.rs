@@ -330,17 +330,25 @@ fn choose_devices(
     open_window: impl Fn(Option<DeviceSelector>) -> Result<GpuContext, GpuError>,
 ) -> Result<(GpuContext, Option<GpuContext>), Failure> {
     let device_draws = args.backend != Backend::Cpu;
+    // With two device options, a device not found is named by its option.
+    let named = |option: &'static str| {
+        move |e: GpuError| match e {
+            GpuError::DeviceNotFound { .. } => Failure::from(format!("{option}: {e}")),
+            e => Failure::from(e),
+        }
+    };
+    let open_apart = || GpuContext::new(options).map_err(named("--device"));
     if let Some(window_device) = &args.window_device {
-        let context = open_window(Some(window_device.clone()))?;
-        return Ok((context, device_draws.then(|| GpuContext::new(options)).transpose()?));
+        let context = open_window(Some(window_device.clone())).map_err(named("--window-device"))?;
+        return Ok((context, device_draws.then(open_apart).transpose()?));
     }
     Ok(match open_window(options.device.clone()) {
         Err(e @ GpuError::Presentation { .. }) if device_draws && options.device.is_some() => {
             // Shown through any device that can; a failure there is the first one's.
             let context = open_window(None).map_err(|_| e)?;
-            (context, Some(GpuContext::new(options)?))
+            (context, Some(open_apart()?))
         }
-        Err(e) => return Err(e.into()),
+        Err(e) => return Err(named("--device")(e)),
         Ok(context) if device_draws && options.device.is_none() => {
             // The best device, where it is not the window's, draws; if it
             // cannot be opened, the window's device draws, as before.
