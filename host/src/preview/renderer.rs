@@ -450,12 +450,9 @@ impl PreviewRenderer {
     /// With a device apart, they are its kernels (compiled for it): this
     /// device only shows the pixels.
     pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), String>, GpuError> {
+        let apart_role = self.apart_role();
         match &mut self.apart {
-            Some(_) => {
-                let role = self.apart_role();
-                let apart = self.apart.as_mut().expect("matched");
-                apart.renderer.replace_kernels(kernels, data, role)
-            }
+            Some(apart) => apart.renderer.replace_kernels(kernels, data, apart_role),
             None => {
                 let role = self.role();
                 self.replace_kernels(kernels, data, role)
