@@ -72,11 +72,16 @@ fn preview_as_given(args: &[&str]) -> Output {
 /// `-noreset`, and a run that xvfb-run's clean-up failed is repeated (twice
 /// at most).
 fn preview_on(server: &str, env: &[(&str, &str)], args: &[&str]) -> Output {
+    raycast_on(server, env, &[&["preview"][..], args].concat())
+}
+
+/// `raycast ARGS` with `env` under an X server started with `server`, as `preview_on`.
+fn raycast_on(server: &str, env: &[(&str, &str)], args: &[&str]) -> Output {
     let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let server = format!("{server} -noreset");
     let run = || {
         Command::new("xvfb-run")
-            .args(["-a", "-s", &server, env!("CARGO_BIN_EXE_raycast"), "preview"])
+            .args(["-a", "-s", &server, env!("CARGO_BIN_EXE_raycast")])
             .args(args)
             .env("RAYCAST_VALIDATION", "1")
             .env("RAYCAST_CACHE_DIR", common::shader_cache())
@@ -409,6 +414,17 @@ fn a_display_the_driver_cannot_present_to_is_refused() {
     );
     assert!(!err.contains("panicked"), "{}", text(&o));
     assert_clean(&preview_on(server, &[], &["--backend", "gpu", "--frames", "1"]), "lavapipe on the same display");
+    // `raycast devices` says it of each device the rule refuses, and only of those.
+    let said = "   preview: cannot present to this display (the X display :";
+    for (env, refused) in [(&check[..], true), (&[][..], false)] {
+        let o = raycast_on(server, env, &["devices"]);
+        assert_clean(&o, "devices");
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert_eq!(out.contains(said), refused, "{env:?}: {}", text(&o));
+        if refused {
+            assert!(out.contains("`raycast preview` draws here and a device that can present shows"), "{}", text(&o));
+        }
+    }
 }
 
 /// A device apart from the window draws (`--window-device`: here the same

@@ -605,6 +605,12 @@ fn devices() -> Result<(), Failure> {
             };
             outln!("   pipelines: specialised ahead of the driver by spirv-opt, {kept}; by the driver with RAYCAST_SPECIALIZE=0");
         }
+        if let Some(why) = crate::preview::window_refuses(d) {
+            outln!(
+                "   preview: cannot present to this display ({why}); `raycast preview` draws here and a device that \
+                 can present shows the pixels (--window-device)"
+            );
+        }
     }
     if let Some(d) = list.get(default) {
         // As open_backend decides for --backend auto.

@@ -38,7 +38,7 @@ const NVIDIA_PRESENTS_THROUGH: [&CStr; 2] = [c"NV-GLX", c"DRI3"];
 /// 580.159.04 on an H100 under Xvfb, with and without GLX, 2026-11-27): such
 /// a display is refused for it. RAYCAST_PRESENT_CHECK=1 applies the rule to
 /// every device (how the suite tests it on lavapipe), 0 to none.
-fn window_refuses(device: &DeviceInfo) -> Option<String> {
+pub(crate) fn window_refuses(device: &DeviceInfo) -> Option<String> {
     let forced = crate::gpu::switch("RAYCAST_PRESENT_CHECK");
     let nvidia = device.driver_id == Some(vk::DriverId::NVIDIA_PROPRIETARY);
     if !forced.unwrap_or(nvidia) {

@@ -159,6 +159,10 @@ pub enum PresentArg {
     Immediate,
 }
 
+/// Why a window on this display cannot take `device`'s pictures (asked of
+/// the X display, not of the device's driver), for `raycast devices`.
+pub(crate) use app::window_refuses;
+
 /// Runs `raycast preview`.
 pub(crate) fn run(args: &PreviewArgs) -> Result<(), Failure> {
     app::run(args)
