@@ -33,8 +33,8 @@ PKGS=(
   libglm-dev libgtest-dev
   # GLFW 3.4 is built from the glfw crate's bundled sources; it needs these X11 headers
   libx11-dev libxrandr-dev libxinerama-dev libxcursor-dev libxi-dev libxkbcommon-dev
-  # headless window tests
-  xvfb xauth
+  # headless window tests (xdotool resizes a preview's window)
+  xvfb xauth xdotool
 )
 
 missing=()

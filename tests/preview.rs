@@ -474,6 +474,47 @@ fn a_device_apart_from_the_window_draws() {
     }
 }
 
+/// A window made smaller while a sample is drawn in bands (here 8 rows a
+/// frame, RAYCAST_PREVIEW_BAND_ROWS) starts that sample over: its next band
+/// lay below the new picture's bottom, and the preview panicked ("the band
+/// is inside the frame"), found resizing a preview drawn by a device apart.
+/// xdotool (Debian package xdotool, which ci/install-deps.sh installs)
+/// resizes the window eight times, a quarter of a second apart, with the
+/// window's device and with a device apart; Escape ends the preview. Rule:
+/// exit 0, no panic, no validation message. Before the fix it panicked at
+/// the first shrink that found the band below 48 rows, in every run tried.
+#[test]
+fn a_smaller_window_mid_sample_starts_it_over() {
+    let script = r#"
+        "$RAYCAST" preview --backend gpu "$@" & pid=$!
+        for i in $(seq 100); do
+            w=$(xdotool search --name 'raycast preview' 2>/dev/null | head -1)
+            [ -n "$w" ] && break
+            sleep 0.1
+        done
+        [ -n "$w" ] || { kill $pid; echo "no preview window appeared"; exit 90; }
+        sleep 1
+        for size in "64 48" "512 384" "64 48" "400 300" "64 48" "512 384" "80 40" "512 384"; do
+            xdotool windowsize $w $size; sleep 0.25
+        done
+        xdotool key --window $w Escape
+        wait $pid
+    "#;
+    for apart in [&[][..], &["--device", "0", "--window-device", "0"]] {
+        let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+        let o = Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 1280x1024x24 -noreset", "bash", "-c", script, "resize"])
+            .args(apart)
+            .env("RAYCAST", env!("CARGO_BIN_EXE_raycast"))
+            .env("RAYCAST_PREVIEW_BAND_ROWS", "8")
+            .env("RAYCAST_VALIDATION", "1")
+            .env("RAYCAST_CACHE_DIR", common::shader_cache())
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"));
+        assert_clean(&o, &format!("resizing the window {apart:?}"));
+    }
+}
+
 /// Textures beyond one storage buffer of the device (lavapipe: 128 MiB of
 /// texels). With the device drawing (`--backend gpu`) they are refused by
 /// name, with the preview's advice. With the CPU build drawing (`--backend

@@ -529,6 +529,14 @@ fn band_rows(ms_per_pixel: Option<f64>, width: u32, height: u32, budget_ms: f64)
     ((rows as u32) / group * group).max(group)
 }
 
+/// RAYCAST_PREVIEW_BAND_ROWS=N: every sample at rest drawn N rows a frame,
+/// whatever the device's speed (how the suite resizes a window under a
+/// sample in progress on a fast machine).
+fn forced_band_rows() -> Option<u32> {
+    static ROWS: std::sync::OnceLock<Option<u32>> = std::sync::OnceLock::new();
+    *ROWS.get_or_init(|| std::env::var("RAYCAST_PREVIEW_BAND_ROWS").ok()?.parse().ok().filter(|&n: &u32| n > 0))
+}
+
 /// "10 frames at 171x128 then 128x96": how many frames, at which sizes in turn.
 fn frames_at(times: &[(Duration, [u32; 2])]) -> String {
     let mut sizes: Vec<[u32; 2]> = times.iter().map(|t| t.1).collect();
@@ -655,7 +663,8 @@ impl Preview {
                 self.renderer.resize_window([fw as u32, fh as u32])?;
                 if !self.fixed_size && self.renderer.size() != [fw as u32, fh as u32] {
                     self.renderer.resize([fw as u32, fh as u32])?;
-                    self.sample = 0;
+                    // New buffers: the sample in progress, and its band, start over.
+                    self.restart();
                 }
             }
             if idle {
@@ -715,7 +724,9 @@ impl Preview {
             let rows = if scale > 1.0 || frames.is_some() {
                 frame.height
             } else {
-                band_rows(self.pixel_cost.estimate(), frame.width, frame.height, self.frame_budget_ms())
+                forced_band_rows().unwrap_or_else(|| {
+                    band_rows(self.pixel_cost.estimate(), frame.width, frame.height, self.frame_budget_ms())
+                })
             };
             let band = [self.band_next, (self.band_next + rows).min(frame.height)];
             let whole = band[1] == frame.height;
