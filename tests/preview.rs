@@ -314,6 +314,16 @@ fn scripted_keys_switch_the_view_the_flags_and_who_draws() {
             "draws: the code raycast was built with, not the edited shader",
         ],
     );
+    // --no-textures loads none, as `render --no-textures`: a scene whose
+    // textures cannot be found opens (here a generated one without --assets),
+    // and T says it has nothing to turn on.
+    let scene = Path::new("gen:recursive-spheres:3");
+    let args = ["--no-textures", "--keys", "2:T"];
+    let actual = screenshot(Some(scene), size, 2, "no-textures", &args);
+    let expected = screenshot(Some(scene), size, 2, "no-textures-expected", &["--no-textures"]);
+    assert_bit_exact(&actual, &expected, "no-textures", "T with no textures loaded changed the picture");
+    let o = preview(&["gen:recursive-spheres:3", "--no-textures", "--frames", "2", "--keys", "2:T"]);
+    assert_says(&o, &["raycast: preview: no textures were loaded (--no-textures): start without it to turn them on"]);
     for bad in [
         &["--frames", "2", "--keys", "0:H"][..],
         &["--frames", "2", "--keys", "1:Q"],
@@ -474,44 +484,107 @@ fn a_device_apart_from_the_window_draws() {
     }
 }
 
-/// A window made smaller while a sample is drawn in bands (here 8 rows a
-/// frame, RAYCAST_PREVIEW_BAND_ROWS) starts that sample over: its next band
-/// lay below the new picture's bottom, and the preview panicked ("the band
-/// is inside the frame"), found resizing a preview drawn by a device apart.
-/// xdotool (Debian package xdotool, which ci/install-deps.sh installs)
-/// resizes the window eight times, a quarter of a second apart, with the
-/// window's device and with a device apart; Escape ends the preview. Rule:
-/// exit 0, no panic, no validation message. Before the fix it panicked at
-/// the first shrink that found the band below 48 rows, in every run tried.
-#[test]
-fn a_smaller_window_mid_sample_starts_it_over() {
-    let script = r#"
-        "$RAYCAST" preview --backend gpu "$@" & pid=$!
+/// Runs `raycast preview ARGS` under an X server of its own with `env`, and
+/// `body`, a bash script, beside it once its window is up (`$w`, for
+/// xdotool: Debian package xdotool, which ci/install-deps.sh installs);
+/// then Escape, and the preview's output and exit status (killed after 60
+/// s: a hang fails).
+fn with_window(body: &str, args: &[&str], env: &[(&str, &str)]) -> Output {
+    let script = format!(
+        r#"
+        "$RAYCAST" preview "$@" & pid=$!
+        # Off the output pipes, which the test waits on: a sleep left holding one kept it 60 s.
+        ( sleep 60; kill $pid ) >/dev/null 2>&1 & watchdog=$!
         for i in $(seq 100); do
             w=$(xdotool search --name 'raycast preview' 2>/dev/null | head -1)
             [ -n "$w" ] && break
             sleep 0.1
         done
-        [ -n "$w" ] || { kill $pid; echo "no preview window appeared"; exit 90; }
+        [ -n "$w" ] || {{ kill $pid; echo "no preview window appeared"; exit 90; }}
         sleep 1
+        {body}
+        xdotool key --window $w Escape 2>/dev/null
+        wait $pid; status=$?
+        kill $watchdog 2>/dev/null
+        [ $status = 143 ] && echo "the preview hung: killed after 60 s"
+        exit $status
+        "#
+    );
+    let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x1024x24 -noreset", "bash", "-c", &script, "window"])
+        .args(args)
+        .env("RAYCAST", env!("CARGO_BIN_EXE_raycast"))
+        .env("RAYCAST_VALIDATION", "1")
+        .env("RAYCAST_CACHE_DIR", common::shader_cache())
+        .envs(env.iter().copied())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"))
+}
+
+/// A window made smaller while a sample is drawn in bands (here 8 rows a
+/// frame, RAYCAST_PREVIEW_BAND_ROWS) starts that sample over: its next band
+/// lay below the new picture's bottom, and the preview panicked ("the band
+/// is inside the frame"), found resizing a preview drawn by a device apart.
+/// xdotool resizes the window eight times, a quarter of a second apart, with
+/// the window's device and with a device apart. Rule: exit 0, no panic, no
+/// validation message. Before the fix it panicked at the first shrink that
+/// found the band below 48 rows, in every run tried.
+#[test]
+fn a_smaller_window_mid_sample_starts_it_over() {
+    let resize = r#"
         for size in "64 48" "512 384" "64 48" "400 300" "64 48" "512 384" "80 40" "512 384"; do
             xdotool windowsize $w $size; sleep 0.25
-        done
-        xdotool key --window $w Escape
-        wait $pid
-    "#;
+        done"#;
     for apart in [&[][..], &["--device", "0", "--window-device", "0"]] {
-        let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
-        let o = Command::new("xvfb-run")
-            .args(["-a", "-s", "-screen 0 1280x1024x24 -noreset", "bash", "-c", script, "resize"])
-            .args(apart)
-            .env("RAYCAST", env!("CARGO_BIN_EXE_raycast"))
-            .env("RAYCAST_PREVIEW_BAND_ROWS", "8")
-            .env("RAYCAST_VALIDATION", "1")
-            .env("RAYCAST_CACHE_DIR", common::shader_cache())
-            .output()
-            .unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"));
+        let o =
+            with_window(resize, &[&["--backend", "gpu"][..], apart].concat(), &[("RAYCAST_PREVIEW_BAND_ROWS", "8")]);
         assert_clean(&o, &format!("resizing the window {apart:?}"));
+    }
+}
+
+/// The window under 50 inputs chosen at random (a fixed seed): keys (the
+/// views, H M T, B, R F, flying), orbit drags, wheel clicks, resizes, and
+/// the scene file replaced by another scene (generated: spheres, cones,
+/// cubes) or by a truncated one (an error, the last good scene kept),
+/// samples drawn in bands of 16 rows; with the CPU build drawing (auto) and
+/// with a device apart. Rule: exit 0, no panic, no validation message; the
+/// reloads and the refused files said on stderr.
+#[test]
+fn the_window_survives_random_input() {
+    let dir = out_dir().join("random-input");
+    std::fs::create_dir_all(&dir).unwrap();
+    for (family, depth) in [("spheres", "2"), ("spheres", "3"), ("cones", "2"), ("cubes", "3")] {
+        let out = dir.join(format!("gen-{family}-{depth}.xml"));
+        let o = raycast(&["gen", &format!("recursive-{family}"), "--depth", depth, "-o", out.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    let scene = dir.join("scene.xml");
+    let events = r#"
+        RANDOM=5
+        keys=(1 2 3 4 5 6 h m t b r f w a s d)
+        scenes=("$DIR"/gen-*.xml)
+        for i in $(seq 50); do
+            case $((RANDOM % 6)) in
+                0) xdotool key --window $w ${keys[$((RANDOM % ${#keys[@]}))]} ;;
+                1) xdotool mousemove --window $w $((RANDOM % 400 + 50)) $((RANDOM % 300 + 40)) mousedown 1 \
+                       mousemove_relative -- $((RANDOM % 60 - 30)) $((RANDOM % 40 - 20)) mouseup 1 ;;
+                2) xdotool mousemove --window $w 200 150 click $((4 + RANDOM % 2)) ;;
+                3) xdotool windowsize $w $((RANDOM % 600 + 20)) $((RANDOM % 500 + 20)) ;;
+                4) cp "${scenes[$((RANDOM % ${#scenes[@]}))]}" "$SCENE.tmp" && mv "$SCENE.tmp" "$SCENE" ;;
+                5) head -c $((RANDOM % 400 + 10)) "${scenes[$((RANDOM % ${#scenes[@]}))]}" > "$SCENE.tmp" &&
+                       mv "$SCENE.tmp" "$SCENE" ;;
+            esac
+            sleep 0.1
+        done 2>/dev/null
+        sleep 1"#;
+    for apart in [&[][..], &["--device", "0", "--window-device", "0", "--backend", "gpu"]] {
+        std::fs::copy(dir.join("gen-spheres-3.xml"), &scene).unwrap();
+        let (s, d) = (scene.to_str().unwrap(), dir.to_str().unwrap());
+        let args = [&[s, "--no-textures"][..], apart].concat();
+        let o = with_window(events, &args, &[("RAYCAST_PREVIEW_BAND_ROWS", "16"), ("SCENE", s), ("DIR", d)]);
+        assert_clean(&o, &format!("random input {apart:?}"));
+        assert_says(&o, &["raycast: preview: reloaded ", "raycast: preview: keeping the last good picture"]);
     }
 }
 

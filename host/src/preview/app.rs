@@ -114,7 +114,14 @@ preview controls:
   F1              this help                    Esc           quit";
 
 pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
-    let settings = RenderSettings { width: args.width, height: args.height, ..RenderSettings::default() };
+    // --no-textures loads none, as `render --no-textures` (a scene whose
+    // textures are missing opens); T then has nothing to turn on.
+    let settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        textures: !args.no_textures,
+        ..RenderSettings::default()
+    };
     settings.validate().map_err(crate::cli::usage_error)?;
     if let Some(path) = &args.screenshot {
         crate::image_io::check_output_path(path)?;
@@ -287,6 +294,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
     preview.textures = !args.no_textures;
+    preview.textures_loaded = !args.no_textures;
     if args.screenshot.is_none() && args.frames.is_none() {
         errln!("raycast: preview: F1 prints the controls, Esc quits");
         if drawing.runs_on_cpu() && cpu_why.is_none() && !compile_at_start {
@@ -437,6 +445,8 @@ struct Preview {
     shadows: bool,
     reflections: bool,
     textures: bool,
+    /// Whether the scene's textures were loaded (not with --no-textures): T can turn them on.
+    textures_loaded: bool,
     /// The sample the next frame draws; 0 restarts the accumulation.
     sample: u32,
     /// Scripted runs (--moving N): the first N frames turn the camera.
@@ -584,6 +594,7 @@ impl Preview {
             shadows: true,
             reflections: true,
             textures: true,
+            textures_loaded: true,
             sample: 0,
             moving_frames: 0,
             click: None,
@@ -1020,6 +1031,9 @@ impl Preview {
             Key::M => {
                 self.reflections = !self.reflections;
                 self.restart();
+            }
+            Key::T if !self.textures_loaded => {
+                errln!("raycast: preview: no textures were loaded (--no-textures): start without it to turn them on");
             }
             Key::T => {
                 self.textures = !self.textures;
