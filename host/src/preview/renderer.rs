@@ -108,6 +108,18 @@ enum Role {
     ShowsOnly,
 }
 
+impl Role {
+    /// The role of a device that another one apart from it draws for
+    /// (`apart`: the window's device), and where the CPU build draws.
+    fn of(apart: bool, cpu_draws: bool) -> Role {
+        match (apart, cpu_draws) {
+            (true, _) => Role::ShowsOnly,
+            (false, true) => Role::MayDraw,
+            (false, false) => Role::Draws,
+        }
+    }
+}
+
 impl SceneBuffers {
     /// `data`'s arrays, as `role` wants them: for the uniform kernel when
     /// `has_uniform` (the kernels include one) and the scene fits it, else
@@ -321,18 +333,14 @@ impl PreviewRenderer {
     ) -> Result<PreviewRenderer, GpuError> {
         let apart = match apart {
             Some((ctx, kernels)) => {
-                let role = if cpu.is_some() { Role::MayDraw } else { Role::Draws };
+                let role = Role::of(false, cpu.is_some());
                 let renderer = PreviewRenderer::without_window(ctx, kernels, data, size, role)?;
                 Some(Box::new(Apart { renderer, drawn_in: None }))
             }
             None => None,
         };
         // The window's device shows the pixels of whoever else draws them.
-        let role = match (&apart, &cpu) {
-            (Some(_), _) => Role::ShowsOnly,
-            (None, Some(_)) => Role::MayDraw,
-            (None, None) => Role::Draws,
-        };
+        let role = Role::of(apart.is_some(), cpu.is_some());
         let mut r = PreviewRenderer::without_window(context, kernels, data, size, role)?;
         r.swapchain = Some(Swapchain::new(&r.context, window, mode)?);
         r.host = cpu.map(|c| HostSamples::new(c, size));
@@ -373,26 +381,18 @@ impl PreviewRenderer {
 
     /// Whether this device only shows pixels others draw (HOST_PIXELS).
     fn shows_only(&self) -> bool {
-        self.host.is_some() || self.apart.is_some()
+        self.role() != Role::Draws
     }
 
     /// What this device does with the scene now (the window's; the device
     /// apart's is `apart_role`).
     fn role(&self) -> Role {
-        match (&self.apart, &self.host) {
-            (Some(_), _) => Role::ShowsOnly,
-            (None, Some(_)) => Role::MayDraw,
-            (None, None) => Role::Draws,
-        }
+        Role::of(self.apart.is_some(), self.host.is_some())
     }
 
     /// What the device apart does with the scene now: draws it, unless the CPU build does.
     fn apart_role(&self) -> Role {
-        if self.host.is_some() {
-            Role::MayDraw
-        } else {
-            Role::Draws
-        }
+        Role::of(false, self.host.is_some())
     }
 
     /// The picture's width and height.
