@@ -77,11 +77,16 @@ fn preview_on(server: &str, env: &[(&str, &str)], args: &[&str]) -> Output {
 
 /// `raycast ARGS` with `env` under an X server started with `server`, as `preview_on`.
 fn raycast_on(server: &str, env: &[(&str, &str)], args: &[&str]) -> Output {
+    program_on(server, env, env!("CARGO_BIN_EXE_raycast"), args)
+}
+
+/// `PROGRAM ARGS` with `env` under an X server started with `server`, as `preview_on`.
+fn program_on(server: &str, env: &[(&str, &str)], program: &str, args: &[&str]) -> Output {
     let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let server = format!("{server} -noreset");
     let run = || {
         Command::new("xvfb-run")
-            .args(["-a", "-s", &server, env!("CARGO_BIN_EXE_raycast")])
+            .args(["-a", "-s", &server, program])
             .args(args)
             .env("RAYCAST_VALIDATION", "1")
             .env("RAYCAST_CACHE_DIR", common::shader_cache())
@@ -510,16 +515,8 @@ fn with_window(body: &str, args: &[&str], env: &[(&str, &str)]) -> Output {
         exit $status
         "#
     );
-    let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
-    Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1280x1024x24 -noreset", "bash", "-c", &script, "window"])
-        .args(args)
-        .env("RAYCAST", env!("CARGO_BIN_EXE_raycast"))
-        .env("RAYCAST_VALIDATION", "1")
-        .env("RAYCAST_CACHE_DIR", common::shader_cache())
-        .envs(env.iter().copied())
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run xvfb-run (Debian packages xvfb and xauth): {e}"))
+    let env = [env, &[("RAYCAST", env!("CARGO_BIN_EXE_raycast"))]].concat();
+    program_on("-screen 0 1280x1024x24", &env, "bash", &[&["-c", &script, "window"][..], args].concat())
 }
 
 /// A window made smaller while a sample is drawn in bands (here 8 rows a
