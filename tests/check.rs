@@ -99,7 +99,7 @@ fn main() -> ExitCode {
             .unwrap_or(path)
             .display()
             .to_string();
-        let parse = ParseOptions { assets: assets.clone() };
+        let parse = ParseOptions { assets: assets.clone(), ..ParseOptions::default() };
         let scene = match scene::load(path, &parse, &FlattenLimits::default()) {
             Ok(s) => s,
             Err(e) => {

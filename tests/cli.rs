@@ -963,6 +963,8 @@ fn missing_texture_is_an_error_naming_the_element_unless_textures_are_off() {
     let png = out_dir().join("no-textures.png");
     let o = raycast(&["render", scene.to_str().unwrap(), "--no-textures", "-o", png.to_str().unwrap()], &[]);
     assert!(o.status.success(), "{:?}", text(&o));
+    // Textures off, their files are not looked for: no warning advising --no-textures.
+    assert!(!text(&o).1.contains("not found"), "{:?}", text(&o));
 }
 
 /// Textures whose texels exceed one storage buffer of the device

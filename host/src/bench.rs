@@ -620,7 +620,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         }
     }
 
-    let opts = ParseOptions { assets: r.assets.clone() };
+    let opts = r.parse_options();
     let limits = FlattenLimits { max_primitives: r.max_primitives };
     let names: Vec<Option<&str>> =
         if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };

@@ -171,6 +171,12 @@ impl RenderOptions {
             cost_max: self.cost_max,
         }
     }
+
+    /// How the scene files are read: textures looked for in `--assets`,
+    /// and not at all under `--no-textures`.
+    pub fn parse_options(&self) -> ParseOptions {
+        ParseOptions { assets: self.assets.clone(), skip_textures: self.no_textures }
+    }
 }
 
 /// `--depth-range NEAR,FAR` (checked by `RenderSettings::validate`).
@@ -415,7 +421,7 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
 fn info(args: &InfoArgs) -> Result<(), Failure> {
     let names: Vec<Option<&str>> =
         if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
-    let parse = ParseOptions { assets: args.assets.clone() };
+    let parse = ParseOptions { assets: args.assets.clone(), ..ParseOptions::default() };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
     let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
     for name in &names {
@@ -676,7 +682,7 @@ fn prepare(scene: Option<&Path>, o: &RenderOptions) -> Result<Prepared, Failure>
     let settings = o.settings();
     settings.validate().map_err(usage_error)?;
     let start = Instant::now();
-    let parse = ParseOptions { assets: o.assets.clone() };
+    let parse = o.parse_options();
     let scene =
         load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives }).map_err(scene_failure)?;
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;

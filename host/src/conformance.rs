@@ -85,7 +85,7 @@ impl Case {
     /// The scene loaded from `corpus` and packed as its reference was rendered.
     pub fn frame(&self, corpus: &Path) -> Result<FrameData, String> {
         let xml = corpus.join(self.group).join(format!("{}.xml", self.name));
-        let parse = ParseOptions { assets: vec![corpus.to_path_buf()] };
+        let parse = ParseOptions { assets: vec![corpus.to_path_buf()], ..ParseOptions::default() };
         let scene = scene::load(&xml, &parse, &FlattenLimits::default()).map_err(|e| e.to_string())?;
         let settings = RenderSettings {
             width: self.width,

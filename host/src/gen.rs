@@ -605,7 +605,7 @@ mod tests {
     fn parse_generated(family: Family, depth: u32, assets: Vec<PathBuf>) -> SceneFile {
         let xml = generate(family, depth, &GenOptions::default()).unwrap();
         let path = assets.first().map_or(PathBuf::from("gen.xml"), |c| c.join("test_efficiency/gen.xml"));
-        parse_str(&xml, &path, &ParseOptions { assets })
+        parse_str(&xml, &path, &ParseOptions { assets, ..ParseOptions::default() })
             .unwrap_or_else(|e| panic!("{} --depth {depth}: {e}", family.name()))
     }
 
@@ -770,7 +770,9 @@ mod tests {
                     continue;
                 }
                 let path = corpus.join("test_efficiency").join(corpus_file(family, depth));
-                let theirs = scene::parse_file(&path, &ParseOptions { assets: assets.clone() }).unwrap();
+                let theirs =
+                    scene::parse_file(&path, &ParseOptions { assets: assets.clone(), ..ParseOptions::default() })
+                        .unwrap();
                 assert_eq!(count_primitives(&theirs).expanded, counts.expanded, "{}", path.display());
                 let (a, b) = (expand(&ours), expand(&theirs));
                 for (i, ((sa, ma, mata), (sb, mb, matb))) in a.iter().zip(&b).enumerate() {
@@ -806,7 +808,7 @@ mod tests {
     #[test]
     fn spheres_depth_4_renders_as_the_corpus_scene() {
         let Some(corpus) = corpus() else { return };
-        let opts = ParseOptions { assets: vec![corpus.clone()] };
+        let opts = ParseOptions { assets: vec![corpus.clone()], ..ParseOptions::default() };
         let settings = RenderSettings { width: 128, height: 96, ..RenderSettings::default() };
         let limits = FlattenLimits::default();
         let ours =

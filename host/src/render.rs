@@ -104,6 +104,11 @@ pub struct GpuTimings {
 /// (shaders/render_uniform.comp), by its name.
 pub const UNIFORM_KERNEL: &str = "render_uniform";
 
+/// An error of the uniform kernel's choice or build.
+fn uniform_error(message: String) -> GpuError {
+    GpuError::BadRun { kernel: UNIFORM_KERNEL.into(), message }
+}
+
 /// Where render's scene arrays live: the choice between render.comp and
 /// render_uniform.comp.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -524,8 +529,11 @@ impl GpuRenderer {
     /// render_uniform.comp when the scene fits it, else render.comp;
     /// specialised for the scene and its frame flags.
     pub fn kernel_for(&self, data: &FrameData) -> Result<Arc<Kernel>, GpuError> {
-        let bad = |message: String| GpuError::BadRun { kernel: UNIFORM_KERNEL.into(), message };
-        let want_uniform = self.wants_uniform(data)?;
+        self.kernel_chosen(data, self.wants_uniform(data)?)
+    }
+
+    /// The kernel for `data` once `wants_uniform` has chosen.
+    fn kernel_chosen(&self, data: &FrameData, want_uniform: bool) -> Result<Arc<Kernel>, GpuError> {
         let key = (want_uniform, Specialization::of(data, &data.frame));
         let mut kernels = self.kernels.lock().unwrap_or_else(|p| p.into_inner());
         if let Some((_, k)) = kernels.iter().find(|(k, _)| *k == key) {
@@ -533,7 +541,7 @@ impl GpuRenderer {
         }
         let (name, spirv, bindings) = if want_uniform {
             let Some(u) = &self.uniform else {
-                return Err(bad("there is no render_uniform.comp (in the --shaders folder)".into()));
+                return Err(uniform_error("there is no render_uniform.comp (in the --shaders folder)".into()));
             };
             (UNIFORM_KERNEL, u, layout::render_uniform_bindings())
         } else {
@@ -556,10 +564,7 @@ impl GpuRenderer {
             SceneBuffers::Storage => false,
             SceneBuffers::Auto => fits.is_ok() && self.uniform.is_some(),
             SceneBuffers::Uniform => {
-                fits.map_err(|e| GpuError::BadRun {
-                    kernel: UNIFORM_KERNEL.into(),
-                    message: format!("{e}: use --scene-buffers storage or auto"),
-                })?;
+                fits.map_err(|e| uniform_error(format!("{e}: use --scene-buffers storage or auto")))?;
                 true
             }
         })
@@ -584,8 +589,7 @@ impl GpuRenderer {
         // An array beyond a storage buffer is refused before the kernel is built.
         let uniform = self.wants_uniform(data)?;
         check_storage_arrays(&self.context, data, uniform, RENDER_STORAGE_ADVICE)?;
-        let kernel = self.kernel_for(data)?;
-        debug_assert_eq!(kernel.name() == UNIFORM_KERNEL, uniform, "kernel_for follows wants_uniform");
+        let kernel = self.kernel_chosen(data, uniform)?;
         let scene: Vec<(u32, std::borrow::Cow<[u8]>)> = data
             .scene_buffers()
             .into_iter()

@@ -19,7 +19,7 @@ use crate::check;
 use crate::cli::{check_validation, open_renderer, scene_failure, Failure};
 use crate::gpu::GpuError;
 use crate::render::Picture;
-use crate::scene::{FlattenLimits, ParseOptions};
+use crate::scene::FlattenLimits;
 use crate::units::json_str;
 use std::path::Path;
 use std::time::Duration;
@@ -109,7 +109,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
             args.warmup
         );
     }
-    let opts = ParseOptions { assets: args.render.assets.clone() };
+    let opts = args.render.parse_options();
     let limits = FlattenLimits { max_primitives: args.render.max_primitives };
     let names: Vec<Option<&str>> =
         if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };

@@ -126,7 +126,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     if let Some(path) = &args.screenshot {
         crate::image_io::check_output_path(path)?;
     }
-    let parse = ParseOptions { assets: args.assets.clone() };
+    let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
     let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(scene_failure)?;
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;

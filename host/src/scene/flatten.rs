@@ -603,7 +603,7 @@ mod tests {
     #[test]
     fn corpus_scenes_parse_and_flatten() {
         let Some(root) = corpus() else { return };
-        let opts = ParseOptions { assets: vec![root.clone()] };
+        let opts = ParseOptions { assets: vec![root.clone()], ..ParseOptions::default() };
         let mut n = 0;
         let mut groups: Vec<PathBuf> = std::fs::read_dir(&root)
             .unwrap()
@@ -639,7 +639,7 @@ mod tests {
     #[test]
     fn corpus_recursive_counts() {
         let Some(root) = corpus() else { return };
-        let opts = ParseOptions { assets: vec![root.clone()] };
+        let opts = ParseOptions { assets: vec![root.clone()], ..ParseOptions::default() };
         let limits = FlattenLimits::default();
         // recursiveSpheres4: level3 = 1 sphere; level2 = 1 + 5 × level3 = 6;
         // level1 = 1 + 5 × level2 = 31; root = 1 + 6 × level1 = 187.

@@ -174,7 +174,7 @@ fn mutated_scenes_fail_with_located_errors_and_never_panic() {
     assert!(files.len() >= 7, "the repository's scenes: {files:?}");
     let texts: Vec<String> = files.iter().map(|f| std::fs::read_to_string(f).unwrap()).collect();
     let cpu = CpuRenderer::new().expect("the CPU build");
-    let options = ParseOptions { assets };
+    let options = ParseOptions { assets, ..ParseOptions::default() };
     let settings = RenderSettings { width: 8, height: 6, ..RenderSettings::default() };
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
     let (mut rendered, mut refused) = (0, 0);

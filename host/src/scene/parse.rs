@@ -110,6 +110,9 @@ fn too_deep(text: &str, limit: usize) -> Option<usize> {
 pub struct ParseOptions {
     /// Extra folders to look for textures in, after the XML file's folder.
     pub assets: Vec<PathBuf>,
+    /// Textures are not wanted (`--no-textures`): their files are not
+    /// looked for, so a missing one is no warning.
+    pub skip_textures: bool,
 }
 
 /// Reads and parses a scene file.
@@ -1284,7 +1287,9 @@ impl<'a> Ctx<'a> {
         let repeat_u = self.to_f32(n, "u", u)?;
         let repeat_v = self.to_f32(n, "v", v)?;
         let loc = self.nloc(n);
-        let resolved = if file.trim().is_empty() {
+        let resolved = if self.opts.skip_textures {
+            None
+        } else if file.trim().is_empty() {
             let msg = format!("<{el}> has an empty file=: name the image, or render with --no-textures");
             self.warn(self.aloc(&fa), msg);
             None
@@ -1758,7 +1763,7 @@ mod tests {
         std::fs::write(scene_dir.join("img/local.png"), b"x").unwrap();
         std::fs::write(assets.join("image/a.png"), b"x").unwrap();
         std::fs::write(assets.join("x.png"), b"x").unwrap();
-        let o = ParseOptions { assets: vec![assets.clone()] };
+        let o = ParseOptions { assets: vec![assets.clone()], ..ParseOptions::default() };
         let xml_path = scene_dir.join("s.xml");
         let abs_ok = scene_dir.join("img/local.png");
         let tex = |file: &str| {
@@ -1819,7 +1824,7 @@ mod tests {
         );
         let (r, w) = tex("/course/cs123/data/image/a.png");
         assert_eq!(r, Some(assets.join("image/a.png")), "the assets before the folders above: {w:?}");
-        let typo = ParseOptions { assets: vec![assets.clone(), dir.join("asets")] };
+        let typo = ParseOptions { assets: vec![assets.clone(), dir.join("asets")], ..ParseOptions::default() };
         let f = parse_str(&prim("cube", "<texture file=\"image/gone.png\"/>"), &xml_path, &typo).unwrap();
         let m = &f.warnings[0].message;
         assert!(m.contains(&format!("; --assets {} is not a folder:", dir.join("asets").display())), "{m}");
