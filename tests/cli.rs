@@ -753,6 +753,24 @@ fn check_passes_on_the_default_scene() {
     assert_eq!(files_in(&cwd), Vec::<String>::new(), "an identical check wrote files");
 }
 
+/// `--timeout` bounds one submission of the device's work, not the whole
+/// picture: the samples go in submissions of about a quarter of a second,
+/// so 100 samples of about 20 ms each on lavapipe (2 s in all, the CPU
+/// build's pixels the same bits) pass under a 1 s limit, which failed them
+/// while every sample went in one submission. A limit too short for one
+/// sample is an error naming the flag; none at all, a usage error.
+#[test]
+fn the_timeout_bounds_one_submission_not_the_picture() {
+    let many = ["gen:recursive-spheres:4", "--no-textures", "--width", "256", "--height", "192", "--spp", "100"];
+    let o = raycast(&[&["check"], &many[..], &["--timeout", "1"]].concat(), &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success() && out.contains("identical"), "{out}{err}");
+    let o = raycast(&["render", "--timeout", "0.001", "-o", "/dev/null"], &[]);
+    assert_fails(&o, 1, "the dispatch did not finish within 0.001 s");
+    assert_fails(&o, 1, "raise the limit (--timeout SECONDS)");
+    assert_fails(&raycast(&["render", "--timeout", "0", "-o", "/dev/null"], &[]), 2, "is not a number of seconds");
+}
+
 /// `check` over several scenes: one device and one CPU build for all, a
 /// report a scene and a summary; a difference or a bad scene fails the
 /// command at the end, naming it, and the others are still checked.

@@ -135,12 +135,20 @@ pub struct KernelOptions {
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
     pub validate: bool,
+    /// The longest the device may take over one submission of its work
+    /// before the command gives up with an error (a kernel that never ends,
+    /// say a shader edit's endless loop). The samples go in submissions of
+    /// about a quarter of a second each, so this bounds one sample of the
+    /// picture, or of a band of its rows: raise it for a huge or very slow
+    /// picture (`--no-bvh` on millions of primitives).
+    #[arg(long, value_name = "SECONDS", default_value = "600", value_parser = parse_timeout)]
+    pub timeout: Duration,
 }
 
 impl KernelOptions {
     /// The render kernel on the device these options name (`open_renderer`).
     pub(crate) fn renderer(&self) -> Result<GpuRenderer, Failure> {
-        open_renderer(&self.device, self.validate, self.shaders.as_deref(), self.scene_buffers)
+        open_renderer(self, self.shaders.as_deref())
     }
 
     /// Which kernel, for the commands' first line.
@@ -180,6 +188,14 @@ impl RenderOptions {
 }
 
 /// `--depth-range NEAR,FAR` (checked by `RenderSettings::validate`).
+/// `--timeout`: seconds, more than none, at most a week.
+fn parse_timeout(s: &str) -> Result<Duration, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x > 0.0 && x <= 604_800.0 => Ok(Duration::from_secs_f64(x)),
+        _ => Err(format!("{s:?} is not a number of seconds above 0 and at most 604800 (a week)")),
+    }
+}
+
 fn parse_depth_range(s: &str) -> Result<[f32; 2], String> {
     let wrong = || format!("{s:?} is not NEAR,FAR (two distances, say 2,12)");
     let (near, far) = s.split_once(',').ok_or_else(wrong)?;
@@ -703,21 +719,16 @@ fn default_output(scene: Option<&Path>, suffix: &str, dir: Option<&Path>) -> Pat
 }
 
 /// The render kernel on the device `--device` names (validated where
-/// asked), built in or compiled from `shaders`, reading the scene as
-/// `--scene-buffers` says: for `render`, `check` and `bench`.
-pub(crate) fn open_renderer(
-    device: &Option<DeviceSelector>,
-    validate: bool,
-    shaders: Option<&Path>,
-    buffers: SceneBuffers,
-) -> Result<GpuRenderer, Failure> {
+/// asked, with `--timeout`), built in or compiled from `shaders`, reading
+/// the scene as `--scene-buffers` says: for `render`, `check` and `bench`.
+pub(crate) fn open_renderer(k: &KernelOptions, shaders: Option<&Path>) -> Result<GpuRenderer, Failure> {
     let options =
-        GpuOptions { device: device.clone(), validation: validation_wanted(validate), ..GpuOptions::default() };
+        GpuOptions { device: k.device.clone(), validation: validation_wanted(k.validate), timeout: k.timeout };
     let mut renderer = match shaders {
         Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
         None => GpuRenderer::new(&options)?,
     };
-    renderer.set_scene_buffers(buffers);
+    renderer.set_scene_buffers(k.scene_buffers);
     Ok(renderer)
 }
 

@@ -628,7 +628,7 @@ impl GpuRenderer {
                     bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned::<PixelOut>),
                 );
             };
-            let ((), t) = self.context.run_passes_read(&kernel, &buffers, groups, f.spp.max(1), read)?;
+            let ((), t) = self.context.run_passes_read(&kernel, &buffers, groups, f.spp.max(1), read, |_| {})?;
             // Every pixel the kernel covers counts at least its camera ray, far
             // fewer than the sentinel.
             let unwritten = pixels[before..].iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();

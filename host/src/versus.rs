@@ -98,7 +98,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     let r = &args.render;
     let k = &r.kernel;
     let a = k.renderer()?;
-    let b = open_renderer(&k.device, k.validate, Some(versus), k.scene_buffers)?;
+    let b = open_renderer(k, Some(versus))?;
     if !args.json {
         let info = a.context().info();
         outln!("device: {} ({}), two devices in one process", info.name, info.kind);

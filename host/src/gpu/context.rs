@@ -22,6 +22,14 @@ const API_VERSION: u32 = vk::API_VERSION_1_1;
 /// Storage buffers cannot be empty; zero-length inputs get this many bytes.
 const MIN_BUFFER: u64 = 16;
 
+/// How long one submission of a run's passes aims to take (`run_passes`):
+/// long enough that a GPU's thousands of short passes go in few
+/// submissions, short enough that a pass on a slow device is told as it
+/// finishes and the timeout bounds a pass or so, not a whole picture's
+/// samples (4096 of them at most: 37 minutes at recursive-spheres depth 10
+/// on lavapipe).
+const CHUNK_AIM: Duration = Duration::from_millis(250);
+
 /// Who touches a buffer's memory (`Inner::create_buffer`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Place {
@@ -794,10 +802,12 @@ impl GpuContext {
         self.run_passes(kernel, &RunBuffers { inputs, cleared: &[], output, fill }, groups, 1)
     }
 
-    /// `run` with `passes` dispatches of `groups` in one submission, each
-    /// seeing the writes of the one before (a kernel that keeps its own
-    /// state in its buffers, like render.comp's one sample per pass), and
-    /// with buffers the device clears (`RunBuffers::cleared`).
+    /// `run` with `passes` dispatches of `groups`, each seeing the writes
+    /// of the one before (a kernel that keeps its own state in its buffers,
+    /// like render.comp's one sample per pass), and with buffers the device
+    /// clears (`RunBuffers::cleared`). The passes go in submissions of
+    /// about `CHUNK_AIM` each (the first pass alone), so the timeout bounds
+    /// one submission, not the whole run.
     pub fn run_passes(
         &self,
         kernel: &Kernel,
@@ -805,13 +815,14 @@ impl GpuContext {
         groups: [u32; 3],
         passes: u32,
     ) -> Result<(Vec<u8>, RunTimings), GpuError> {
-        self.run_passes_read(kernel, buffers, groups, passes, <[u8]>::to_vec)
+        self.run_passes_read(kernel, buffers, groups, passes, <[u8]>::to_vec, |_| {})
     }
 
     /// `run_passes`, the output given to `read` where the device left it
     /// (mapped), instead of copied out first: a caller that keeps it in a
     /// shape of its own copies it once (a 512x384 picture's pixel records
     /// are 6 MiB; two more copies took 10 ms of lavapipe's whole command).
+    /// `done` is told the passes finished after each submission.
     pub fn run_passes_read<R>(
         &self,
         kernel: &Kernel,
@@ -819,6 +830,7 @@ impl GpuContext {
         groups: [u32; 3],
         passes: u32,
         read: impl FnOnce(&[u8]) -> R,
+        mut done: impl FnMut(u32),
     ) -> Result<(R, RunTimings), GpuError> {
         let inner = &*self.inner;
         if !Arc::ptr_eq(&kernel.inner, &self.inner) {
@@ -835,8 +847,20 @@ impl GpuContext {
 
         // Clear, fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
         let start = Instant::now();
-        let res =
-            inner.submit_once(res, |d, cmd, res| unsafe { record_run(d, cmd, res, kernel, set, groups, passes) })?;
+        let (mut res, mut finished, mut chunk) = (res, 0u32, 1u32);
+        while finished < passes {
+            let range = finished..finished + chunk.min(passes - finished);
+            let began = Instant::now();
+            res = inner.submit_once(res, |d, cmd, res| unsafe {
+                record_run(d, cmd, res, kernel, set, groups, range.clone())
+            })?;
+            let per_pass = began.elapsed() / (range.end - range.start);
+            finished = range.end;
+            done(finished);
+            // The next submission about CHUNK_AIM long, at most four times this one's passes.
+            let fit = CHUNK_AIM.as_nanos() / per_pass.as_nanos().max(1);
+            chunk = u32::try_from(fit).unwrap_or(u32::MAX).clamp(1, (range.end - range.start).saturating_mul(4));
+        }
         let dispatch = start.elapsed();
 
         let start = Instant::now();
@@ -1046,9 +1070,35 @@ unsafe fn record_run(
     kernel: &Kernel,
     set: vk::DescriptorSet,
     groups: [u32; 3],
-    passes: u32,
+    passes: std::ops::Range<u32>,
 ) {
     // SAFETY: the caller's; every handle lives as long as the run.
+    unsafe {
+        if passes.start == 0 {
+            record_run_start(d, cmd, res);
+        }
+        kernel.bind(cmd);
+        d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
+        for pass in passes {
+            if pass > 0 {
+                // The pass before's writes (in this submission or an earlier
+                // one on the queue), visible to this one's reads and writes.
+                let access = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+                shader_writes_barrier(d, cmd, vk::PipelineStageFlags::COMPUTE_SHADER, access);
+            }
+            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+        }
+        shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
+    }
+}
+
+/// Records what a run does before its first pass: the buffers filled,
+/// the data images uploaded.
+///
+/// # Safety
+/// As `record_run`.
+unsafe fn record_run_start(d: &ash::Device, cmd: vk::CommandBuffer, res: &RunResources) {
+    // SAFETY: the caller's.
     unsafe {
         for &(buffer, value) in &res.fills {
             d.cmd_fill_buffer(cmd, buffer, 0, vk::WHOLE_SIZE, value);
@@ -1068,17 +1118,6 @@ unsafe fn record_run(
         for image in &res.images {
             record_image_upload(d, cmd, image.source, image.image, image.texels);
         }
-        kernel.bind(cmd);
-        d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
-        for pass in 0..passes {
-            if pass > 0 {
-                // The pass before's writes, visible to this one's reads and writes.
-                let access = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
-                shader_writes_barrier(d, cmd, vk::PipelineStageFlags::COMPUTE_SHADER, access);
-            }
-            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
-        }
-        shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
     }
 }
 
@@ -1220,6 +1259,12 @@ impl Inner {
         record: impl FnOnce(&ash::Device, vk::CommandBuffer, &RunResources),
     ) -> Result<RunResources, GpuError> {
         let d = &self.device;
+        // A submission before with `res` has finished (its fence waited on):
+        // its pool and fence go (destroying a null handle does nothing).
+        unsafe {
+            d.destroy_fence(std::mem::take(&mut res.fence), None);
+            d.destroy_command_pool(std::mem::take(&mut res.command_pool), None);
+        }
         let cmd;
         (res.command_pool, cmd) = self.command_buffer(vk::CommandPoolCreateFlags::TRANSIENT)?;
         let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
