@@ -771,6 +771,30 @@ fn the_timeout_bounds_one_submission_not_the_picture() {
     assert_fails(&raycast(&["render", "--timeout", "0", "-o", "/dev/null"], &[]), 2, "is not a number of seconds");
 }
 
+/// `render` tells how far it is: on a terminal a line rewritten in place
+/// (from the first second on), with `RAYCAST_PROGRESS=1` a line a step:
+/// the device's samples as their submissions finish, the CPU build's rows
+/// as its jobs do, never backwards, ending at 100%; without either, nothing.
+#[test]
+fn render_tells_its_progress() {
+    let dir = out_dir().join("progress");
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("p.png");
+    let args = ["render", "--width", "64", "--height", "48", "--spp", "6", "-o", png.to_str().unwrap()];
+    for (backend, last) in [("gpu", "(sample 6 of 6)"), ("cpu", "(row 48 of 48)")] {
+        let o = raycast(&[&args[..], &["--backend", backend]].concat(), &[("RAYCAST_PROGRESS", "1")]);
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{out}{err}");
+        let steps: Vec<&str> = err.lines().filter(|l| l.starts_with("progress: ")).collect();
+        let share = |l: &str| -> u32 { l.split(": ").nth(2).unwrap().split('%').next().unwrap().parse().unwrap() };
+        assert!(!steps.is_empty() && steps.windows(2).all(|w| share(w[0]) <= share(w[1])), "{backend}:\n{err}");
+        let end = format!("{}: 100% {last}", png.display());
+        assert!(steps.last().unwrap().contains(&end), "{backend}: {end:?} last:\n{err}");
+        let o = raycast(&[&args[..], &["--backend", backend]].concat(), &[]);
+        assert!(o.status.success() && !text(&o).1.contains('%'), "{backend}: {:?}", text(&o));
+    }
+}
+
 /// `check` over several scenes: one device and one CPU build for all, a
 /// report a scene and a summary; a difference or a bad scene fails the
 /// command at the end, naming it, and the others are still checked.

@@ -10,6 +10,7 @@ use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gpu::{self, DeviceSelector, GpuOptions};
 use crate::image_io::{self, Rgb8};
 use crate::layout;
+use crate::progress::ProgressLine;
 use crate::render::{GpuRenderer, Picture, SceneBuffers};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -1027,7 +1028,10 @@ fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBack
 fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<(), Failure> {
     print_scene(p);
     let start = Instant::now();
-    let picture = cpu.render(&p.data)?;
+    let line = ProgressLine::new(output.display().to_string());
+    let picture = cpu.render_told(&p.data, &|step| line.tell(step));
+    line.finish();
+    let picture = picture?;
     let time = start.elapsed();
     outln!("time: load {}, render {}", ms(p.load), ms(time));
     print_rates(&p.data, &picture, time);
@@ -1038,12 +1042,14 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
     let info = renderer.context().info();
     print_scene(p);
     let compiled_before = renderer.compile_time();
-    let (mut picture, t) = if o.kernel.shaders.is_some() {
+    let line = ProgressLine::new(output.display().to_string());
+    let rendered = renderer.render_marked_told(&p.data, &|step| line.tell(step));
+    line.finish();
+    let (mut picture, t) = rendered?;
+    if o.kernel.shaders.is_some() {
         // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
-        renderer.render(&p.data)?
-    } else {
-        renderer.render_marked(&p.data)?
-    };
+        crate::render::refuse_cut_short(&picture.pixels, picture.width, &info.name, crate::render::RENDER_ADVICE)?;
+    }
     if picture.pixels.iter().any(crate::layout::PixelOut::is_cut_short) {
         let finished = crate::render::finish_cut_short(&mut picture, &p.data, &CpuRenderer::new()?);
         errln!(

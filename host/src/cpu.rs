@@ -4,7 +4,7 @@
 use crate::frame::FrameData;
 use crate::layout::{self, PixelOut};
 use crate::preview::layout::{AccumPixel, PreviewFrame};
-use crate::render::Picture;
+use crate::render::{Picture, Progress, Told};
 use std::ffi::{c_void, CString};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
@@ -171,6 +171,11 @@ impl CpuRenderer {
 
     /// The frame on every core; an error when its pixels' memory cannot be had.
     pub fn render(&self, data: &FrameData) -> Result<Picture, String> {
+        self.render_told(data, &|_| {})
+    }
+
+    /// `render`, `told` the rows done (every sample of a row at once) as jobs finish.
+    pub fn render_told(&self, data: &FrameData, told: Told) -> Result<Picture, String> {
         let (width, height) = (data.frame.width, data.frame.height);
         let what = format!("the {width}x{height} picture's pixels ({} bytes each)", std::mem::size_of::<PixelOut>());
         let mut pixels = crate::render::try_filled(width as usize * height as usize, PixelOut::default(), &what)?;
@@ -179,7 +184,11 @@ impl CpuRenderer {
             let begin = job as u32 * ROWS_PER_JOB;
             (begin, (begin + ROWS_PER_JOB).min(height), slice)
         });
-        let done = self.run(data, jobs);
+        let rows = AtomicU32::new(0);
+        let done = self.run(data, jobs, &|n| {
+            let rows = rows.fetch_add(n, Ordering::Relaxed) + n;
+            told(Progress { fraction: f64::from(rows) / f64::from(height), detail: format!("row {rows} of {height}") });
+        });
         debug_assert_eq!(done, height);
         Ok(Picture { width, height, pixels })
     }
@@ -192,7 +201,7 @@ impl CpuRenderer {
         let mut out = vec![vec![PixelOut::default(); width]; rows.len()];
         assert!(rows.iter().all(|&r| r < data.frame.height), "rows inside the frame");
         let jobs = rows.iter().zip(out.iter_mut()).map(|(&row, pixels)| (row, row + 1, pixels.as_mut_slice()));
-        self.run(data, jobs);
+        self.run(data, jobs, &|_| {});
         out
     }
 
@@ -233,8 +242,14 @@ impl CpuRenderer {
     }
 
     /// Runs the jobs (first row, end row, their pixels) on every thread,
-    /// each taken by whichever thread is free; returns the rows rendered.
-    fn run<'a>(&self, data: &FrameData, jobs: impl Iterator<Item = (u32, u32, &'a mut [PixelOut])> + Send) -> u32 {
+    /// each taken by whichever thread is free, `finished` told each job's
+    /// rows as it ends; returns the rows rendered.
+    fn run<'a>(
+        &self,
+        data: &FrameData,
+        jobs: impl Iterator<Item = (u32, u32, &'a mut [PixelOut])> + Send,
+        finished: &(dyn Fn(u32) + Sync),
+    ) -> u32 {
         let buffers = buffer_pointers(data);
         let width = data.frame.width as usize;
         self.run_jobs(jobs, |(begin, end, slice)| {
@@ -247,6 +262,7 @@ impl CpuRenderer {
             // texels inside each texture's range (frame::build guarantees
             // all three).
             unsafe { raycast_cpu_render_rows(buffers.as_ptr(), begin, end, slice.as_mut_ptr().cast()) };
+            finished(end - begin);
             end - begin
         })
     }

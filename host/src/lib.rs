@@ -71,6 +71,7 @@ pub mod image_io;
 pub mod info;
 pub mod layout;
 pub mod preview;
+pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod trace;

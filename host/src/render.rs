@@ -89,6 +89,18 @@ impl Picture {
     }
 }
 
+/// How far a frame's render is, told as it goes (`render`'s progress line).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Progress {
+    /// Done, from 0 to 1.
+    pub fraction: f64,
+    /// What is done, in the backend's steps: "sample 3 of 16", "row 120 of 384".
+    pub detail: String,
+}
+
+/// Told the progress of a render, from whichever thread does the work.
+pub type Told<'a> = &'a (dyn Fn(Progress) + Sync);
+
 /// Where the time of one GPU render went.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GpuTimings {
@@ -585,6 +597,12 @@ impl GpuRenderer {
     /// The frame as the device computed it, pixels it cut short still
     /// marked (RAYS_CUT_SHORT in `rays`): for `finish_cut_short`.
     pub fn render_marked(&self, data: &FrameData) -> Result<(Picture, GpuTimings), GpuError> {
+        self.render_marked_told(data, &|_| {})
+    }
+
+    /// `render_marked`, `told` after each submission of samples: the
+    /// samples of each band done, over every band's.
+    pub fn render_marked_told(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), GpuError> {
         let f = &data.frame;
         // An array beyond a storage buffer is refused before the kernel is built.
         let uniform = self.wants_uniform(data)?;
@@ -604,7 +622,15 @@ impl GpuRenderer {
         let mut timings = GpuTimings::default();
         // Bands of rows where the picture's pixels do not fit one storage buffer.
         let band_rows = self.band_rows(f.width);
-        for row_offset in (0..f.height).step_by(band_rows as usize) {
+        let (bands, spp) = (f.height.div_ceil(band_rows), f.spp.max(1));
+        for (band, row_offset) in (0..f.height).step_by(band_rows as usize).enumerate() {
+            let tell = |done: u32| {
+                let of_bands = if bands > 1 { format!(", band {} of {bands}", band + 1) } else { String::new() };
+                told(Progress {
+                    fraction: (band as f64 * f64::from(spp) + f64::from(done)) / (f64::from(bands) * f64::from(spp)),
+                    detail: format!("sample {done} of {spp}{of_bands}"),
+                });
+            };
             let rows = band_rows.min(f.height - row_offset);
             let frame = layout::Frame { row_offset, ..*f };
             let count = f.width as usize * rows as usize;
@@ -628,7 +654,7 @@ impl GpuRenderer {
                     bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned::<PixelOut>),
                 );
             };
-            let ((), t) = self.context.run_passes_read(&kernel, &buffers, groups, f.spp.max(1), read, |_| {})?;
+            let ((), t) = self.context.run_passes_read(&kernel, &buffers, groups, spp, read, tell)?;
             // Every pixel the kernel covers counts at least its camera ray, far
             // fewer than the sentinel.
             let unwritten = pixels[before..].iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();
