@@ -795,6 +795,36 @@ fn render_tells_its_progress() {
     }
 }
 
+/// Masters nested deeper than the shader's 15 levels render, with a note
+/// (until 2026-11-27 an error, without the file's name): the deepest levels
+/// written out into the masters that place them, the device and the CPU
+/// build the same bits, and `--no-bvh` the same picture.
+#[test]
+fn masters_nested_too_deeply_render() {
+    let scene = repo().join("tests/scenes/deep_chain.xml");
+    let dir = out_dir().join("deep-chain");
+    std::fs::create_dir_all(&dir).unwrap();
+    let small = ["--width", "128", "--height", "96"];
+    let mut pngs = Vec::new();
+    for extra in [&[][..], &["--no-bvh"][..]] {
+        let png = dir.join(format!("deep{}.png", extra.len()));
+        let o = raycast(
+            &[&["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap()], &small[..], extra].concat(),
+            &[],
+        );
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{out}{err}");
+        let note =
+            "deep_chain.xml: masters are nested 18 deep, more than the shader's 15 levels: the deepest 3 levels \
+                    written out into the masters that place them (18 primitives stored, now 18, in 16 groups)";
+        assert!(err.contains(note), "{err}");
+        pngs.push(std::fs::read(&png).unwrap());
+    }
+    assert!(pngs[0] == pngs[1], "--no-bvh drew another picture");
+    let o = raycast(&[&["check", scene.to_str().unwrap()], &small[..]].concat(), &[]);
+    assert!(o.status.success() && text(&o).0.contains("identical"), "{:?}", text(&o));
+}
+
 /// `check` over several scenes: one device and one CPU build for all, a
 /// report a scene and a summary; a difference or a bad scene fails the
 /// command at the end, naming it, and the others are still checked.

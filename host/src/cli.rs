@@ -739,7 +739,7 @@ fn print_scene(p: &Prepared) {
         p.scene.path.display(),
         p.data.expanded,
         p.data.primitives.len(),
-        p.scene.groups.len(),
+        p.data.groups,
         p.data.lights.len(),
         ms(p.data.build_time)
     );

@@ -6,7 +6,7 @@
 use crate::bvh::{self, Aabb};
 use crate::image_io;
 use crate::layout::{self, Mat4, Vec4};
-use crate::scene::{scene_bounds, Bounds, Camera, LightKind, Scene, Shape, TextureRef};
+use crate::scene::{scene_bounds, Bounds, Camera, Group, Instance, LightKind, Primitive, Scene, Shape, TextureRef};
 use glam::{DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -234,6 +234,9 @@ pub struct FrameData {
     pub levels: u32,
     /// Primitives the scene expands to (every instance counted).
     pub expanded: u64,
+    /// The groups packed: the root tree and each master tree it places
+    /// (fewer than the scene's where `fit_nesting` wrote masters out).
+    pub groups: usize,
     /// Time to build the hierarchies and pack the groups.
     pub build_time: std::time::Duration,
     /// Things about the scene the renderer does not draw as written.
@@ -370,7 +373,16 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
 
     check_light_reach(scene)?;
     let start = std::time::Instant::now();
-    let packed = pack_groups(scene)?;
+    let fitted;
+    let scene = match fit_nesting(scene)? {
+        Some((written_out, note)) => {
+            notes.push(note);
+            fitted = written_out;
+            &fitted
+        }
+        None => scene,
+    };
+    let packed = pack_groups(scene).map_err(|e| format!("{}: error: {e}", scene.path.display()))?;
     let build_time = start.elapsed();
 
     let materials = scene
@@ -493,6 +505,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         group_roots: packed.group_roots,
         levels: packed.levels,
         expanded: scene.primitive_count(),
+        groups: scene.groups.len(),
         build_time,
         notes,
     })
@@ -696,6 +709,101 @@ fn record_steps(w: [u32; 4]) -> ([u32; 3], [u32; 3]) {
     ([w[0] & 0xffff, w[0] >> 16, w[1] & 0xffff], [w[1] >> 16, w[2] & 0xffff, w[2] >> 16])
 }
 
+/// The most primitives `fit_nesting` stores in all before it gives up
+/// (each about 300 bytes on the host, 80 on the device, before the
+/// hierarchy).
+const MAX_WRITTEN_OUT: usize = 1_000_000;
+
+/// A scene whose masters nest deeper than the shader's levels (the root
+/// and MAX_LEVELS - 1 levels of instances below it) with its deepest
+/// levels written out: each group that places no other is copied into the
+/// groups that place it (its primitives through the instance's matrices,
+/// their ids kept, so the tie rule and `--no-bvh` see the same scene), one
+/// level a round, until the nesting fits; groups no longer placed are
+/// dropped. With the note that says so; None where the scene fits as it is.
+/// The deepest levels are the cheapest to write out: a master there holds
+/// few primitives, and nothing is copied more often than it is placed.
+pub(crate) fn fit_nesting(scene: &Scene) -> Result<Option<(Scene, String)>, String> {
+    let mut height = vec![0usize; scene.groups.len()];
+    for g in scene.groups_children_first() {
+        height[g] = scene.groups[g].instances.iter().map(|i| height[i.group as usize] + 1).max().unwrap_or(0);
+    }
+    let (deepest, max) = (height.first().copied().unwrap_or(0), layout::MAX_LEVELS as usize - 1);
+    if deepest <= max {
+        return Ok(None);
+    }
+    let stored = |groups: &[Group]| groups.iter().map(|g| g.primitives.len()).sum::<usize>();
+    let before = stored(&scene.groups);
+    let mut groups = scene.groups.clone();
+    for _ in max..deepest {
+        let bottom: Vec<bool> = groups.iter().map(|g| g.instances.is_empty()).collect();
+        for p in 0..groups.len() {
+            let (placed, kept): (Vec<Instance>, Vec<Instance>) =
+                std::mem::take(&mut groups[p].instances).into_iter().partition(|i| bottom[i.group as usize]);
+            groups[p].instances = kept;
+            let adding: usize = placed.iter().map(|i| groups[i.group as usize].primitives.len()).sum();
+            if stored(&groups) + adding > MAX_WRITTEN_OUT {
+                return Err(format!(
+                    "{}: error: masters are nested {deepest} deep, more than the shader's {max} levels, and writing the \
+                     deepest levels out into the masters that place them would store more than {MAX_WRITTEN_OUT} \
+                     primitives: nest the masters less deeply",
+                    scene.path.display()
+                ));
+            }
+            let copies: Vec<Primitive> = placed
+                .iter()
+                .flat_map(|i| {
+                    groups[i.group as usize].primitives.iter().map(move |c| Primitive {
+                        world_from_object: i.parent_from_group * c.world_from_object,
+                        object_from_world: c.object_from_world * i.group_from_parent,
+                        id_offset: i.id_offset + c.id_offset,
+                        ..c.clone()
+                    })
+                })
+                .collect();
+            groups[p].primitives.extend(copies);
+        }
+    }
+    // The groups still placed, in their order (the root first), renumbered.
+    let mut reached = vec![false; groups.len()];
+    reached[0] = true;
+    let mut stack = vec![0usize];
+    while let Some(g) = stack.pop() {
+        for i in &groups[g].instances {
+            if !std::mem::replace(&mut reached[i.group as usize], true) {
+                stack.push(i.group as usize);
+            }
+        }
+    }
+    let mut number = vec![u32::MAX; groups.len()];
+    let mut kept = Vec::new();
+    for (g, group) in groups.into_iter().enumerate().filter(|(g, _)| reached[*g]) {
+        number[g] = kept.len() as u32;
+        kept.push(group);
+    }
+    for i in kept.iter_mut().flat_map(|g| g.instances.iter_mut()) {
+        i.group = number[i.group as usize];
+    }
+    let note = format!(
+        "{}: masters are nested {deepest} deep, more than the shader's {max} levels: the deepest {} written out into \
+         the masters that place them ({before} primitives stored, now {}, in {} groups)",
+        scene.path.display(),
+        if deepest - max == 1 { "level".to_string() } else { format!("{} levels", deepest - max) },
+        stored(&kept),
+        kept.len()
+    );
+    let written_out = Scene {
+        path: scene.path.clone(),
+        globals: scene.globals,
+        camera: scene.camera.clone(),
+        lights: scene.lights.clone(),
+        groups: kept,
+        materials: scene.materials.clone(),
+        warnings: scene.warnings.clone(),
+    };
+    Ok(Some((written_out, note)))
+}
+
 fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let groups = &scene.groups;
     let n = groups.len();
@@ -852,8 +960,9 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
         ));
     }
     if levels[0] >= layout::MAX_LEVELS {
+        // `build` wrote the deepest levels out first (fit_nesting).
         return Err(format!(
-            "masters are nested {} deep, more than the shader's {} levels",
+            "internal error: masters are nested {} deep after fit_nesting, more than the shader's {} levels",
             levels[0],
             layout::MAX_LEVELS - 1
         ));
@@ -983,6 +1092,55 @@ mod tests {
             kinds = (kinds.0 + boxes, kinds.1 + spheres);
         }
         assert!(kinds.0 > 0 && kinds.1 > 0, "records (boxes, spheres) {kinds:?}: both kinds checked");
+    }
+
+    /// A chain of masters `levels` deep: each a sphere and two smaller
+    /// copies of the one below, turned (the root places the top one).
+    fn chain(levels: usize) -> String {
+        let mut xml = String::from(
+            r#"<scenefile><object type="tree" name="m0"><transblock><object type="primitive" name="sphere"/></transblock></object>"#,
+        );
+        for i in 1..levels {
+            xml += &format!(
+                r#"<object type="tree" name="m{i}"><transblock><object type="primitive" name="sphere"/></transblock>
+                <transblock><translate x="0.75" y="0" z="0"/><rotate x="0" y="1" z="0" angle="40"/><scale x="0.6" y="0.6" z="0.6"/><object type="master" name="m{}"/></transblock>
+                <transblock><translate x="0" y="0.75" z="0"/><scale x="0.5" y="0.5" z="0.5"/><object type="master" name="m{}"/></transblock></object>"#,
+                i - 1,
+                i - 1
+            );
+        }
+        xml + &format!(
+            r#"<object type="tree" name="root"><transblock><object type="master" name="m{}"/></transblock></object></scenefile>"#,
+            levels - 1
+        )
+    }
+
+    /// Masters nested deeper than the shader's levels render: the deepest
+    /// levels are written out into the masters that place them until the
+    /// nesting fits, every primitive still reached once with its id; a
+    /// scene that fits is packed as it is.
+    #[test]
+    fn masters_nested_too_deeply_are_written_out_until_they_fit() {
+        let max = layout::MAX_LEVELS as usize - 1;
+        let fits = crate::scene::from_xml(chain(max), "fits.xml");
+        let data = build(&fits, &RenderSettings::default()).unwrap();
+        assert_eq!((data.levels, data.groups, data.notes.len()), (layout::MAX_LEVELS, max + 1, 0), "{:?}", data.notes);
+        let deep = crate::scene::from_xml(chain(max + 3), "deep.xml");
+        let data = build(&deep, &RenderSettings::default()).unwrap();
+        assert_eq!((data.levels, data.groups), (layout::MAX_LEVELS, max + 1));
+        assert_eq!(data.expanded, (1 << (max + 3)) - 1);
+        assert_eq!(
+            data.notes,
+            [format!(
+                "deep.xml: masters are nested {} deep, more than the shader's {max} levels: the deepest 3 levels written \
+                 out into the masters that place them ({} primitives stored, now {}, in {} groups)",
+                max + 3,
+                max + 3,
+                (max - 1) + 15,
+                max + 1
+            )]
+        );
+        check_packed_hierarchy(&deep);
     }
 
     /// Points on a canonical shape's surface, its farthest from the centre.

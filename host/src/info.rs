@@ -130,7 +130,11 @@ fn tally(names: impl Iterator<Item = &'static str>) -> Vec<(&'static str, usize)
 impl Info {
     /// `scene` packed as a default render packs it (`data`, from `frame::build`).
     pub fn of(name: &str, scene: &Scene, data: &FrameData) -> Info {
-        let groups = scene
+        // The groups as packed: with masters written out where they nest too deeply.
+        let written_out = crate::frame::fit_nesting(scene).ok().flatten().map(|(s, _)| s);
+        let groups = written_out
+            .as_ref()
+            .unwrap_or(scene)
             .groups
             .iter()
             .enumerate()
