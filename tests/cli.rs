@@ -793,6 +793,12 @@ fn render_tells_its_progress() {
         let o = raycast(&[&args[..], &["--backend", backend]].concat(), &[]);
         assert!(o.status.success() && !text(&o).1.contains('%'), "{backend}: {:?}", text(&o));
     }
+    // `check` tells each of its two renders.
+    let o = raycast(&["check", "--width", "64", "--height", "48", "--spp", "2"], &[("RAYCAST_PROGRESS", "1")]);
+    let err = text(&o).1;
+    for end in [": 100% (sample 2 of 2)", "<default scene> on the CPU build: 100% (row 48 of 48)"] {
+        assert!(o.status.success() && err.contains(end), "{end:?}:\n{err}");
+    }
 }
 
 /// Masters nested deeper than the shader's 15 levels render, with a note

@@ -10,7 +10,7 @@ use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use crate::gpu::{self, DeviceSelector, GpuOptions};
 use crate::image_io::{self, Rgb8};
 use crate::layout;
-use crate::progress::ProgressLine;
+use crate::progress;
 use crate::render::{GpuRenderer, Picture, SceneBuffers};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -1028,10 +1028,7 @@ fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBack
 fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<(), Failure> {
     print_scene(p);
     let start = Instant::now();
-    let line = ProgressLine::new(output.display().to_string());
-    let picture = cpu.render_told(&p.data, &|step| line.tell(step));
-    line.finish();
-    let picture = picture?;
+    let picture = progress::told(output.display().to_string(), |told| cpu.render_told(&p.data, told))?;
     let time = start.elapsed();
     outln!("time: load {}, render {}", ms(p.load), ms(time));
     print_rates(&p.data, &picture, time);
@@ -1042,14 +1039,14 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
     let info = renderer.context().info();
     print_scene(p);
     let compiled_before = renderer.compile_time();
-    let line = ProgressLine::new(output.display().to_string());
-    let rendered = renderer.render_marked_told(&p.data, &|step| line.tell(step));
-    line.finish();
-    let (mut picture, t) = rendered?;
-    if o.kernel.shaders.is_some() {
-        // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
-        crate::render::refuse_cut_short(&picture.pixels, picture.width, &info.name, crate::render::RENDER_ADVICE)?;
-    }
+    let (mut picture, t) = progress::told(output.display().to_string(), |told| {
+        if o.kernel.shaders.is_some() {
+            // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
+            renderer.render_told(&p.data, told)
+        } else {
+            renderer.render_marked_told(&p.data, told)
+        }
+    })?;
     if picture.pixels.iter().any(crate::layout::PixelOut::is_cut_short) {
         let finished = crate::render::finish_cut_short(&mut picture, &p.data, &CpuRenderer::new()?);
         errln!(
@@ -1208,9 +1205,10 @@ fn check_scene(
         p.data.frame.width,
         p.data.frame.height
     );
-    let (gpu_picture, _) = b.gpu.render(&p.data)?;
+    let scene = p.scene.path.display();
+    let (gpu_picture, _) = progress::told(format!("{scene} on {device}"), |told| b.gpu.render_told(&p.data, told))?;
     print_kernel(&b.gpu, &p.data)?;
-    let cpu_picture = b.cpu.render(&p.data)?;
+    let cpu_picture = progress::told(format!("{scene} on the CPU build"), |told| b.cpu.render_told(&p.data, told))?;
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
     outln!("{report}");
     if args.output.is_some() || !report.identical() {

@@ -1,7 +1,7 @@
 //! `render`'s progress line: how far a long render is, on stderr, with the
 //! time it has taken and an estimate of what is left.
 
-use crate::render::Progress;
+use crate::render::{Progress, Told};
 use std::io::{IsTerminal, Write};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -23,8 +23,16 @@ enum Mode {
     Lines,
 }
 
+/// Runs `work` with the progress line of `label` to tell, cleared after it.
+pub fn told<T>(label: impl Into<String>, work: impl FnOnce(Told) -> T) -> T {
+    let line = ProgressLine::new(label);
+    let out = work(&|step| line.tell(step));
+    line.finish();
+    out
+}
+
 /// The progress of one picture's render (`tell` from any thread).
-pub struct ProgressLine {
+struct ProgressLine {
     label: String,
     start: Instant,
     mode: Mode,
@@ -34,7 +42,7 @@ pub struct ProgressLine {
 
 impl ProgressLine {
     /// For the picture `label` names, started now.
-    pub fn new(label: impl Into<String>) -> ProgressLine {
+    fn new(label: impl Into<String>) -> ProgressLine {
         let mode = if std::env::var("RAYCAST_PROGRESS").is_ok_and(|v| v == "1") {
             Mode::Lines
         } else if std::io::stderr().is_terminal() {
@@ -47,7 +55,7 @@ impl ProgressLine {
 
     /// Shows `p` where the mode says to; a step behind one already shown
     /// (threads finishing out of order) is dropped.
-    pub fn tell(&self, p: Progress) {
+    fn tell(&self, p: Progress) {
         if self.mode == Mode::Off {
             return;
         }
@@ -74,7 +82,7 @@ impl ProgressLine {
 
     /// Clears the terminal's line, if it showed one (the render's own
     /// lines follow).
-    pub fn finish(&self) {
+    fn finish(&self) {
         let shown = self.shown.lock().unwrap_or_else(|e| e.into_inner());
         if self.mode == Mode::Terminal && shown.is_some() {
             let mut err = std::io::stderr().lock();

@@ -589,7 +589,12 @@ impl GpuRenderer {
     /// The frame on the device; an error when the device cut pixels short
     /// (`refuse_cut_short`).
     pub fn render(&self, data: &FrameData) -> Result<(Picture, GpuTimings), GpuError> {
-        let (picture, t) = self.render_marked(data)?;
+        self.render_told(data, &|_| {})
+    }
+
+    /// `render`, `told` its progress (`render_marked_told`).
+    pub fn render_told(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), GpuError> {
+        let (picture, t) = self.render_marked_told(data, told)?;
         refuse_cut_short(&picture.pixels, picture.width, &self.context.info().name, RENDER_ADVICE)?;
         Ok((picture, t))
     }
