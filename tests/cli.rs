@@ -793,11 +793,16 @@ fn render_tells_its_progress() {
         let o = raycast(&[&args[..], &["--backend", backend]].concat(), &[]);
         assert!(o.status.success() && !text(&o).1.contains('%'), "{backend}: {:?}", text(&o));
     }
-    // `check` tells each of its two renders.
-    let o = raycast(&["check", "--width", "64", "--height", "48", "--spp", "2"], &[("RAYCAST_PROGRESS", "1")]);
-    let err = text(&o).1;
-    for end in [": 100% (sample 2 of 2)", "<default scene> on the CPU build: 100% (row 48 of 48)"] {
-        assert!(o.status.success() && err.contains(end), "{end:?}:\n{err}");
+    // `check` tells each of its two renders. At 1024x768 (more than 4096
+    // work groups) the device's one sample is split by rows from the
+    // first submission, an eighth of it first, with the CPU build's bits.
+    let o = raycast(&["check", "--width", "1024", "--height", "768"], &[("RAYCAST_PROGRESS", "1")]);
+    let (out, err) = text(&o);
+    assert!(o.status.success() && out.contains("identical"), "{out}{err}");
+    let device: Vec<&str> = err.lines().filter(|l| l.contains("(sample ")).collect();
+    assert!(device.len() >= 2 && device[0].contains(": 12% (sample 1 of 1)"), "{err}");
+    for end in [": 100% (sample 1 of 1)", "<default scene> on the CPU build: 100% (row 768 of 768)"] {
+        assert!(err.contains(end), "{end:?}:\n{err}");
     }
 }
 

@@ -629,11 +629,12 @@ impl GpuRenderer {
         let band_rows = self.band_rows(f.width);
         let (bands, spp) = (f.height.div_ceil(band_rows), f.spp.max(1));
         for (band, row_offset) in (0..f.height).step_by(band_rows as usize).enumerate() {
-            let tell = |done: u32| {
+            // `done`: the band's samples done, a fraction where one is partly drawn.
+            let tell = |done: f64| {
                 let of_bands = if bands > 1 { format!(", band {} of {bands}", band + 1) } else { String::new() };
                 told(Progress {
-                    fraction: (band as f64 * f64::from(spp) + f64::from(done)) / (f64::from(bands) * f64::from(spp)),
-                    detail: format!("sample {done} of {spp}{of_bands}"),
+                    fraction: (band as f64 * f64::from(spp) + done) / (f64::from(bands) * f64::from(spp)),
+                    detail: format!("sample {} of {spp}{of_bands}", done.ceil()),
                 });
             };
             let rows = band_rows.min(f.height - row_offset);

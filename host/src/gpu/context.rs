@@ -27,8 +27,25 @@ const MIN_BUFFER: u64 = 16;
 /// submissions, short enough that a pass on a slow device is told as it
 /// finishes and the timeout bounds a pass or so, not a whole picture's
 /// samples (4096 of them at most: 37 minutes at recursive-spheres depth 10
-/// on lavapipe).
+/// on lavapipe). A pass is split between submissions by rows of work
+/// groups (vkCmdDispatchBase), so one sample of a large picture is told as
+/// it goes too.
 const CHUNK_AIM: Duration = Duration::from_millis(250);
+/// The first submission of a run: this part of its first pass's rows of
+/// work groups (the time it takes sizes the next) where the pass has more
+/// than SPLIT_GROUPS work groups; else the whole pass. A split costs: on
+/// lavapipe recursiveSpheres4's dispatch at 512x384 (3,072 groups) took
+/// 80.75 ms split in eighths against 75.75 whole (medians of 12 rounds in
+/// turn, `ci/benchmarks.sh builds`), where pictures of the course's size
+/// gain nothing from it (a progress line shows after a second).
+const FIRST_CHUNK_PARTS: u64 = 8;
+/// Passes of more work groups than this are split from the first: the
+/// course's 512x384 (3,072 groups of 8x8) is not, 1024x768 (12,288) is.
+const SPLIT_GROUPS: u64 = 4096;
+/// How many times the work of the submission before the next may take on,
+/// where the one before was quick: its rows may have been cheap ones (the
+/// sky above a scene).
+const CHUNK_GROWTH: u64 = 8;
 
 /// Who touches a buffer's memory (`Inner::create_buffer`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -822,7 +839,8 @@ impl GpuContext {
     /// (mapped), instead of copied out first: a caller that keeps it in a
     /// shape of its own copies it once (a 512x384 picture's pixel records
     /// are 6 MiB; two more copies took 10 ms of lavapipe's whole command).
-    /// `done` is told the passes finished after each submission.
+    /// `done` is told the passes finished after each submission (a
+    /// fraction where a pass is split: rows of its work groups apart).
     pub fn run_passes_read<R>(
         &self,
         kernel: &Kernel,
@@ -830,7 +848,7 @@ impl GpuContext {
         groups: [u32; 3],
         passes: u32,
         read: impl FnOnce(&[u8]) -> R,
-        mut done: impl FnMut(u32),
+        mut done: impl FnMut(f64),
     ) -> Result<(R, RunTimings), GpuError> {
         let inner = &*self.inner;
         if !Arc::ptr_eq(&kernel.inner, &self.inner) {
@@ -847,19 +865,25 @@ impl GpuContext {
 
         // Clear, fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
         let start = Instant::now();
-        let (mut res, mut finished, mut chunk) = (res, 0u32, 1u32);
-        while finished < passes {
-            let range = finished..finished + chunk.min(passes - finished);
+        // The work in units of one row of work groups of one pass; the
+        // first submission the first pass, or an eighth of it where large.
+        let rows = u64::from(groups[1].max(1));
+        let total = u64::from(passes) * rows;
+        let split = groups.iter().map(|&g| u64::from(g)).product::<u64>() > SPLIT_GROUPS;
+        let first = if split { rows.div_ceil(FIRST_CHUNK_PARTS) } else { rows };
+        let (mut res, mut finished, mut chunk) = (res, 0u64, first);
+        while finished < total {
+            let units = finished..(finished + chunk).min(total);
             let began = Instant::now();
             res = inner.submit_once(res, |d, cmd, res| unsafe {
-                record_run(d, cmd, res, kernel, set, groups, range.clone())
+                record_run(d, cmd, res, kernel, set, groups, units.clone())
             })?;
-            let per_pass = began.elapsed() / (range.end - range.start);
-            finished = range.end;
-            done(finished);
-            // The next submission about CHUNK_AIM long, at most four times this one's passes.
-            let fit = CHUNK_AIM.as_nanos() / per_pass.as_nanos().max(1);
-            chunk = u32::try_from(fit).unwrap_or(u32::MAX).clamp(1, (range.end - range.start).saturating_mul(4));
+            let (n, took) = (units.end - units.start, began.elapsed().as_nanos().max(1));
+            finished = units.end;
+            done(finished as f64 / rows as f64);
+            // The next submission about CHUNK_AIM long, at most CHUNK_GROWTH times this one.
+            let fit = u64::try_from(CHUNK_AIM.as_nanos() * u128::from(n) / took).unwrap_or(u64::MAX);
+            chunk = fit.clamp(1, n.saturating_mul(CHUNK_GROWTH));
         }
         let dispatch = start.elapsed();
 
@@ -1070,23 +1094,31 @@ unsafe fn record_run(
     kernel: &Kernel,
     set: vk::DescriptorSet,
     groups: [u32; 3],
-    passes: std::ops::Range<u32>,
+    units: std::ops::Range<u64>,
 ) {
+    let rows = u64::from(groups[1].max(1));
     // SAFETY: the caller's; every handle lives as long as the run.
     unsafe {
-        if passes.start == 0 {
+        if units.start == 0 {
             record_run_start(d, cmd, res);
         }
         kernel.bind(cmd);
         d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
-        for pass in passes {
-            if pass > 0 {
+        // Unit u: row u % rows of work groups of pass u / rows; each pass's
+        // rows of the range in one dispatch.
+        let mut u = units.start;
+        while u < units.end {
+            let (pass, row) = (u / rows, u % rows);
+            let end = units.end.min((pass + 1) * rows);
+            if row == 0 && pass > 0 {
                 // The pass before's writes (in this submission or an earlier
                 // one on the queue), visible to this one's reads and writes.
                 let access = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
                 shader_writes_barrier(d, cmd, vk::PipelineStageFlags::COMPUTE_SHADER, access);
             }
-            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+            // Rows of one pass write pixels of their own: no barrier between them.
+            d.cmd_dispatch_base(cmd, 0, row as u32, 0, groups[0], (end - u) as u32, groups[2]);
+            u = end;
         }
         shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
     }

@@ -155,8 +155,8 @@ impl fmt::Display for GpuError {
             ),
             GpuError::Timeout { after } => write!(
                 f,
-                "the dispatch did not finish within {} s (one submission: a sample of the picture, or of a band of \
-                 its rows, or several); a kernel that never ends (a shader edit's endless loop)? Else render a smaller \
+                "the dispatch did not finish within {} s (one submission: a sample of the picture or of a band of \
+                 its rows, part of one, or several); a kernel that never ends (a shader edit's endless loop)? Else render a smaller \
                  or simpler picture, or raise the limit (--timeout SECONDS)",
                 after.as_secs_f64()
             ),

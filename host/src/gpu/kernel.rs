@@ -187,7 +187,11 @@ impl Kernel {
                 .module(module)
                 .name(c"main")
                 .specialization_info(&specialization);
-            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(kernel.pipeline_layout)];
+            // DISPATCH_BASE: a run splits a pass by rows of work groups (context.rs record_run).
+            let info = [vk::ComputePipelineCreateInfo::default()
+                .flags(vk::PipelineCreateFlags::DISPATCH_BASE)
+                .stage(stage)
+                .layout(kernel.pipeline_layout)];
             let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
             unsafe { d.destroy_shader_module(module, None) };
             result.map(|p| p[0]).map_err(|(_, e)| GpuError::vk("vkCreateComputePipelines")(e))

@@ -33,7 +33,8 @@ use super::error::GpuError;
 
 /// Shader binaries in the cache folder: `.bin` files, the newest 64 kept.
 const CACHE: cache::Kind = cache::Kind { extension: "bin", keep: 64 };
-const MAGIC: &[u8] = b"raycast shader binary 2\n";
+/// Part of every key: 3 since the shaders are made with DISPATCH_BASE.
+const MAGIC: &[u8] = b"raycast shader binary 3\n";
 
 /// The extension's functions and what identifies the driver's binaries.
 pub(crate) struct ShaderObjects {
@@ -143,7 +144,9 @@ impl ShaderObjects {
         ]);
         let file = self.dir.as_ref().map(|d| cache::file_for(d, CACHE, name, &key));
         let make = |code_type: vk::ShaderCodeTypeEXT, code: &[u8]| {
+            // DISPATCH_BASE: a run splits a pass by rows of work groups (context.rs record_run).
             let info = [vk::ShaderCreateInfoEXT::default()
+                .flags(vk::ShaderCreateFlagsEXT::DISPATCH_BASE)
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .code_type(code_type)
                 .code(code)
