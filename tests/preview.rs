@@ -671,6 +671,23 @@ fn bad_arguments_are_usage_errors() {
     let o = raycast(&["preview", "--shaders", "/nonexistent"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no preview.comp"), "{}", text(&o));
+    let o = raycast(&["preview", "--timeout", "0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}
+
+/// `--timeout` reaches the preview's device: a frame that cannot finish
+/// within a millisecond ends the preview with the error that names the
+/// flag, not a hang or a panic. Drawn apart from the window (the way a GPU
+/// server's preview draws, and where its wait is raycast's: lavapipe's
+/// presentation to Xvfb waits for the frame itself, inside the driver).
+#[test]
+fn the_timeout_ends_a_frame_that_does_not_finish() {
+    let apart = ["--device", "0", "--window-device", "0", "--backend", "gpu"];
+    let rest = ["--frames", "2", "--timeout", "0.001", "gen:recursive-spheres:6", "--no-textures"];
+    let o = preview(&[&apart[..], &rest[..]].concat());
+    let err = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("did not finish within 0.001 s") && !err.contains("panicked"), "{err}");
 }
 
 /// A preview frame the device cut short (lavapipe's 65535 loop iterations

@@ -190,7 +190,7 @@ impl RenderOptions {
 
 /// `--depth-range NEAR,FAR` (checked by `RenderSettings::validate`).
 /// `--timeout`: seconds, more than none, at most a week.
-fn parse_timeout(s: &str) -> Result<Duration, String> {
+pub(crate) fn parse_timeout(s: &str) -> Result<Duration, String> {
     match s.trim().parse::<f64>() {
         Ok(x) if x > 0.0 && x <= 604_800.0 => Ok(Duration::from_secs_f64(x)),
         _ => Err(format!("{s:?} is not a number of seconds above 0 and at most 604800 (a week)")),

@@ -172,11 +172,8 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         .ok_or_else(|| Failure::from(format!("cannot open a window: {}", last_glfw_error())))?;
     window.set_all_polling(true);
 
-    let options = GpuOptions {
-        device: args.device.clone(),
-        validation: validation_wanted(args.validate),
-        ..GpuOptions::default()
-    };
+    let options =
+        GpuOptions { device: args.device.clone(), validation: validation_wanted(args.validate), timeout: args.timeout };
     let refused = std::cell::RefCell::new(Vec::new());
     let veto = |device: &DeviceInfo| {
         let why = window_refuses(device)?;

@@ -109,6 +109,12 @@ pub struct PreviewArgs {
     /// Also on when RAYCAST_VALIDATION=1.
     #[arg(long)]
     pub validate: bool,
+    /// The longest the device may take over one frame's work before the
+    /// preview gives up with an error (a shader edit's endless loop on a
+    /// GPU would otherwise hold the window; lavapipe cuts such a loop short
+    /// itself). A frame at rest aims at 33 to 125 ms.
+    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::cli::parse_timeout)]
+    pub timeout: std::time::Duration,
 }
 
 /// The keys `--keys` may press (the window's controls that print or
