@@ -178,6 +178,8 @@ fn zero_and_absurd_image_sizes() {
     assert_fails(&raycast(&["render", "--height", "100000"], &[]), 2, "--height 100000 is out of range");
     assert_fails(&raycast(&["render", "--width=-3"], &[]), 2, "invalid value '-3' for '--width");
     assert_fails(&raycast(&["render", "--height", "nan"], &[]), 2, "invalid value 'nan' for '--height");
+    // Counts of frames too: a hundred million warm-up frames would be a hang.
+    assert_fails(&raycast(&["bench", "--warmup", "100000000"], &[]), 2, "100000000 is not in 0..=10000");
 }
 
 #[test]

@@ -39,7 +39,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 5, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub frames: u32,
     /// Untimed frames before them.
-    #[arg(long, default_value_t = 1, value_name = "K")]
+    #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=10_000))]
     pub warmup: u32,
     #[command(flatten)]
     pub render: crate::cli::RenderOptions,
