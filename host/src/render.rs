@@ -456,14 +456,34 @@ pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRender
     count
 }
 
-/// What to do about pixels cut short, for the commands that render a frame.
-pub const RENDER_ADVICE: &str =
-    "`raycast render` finishes such pixels with the CPU build (the same code; on lavapipe the same \
-     bits); here, drop --no-bvh, use a smaller --depth, or another Vulkan device";
+/// What to do about pixels cut short, for the commands that render
+/// `data`: the settings of its frame that spend the loop budget (mirror
+/// bounces where its kernel keeps mirrors), then another device.
+pub fn render_advice(data: &FrameData) -> String {
+    let f = &data.frame;
+    let mirrors = Specialization::of(data, f).constants().get(layout::SPEC_REFLECTIONS as usize) == Some(&1);
+    let mut ways: Vec<String> = Vec::new();
+    if f.flags & layout::FLAG_NO_BVH != 0 {
+        ways.push("drop --no-bvh".into());
+    }
+    if f.flags & layout::FLAG_SHADOWS != 0 && f.light_count > 1 {
+        ways.push(format!(
+            "render with --no-shadows (each hit sends a shadow ray to each of {} lights)",
+            f.light_count
+        ));
+    }
+    if mirrors && f.max_depth > 1 {
+        ways.push(format!("use a smaller --depth than {}", f.max_depth));
+    }
+    ways.push("use another Vulkan device".into());
+    let last = ways.pop().unwrap_or_default();
+    let ways = if ways.is_empty() { last } else { format!("{}, or {last}", ways.join(", ")) };
+    format!("`raycast render` finishes such pixels with the CPU build (the same code; on lavapipe the same bits); here, {ways}")
+}
 
 /// An error when the kernel marked pixels whose loops the device ended
 /// early (raycast.glsl loop_budget_ok): such a picture is wrong.
-pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str, advice: &'static str) -> Result<(), GpuError> {
+pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str, advice: String) -> Result<(), GpuError> {
     let Some(first) = pixels.iter().position(PixelOut::is_cut_short) else { return Ok(()) };
     let first = first as u32;
     Err(GpuError::CutShort {
@@ -595,7 +615,7 @@ impl GpuRenderer {
     /// `render`, `told` its progress (`render_marked_told`).
     pub fn render_told(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), GpuError> {
         let (picture, t) = self.render_marked_told(data, told)?;
-        refuse_cut_short(&picture.pixels, picture.width, &self.context.info().name, RENDER_ADVICE)?;
+        refuse_cut_short(&picture.pixels, picture.width, &self.context.info().name, render_advice(data))?;
         Ok((picture, t))
     }
 
@@ -705,6 +725,33 @@ mod tests {
     fn data(xml: &str, settings: &RenderSettings) -> FrameData {
         let scene = crate::scene::from_xml(xml, "t.xml");
         crate::frame::build(&scene, settings).unwrap()
+    }
+
+    /// The advice for pixels cut short names what spends the loop budget in
+    /// this frame: --no-bvh where given, shadows where several lights cast
+    /// them, mirror bounces where the scene has a mirror, then another device.
+    #[test]
+    fn cut_short_advice_names_what_spends_the_budget() {
+        let lights = r#"<lightdata><id v="0"/><position x="0" y="4" z="0"/></lightdata>
+          <lightdata><id v="1"/><position x="4" y="4" z="0"/></lightdata>"#;
+        let scene = |reflective: &str| {
+            format!(
+                r#"<scenefile>{lights}<object type="tree" name="root"><transblock><object type="primitive" name="cube">
+                <reflective r="{reflective}" g="0" b="0"/></object></transblock></object></scenefile>"#
+            )
+        };
+        let all = render_advice(&data(&scene("0.5"), &RenderSettings::default()));
+        assert!(
+            all.ends_with(
+                "here, render with --no-shadows (each hit sends a shadow ray to each of 2 lights), use a smaller \
+                 --depth than 4, or use another Vulkan device"
+            ),
+            "{all}"
+        );
+        assert!(!all.contains("--no-bvh"), "{all}");
+        let no_bvh = RenderSettings { bvh: false, shadows: false, ..RenderSettings::default() };
+        let a = render_advice(&data(&scene("0"), &no_bvh));
+        assert!(a.ends_with("here, drop --no-bvh, or use another Vulkan device"), "{a}");
     }
 
     /// The features' constants that are on, by SPEC_* name.

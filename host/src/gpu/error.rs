@@ -50,7 +50,7 @@ pub enum GpuError {
     /// The device ended some pixels' loops early (`PixelOut.rays` has
     /// RAYS_CUT_SHORT): `count` of `total`, the first at `first` (x, y);
     /// `advice` says what the command's user can do.
-    CutShort { device: String, count: usize, total: usize, first: (u32, u32), advice: &'static str },
+    CutShort { device: String, count: usize, total: usize, first: (u32, u32), advice: String },
 }
 
 impl GpuError {

@@ -1234,7 +1234,7 @@ impl Preview {
             &pixels,
             width,
             &self.device,
-            "Turn mirror reflections off (M, or --no-reflections), or use another Vulkan device",
+            "Turn mirror reflections off (M, or --no-reflections), or use another Vulkan device".into(),
         )?;
         let picture = Picture { width, height, pixels };
         image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8()? })?;
