@@ -258,8 +258,7 @@ pub fn run(
         }
     }
     let path = out_dir.join("table.md");
-    std::fs::create_dir_all(out_dir)
-        .and_then(|_| std::fs::write(&path, &table))
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    crate::write_whole(&path, table.as_bytes())?;
     Ok(Summary { passed, failed, table: path })
 }

@@ -155,7 +155,7 @@ pub(crate) fn run(args: &GenArgs) -> Result<(), Failure> {
     match &args.output {
         None => crate::emit(&xml).map_err(|e| format!("cannot write the scene to standard output: {e}"))?,
         Some(path) => {
-            std::fs::write(path, &xml).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            crate::write_whole(path, xml.as_bytes())?;
             let expanded = args.family.expanded_count(args.depth);
             let in_file = if args.flat { expanded } else { args.family.unique_count(args.depth) };
             errln!(

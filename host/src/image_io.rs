@@ -21,7 +21,7 @@ impl Rgb8 {
 
 /// Writes PNG whatever the name's extension (`check_output_path` refuses
 /// other image extensions before the work). Encoded in memory, then
-/// written in one call whose every error is reported: the image crate's
+/// written whole (`write_whole`), every error reported: the image crate's
 /// own file writer flushes its buffer as it is dropped, where an error (a
 /// full disk; `-o /dev/full`) was lost and the command said it wrote the
 /// picture.
@@ -35,7 +35,7 @@ pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
         image::ExtendedColorType::Rgb8,
     )
     .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    std::fs::write(path, &bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    crate::write_whole(path, &bytes)
 }
 
 /// Whether a picture could be written to `path`, asked before the work that
@@ -289,6 +289,34 @@ mod tests {
 
     fn solid(w: u32, h: u32, c: [u8; 3]) -> Rgb8 {
         Rgb8 { width: w, height: h, data: c.iter().copied().cycle().take((w * h * 3) as usize).collect() }
+    }
+
+    /// A picture is written whole: over an old one by renaming a finished
+    /// temporary file (none left behind), through a link as a link, and to
+    /// a device as it is.
+    #[test]
+    fn pictures_are_written_whole() {
+        let dir = std::env::temp_dir().join(format!("raycast-write-whole-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("p.png");
+        for colour in [[1, 2, 3], [200, 100, 50]] {
+            write_png(&path, &solid(3, 2, colour)).unwrap();
+            assert_eq!(read_picture(&path).unwrap(), solid(3, 2, colour));
+        }
+        let link = dir.join("link.png");
+        std::os::unix::fs::symlink(&path, &link).unwrap();
+        write_png(&link, &solid(1, 1, [9, 9, 9])).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link was replaced");
+        assert_eq!(read_picture(&path).unwrap(), solid(1, 1, [9, 9, 9]));
+        let mut names: Vec<String> =
+            std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        names.sort();
+        assert_eq!(names, ["link.png", "p.png"], "a temporary file was left");
+        write_png(Path::new("/dev/null"), &solid(1, 1, [0, 0, 0])).unwrap();
+        let full = write_png(Path::new("/dev/full"), &solid(1, 1, [0, 0, 0])).unwrap_err();
+        assert!(full.starts_with("cannot write /dev/full: "), "{full}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

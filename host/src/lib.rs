@@ -48,6 +48,27 @@ pub(crate) fn emit_line(text: &str) -> Result<(), String> {
     emit(&format!("{text}\n")).map_err(|e| format!("cannot write to standard output: {e}"))
 }
 
+/// A command's product in a file (a PNG, a generated scene, a table):
+/// whole or not at all. A regular file (or a new one) is written beside
+/// itself under a temporary name, then renamed over the old one, so a
+/// picture viewer watching it never reads half a PNG, and a full disk or an
+/// interrupted command leaves the last one as it was and no partial file; a
+/// device or a pipe (`-o /dev/stdout`, `/dev/full`) is written as it is.
+/// Errors read `cannot write PATH: …`.
+pub(crate) fn write_whole(path: &std::path::Path, bytes: &[u8]) -> Result<(), String> {
+    let cannot = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+    // A link is written through, as it was: renaming over it would replace the link.
+    let regular = std::fs::symlink_metadata(path).map_or(true, |m| m.is_file());
+    let name = path.file_name().filter(|_| regular);
+    let Some(name) = name else { return std::fs::write(path, bytes).map_err(cannot) };
+    let temporary = path.with_file_name(format!(".{}.{}.part", name.to_string_lossy(), std::process::id()));
+    let written = std::fs::write(&temporary, bytes).and_then(|()| std::fs::rename(&temporary, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&temporary);
+    }
+    written.map_err(cannot)
+}
+
 /// `eprintln!`, going on when stderr is closed (`outln!`).
 macro_rules! errln {
     ($($arg:tt)*) => {{
