@@ -838,6 +838,72 @@ fn masters_nested_too_deeply_render() {
     assert!(o.status.success() && text(&o).0.contains("identical"), "{:?}", text(&o));
 }
 
+/// `render --watch` renders again when the scene file or one of its
+/// textures changes; a broken scene is reported, leaves the last picture as
+/// it was, and the watch goes on to render the mended one.
+#[test]
+fn render_watch_renders_again_on_changes() {
+    use std::io::BufRead;
+    let dir = out_dir().join("watch");
+    emptied(&dir);
+    let texture = |colour: [u8; 3]| {
+        let data = colour.iter().copied().cycle().take(4 * 4 * 3).collect();
+        raycast::image_io::write_png(&dir.join("tex.png"), &raycast::image_io::Rgb8 { width: 4, height: 4, data })
+            .unwrap();
+    };
+    texture([255, 0, 0]);
+    let default = std::fs::read_to_string(repo().join("scenes/default.xml")).unwrap();
+    let good = default.replace(
+        r#"<object type="primitive" name="cube">"#,
+        r#"<object type="primitive" name="cube"><texture file="tex.png" u="1" v="1"/><blend v="1"/>"#,
+    );
+    assert_ne!(good, default, "the default scene has a cube to texture");
+    let scene = dir.join("s.xml");
+    std::fs::write(&scene, &good).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(["render", "s.xml", "-o", "s.png", "--watch", "--backend", "cpu", "--width", "64", "--height", "48"])
+        .current_dir(&dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stdout = child.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut said = Vec::new();
+    // Lines up to the next "watching …" (a round done), within 30 s.
+    let mut round = || loop {
+        match rx.recv_timeout(std::time::Duration::from_secs(30)) {
+            Ok(line) if line.starts_with("watching ") => return line,
+            Ok(line) => said.push(line),
+            Err(e) => panic!("no round within 30 s ({e}); said so far: {said:#?}"),
+        }
+    };
+    let png = || std::fs::read(dir.join("s.png")).unwrap();
+    assert_eq!(round(), "watching 2 files for changes (Ctrl-C stops)");
+    let red = png();
+    texture([0, 0, 255]);
+    round();
+    let blue = png();
+    assert_ne!(red, blue, "the texture's change was not drawn");
+    std::fs::write(&scene, "<scenefile><broken").unwrap();
+    round();
+    assert_eq!(png(), blue, "a broken scene changed the picture");
+    std::fs::write(&scene, &good).unwrap();
+    round();
+    assert_eq!(png(), blue, "the mended scene with the blue texture");
+    child.kill().unwrap();
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("s.xml:1:") && err.contains("error: malformed XML"), "{err}");
+    let changed: Vec<&String> = said.iter().filter(|l| l.starts_with("changed: ")).collect();
+    assert!(changed.len() == 3 && changed[0].ends_with("tex.png"), "{said:#?}");
+}
+
 /// `check` over several scenes: one device and one CPU build for all, a
 /// report a scene and a summary; a difference or a bad scene fails the
 /// command at the end, naming it, and the others are still checked.

@@ -236,6 +236,12 @@ struct RenderArgs {
     /// named as without --orbit with -000, -001, … before `.png`
     #[arg(long, value_name = "N")]
     orbit: Option<u32>,
+    /// Keep going: render again whenever a scene file, one of its textures
+    /// or the --shaders folder changes (for a picture viewer that reloads
+    /// the PNG, say over SSH, where no preview window can open); a failure
+    /// is reported and the watch goes on. Ctrl-C stops it.
+    #[arg(long)]
+    watch: bool,
 }
 
 /// Most pictures `render --orbit` takes.
@@ -941,17 +947,96 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
     let mut backend: Option<RenderBackend> = None;
+    // The textures the scenes loaded use (what --watch follows beside them).
+    let textures: std::cell::RefCell<Vec<PathBuf>> = Default::default();
+    let round = |backend: &mut Option<RenderBackend>| {
+        textures.borrow_mut().clear();
+        let batch = render_scenes(args, &scenes, &outputs, backend, &textures);
+        batch.and_then(|batch| batch.failure("").map_or(Ok(()), Err))
+    };
+    if !args.watch {
+        let result = round(&mut backend);
+        return finish_render(backend, result);
+    }
+    // Followed: the scene files, their textures, the shader folder's sources.
+    let files: Vec<&Path> = scenes.iter().flatten().copied().collect();
+    let watched = || {
+        let mut stamps = args.render.kernel.shaders.as_deref().map(crate::preview::shader_stamps).unwrap_or_default();
+        for path in files.iter().copied().chain(textures.borrow().iter().map(PathBuf::as_path)) {
+            stamps.insert(path.to_path_buf(), crate::preview::stamp(path));
+        }
+        stamps
+    };
+    let mut before = watched();
+    loop {
+        let result = round(&mut backend);
+        // Stamps of files the round found (a texture newly named) as they are now.
+        let after = watched();
+        for (path, stamp) in after {
+            before.entry(path).or_insert(stamp);
+        }
+        if let Err(Failure(message, _)) = result {
+            errln!("{message}");
+        }
+        if let Some(RenderBackend::Gpu(renderer)) = &backend {
+            for m in renderer.context().take_validation_messages() {
+                errln!("raycast: validation: {m}");
+            }
+        }
+        let n = before.len();
+        outln!("watching {n} file{} for changes (Ctrl-C stops)", if n == 1 { "" } else { "s" });
+        let changed = loop {
+            std::thread::sleep(crate::preview::POLL);
+            let now = watched();
+            if now != before {
+                // An editor's save can be several writes: the stamps once more, settled.
+                std::thread::sleep(crate::preview::POLL);
+                let now = watched();
+                let names: Vec<String> = now
+                    .iter()
+                    .filter(|(path, stamp)| before.get(*path) != Some(stamp))
+                    .map(|(path, _)| path.display().to_string())
+                    .collect();
+                before = now;
+                break names;
+            }
+        };
+        outln!("changed: {}", changed.join(", "));
+        if args
+            .render
+            .kernel
+            .shaders
+            .as_deref()
+            .is_some_and(|dir| changed.iter().any(|c| Path::new(c).starts_with(dir)))
+        {
+            // The kernel from --shaders DIR is compiled as the device opens.
+            backend = None;
+        }
+    }
+}
+
+/// One round of `render`: every scene, on `backend` (opened for the first
+/// that loads), each scene's textures noted in `textures`.
+fn render_scenes(
+    args: &RenderArgs,
+    scenes: &[Option<&Path>],
+    outputs: &[PathBuf],
+    backend: &mut Option<RenderBackend>,
+    textures: &std::cell::RefCell<Vec<PathBuf>>,
+) -> Result<Batch<()>, Failure> {
     let render_one = |backend: &RenderBackend, p: &Prepared, output: &Path| match backend {
         RenderBackend::Cpu(cpu) => render_on_cpu(cpu, p, output),
         RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, p, output),
     };
-    let batch = each_scene(
-        &scenes,
-        &outputs,
+    each_scene(
+        scenes,
+        outputs,
         &args.render,
-        &mut backend,
+        backend,
         || open_render_backend(args.backend, &args.render),
         |backend, mut p, output| {
+            let used = p.scene.materials.iter().filter_map(|m| m.texture.as_ref()?.resolved.clone());
+            textures.borrow_mut().extend(used);
             let Some(n) = args.orbit else { return render_one(backend, &p, output) };
             // Each picture turned from the scene's camera (not from the one
             // before, which would drift); the first is that camera itself.
@@ -975,9 +1060,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
             }
             Ok(())
         },
-    );
-    let result = batch.and_then(|batch| batch.failure("").map_or(Ok(()), Err));
-    finish_render(backend, result)
+    )
 }
 
 /// Where `render` and `conformance` run. `--backend auto` takes the device

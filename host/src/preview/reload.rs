@@ -17,7 +17,7 @@ use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 
 use super::renderer::PreviewKernels;
 
-const POLL: Duration = Duration::from_millis(250);
+pub(crate) const POLL: Duration = Duration::from_millis(250);
 /// The kernel that is recompiled, in the shader folder, by stem and file;
 /// its uniform variant (preview_uniform.comp) too when the folder has it.
 const KERNEL_STEM: &str = "preview";
@@ -87,15 +87,15 @@ impl Drop for Watcher {
 }
 
 /// Modification time and length: what "changed" means.
-type Stamp = Option<(SystemTime, u64)>;
+pub(crate) type Stamp = Option<(SystemTime, u64)>;
 
-fn stamp(path: &Path) -> Stamp {
+pub(crate) fn stamp(path: &Path) -> Stamp {
     let m = std::fs::metadata(path).ok()?;
     Some((m.modified().ok()?, m.len()))
 }
 
 /// Every shader source in `dir`: *.comp, *.glsl, *.h.
-fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
+pub(crate) fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
     let Ok(entries) = std::fs::read_dir(dir) else { return BTreeMap::new() };
     entries
         .filter_map(|e| e.ok().map(|e| e.path()))
