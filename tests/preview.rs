@@ -585,6 +585,39 @@ fn the_window_survives_random_input() {
     }
 }
 
+/// A texture the scene uses, changed on disk while the window is open,
+/// reloads the scene (as an edit of the scene file does); the texture
+/// replaced by a file that is not a picture is an error that keeps the last
+/// good scene.
+#[test]
+fn a_changed_texture_reloads_the_scene() {
+    let dir = out_dir().join("texture-reload");
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, colour) in [("red.png", [255, 0, 0]), ("blue.png", [0, 0, 255])] {
+        let data = colour.iter().copied().cycle().take(4 * 4 * 3).collect();
+        raycast::image_io::write_png(&dir.join(name), &raycast::image_io::Rgb8 { width: 4, height: 4, data }).unwrap();
+    }
+    std::fs::copy(dir.join("red.png"), dir.join("tex.png")).unwrap();
+    let default = std::fs::read_to_string(common::repo().join("scenes/default.xml")).unwrap();
+    let scene = dir.join("textured.xml");
+    let textured = default.replace(
+        r#"<object type="primitive" name="cube">"#,
+        r#"<object type="primitive" name="cube"><texture file="tex.png" u="1" v="1"/><blend v="1"/>"#,
+    );
+    std::fs::write(&scene, textured).unwrap();
+    let events = r#"
+        sleep 1
+        cp "$DIR/blue.png" "$DIR/tex.tmp" && mv "$DIR/tex.tmp" "$DIR/tex.png"
+        sleep 1.5
+        echo "not a picture" > "$DIR/tex.tmp" && mv "$DIR/tex.tmp" "$DIR/tex.png"
+        sleep 1.5"#;
+    let (s, d) = (scene.to_str().unwrap(), dir.to_str().unwrap());
+    let o = with_window(events, &[s], &[("DIR", d)]);
+    assert_clean(&o, "texture reload");
+    let reloaded = format!("raycast: preview: reloaded {s}");
+    assert_says(&o, &[&reloaded, "raycast: preview: keeping the last good picture"]);
+}
+
 /// Textures beyond one storage buffer of the device (lavapipe: 128 MiB of
 /// texels). With the device drawing (`--backend gpu`) they are refused by
 /// name, with the preview's advice. With the CPU build drawing (`--backend

@@ -1035,8 +1035,7 @@ fn render_scenes(
         backend,
         || open_render_backend(args.backend, &args.render),
         |backend, mut p, output| {
-            let used = p.scene.materials.iter().filter_map(|m| m.texture.as_ref()?.resolved.clone());
-            textures.borrow_mut().extend(used);
+            textures.borrow_mut().extend(p.scene.texture_files());
             let Some(n) = args.orbit else { return render_one(backend, &p, output) };
             // Each picture turned from the scene's camera (not from the one
             // before, which would drift); the first is that camera itself.

@@ -276,6 +276,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
 
     let watcher = Watcher::spawn(WatchConfig {
         scene: args.scene.clone(),
+        textures: scene.texture_files(),
         parse,
         limits,
         settings: settings.clone(),

@@ -1,5 +1,6 @@
-//! Live reload: a thread polls the scene file and the shader sources every
-//! 250 ms and, when one changed, does the slow part off the render thread —
+//! Live reload: a thread polls the scene file, the textures it uses and the
+//! shader sources every 250 ms and, when one changed, does the slow part off
+//! the render thread —
 //! parse and flatten the scene and pack its buffers, or compile
 //! preview.comp with glslang and build the checked kernel (naga reflection,
 //! pipeline) — and sends the result (or the error) to the render loop.
@@ -36,6 +37,9 @@ pub enum Reload {
 /// What to watch and how to load it.
 pub struct WatchConfig {
     pub scene: Option<PathBuf>,
+    /// The image files the scene's textures come from (Scene::texture_files):
+    /// a change reloads the scene; each reload follows its own.
+    pub textures: Vec<PathBuf>,
     pub parse: ParseOptions,
     pub limits: FlattenLimits,
     pub settings: RenderSettings,
@@ -107,18 +111,30 @@ pub(crate) fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
         .collect()
 }
 
+/// Each file's stamp.
+fn stamps(files: &[PathBuf]) -> BTreeMap<PathBuf, Stamp> {
+    files.iter().map(|f| (f.clone(), stamp(f))).collect()
+}
+
 fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
     let mut scene_stamp = config.scene.as_deref().map(stamp);
+    let mut texture_stamps = stamps(&config.textures);
     let mut shader_stamp = config.shaders.as_ref().map(|f| shader_stamps(&f.dir));
     while !stop.load(Ordering::Relaxed) {
         std::thread::sleep(POLL);
         if let Some(path) = &config.scene {
             let now = Some(stamp(path));
-            if now != scene_stamp {
+            let textures_now = stamps(&texture_stamps.keys().cloned().collect::<Vec<_>>());
+            if now != scene_stamp || textures_now != texture_stamps {
                 scene_stamp = now;
+                texture_stamps = textures_now;
                 let msg = match scene::load(path, &config.parse, &config.limits) {
                     Ok(scene) => match frame::build(&scene, &config.settings) {
-                        Ok(data) => Reload::Scene(Box::new((scene, data))),
+                        Ok(data) => {
+                            // The textures this scene uses, from now on.
+                            texture_stamps = stamps(&scene.texture_files());
+                            Reload::Scene(Box::new((scene, data)))
+                        }
                         Err(e) => Reload::Failed(e),
                     },
                     Err(e) => Reload::Failed(e.to_string()),

@@ -454,6 +454,12 @@ impl Scene {
         order
     }
 
+    /// The image files its materials' textures were found in (what a watch
+    /// follows beside the scene file).
+    pub fn texture_files(&self) -> Vec<PathBuf> {
+        self.materials.iter().filter_map(|m| m.texture.as_ref()?.resolved.clone()).collect()
+    }
+
     /// The primitive with scene-wide id `id`, in world space, found without
     /// expanding the scene.
     pub fn primitive(&self, id: u64) -> Option<Primitive> {
