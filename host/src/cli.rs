@@ -959,12 +959,11 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         return finish_render(backend, result);
     }
     // Followed: the scene files, their textures, the shader folder's sources.
-    let files: Vec<&Path> = scenes.iter().flatten().copied().collect();
+    let files: Vec<PathBuf> = scenes.iter().flatten().map(|p| p.to_path_buf()).collect();
     let watched = || {
         let mut stamps = args.render.kernel.shaders.as_deref().map(crate::preview::shader_stamps).unwrap_or_default();
-        for path in files.iter().copied().chain(textures.borrow().iter().map(PathBuf::as_path)) {
-            stamps.insert(path.to_path_buf(), crate::preview::stamp(path));
-        }
+        stamps.extend(crate::preview::stamps(&files));
+        stamps.extend(crate::preview::stamps(&textures.borrow()));
         stamps
     };
     let mut before = watched();

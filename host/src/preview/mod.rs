@@ -168,7 +168,7 @@ pub enum PresentArg {
 /// Why a window on this display cannot take `device`'s pictures (asked of
 /// the X display, not of the device's driver), for `raycast devices`.
 pub(crate) use app::window_refuses;
-pub(crate) use reload::{shader_stamps, stamp, POLL};
+pub(crate) use reload::{shader_stamps, stamps, POLL};
 
 /// Runs `raycast preview`.
 pub(crate) fn run(args: &PreviewArgs) -> Result<(), Failure> {

@@ -93,7 +93,7 @@ impl Drop for Watcher {
 /// Modification time and length: what "changed" means.
 pub(crate) type Stamp = Option<(SystemTime, u64)>;
 
-pub(crate) fn stamp(path: &Path) -> Stamp {
+fn stamp(path: &Path) -> Stamp {
     let m = std::fs::metadata(path).ok()?;
     Some((m.modified().ok()?, m.len()))
 }
@@ -112,7 +112,7 @@ pub(crate) fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
 }
 
 /// Each file's stamp.
-fn stamps(files: &[PathBuf]) -> BTreeMap<PathBuf, Stamp> {
+pub(crate) fn stamps(files: &[PathBuf]) -> BTreeMap<PathBuf, Stamp> {
     files.iter().map(|f| (f.clone(), stamp(f))).collect()
 }
 
