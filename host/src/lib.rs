@@ -63,10 +63,19 @@ pub(crate) fn write_whole(path: &std::path::Path, bytes: &[u8]) -> Result<(), St
     let Some(name) = name else { return std::fs::write(path, bytes).map_err(cannot) };
     let temporary = path.with_file_name(format!(".{}.{}.part", name.to_string_lossy(), std::process::id()));
     let written = std::fs::write(&temporary, bytes).and_then(|()| std::fs::rename(&temporary, path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&temporary);
+    match written {
+        Ok(()) => Ok(()),
+        // A folder that takes no new file, holding a file that may be
+        // written: written in place, as before there was a temporary file.
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied && path.exists() => {
+            let _ = std::fs::remove_file(&temporary);
+            std::fs::write(path, bytes).map_err(cannot)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_file(&temporary);
+            Err(cannot(e))
+        }
     }
-    written.map_err(cannot)
 }
 
 /// `eprintln!`, going on when stderr is closed (`outln!`).
