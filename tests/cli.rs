@@ -902,6 +902,9 @@ fn render_watch_renders_again_on_changes() {
     assert!(err.contains("s.xml:1:") && err.contains("error: malformed XML"), "{err}");
     let changed: Vec<&String> = said.iter().filter(|l| l.starts_with("changed: ")).collect();
     assert!(changed.len() == 3 && changed[0].ends_with("tex.png"), "{said:#?}");
+    // Nothing to follow: a usage error, not a wait for ever.
+    let o = raycast(&["render", "gen:recursive-spheres:2", "--watch", "-o", "/dev/null"], &[]);
+    assert_fails(&o, 2, "--watch follows scene files and a --shaders folder, and this render has neither");
 }
 
 /// `check` over several scenes: one device and one CPU build for all, a

@@ -959,7 +959,17 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         return finish_render(backend, result);
     }
     // Followed: the scene files, their textures, the shader folder's sources.
-    let files: Vec<PathBuf> = scenes.iter().flatten().map(|p| p.to_path_buf()).collect();
+    // Scene files (a generated scene's name is none, unless a file has it: load_scene's rule).
+    let generated = |p: &Path| !p.exists() && p.to_str().and_then(crate::gen::parse_scene_name).is_some();
+    let files: Vec<PathBuf> = scenes.iter().flatten().filter(|p| !generated(p)).map(|p| p.to_path_buf()).collect();
+    if files.is_empty() && args.render.kernel.shaders.is_none() {
+        return Err(Failure(
+            "raycast: error: --watch follows scene files and a --shaders folder, and this render has neither (the \
+             embedded default scene or generated ones only)"
+                .into(),
+            2,
+        ));
+    }
     let watched = || {
         let mut stamps = args.render.kernel.shaders.as_deref().map(crate::preview::shader_stamps).unwrap_or_default();
         stamps.extend(crate::preview::stamps(&files));

@@ -314,6 +314,17 @@ impl FrameLoop {
     }
 }
 
+impl FrameLoop {
+    /// Waits for the frame in flight however long it takes: at teardown,
+    /// after `wait` timed out, nothing the frame uses may be destroyed while
+    /// it runs (on lavapipe it ends; Mesa 25's ran on into freed memory).
+    pub fn finish(&mut self) {
+        if std::mem::take(&mut self.pending) {
+            let _ = unsafe { self.inner.device.wait_for_fences(&[self.fence], true, u64::MAX) };
+        }
+    }
+}
+
 impl Drop for FrameLoop {
     fn drop(&mut self) {
         let d = &self.inner.device;

@@ -676,8 +676,11 @@ impl PreviewRenderer {
 
 impl Drop for PreviewRenderer {
     fn drop(&mut self) {
-        // Nothing may be destroyed while the last frame runs.
-        let _ = self.frames.wait();
+        // Nothing may be destroyed while the last frame runs, even one that
+        // outlived the timeout (the error that ends the preview).
+        if self.frames.wait().is_err() {
+            self.frames.finish();
+        }
     }
 }
 
