@@ -773,6 +773,45 @@ fn the_timeout_bounds_one_submission_not_the_picture() {
     assert_fails(&raycast(&["render", "--timeout", "0", "-o", "/dev/null"], &[]), 2, "is not a number of seconds");
 }
 
+/// A kernel that never ends (a shader edit's endless loop, planted in a
+/// copy of render_main.glsl) ends `render --timeout 2` with an error, not a
+/// hang: where the device has no loop budget (Mesa 25's lavapipe, a GPU)
+/// the timeout's error, the work left running and the process ended at
+/// once after its message (Mesa's clean-up at exit would wait for the work
+/// for ever); where it has one (Debian 12's lavapipe), the loop is cut
+/// short and the pixels refused.
+#[test]
+fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
+    let shaders = copy_of_shaders("endless-shaders");
+    let main = shaders.join("render_main.glsl");
+    let source = std::fs::read_to_string(&main).unwrap();
+    let at = "    PixelSample x = sample_pixel(j, i, sample_offset(s, n));";
+    assert_eq!(source.matches(at).count(), 1, "render_main.glsl changed: update this test");
+    let spin = "    for (uint spin = 0u; frame.width != 0u; spin++) {\n        sums[index].samples = spin;\n        \
+                if (sums[index].rays == 0xfffffff0u) {\n            break;\n        }\n    }\n";
+    std::fs::write(&main, source.replace(at, &format!("{spin}{at}"))).unwrap();
+    let budget = common::device_loop_budget(&out_dir().join("endless-probe"));
+    let start = std::time::Instant::now();
+    let args = ["render", "--shaders", shaders.to_str().unwrap(), "--timeout", "2", "--width", "16", "--height", "16"];
+    // Under coreutils' `timeout 60`: a hang fails the test (exit 124), not the suite.
+    let o = Command::new("timeout")
+        .args(["60", env!("CARGO_BIN_EXE_raycast")])
+        .args(args)
+        .args(["-o", "/dev/null"])
+        .env("RAYCAST_VALIDATION", "1")
+        .env("RAYCAST_CACHE_DIR", common::shader_cache())
+        .output()
+        .unwrap();
+    match budget {
+        Some(_) => assert_fails(&o, 1, "pixels short (the first at ("),
+        None => {
+            assert_fails(&o, 1, "the dispatch did not finish within 2 s");
+            // 2 s, then 5 s for the work to end at teardown, then the process ends.
+            assert!(start.elapsed() < std::time::Duration::from_secs(30), "{:?}", start.elapsed());
+        }
+    }
+}
+
 /// `render` tells how far it is: on a terminal a line rewritten in place
 /// (from the first second on), with `RAYCAST_PROGRESS=1` a line a step:
 /// the device's samples as their submissions finish, the CPU build's rows

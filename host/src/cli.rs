@@ -574,9 +574,27 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure(message, code)) => {
             errln!("{message}");
+            if crate::gpu::device_left_running() {
+                end_now(code);
+            }
             ExitCode::from(code)
         }
     }
+}
+
+/// Ends the process at once with `code`, without the clean-up at exit: a
+/// device was left running work that outlived its timeout
+/// (`gpu::device_left_running`), and Mesa's clean-up at exit joins its
+/// worker threads, one of which runs that work for ever.
+fn end_now(code: u8) -> ! {
+    use std::io::Write as _;
+    let _ = std::io::stdout().flush();
+    let _ = std::io::stderr().flush();
+    extern "C" {
+        fn _exit(status: i32) -> !;
+    }
+    // SAFETY: _exit (POSIX) ends the process; the buffered output is flushed above.
+    unsafe { _exit(i32::from(code)) }
 }
 
 pub(crate) fn validation_wanted(flag: bool) -> bool {

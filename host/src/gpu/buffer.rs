@@ -98,6 +98,9 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
+        if !self.inner.may_destroy() {
+            return;
+        }
         let d = &self.inner.device;
         unsafe {
             if !self.mapped.is_null() {
@@ -239,6 +242,9 @@ impl DescriptorSet {
 
 impl Drop for DescriptorSet {
     fn drop(&mut self) {
+        if !self.inner.may_destroy() {
+            return;
+        }
         // Destroying the pool frees its set.
         unsafe { self.inner.device.destroy_descriptor_pool(self.pool, None) };
     }

@@ -254,7 +254,28 @@ pub(crate) struct Inner {
     /// The window surface of `GpuContext::with_surface`; destroyed after the
     /// device, before the instance (field order).
     pub(crate) surface: Option<Surface>,
-    pub(crate) parts: InstanceParts,
+    /// Destroyed last, by `drop`, unless work was left running.
+    pub(crate) parts: std::mem::ManuallyDrop<InstanceParts>,
+    /// Work that timed out was still running when the context went
+    /// (`may_destroy`): nothing of it is destroyed.
+    left_running: std::sync::atomic::AtomicBool,
+}
+
+/// How long a context's teardown waits for work that timed out before it
+/// leaves it running (`Inner::may_destroy`).
+pub(crate) const TEARDOWN_WAIT: Duration = Duration::from_secs(5);
+
+/// Set when a context left timed-out work running: the process should end
+/// without the drivers' own clean-up at exit (`device_left_running`).
+static LEFT_RUNNING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether a device was left running work that outlived its timeout (a
+/// kernel that never ends on a GPU; Mesa 25's lavapipe, which has no loop
+/// budget): the process then ends at once after its message
+/// (`cli::main`), since a driver's clean-up at exit (Mesa joins its worker
+/// threads) would wait for that work for ever.
+pub fn device_left_running() -> bool {
+    LEFT_RUNNING.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 fn cstrs(names: &[&CStr]) -> Vec<*const c_char> {
@@ -728,7 +749,8 @@ impl GpuContext {
                 specialise_ahead,
                 physical: physical.handle,
                 surface: window.map(|(surface, _)| surface),
-                parts,
+                parts: std::mem::ManuallyDrop::new(parts),
+                left_running: std::sync::atomic::AtomicBool::new(false),
             }),
         })
     }
@@ -1417,26 +1439,51 @@ impl Inner {
 }
 
 impl Inner {
-    /// Waits for the device when a timed-out run may still be executing.
-    pub(crate) fn wait_if_abandoned(&self) {
-        if !self.abandoned.lock().unwrap_or_else(|p| p.into_inner()).is_empty() {
-            let _ = unsafe { self.device.device_wait_idle() };
+    /// Whether the device's objects may be destroyed: no run that timed out
+    /// is still executing (waited for up to TEARDOWN_WAIT). Else, and from
+    /// then on, nothing is destroyed (the work would run on into freed
+    /// memory, or the wait would last for ever): see `device_left_running`.
+    pub(crate) fn may_destroy(&self) -> bool {
+        let abandoned = self.abandoned.lock().unwrap_or_else(|p| p.into_inner());
+        if !abandoned.is_empty() && !self.left_running() {
+            let fences: Vec<vk::Fence> = abandoned.iter().map(|r| r.fence).collect();
+            let wait = u64::try_from(TEARDOWN_WAIT.as_nanos()).unwrap_or(u64::MAX);
+            if unsafe { self.device.wait_for_fences(&fences, true, wait) }.is_err() {
+                self.leave_running();
+            }
         }
+        !self.left_running()
+    }
+
+    /// Work that timed out is left running: nothing of this device is destroyed.
+    pub(crate) fn leave_running(&self) {
+        self.left_running.store(true, std::sync::atomic::Ordering::Relaxed);
+        LEFT_RUNNING.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    pub(crate) fn left_running(&self) -> bool {
+        self.left_running.load(std::sync::atomic::Ordering::Relaxed)
     }
 }
 
 impl Drop for Inner {
     fn drop(&mut self) {
+        // A timed-out dispatch may still run; its buffers can only go once it is done.
+        let may_destroy = self.may_destroy();
         let abandoned = std::mem::take(&mut *self.abandoned.lock().unwrap_or_else(|p| p.into_inner()));
+        if !may_destroy {
+            // Nothing destroyed: the device, its instance and the window surface stay to the process's end.
+            std::mem::forget(abandoned);
+            std::mem::forget(self.surface.take());
+            return;
+        }
         unsafe {
-            if !abandoned.is_empty() {
-                // A timed-out dispatch may still run; its buffers can only go once it is done.
-                let _ = self.device.device_wait_idle();
-            }
             drop(abandoned);
             self.device.destroy_device(None);
         }
-        // `parts` (messenger, instance) is dropped after this.
+        drop(self.surface.take());
+        // SAFETY: `parts` is not used after this (the device, the last user of the instance, is gone).
+        unsafe { std::mem::ManuallyDrop::drop(&mut self.parts) };
     }
 }
 

@@ -315,23 +315,29 @@ impl FrameLoop {
 }
 
 impl FrameLoop {
-    /// Waits for the frame in flight however long it takes: at teardown,
-    /// after `wait` timed out, nothing the frame uses may be destroyed while
-    /// it runs (on lavapipe it ends; Mesa 25's ran on into freed memory).
+    /// Waits for the frame in flight at teardown, after `wait` timed out:
+    /// nothing the frame uses may be destroyed while it runs (Mesa 25's
+    /// lavapipe ran on into freed memory). A frame still running after
+    /// TEARDOWN_WAIT is left running, and with it everything of the device
+    /// (`Inner::leave_running`).
     pub fn finish(&mut self) {
         if std::mem::take(&mut self.pending) {
-            let _ = unsafe { self.inner.device.wait_for_fences(&[self.fence], true, u64::MAX) };
+            let wait = u64::try_from(super::context::TEARDOWN_WAIT.as_nanos()).unwrap_or(u64::MAX);
+            if unsafe { self.inner.device.wait_for_fences(&[self.fence], true, wait) }.is_err() {
+                self.inner.leave_running();
+            }
         }
     }
 }
 
 impl Drop for FrameLoop {
     fn drop(&mut self) {
+        self.finish();
+        if self.inner.left_running() {
+            return;
+        }
         let d = &self.inner.device;
         unsafe {
-            if self.pending {
-                let _ = d.wait_for_fences(&[self.fence], true, u64::MAX);
-            }
             if let Some(pool) = self.queries {
                 d.destroy_query_pool(pool, None);
             }

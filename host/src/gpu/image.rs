@@ -236,6 +236,9 @@ pub(crate) unsafe fn destroy_image(
 
 impl Drop for StorageImage {
     fn drop(&mut self) {
+        if !self.inner.may_destroy() {
+            return;
+        }
         // SAFETY: dropped when no frame in flight uses it (FrameLoop waits).
         unsafe { destroy_image(&self.inner.device, (self.image, self.memory, self.view)) };
     }
@@ -290,6 +293,9 @@ impl DataImage {
 
 impl Drop for DataImage {
     fn drop(&mut self) {
+        if !self.inner.may_destroy() {
+            return;
+        }
         // SAFETY: dropped when no frame in flight uses it (FrameLoop waits).
         unsafe { destroy_image(&self.inner.device, (self.image, self.memory, self.view)) };
     }

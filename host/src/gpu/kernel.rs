@@ -322,7 +322,9 @@ impl Drop for Kernel {
     fn drop(&mut self) {
         let d = &self.inner.device;
         // A timed-out dispatch may still use the pipeline.
-        self.inner.wait_if_abandoned();
+        if !self.inner.may_destroy() {
+            return;
+        }
         // Null handles (a failed `new`) are no-ops.
         unsafe {
             if let Some(objects) = &self.inner.shader_objects {

@@ -40,8 +40,8 @@ pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use cache::cache_dir;
 pub use compile::{compile_kernel, compile_kernel_pair};
 pub use context::{
-    forced_residuals, list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuContext, GpuOptions,
-    RunBuffers, RunTimings,
+    device_left_running, forced_residuals, list_devices, list_devices_with_default, DeviceInfo, DeviceSelector,
+    GpuContext, GpuOptions, RunBuffers, RunTimings,
 };
 pub(crate) use environment::switch;
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};

@@ -221,6 +221,9 @@ impl Swapchain {
 
 impl Drop for Swapchain {
     fn drop(&mut self) {
+        if !self.inner.may_destroy() {
+            return;
+        }
         // Presentation may still read the images or wait on the semaphores.
         let _ = unsafe { self.inner.device.device_wait_idle() };
         self.destroy();
