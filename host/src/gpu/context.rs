@@ -903,9 +903,13 @@ impl GpuContext {
             let (n, took) = (units.end - units.start, began.elapsed().as_nanos().max(1));
             finished = units.end;
             done(finished as f64 / rows as f64);
-            // The next submission about CHUNK_AIM long, at most CHUNK_GROWTH times this one.
+            // The next submission about CHUNK_AIM long, at most CHUNK_GROWTH
+            // times this one; whole passes where a pass is not split.
             let fit = u64::try_from(CHUNK_AIM.as_nanos() * u128::from(n) / took).unwrap_or(u64::MAX);
             chunk = fit.clamp(1, n.saturating_mul(CHUNK_GROWTH));
+            if !split {
+                chunk = (chunk / rows).max(1) * rows;
+            }
         }
         let dispatch = start.elapsed();
 
