@@ -997,8 +997,10 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     let mut before = watched();
     loop {
         let result = round(&mut backend);
-        // Stamps of files the round found (a texture newly named) as they are now.
+        // The files the round used: one newly named (a texture) with its stamp
+        // as it is now, one no longer named dropped; the others as before the round.
         let after = watched();
+        before.retain(|path, _| after.contains_key(path));
         for (path, stamp) in after {
             before.entry(path).or_insert(stamp);
         }
@@ -1025,7 +1027,9 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
                     .map(|(path, _)| path.display().to_string())
                     .collect();
                 before = now;
-                break names;
+                if !names.is_empty() {
+                    break names;
+                }
             }
         };
         outln!("changed: {}", changed.join(", "));
