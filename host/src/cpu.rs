@@ -197,11 +197,23 @@ impl CpuRenderer {
     /// device's picture finished where the device could not (`render`'s
     /// `finish_cut_short`).
     pub fn render_rows(&self, data: &FrameData, rows: &[u32]) -> Vec<Vec<PixelOut>> {
+        self.render_rows_told(data, rows, &|_| {})
+    }
+
+    /// `render_rows`, `told` how many of them are done as they end.
+    pub fn render_rows_told(&self, data: &FrameData, rows: &[u32], told: Told) -> Vec<Vec<PixelOut>> {
         let width = data.frame.width as usize;
         let mut out = vec![vec![PixelOut::default(); width]; rows.len()];
         assert!(rows.iter().all(|&r| r < data.frame.height), "rows inside the frame");
         let jobs = rows.iter().zip(out.iter_mut()).map(|(&row, pixels)| (row, row + 1, pixels.as_mut_slice()));
-        self.run(data, jobs, &|_| {});
+        let (done, total) = (AtomicU32::new(0), rows.len());
+        self.run(data, jobs, &|n| {
+            let done = done.fetch_add(n, Ordering::Relaxed) + n;
+            told(Progress {
+                fraction: f64::from(done) / total.max(1) as f64,
+                detail: format!("row {done} of {total} on the CPU build"),
+            });
+        });
         out
     }
 

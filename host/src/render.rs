@@ -434,7 +434,7 @@ pub struct GpuRenderer {
 /// short, its pixels are the device's bit for bit (what `raycast check`
 /// and CI compare), so the finished picture is the one the device would
 /// have made without its limit.
-pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRenderer) -> usize {
+pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRenderer, told: Told) -> usize {
     let width = picture.width as usize;
     let rows: Vec<u32> = picture
         .pixels
@@ -444,7 +444,7 @@ pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRender
         .map(|(i, _)| i as u32)
         .collect();
     let mut count = 0;
-    for (row, cpu_row) in rows.iter().zip(cpu.render_rows(data, &rows)) {
+    for (row, cpu_row) in rows.iter().zip(cpu.render_rows_told(data, &rows, told)) {
         let device_row = &mut picture.pixels[*row as usize * width..][..width];
         for (d, c) in device_row.iter_mut().zip(cpu_row) {
             if d.is_cut_short() {
