@@ -810,6 +810,37 @@ fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
             assert!(start.elapsed() < std::time::Duration::from_secs(30), "{:?}", start.elapsed());
         }
     }
+
+    // shader-test: a tested function that never ends fails its cases, and
+    // a function after it is not run behind it on the device (it would time
+    // out too), where the device has no loop budget.
+    let glsl = shaders.join("raycast.glsl");
+    let forever = "\nuint forever(uint n) {\n    uint c = 0u;\n    for (uint k = 0u; n != 0u; k++) {\n        c = c + k;\n        \
+                   if (c == 0xfffffff7u) {\n            break;\n        }\n    }\n    return c;\n}\n";
+    std::fs::write(&glsl, std::fs::read_to_string(&glsl).unwrap() + forever).unwrap();
+    let cases = out_dir().join("endless.toml");
+    std::fs::write(
+        &cases,
+        "[[case]]\nfunction = \"forever\"\ninputs = { n = 5 }\nexpected = 1\nrule = \"exact\"\n\n\
+         [[case]]\nfunction = \"stack_word\"\ninputs = { entry = 3, level = 0 }\nexpected = 3\nrule = \"exact\"\n",
+    )
+    .unwrap();
+    let o = Command::new("timeout")
+        .args(["60", env!("CARGO_BIN_EXE_raycast"), "shader-test", "--shaders", shaders.to_str().unwrap()])
+        .args(["--timeout", "2", cases.to_str().unwrap()])
+        .env("RAYCAST_VALIDATION", "1")
+        .output()
+        .unwrap();
+    let out = text(&o).0;
+    assert_eq!(o.status.code(), Some(4), "{out}");
+    match budget {
+        Some(_) => assert!(out.contains("1 passed, 1 failed"), "{out}"),
+        None => assert!(
+            out.contains("not run: a run of forever before it did not finish within the timeout")
+                && out.contains("0 passed, 2 failed"),
+            "{out}"
+        ),
+    }
 }
 
 /// `render` tells how far it is: on a terminal a line rewritten in place

@@ -74,8 +74,12 @@ fn raycast(args: &[&str]) -> Output {
 }
 
 fn harness_on_lavapipe() -> Harness {
-    let opts =
-        HarnessOptions { shaders: None, device: Some(gpu::DeviceSelector::Name("llvmpipe".into())), validation: true };
+    let opts = HarnessOptions {
+        shaders: None,
+        device: Some(gpu::DeviceSelector::Name("llvmpipe".into())),
+        validation: true,
+        timeout: gpu::GpuOptions::default().timeout,
+    };
     Harness::new(&opts).unwrap_or_else(|e| panic!("{e}"))
 }
 

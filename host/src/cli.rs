@@ -1363,6 +1363,7 @@ fn isolated_pixels(
         shaders: args.render.kernel.shaders.clone(),
         device: args.render.kernel.device.clone(),
         validation: validation_wanted(args.render.kernel.validate),
+        timeout: args.render.kernel.timeout,
     })
     .map_err(|e| Failure(format!("raycast: error: --pixel: {e}"), 1))?;
     // The frame's buffers under the names scene_buffers.glsl gives them.

@@ -31,6 +31,10 @@ pub struct ShaderTestArgs {
     /// `--only div_rn`); repeatable, a case runs if any matches.
     #[arg(long, value_name = "TEXT")]
     only: Vec<String>,
+    /// The longest one case's run on the device may take before the command
+    /// gives up with an error (a tested function's endless loop).
+    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::cli::parse_timeout)]
+    timeout: std::time::Duration,
 }
 
 /// Runs the command; Err is (message for stderr, exit status).
@@ -42,7 +46,8 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
     let validation = args.validate || std::env::var("RAYCAST_VALIDATION").is_ok_and(|v| v == "1");
     let device = args.device.clone();
     let mut harness =
-        Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation }).map_err(fail)?;
+        Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation, timeout: args.timeout })
+            .map_err(fail)?;
 
     let mut per_file = Vec::new();
     for path in &files {

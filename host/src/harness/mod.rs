@@ -223,6 +223,8 @@ pub struct HarnessOptions {
     pub device: Option<DeviceSelector>,
     /// The Khronos validation layer; read its messages with `take_validation_messages`.
     pub validation: bool,
+    /// The longest one run of a kernel may take (`GpuOptions::timeout`).
+    pub timeout: std::time::Duration,
 }
 
 /// A device, the shaders under test, and the kernels and C++ builds made so far.
@@ -238,6 +240,9 @@ pub struct Harness {
     cpu_built: HashMap<String, Result<usize, String>>,
     /// A copy of the shaders under test beside the generated kernels.
     work: PathBuf,
+    /// The function whose run timed out: the device may still be running
+    /// it, and runs it holds up are not made (each would time out too).
+    timed_out: std::sync::Mutex<Option<String>>,
 }
 
 impl Drop for Harness {
@@ -286,7 +291,7 @@ impl Harness {
         let ctx = GpuContext::new(&GpuOptions {
             device: opts.device.clone(),
             validation: opts.validation,
-            ..GpuOptions::default()
+            timeout: opts.timeout,
         })
         .map_err(|e| e.to_string())?;
         if let Err(e) = copy_shaders(&dir, &work) {
@@ -302,6 +307,7 @@ impl Harness {
             libraries: Vec::new(),
             cpu_built: HashMap::new(),
             work,
+            timed_out: std::sync::Mutex::new(None),
         })
     }
 
@@ -500,6 +506,13 @@ impl Harness {
             Some(Err(e)) => return Err(e.clone()),
             None => return Err(format!("no kernel for {}", f.name)),
         };
+        let mut timed_out = self.timed_out.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(before) = timed_out.as_ref() {
+            return Err(format!(
+                "not run: a run of {before} before it did not finish within the timeout, and the device may still be \
+                 running it"
+            ));
+        }
         let scene_bytes: Vec<&[u8]> = scene.iter().map(|w| bytemuck::cast_slice(w.as_slice())).collect();
         let mut inputs: Vec<(u32, &[u8])> =
             self.info.scene_buffers.iter().zip(&scene_bytes).map(|(b, bytes)| (b.binding, *bytes)).collect();
@@ -514,7 +527,12 @@ impl Harness {
                 codegen::SENTINEL,
                 [cases.div_ceil(codegen::GROUP), 1, 1],
             )
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| {
+                if matches!(e, crate::gpu::GpuError::Timeout { .. }) {
+                    *timed_out = Some(f.name.clone());
+                }
+                e.to_string()
+            })?;
         Ok(bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
 }

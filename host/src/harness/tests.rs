@@ -3,8 +3,12 @@
 use super::*;
 
 fn harness() -> Harness {
-    let opts =
-        HarnessOptions { shaders: None, device: Some(DeviceSelector::Name("llvmpipe".into())), validation: true };
+    let opts = HarnessOptions {
+        shaders: None,
+        device: Some(DeviceSelector::Name("llvmpipe".into())),
+        validation: true,
+        timeout: crate::gpu::GpuOptions::default().timeout,
+    };
     Harness::new(&opts).unwrap_or_else(|e| panic!("{e}"))
 }
 
