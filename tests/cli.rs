@@ -793,11 +793,16 @@ fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
     let budget = common::device_loop_budget(&out_dir().join("endless-probe"));
     let start = std::time::Instant::now();
     let args = ["render", "--shaders", shaders.to_str().unwrap(), "--timeout", "2", "--width", "16", "--height", "16"];
+    // Two scenes: the second is not run behind the first's endless kernel.
+    let chain = repo().join("tests/scenes/deep_chain.xml");
+    let batch = out_dir().join("endless-batch");
+    let scenes = [repo().join("scenes/default.xml"), chain];
     // Under coreutils' `timeout 60`: a hang fails the test (exit 124), not the suite.
     let o = Command::new("timeout")
         .args(["60", env!("CARGO_BIN_EXE_raycast")])
         .args(args)
-        .args(["-o", "/dev/null"])
+        .args(&scenes)
+        .args(["--out-dir", batch.to_str().unwrap()])
         .env("RAYCAST_VALIDATION", "1")
         .env("RAYCAST_CACHE_DIR", common::shader_cache())
         .output()
@@ -806,6 +811,7 @@ fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
         Some(_) => assert_fails(&o, 1, "pixels short (the first at ("),
         None => {
             assert_fails(&o, 1, "the dispatch did not finish within 2 s");
+            assert_fails(&o, 1, "error: not run: a run before it on this device did not finish within the timeout");
             // 2 s, then 5 s for the work to end at teardown, then the process ends.
             assert!(start.elapsed() < std::time::Duration::from_secs(30), "{:?}", start.elapsed());
         }

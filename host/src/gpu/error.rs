@@ -39,6 +39,9 @@ pub enum GpuError {
     TooManyGroups { groups: [u32; 3], limit: [u32; 3] },
     /// The fence did not signal within the timeout.
     Timeout { after: Duration },
+    /// A run before timed out on this device, which may still be running
+    /// it: the next is not made (it would wait behind it and time out too).
+    StillRunning,
     /// naga could not parse or validate the SPIR-V, or it lacks a compute `main`.
     InvalidSpirv { kernel: String, message: String },
     /// The shader's bindings or struct layouts differ from the host's.
@@ -159,6 +162,11 @@ impl fmt::Display for GpuError {
                  its rows, part of one, or several); a kernel that never ends (a shader edit's endless loop)? Else render a smaller \
                  or simpler picture, or raise the limit (--timeout SECONDS)",
                 after.as_secs_f64()
+            ),
+            GpuError::StillRunning => write!(
+                f,
+                "not run: a run before it on this device did not finish within the timeout, and the device may still \
+                 be running it"
             ),
             GpuError::InvalidSpirv { kernel, message } => write!(
                 f,
