@@ -842,7 +842,7 @@ fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
     match budget {
         Some(_) => assert!(out.contains("1 passed, 1 failed"), "{out}"),
         None => assert!(
-            out.contains("not run: a run of forever before it did not finish within the timeout")
+            out.contains("not run: a run before it on this device did not finish within the timeout")
                 && out.contains("0 passed, 2 failed"),
             "{out}"
         ),

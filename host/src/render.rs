@@ -426,10 +426,6 @@ pub struct GpuRenderer {
     /// The most bytes of a band's buffers (`set_band_bytes`); None: as
     /// many as the device's storage buffers hold.
     band_bytes: Option<u64>,
-    /// A render timed out: the device may still run it, and no render is
-    /// made after it (GpuError::StillRunning: a batch's next scenes and
-    /// conformance's next cases would each time out behind it).
-    timed_out: std::sync::atomic::AtomicBool,
 }
 
 /// Recomputes with the CPU build the pixels of `picture` (a render of
@@ -521,7 +517,6 @@ impl GpuRenderer {
             compile_time: Mutex::new(Duration::ZERO),
             choice: SceneBuffers::Auto,
             band_bytes: None,
-            timed_out: std::sync::atomic::AtomicBool::new(false),
         }
     }
 
@@ -633,10 +628,6 @@ impl GpuRenderer {
     /// `render_marked`, `told` after each submission of samples: the
     /// samples of each band done, over every band's.
     pub fn render_marked_told(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), GpuError> {
-        use std::sync::atomic::Ordering::Relaxed;
-        if self.timed_out.load(Relaxed) {
-            return Err(GpuError::StillRunning);
-        }
         let f = &data.frame;
         // An array beyond a storage buffer is refused before the kernel is built.
         let uniform = self.wants_uniform(data)?;
@@ -689,10 +680,7 @@ impl GpuRenderer {
                     bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned::<PixelOut>),
                 );
             };
-            let ((), t) =
-                self.context.run_passes_read(&kernel, &buffers, groups, spp, read, tell).inspect_err(|e| {
-                    self.timed_out.store(matches!(e, GpuError::Timeout { .. }), Relaxed);
-                })?;
+            let ((), t) = self.context.run_passes_read(&kernel, &buffers, groups, spp, read, tell)?;
             // Every pixel the kernel covers counts at least its camera ray, far
             // fewer than the sentinel.
             let unwritten = pixels[before..].iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();

@@ -880,6 +880,7 @@ impl GpuContext {
             });
         }
         inner.check_run(kernel, buffers, groups)?;
+        inner.refuse_if_still_running()?;
 
         let start = Instant::now();
         let (res, set) = inner.prepare_run(kernel, buffers)?;
@@ -1457,6 +1458,16 @@ impl Inner {
             }
         }
         !self.left_running()
+    }
+
+    /// GpuError::StillRunning where a run before timed out and may still
+    /// be running: a run or a kernel's build would wait behind it.
+    pub(crate) fn refuse_if_still_running(&self) -> Result<(), GpuError> {
+        if self.abandoned.lock().unwrap_or_else(|p| p.into_inner()).is_empty() {
+            Ok(())
+        } else {
+            Err(GpuError::StillRunning)
+        }
     }
 
     /// Work that timed out is left running: nothing of this device is destroyed.

@@ -40,7 +40,9 @@ pub enum GpuError {
     /// The fence did not signal within the timeout.
     Timeout { after: Duration },
     /// A run before timed out on this device, which may still be running
-    /// it: the next is not made (it would wait behind it and time out too).
+    /// it: the next is not made (it would wait behind it and time out too:
+    /// a batch's next scenes, conformance's next cases, shader-test's next
+    /// functions).
     StillRunning,
     /// naga could not parse or validate the SPIR-V, or it lacks a compute `main`.
     InvalidSpirv { kernel: String, message: String },

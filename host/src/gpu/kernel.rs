@@ -116,6 +116,9 @@ impl Kernel {
         images: &[ImageBinding],
         constants: &[u32],
     ) -> Result<Kernel, GpuError> {
+        // Mesa 25's lavapipe makes a shader object only once its queue is
+        // idle: behind a run that timed out, that is never.
+        ctx.inner.refuse_if_still_running()?;
         let invalid = |message: String| GpuError::InvalidSpirv { kernel: name.to_string(), message };
         let mut words = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|e| invalid(e.to_string()))?;
         words = float_controls::add_modes(&words, ctx.inner.float_modes).map_err(invalid)?;

@@ -240,9 +240,6 @@ pub struct Harness {
     cpu_built: HashMap<String, Result<usize, String>>,
     /// A copy of the shaders under test beside the generated kernels.
     work: PathBuf,
-    /// The function whose run timed out: the device may still be running
-    /// it, and runs it holds up are not made (each would time out too).
-    timed_out: std::sync::Mutex<Option<String>>,
 }
 
 impl Drop for Harness {
@@ -307,7 +304,6 @@ impl Harness {
             libraries: Vec::new(),
             cpu_built: HashMap::new(),
             work,
-            timed_out: std::sync::Mutex::new(None),
         })
     }
 
@@ -506,13 +502,6 @@ impl Harness {
             Some(Err(e)) => return Err(e.clone()),
             None => return Err(format!("no kernel for {}", f.name)),
         };
-        let mut timed_out = self.timed_out.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(before) = timed_out.as_ref() {
-            return Err(format!(
-                "not run: a run of {before} before it did not finish within the timeout, and the device may still be \
-                 running it"
-            ));
-        }
         let scene_bytes: Vec<&[u8]> = scene.iter().map(|w| bytemuck::cast_slice(w.as_slice())).collect();
         let mut inputs: Vec<(u32, &[u8])> =
             self.info.scene_buffers.iter().zip(&scene_bytes).map(|(b, bytes)| (b.binding, *bytes)).collect();
@@ -527,12 +516,7 @@ impl Harness {
                 codegen::SENTINEL,
                 [cases.div_ceil(codegen::GROUP), 1, 1],
             )
-            .map_err(|e| {
-                if matches!(e, crate::gpu::GpuError::Timeout { .. }) {
-                    *timed_out = Some(f.name.clone());
-                }
-                e.to_string()
-            })?;
+            .map_err(|e| e.to_string())?;
         Ok(bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
 }
