@@ -914,6 +914,19 @@ fn masters_nested_too_deeply_render() {
     assert!(o.status.success() && text(&o).0.contains("identical"), "{:?}", text(&o));
 }
 
+/// `render -o /dev/stdout` writes the PNG alone to stdout, the status lines
+/// on stderr: `raycast render -o /dev/stdout | viewer -` gets a picture.
+#[test]
+fn a_picture_on_stdout_comes_alone() {
+    let file = out_dir().join("stdout-twin.png");
+    let small = ["render", "--width", "32", "--height", "24", "--backend", "cpu"];
+    let o = raycast(&[&small[..], &["-o", file.to_str().unwrap()]].concat(), &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = raycast(&[&small[..], &["-o", "/dev/stdout"]].concat(), &[]);
+    assert!(o.status.success() && text(&o).1.contains("wrote /dev/stdout (32x24)"), "{:?}", text(&o));
+    assert!(o.stdout == std::fs::read(&file).unwrap(), "stdout is not the PNG alone: {:?}", text(&o).0);
+}
+
 /// `render --watch` renders again when the scene file or one of its
 /// textures changes; a broken scene is reported, leaves the last picture as
 /// it was, and the watch goes on to render the mended one.

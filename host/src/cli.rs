@@ -964,6 +964,10 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     }
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
+    if args.output.as_deref() == Some(Path::new("/dev/stdout")) {
+        // The picture goes to stdout: the status lines would corrupt it.
+        crate::status_to_stderr();
+    }
     let mut backend: Option<RenderBackend> = None;
     // The textures the scenes loaded use (what --watch follows beside them).
     let textures: std::cell::RefCell<Vec<PathBuf>> = Default::default();

@@ -12,15 +12,14 @@
 
 /// `println!` that goes on when stdout is closed (`raycast render | head`):
 /// the status lines are for reading, the work (the PNG, the exit status)
-/// is what counts, and `println!` panics on a broken pipe.
+/// is what counts, and `println!` panics on a broken pipe. On stderr where
+/// the product goes to stdout (`status_to_stderr`).
 macro_rules! outln {
     () => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout());
+        out!("\n")
     }};
     ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
+        out!("{}\n", format_args!($($arg)*))
     }};
 }
 
@@ -28,8 +27,25 @@ macro_rules! outln {
 macro_rules! out {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = write!(std::io::stdout(), $($arg)*);
+        if $crate::status_on_stderr() {
+            let _ = write!(std::io::stderr(), $($arg)*);
+        } else {
+            let _ = write!(std::io::stdout(), $($arg)*);
+        }
     }};
+}
+
+static STATUS_ON_STDERR: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Sends the status lines (`outln!`) to stderr from now on: a picture is
+/// written to stdout (`render -o /dev/stdout | …`), which they would corrupt.
+pub(crate) fn status_to_stderr() {
+    STATUS_ON_STDERR.store(true, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether `status_to_stderr` was called.
+pub(crate) fn status_on_stderr() -> bool {
+    STATUS_ON_STDERR.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 /// A command's product on stdout (`gen`'s scene, a `--json` report):
