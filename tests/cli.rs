@@ -925,6 +925,13 @@ fn a_picture_on_stdout_comes_alone() {
     let o = raycast(&[&small[..], &["-o", "/dev/stdout"]].concat(), &[]);
     assert!(o.status.success() && text(&o).1.contains("wrote /dev/stdout (32x24)"), "{:?}", text(&o));
     assert!(o.stdout == std::fs::read(&file).unwrap(), "stdout is not the PNG alone: {:?}", text(&o).0);
+    // `check`'s diff image the same way.
+    let o = raycast(&["check", "--width", "32", "--height", "24", "-o", "/dev/stdout"], &[]);
+    assert!(o.status.success() && o.stdout.starts_with(b"\x89PNG"), "{:?}", text(&o));
+    let got = out_dir().join("stdout-diff.png");
+    std::fs::write(&got, &o.stdout).unwrap();
+    let diff = raycast::image_io::read_picture(&got);
+    assert!(diff.is_ok_and(|d| (d.width, d.height) == (32, 24)), "stdout is not the diff PNG alone");
 }
 
 /// `render --watch` renders again when the scene file or one of its

@@ -964,10 +964,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     }
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
-    if args.output.as_deref() == Some(Path::new("/dev/stdout")) {
-        // The picture goes to stdout: the status lines would corrupt it.
-        crate::status_to_stderr();
-    }
+    status_beside(&args.output);
     let mut backend: Option<RenderBackend> = None;
     // The textures the scenes loaded use (what --watch follows beside them).
     let textures: std::cell::RefCell<Vec<PathBuf>> = Default::default();
@@ -1233,7 +1230,16 @@ struct CheckBackends {
     cpu: CpuRenderer,
 }
 
+/// Status lines to stderr where `-o` sends the picture to stdout
+/// (`render`, `check`'s and `compare`'s diff images): they would corrupt it.
+fn status_beside(output: &Option<PathBuf>) {
+    if output.as_deref() == Some(Path::new("/dev/stdout")) {
+        crate::status_to_stderr();
+    }
+}
+
 fn check(args: &CheckArgs) -> Result<(), Failure> {
+    status_beside(&args.output);
     let scenes = scene_list(&args.scenes);
     if !args.pixel.is_empty() && scenes.len() > 1 {
         return Err(Failure(
@@ -1481,6 +1487,7 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
 }
 
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
+    status_beside(&args.output);
     if !(0.0..=100.0).contains(&args.max_percent) {
         return Err(Failure(
             format!("raycast: error: --max-percent {} is out of range: 0 to 100", args.max_percent),
