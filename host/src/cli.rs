@@ -692,14 +692,17 @@ fn ms(d: Duration) -> String {
     format!("{:.1} ms", d.as_secs_f64() * 1e3)
 }
 
+/// `path` as a generated scene's name (`gen:FAMILY:DEPTH`), where no file
+/// has that name: a file of that name wins.
+fn generated_name(path: &Path) -> Option<&str> {
+    Some(path).filter(|p| !p.exists()).and_then(Path::to_str).filter(|n| crate::gen::parse_scene_name(n).is_some())
+}
+
 /// Loads the scene file, or the embedded default scene when `path` is None,
 /// or a generated one (`gen:FAMILY:DEPTH`, as `bench` and `info` take it)
 /// where no file has that name. Prints the scene's warnings to stderr.
 pub fn load_scene(path: Option<&Path>, opts: &ParseOptions, limits: &FlattenLimits) -> Result<Scene, String> {
-    // A file of that name wins over a generated scene's name.
-    let generated =
-        path.filter(|p| !p.exists()).and_then(|p| p.to_str()).filter(|n| crate::gen::parse_scene_name(n).is_some());
-    let file = match (path, generated) {
+    let file = match (path, path.and_then(generated_name)) {
         (Some(p), None) => scene::parse_file(p, opts).map_err(|e| e.to_string())?,
         // The embedded default scene (None) or the generated one.
         (_, name) => crate::bench::parse_scene(name, opts)?,
@@ -978,9 +981,8 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         return finish_render(backend, result);
     }
     // Followed: the scene files, their textures, the shader folder's sources.
-    // Scene files (a generated scene's name is none, unless a file has it: load_scene's rule).
-    let generated = |p: &Path| !p.exists() && p.to_str().and_then(crate::gen::parse_scene_name).is_some();
-    let files: Vec<PathBuf> = scenes.iter().flatten().filter(|p| !generated(p)).map(|p| p.to_path_buf()).collect();
+    let files: Vec<PathBuf> =
+        scenes.iter().flatten().filter(|p| generated_name(p).is_none()).map(|p| p.to_path_buf()).collect();
     if files.is_empty() && args.render.kernel.shaders.is_none() {
         return Err(Failure(
             "raycast: error: --watch follows scene files and a --shaders folder, and this render has neither (the \
@@ -992,7 +994,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     let watched = || {
         let mut stamps = args.render.kernel.shaders.as_deref().map(crate::preview::shader_stamps).unwrap_or_default();
         stamps.extend(crate::preview::stamps(&files));
-        stamps.extend(crate::preview::stamps(&textures.borrow()));
+        stamps.extend(crate::preview::stamps(textures.borrow().iter()));
         stamps
     };
     let mut before = watched();
@@ -1022,25 +1024,20 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
                 // An editor's save can be several writes: the stamps once more, settled.
                 std::thread::sleep(crate::preview::POLL);
                 let now = watched();
-                let names: Vec<String> = now
+                let paths: Vec<PathBuf> = now
                     .iter()
                     .filter(|(path, stamp)| before.get(*path) != Some(stamp))
-                    .map(|(path, _)| path.display().to_string())
+                    .map(|(path, _)| path.clone())
                     .collect();
                 before = now;
-                if !names.is_empty() {
-                    break names;
+                if !paths.is_empty() {
+                    break paths;
                 }
             }
         };
-        outln!("changed: {}", changed.join(", "));
-        if args
-            .render
-            .kernel
-            .shaders
-            .as_deref()
-            .is_some_and(|dir| changed.iter().any(|c| Path::new(c).starts_with(dir)))
-        {
+        let names: Vec<String> = changed.iter().map(|p| p.display().to_string()).collect();
+        outln!("changed: {}", names.join(", "));
+        if args.render.kernel.shaders.as_deref().is_some_and(|dir| changed.iter().any(|c| c.starts_with(dir))) {
             // The kernel from --shaders DIR is compiled as the device opens.
             backend = None;
         }

@@ -151,6 +151,17 @@ pub fn host_threads() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
+/// What `run` tells as jobs end: `told` the rows done of `total`
+/// ("row 120 of 384" and `suffix`), from whichever thread ends one.
+fn rows_told<'a>(total: u32, suffix: &'a str, told: Told<'a>) -> impl Fn(u32) + Sync + 'a {
+    let done = AtomicU32::new(0);
+    move |n| {
+        let done = done.fetch_add(n, Ordering::Relaxed) + n;
+        let detail = format!("row {done} of {total}{suffix}");
+        told(Progress { fraction: f64::from(done) / f64::from(total.max(1)), detail });
+    }
+}
+
 /// Renders on the CPU with the shared GLSL built as C++.
 pub struct CpuRenderer {
     pub threads: usize,
@@ -184,11 +195,7 @@ impl CpuRenderer {
             let begin = job as u32 * ROWS_PER_JOB;
             (begin, (begin + ROWS_PER_JOB).min(height), slice)
         });
-        let rows = AtomicU32::new(0);
-        let done = self.run(data, jobs, &|n| {
-            let rows = rows.fetch_add(n, Ordering::Relaxed) + n;
-            told(Progress { fraction: f64::from(rows) / f64::from(height), detail: format!("row {rows} of {height}") });
-        });
+        let done = self.run(data, jobs, &rows_told(height, "", told));
         debug_assert_eq!(done, height);
         Ok(Picture { width, height, pixels })
     }
@@ -206,14 +213,8 @@ impl CpuRenderer {
         let mut out = vec![vec![PixelOut::default(); width]; rows.len()];
         assert!(rows.iter().all(|&r| r < data.frame.height), "rows inside the frame");
         let jobs = rows.iter().zip(out.iter_mut()).map(|(&row, pixels)| (row, row + 1, pixels.as_mut_slice()));
-        let (done, total) = (AtomicU32::new(0), rows.len());
-        self.run(data, jobs, &|n| {
-            let done = done.fetch_add(n, Ordering::Relaxed) + n;
-            told(Progress {
-                fraction: f64::from(done) / total.max(1) as f64,
-                detail: format!("row {done} of {total} on the CPU build"),
-            });
-        });
+        let total = u32::try_from(rows.len()).unwrap_or(u32::MAX);
+        self.run(data, jobs, &rows_told(total, " on the CPU build", told));
         out
     }
 

@@ -263,7 +263,12 @@ pub(crate) struct Inner {
 
 /// How long a context's teardown waits for work that timed out before it
 /// leaves it running (`Inner::may_destroy`).
-pub(crate) const TEARDOWN_WAIT: Duration = Duration::from_secs(5);
+const TEARDOWN_WAIT: Duration = Duration::from_secs(5);
+
+/// `d` in nanoseconds, as Vulkan's waits take it (u64::MAX: beyond ~584 years).
+pub(crate) fn nanos(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
 
 /// Set when a context left timed-out work running: the process should end
 /// without the drivers' own clean-up at exit (`device_left_running`).
@@ -1336,7 +1341,7 @@ impl Inner {
         let cmds = [cmd];
         let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
         unsafe { d.queue_submit(*queue, &submit, res.fence) }.map_err(GpuError::vk("vkQueueSubmit"))?;
-        let timeout_ns = u64::try_from(self.timeout.as_nanos()).unwrap_or(u64::MAX);
+        let timeout_ns = nanos(self.timeout);
         match unsafe { d.wait_for_fences(&[res.fence], true, timeout_ns) } {
             Ok(()) => Ok(res),
             Err(vk::Result::TIMEOUT) => {
@@ -1451,13 +1456,17 @@ impl Inner {
     pub(crate) fn may_destroy(&self) -> bool {
         let abandoned = self.abandoned.lock().unwrap_or_else(|p| p.into_inner());
         if !abandoned.is_empty() && !self.left_running() {
-            let fences: Vec<vk::Fence> = abandoned.iter().map(|r| r.fence).collect();
-            let wait = u64::try_from(TEARDOWN_WAIT.as_nanos()).unwrap_or(u64::MAX);
-            if unsafe { self.device.wait_for_fences(&fences, true, wait) }.is_err() {
-                self.leave_running();
-            }
+            self.wait_or_leave_running(&abandoned.iter().map(|r| r.fence).collect::<Vec<_>>());
         }
         !self.left_running()
+    }
+
+    /// Waits up to TEARDOWN_WAIT for `fences` (work that outlived the
+    /// timeout, at teardown); work still running then is left running.
+    pub(crate) fn wait_or_leave_running(&self, fences: &[vk::Fence]) {
+        if unsafe { self.device.wait_for_fences(fences, true, nanos(TEARDOWN_WAIT)) }.is_err() {
+            self.leave_running();
+        }
     }
 
     /// GpuError::StillRunning where a run before timed out and may still

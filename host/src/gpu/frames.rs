@@ -85,7 +85,7 @@ impl FrameLoop {
             return Ok(None);
         }
         let d = &self.inner.device;
-        let timeout_ns = u64::try_from(self.inner.timeout.as_nanos()).unwrap_or(u64::MAX);
+        let timeout_ns = super::context::nanos(self.inner.timeout);
         match unsafe { d.wait_for_fences(&[self.fence], true, timeout_ns) } {
             Ok(()) => {}
             Err(vk::Result::TIMEOUT) => return Err(GpuError::Timeout { after: self.inner.timeout }),
@@ -146,7 +146,7 @@ impl FrameLoop {
                 if !Arc::ptr_eq(sc.inner(), &self.inner) {
                     return Err(bad("the swapchain was created on another GpuContext".into()));
                 }
-                let timeout_ns = u64::try_from(self.inner.timeout.as_nanos()).unwrap_or(u64::MAX);
+                let timeout_ns = super::context::nanos(self.inner.timeout);
                 match unsafe { sc.loader.acquire_next_image(sc.handle, timeout_ns, self.acquired, vk::Fence::null()) } {
                     Ok((index, _suboptimal)) => Some((sc, index)),
                     Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => return Ok(FrameStatus::OutOfDate),
@@ -322,10 +322,7 @@ impl FrameLoop {
     /// (`Inner::leave_running`).
     pub fn finish(&mut self) {
         if std::mem::take(&mut self.pending) {
-            let wait = u64::try_from(super::context::TEARDOWN_WAIT.as_nanos()).unwrap_or(u64::MAX);
-            if unsafe { self.inner.device.wait_for_fences(&[self.fence], true, wait) }.is_err() {
-                self.inner.leave_running();
-            }
+            self.inner.wait_or_leave_running(&[self.fence]);
         }
     }
 }

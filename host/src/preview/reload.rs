@@ -112,8 +112,8 @@ pub(crate) fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
 }
 
 /// Each file's stamp.
-pub(crate) fn stamps(files: &[PathBuf]) -> BTreeMap<PathBuf, Stamp> {
-    files.iter().map(|f| (f.clone(), stamp(f))).collect()
+pub(crate) fn stamps<'a>(files: impl IntoIterator<Item = &'a PathBuf>) -> BTreeMap<PathBuf, Stamp> {
+    files.into_iter().map(|f| (f.clone(), stamp(f))).collect()
 }
 
 fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
@@ -124,7 +124,7 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
         std::thread::sleep(POLL);
         if let Some(path) = &config.scene {
             let now = Some(stamp(path));
-            let textures_now = stamps(&texture_stamps.keys().cloned().collect::<Vec<_>>());
+            let textures_now = stamps(texture_stamps.keys());
             if now != scene_stamp || textures_now != texture_stamps {
                 scene_stamp = now;
                 texture_stamps = textures_now;
