@@ -991,15 +991,31 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
             2,
         ));
     }
+    watch_renders(args, &files, &mut backend, &textures, round)
+}
+
+/// `render --watch`: a round of renders (`round`), then, each time one of
+/// the files followed changes (`files`, the textures the last round used,
+/// the --shaders folder's sources), says which and renders again; a
+/// round's failure is reported and the watch goes on. Ends only with the
+/// process (Ctrl-C).
+fn watch_renders(
+    args: &RenderArgs,
+    files: &[PathBuf],
+    backend: &mut Option<RenderBackend>,
+    textures: &std::cell::RefCell<Vec<PathBuf>>,
+    round: impl Fn(&mut Option<RenderBackend>) -> Result<(), Failure>,
+) -> Result<(), Failure> {
+    let shaders = args.render.kernel.shaders.as_deref();
     let watched = || {
-        let mut stamps = args.render.kernel.shaders.as_deref().map(crate::preview::shader_stamps).unwrap_or_default();
-        stamps.extend(crate::preview::stamps(&files));
+        let mut stamps = shaders.map(crate::preview::shader_stamps).unwrap_or_default();
+        stamps.extend(crate::preview::stamps(files));
         stamps.extend(crate::preview::stamps(textures.borrow().iter()));
         stamps
     };
     let mut before = watched();
     loop {
-        let result = round(&mut backend);
+        let result = round(backend);
         // The files the round used: one newly named (a texture) with its stamp
         // as it is now, one no longer named dropped; the others as before the round.
         let after = watched();
@@ -1010,36 +1026,42 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
         if let Err(Failure(message, _)) = result {
             errln!("{message}");
         }
-        if let Some(RenderBackend::Gpu(renderer)) = &backend {
+        if let Some(RenderBackend::Gpu(renderer)) = backend.as_ref() {
             for m in renderer.context().take_validation_messages() {
                 errln!("raycast: validation: {m}");
             }
         }
         let n = before.len();
         outln!("watching {n} file{} for changes (Ctrl-C stops)", if n == 1 { "" } else { "s" });
-        let changed = loop {
-            std::thread::sleep(crate::preview::POLL);
-            let now = watched();
-            if now != before {
-                // An editor's save can be several writes: the stamps once more, settled.
-                std::thread::sleep(crate::preview::POLL);
-                let now = watched();
-                let paths: Vec<PathBuf> = now
-                    .iter()
-                    .filter(|(path, stamp)| before.get(*path) != Some(stamp))
-                    .map(|(path, _)| path.clone())
-                    .collect();
-                before = now;
-                if !paths.is_empty() {
-                    break paths;
-                }
-            }
-        };
+        let changed = next_change(&mut before, &watched);
         let names: Vec<String> = changed.iter().map(|p| p.display().to_string()).collect();
         outln!("changed: {}", names.join(", "));
-        if args.render.kernel.shaders.as_deref().is_some_and(|dir| changed.iter().any(|c| c.starts_with(dir))) {
+        if shaders.is_some_and(|dir| changed.iter().any(|c| c.starts_with(dir))) {
             // The kernel from --shaders DIR is compiled as the device opens.
-            backend = None;
+            *backend = None;
+        }
+    }
+}
+
+/// Polls `watched` until its stamps differ from `before` and hold still for
+/// one more poll (an editor's save can be several writes); returns the paths
+/// whose stamps changed, `before` updated to the new stamps.
+fn next_change<S: PartialEq + Clone>(
+    before: &mut std::collections::BTreeMap<PathBuf, S>,
+    watched: impl Fn() -> std::collections::BTreeMap<PathBuf, S>,
+) -> Vec<PathBuf> {
+    loop {
+        std::thread::sleep(crate::preview::POLL);
+        if watched() == *before {
+            continue;
+        }
+        std::thread::sleep(crate::preview::POLL);
+        let now = watched();
+        let paths: Vec<PathBuf> =
+            now.iter().filter(|(path, stamp)| before.get(*path) != Some(stamp)).map(|(path, _)| path.clone()).collect();
+        *before = now;
+        if !paths.is_empty() {
+            return paths;
         }
     }
 }
