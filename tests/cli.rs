@@ -882,6 +882,15 @@ fn render_tells_its_progress() {
     for end in [": 100% (sample 1 of 1)", "<default scene> on the CPU build: 100% (row 768 of 768)"] {
         assert!(err.contains(end), "{end:?}:\n{err}");
     }
+    // A small picture whose sample is expected to be slow (--no-bvh: every
+    // ray tests the 187 spheres, and sends shadow rays to 3 lights) is split
+    // from the first too: one row of its 6 rows of work groups first.
+    let slow = ["render", "gen:recursive-spheres:4", "--no-bvh", "--no-textures", "--width", "64", "--height", "48"];
+    let o = raycast(&[&slow[..], &["-o", png.to_str().unwrap()]].concat(), &[("RAYCAST_PROGRESS", "1")]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    let device: Vec<&str> = err.lines().filter(|l| l.starts_with("progress: ")).collect();
+    assert!(device.len() >= 2 && device[0].contains(": 16% (sample 1 of 1)"), "{err}");
 }
 
 /// Masters nested deeper than the shader's 15 levels render, with a note

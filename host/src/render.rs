@@ -481,6 +481,32 @@ pub fn render_advice(data: &FrameData) -> String {
     format!("`raycast render` finishes such pixels with the CPU build (the same code; on lavapipe the same bits); here, {ways}")
 }
 
+/// A camera ray's tests past which a pass of a picture is expected to be
+/// slow (`slow_pass`): on lavapipe (2 cores) a 512x384 sample takes about
+/// 1.5 ms per test, so this is most of a second there.
+const SLOW_RAY_TESTS: u64 = 500;
+
+/// Whether one sample of the picture is expected to take long enough
+/// (seconds on lavapipe) that its first pass goes to the device in parts,
+/// telling its progress, even where the picture is small: a camera ray's
+/// tests, guessed as the primitives it tests (every one of them with
+/// --no-bvh, else about the hierarchy's depth) times its rays (one, and a
+/// shadow ray to each light), pass SLOW_RAY_TESTS. recursiveSpheres4
+/// `--no-bvh` (187 spheres, 3 lights: 748) takes 1.1 s at 512x384 on
+/// lavapipe, recursive-spheres depth 6 `--no-bvh` (4,687: 18,748) about
+/// 50 s; with the hierarchy neither is slow (12 and 16). A part costs a
+/// submission: 5 ms of recursiveSpheres4's 76 in eighths.
+pub fn slow_pass(data: &FrameData) -> bool {
+    let f = &data.frame;
+    let tested = if f.flags & layout::FLAG_NO_BVH != 0 {
+        data.expanded
+    } else {
+        u64::from(64 - data.expanded.max(1).leading_zeros())
+    };
+    let rays = 1 + if f.flags & layout::FLAG_SHADOWS != 0 { u64::from(f.light_count) } else { 0 };
+    tested.saturating_mul(rays) > SLOW_RAY_TESTS
+}
+
 /// An error when the kernel marked pixels whose loops the device ended
 /// early (raycast.glsl loop_budget_ok): such a picture is wrong.
 pub fn refuse_cut_short(pixels: &[PixelOut], width: u32, device: &str, advice: String) -> Result<(), GpuError> {
@@ -680,7 +706,7 @@ impl GpuRenderer {
                     bytes.chunks_exact(std::mem::size_of::<PixelOut>()).map(bytemuck::pod_read_unaligned::<PixelOut>),
                 );
             };
-            let ((), t) = self.context.run_passes_read(&kernel, &buffers, groups, spp, read, tell)?;
+            let ((), t) = self.context.run_passes_read(&kernel, &buffers, groups, spp, slow_pass(data), read, tell)?;
             // Every pixel the kernel covers counts at least its camera ray, far
             // fewer than the sentinel.
             let unwritten = pixels[before..].iter().filter(|p| p.rays == 0 || p.rays == 0xffff_ffff).count();
@@ -752,6 +778,22 @@ mod tests {
         let no_bvh = RenderSettings { bvh: false, shadows: false, ..RenderSettings::default() };
         let a = render_advice(&data(&scene("0"), &no_bvh));
         assert!(a.ends_with("here, drop --no-bvh, or use another Vulkan device"), "{a}");
+    }
+
+    /// A sample is expected to be slow where a camera ray's tests are many:
+    /// --no-bvh over the recursive spheres' 187 at depth 4, not with the
+    /// hierarchy at depth 10, nor --no-bvh without shadows over a handful.
+    #[test]
+    fn slow_passes_are_told_by_the_tests_a_ray_makes() {
+        let spheres = |depth: u32, settings: &RenderSettings| {
+            let options = crate::gen::GenOptions { texture: None };
+            data(&crate::gen::generate(crate::gen::Family::RecursiveSpheres, depth, &options).unwrap(), settings)
+        };
+        let no_bvh = RenderSettings { bvh: false, ..RenderSettings::default() };
+        assert!(slow_pass(&spheres(4, &no_bvh)));
+        assert!(!slow_pass(&spheres(10, &RenderSettings::default())));
+        let few = RenderSettings { shadows: false, ..no_bvh };
+        assert!(!slow_pass(&spheres(2, &few)), "{}", spheres(2, &few).expanded);
     }
 
     /// The features' constants that are on, by SPEC_* name.

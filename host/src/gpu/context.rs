@@ -40,7 +40,9 @@ const CHUNK_AIM: Duration = Duration::from_millis(250);
 /// gain nothing from it (a progress line shows after a second).
 const FIRST_CHUNK_PARTS: u64 = 8;
 /// Passes of more work groups than this are split from the first: the
-/// course's 512x384 (3,072 groups of 8x8) is not, 1024x768 (12,288) is.
+/// course's 512x384 (3,072 groups of 8x8) is not, 1024x768 (12,288) is;
+/// nor is a smaller one unless its caller expects it to be slow
+/// (`run_passes_read`'s `slow`).
 const SPLIT_GROUPS: u64 = 4096;
 /// How many times the work of the submission before the next may take on,
 /// where the one before was quick: its rows may have been cheap ones (the
@@ -859,7 +861,7 @@ impl GpuContext {
         groups: [u32; 3],
         passes: u32,
     ) -> Result<(Vec<u8>, RunTimings), GpuError> {
-        self.run_passes_read(kernel, buffers, groups, passes, <[u8]>::to_vec, |_| {})
+        self.run_passes_read(kernel, buffers, groups, passes, false, <[u8]>::to_vec, |_| {})
     }
 
     /// `run_passes`, the output given to `read` where the device left it
@@ -868,12 +870,16 @@ impl GpuContext {
     /// are 6 MiB; two more copies took 10 ms of lavapipe's whole command).
     /// `done` is told the passes finished after each submission (a
     /// fraction where a pass is split: rows of its work groups apart).
+    /// `slow`: the caller expects a pass to take long (seconds on this
+    /// device), so it is split from the first whatever its size.
+    #[allow(clippy::too_many_arguments)]
     pub fn run_passes_read<R>(
         &self,
         kernel: &Kernel,
         buffers: &RunBuffers,
         groups: [u32; 3],
         passes: u32,
+        slow: bool,
         read: impl FnOnce(&[u8]) -> R,
         mut done: impl FnMut(f64),
     ) -> Result<(R, RunTimings), GpuError> {
@@ -894,10 +900,10 @@ impl GpuContext {
         // Clear, fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
         let start = Instant::now();
         // The work in units of one row of work groups of one pass; the
-        // first submission the first pass, or an eighth of it where large.
+        // first submission the first pass, or an eighth of it where large or slow.
         let rows = u64::from(groups[1].max(1));
         let total = u64::from(passes) * rows;
-        let split = groups.iter().map(|&g| u64::from(g)).product::<u64>() > SPLIT_GROUPS;
+        let split = slow || groups.iter().map(|&g| u64::from(g)).product::<u64>() > SPLIT_GROUPS;
         let first = if split { rows.div_ceil(FIRST_CHUNK_PARTS) } else { rows };
         let (mut res, mut finished, mut chunk) = (res, 0u64, first);
         while finished < total {
