@@ -1033,7 +1033,7 @@ fn watch_renders(
         }
         let n = before.len();
         outln!("watching {n} file{} for changes (Ctrl-C stops)", if n == 1 { "" } else { "s" });
-        let changed = next_change(&mut before, &watched);
+        let changed = next_change(&mut before, watched);
         let names: Vec<String> = changed.iter().map(|p| p.display().to_string()).collect();
         outln!("changed: {}", names.join(", "));
         if shaders.is_some_and(|dir| changed.iter().any(|c| c.starts_with(dir))) {
