@@ -46,8 +46,12 @@ precise float max_f(float a, float b) {
     return (a < b) ? b : a;
 }
 
+// x clamped to [0, 1], NaN to 0: a colour that came to inf - inf (colours
+// near the floats' limit, 3e38) is black in both builds, where converting
+// a NaN to an integer is each compiler's own (lavapipe gave white, the C++
+// build black).
 precise float clamp01(float x) {
-    return min_f(max_f(x, 0.0f), 1.0f);
+    return (x > 0.0f) ? min_f(x, 1.0f) : 0.0f;
 }
 
 // a / b and sqrt(x) rounded to nearest, as IEEE 754 has them: the same
