@@ -244,6 +244,36 @@ struct RenderArgs {
     watch: bool,
 }
 
+/// A usage error where `output` is one of the files the command reads
+/// (`inputs`: the same file, by device and inode, whatever the names say):
+/// writing it would replace what it was made from (`render -o` a texture
+/// of its scene, `compare -o` one of the pictures compared).
+fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Result<(), Failure> {
+    use std::os::unix::fs::MetadataExt;
+    let Ok(out) = std::fs::metadata(output) else { return Ok(()) };
+    let same = |input: &Path| std::fs::metadata(input).is_ok_and(|m| (m.dev(), m.ino()) == (out.dev(), out.ino()));
+    if !out.is_file() {
+        return Ok(()); // a device (/dev/stdout) is no file the command reads
+    }
+    match inputs.into_iter().find(|input| same(input)) {
+        Some(input) => Err(Failure(
+            format!(
+                "raycast: error: {} would be written over {}, which this command reads: name another file",
+                output.display(),
+                input.display()
+            ),
+            2,
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Whether `path` names something there that is not a file or a link to
+/// one (a device such as /dev/stdout, a pipe): written as it is, by name.
+fn not_a_file(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file())
+}
+
 /// Most pictures `render --orbit` takes.
 const MAX_ORBIT: u32 = 10_000;
 
@@ -917,7 +947,11 @@ fn each_scene<B, T>(
 ) -> Result<Batch<T>, Failure> {
     let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
     for (scene, output) in scenes.iter().zip(outputs) {
-        let result = match prepare(*scene, o) {
+        let prepared = prepare(*scene, o).and_then(|p| {
+            refuse_overwriting(output, scene.iter().copied().chain(p.scene.texture_files().iter().map(PathBuf::as_path)))?;
+            Ok(p)
+        });
+        let result = match prepared {
             Ok(p) => {
                 if backend.is_none() {
                     *backend = Some(open()?);
@@ -967,6 +1001,17 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     }
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
+    if let (Some(n), Some(device)) = (args.orbit, args.output.as_ref().filter(|o| not_a_file(o))) {
+        // Numbered names beside a device would be new files in its folder (/dev/stdout-000.png).
+        return Err(Failure(
+            format!(
+                "raycast: error: --orbit {n} writes {n} pictures, each named as -o's file with -000, -001, … before \
+                 .png, and {} is not a file: name a file, or use --out-dir DIR",
+                device.display()
+            ),
+            2,
+        ));
+    }
     status_beside(&args.output);
     let mut backend: Option<RenderBackend> = None;
     // The textures the scenes loaded use (what --watch follows beside them).
@@ -1515,6 +1560,7 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
     }
     if let Some(path) = &args.output {
         image_io::check_output_path(path)?;
+        refuse_overwriting(path, [args.actual.as_path(), args.expected.as_path()])?;
     }
     let read = |path: &Path| {
         let (rgb, translucent) = image_io::read_picture_counting_alpha(path)?;
