@@ -948,7 +948,10 @@ fn each_scene<B, T>(
     let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
     for (scene, output) in scenes.iter().zip(outputs) {
         let prepared = prepare(*scene, o).and_then(|p| {
-            refuse_overwriting(output, scene.iter().copied().chain(p.scene.texture_files().iter().map(PathBuf::as_path)))?;
+            refuse_overwriting(
+                output,
+                scene.iter().copied().chain(p.scene.texture_files().iter().map(PathBuf::as_path)),
+            )?;
             Ok(p)
         });
         let result = match prepared {
