@@ -335,6 +335,82 @@ fn check_light_reach(scene: &Scene) -> Result<(), String> {
     Ok(())
 }
 
+/// How far the walk may scale a ray's direction (a unit vector in the
+/// world) into a primitive's or a master's space, either way: a shape drawn
+/// more than 1e15 times its canonical size, or less than 1e-15 times, meets
+/// rays whose squared length (the quadratic's leading term: a sphere's,
+/// a cylinder's, an instance's bounding sphere) is beyond 1e30 or below
+/// 1e-30, where the 32-bit tests lose it: a sphere scaled by 1e20 drew
+/// as a one-pixel ring, one placed through masters scaled by 3e22 and 1e-23
+/// not at all (and `--no-bvh` drew it).
+const MAX_SCALING: f64 = 1e15;
+
+/// The largest singular value of `m`'s linear part: the most it stretches
+/// a vector (the square root of the largest eigenvalue of LᵀL, by the
+/// closed form for symmetric 3x3 matrices, which is accurate for the
+/// largest one).
+fn stretch(m: &DMat4) -> f64 {
+    let l = glam::DMat3::from_mat4(*m);
+    let a = l.transpose() * l;
+    let (a00, a11, a22) = (a.x_axis.x, a.y_axis.y, a.z_axis.z);
+    let off = a.y_axis.x * a.y_axis.x + a.z_axis.x * a.z_axis.x + a.z_axis.y * a.z_axis.y;
+    let largest = if off == 0.0 {
+        a00.max(a11).max(a22)
+    } else {
+        let q = (a00 + a11 + a22) / 3.0;
+        let p = (((a00 - q).powi(2) + (a11 - q).powi(2) + (a22 - q).powi(2) + 2.0 * off) / 6.0).sqrt();
+        let b = (a - glam::DMat3::from_diagonal(DVec3::splat(q))) * (1.0 / p);
+        let phi = (b.determinant() / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
+        q + 2.0 * p * phi.cos()
+    };
+    largest.max(0.0).sqrt()
+}
+
+/// A shape (or a master) drawn at a scale the 32-bit intersection tests
+/// cannot hold (`MAX_SCALING`), through its transforms and those of every
+/// chain of masters placing it: an error at the element, where it would
+/// otherwise drop out of the picture. Each group's range of scalings from
+/// the world is bounded from its placements' singular values (the most a
+/// matrix stretches, and the most its inverse does), so nothing is
+/// expanded.
+fn check_scaling(scene: &Scene) -> Result<(), String> {
+    // A ray's direction, of length 1 in the world, is of length within [lo, hi] in group g's space.
+    let mut range = vec![(f64::INFINITY, 0.0f64); scene.groups.len()];
+    if let Some(root) = range.first_mut() {
+        *root = (1.0, 1.0);
+    }
+    let beyond = |(lo, hi): (f64, f64), what: &str, loc: &crate::scene::SourceLoc| {
+        let (shrunk, grown) = (lo < 1.0 / MAX_SCALING, hi > MAX_SCALING);
+        (shrunk || grown).then(|| {
+            let scale = if shrunk { format!("up to {:.1e}", 1.0 / lo) } else { format!("down to {:.1e}", 1.0 / hi) };
+            format!(
+                "{loc}: error: this {what} is scaled by {scale} in all (its transforms and those of the masters \
+                 placing it): beyond {MAX_SCALING:.0e}, or below {:.0e}, the renderer's 32-bit intersection tests lose \
+                 it, so it would drop out of the picture; scale the scene to other units",
+                1.0 / MAX_SCALING
+            )
+        })
+    };
+    for g in scene.groups_children_first().into_iter().rev() {
+        let (lo, hi) = range[g];
+        for p in &scene.groups[g].primitives {
+            let r = (lo / stretch(&p.world_from_object), hi * stretch(&p.object_from_world));
+            if let Some(e) = beyond(r, "primitive", &p.loc) {
+                return Err(e);
+            }
+        }
+        for i in &scene.groups[g].instances {
+            let r = (lo / stretch(&i.parent_from_group), hi * stretch(&i.group_from_parent));
+            if let Some(e) = beyond(r, "master", &i.loc) {
+                return Err(e);
+            }
+            let child = &mut range[i.group as usize];
+            *child = (child.0.min(r.0), child.1.max(r.1));
+        }
+    }
+    Ok(())
+}
+
 fn mat4(m: &DMat4) -> Mat4 {
     let c = m.to_cols_array_2d();
     c.map(|col| col.map(|x| x as f32))
@@ -372,6 +448,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
     let mut table = TextureTable::default();
 
     check_light_reach(scene)?;
+    check_scaling(scene)?;
     let start = std::time::Instant::now();
     let fitted;
     let scene = match fit_nesting(scene)? {
@@ -382,7 +459,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
         }
         None => scene,
     };
-    let packed = pack_groups(scene).map_err(|e| format!("{}: error: {e}", scene.path.display()))?;
+    let packed = pack_groups(scene)?;
     let build_time = start.elapsed();
 
     let materials = scene
@@ -813,15 +890,18 @@ pub(crate) fn fit_nesting(scene: &Scene) -> Result<Option<(Scene, String)>, Stri
     Ok(Some((written_out, note)))
 }
 
+/// The scene's groups packed for the device; an error names the file (and
+/// the element, where one is to blame).
 fn pack_groups(scene: &Scene) -> Result<Packed, String> {
+    let whole = |message: String| format!("{}: error: {message}", scene.path.display());
     let groups = &scene.groups;
     let n = groups.len();
     if scene.primitive_count() >= u64::from(layout::NO_HIT) {
-        return Err(format!(
+        return Err(whole(format!(
             "the scene expands to {} primitives; ids are 32-bit, so at most {}",
             scene.primitive_count(),
             layout::NO_HIT - 1
-        ));
+        )));
     }
     let post = scene.groups_children_first();
     let mut prim_base = vec![0u32; n];
@@ -962,19 +1042,19 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
         }
     }
     if need[0] > layout::STACK_SIZE {
-        return Err(format!(
+        return Err(whole(format!(
             "the scene's hierarchy needs a traversal stack of {} entries, more than the shader's {} (masters nested too deeply)",
             need[0],
             layout::STACK_SIZE
-        ));
+        )));
     }
     if levels[0] >= layout::MAX_LEVELS {
         // `build` wrote the deepest levels out first (fit_nesting).
-        return Err(format!(
+        return Err(whole(format!(
             "internal error: masters are nested {} deep after fit_nesting, more than the shader's {} levels",
             levels[0],
             layout::MAX_LEVELS - 1
-        ));
+        )));
     }
     let primitives = groups
         .iter()
@@ -999,10 +1079,10 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
         .collect();
     for (what, count) in [("nodes", nodes.len()), ("primitives", p_total as usize), ("instances", i_total as usize)] {
         if count > layout::MAX_INDEX as usize {
-            return Err(format!(
+            return Err(whole(format!(
                 "the scene needs {count} {what}, more than the shader can index ({})",
                 layout::MAX_INDEX
-            ));
+            )));
         }
     }
     if group_root[0] == u32::MAX {
@@ -1437,10 +1517,12 @@ mod tests {
             |transform: &str| format!(r#"<transblock>{transform}<object type="master" name="inner"/></transblock>"#);
         let outcome =
             |xml: String| build(&crate::scene::from_xml(&xml, "t.xml"), &RenderSettings::default()).map(|_| ());
-        // Just inside: a translation of 1e38, a scale of 1e-38 (its inverse 1e38), a light 1e18 away, a camera at 1e38.
+        // Just inside: a translation of 1e38, a master scaled by 2e-15 and a
+        // sphere by 5e14 (MAX_SCALING), a light 1e18 away, a camera at 1e38.
         for ok in [
             scene_with(near_camera, near_light, &sphere(r#"<translate x="1e38" y="0" z="0"/>"#)),
-            scene_with(near_camera, near_light, &master(r#"<scale x="1e-38" y="1" z="1"/>"#)),
+            scene_with(near_camera, near_light, &master(r#"<scale x="2e-15" y="1" z="1"/>"#)),
+            scene_with(near_camera, near_light, &sphere(r#"<scale x="5e14" y="5e14" z="5e14"/>"#)),
             scene_with(near_camera, r#"<position x="1e18" y="0" z="0"/>"#, &sphere("")),
             scene_with(r#"<pos x="0" y="0" z="1e38"/>"#, near_light, &sphere("")),
         ] {
@@ -1449,5 +1531,31 @@ mod tests {
         let e = outcome(scene_with(near_camera, r#"<position x="0" y="0" z="-2e19"/>"#, &sphere("")))
             .expect_err("a light 2e19 away");
         assert!(e.starts_with("t.xml:2:") && e.contains("this light is 2.000e19 units from the origin"), "{e}");
+        // Beyond MAX_SCALING, an error at the element (a sphere scaled by
+        // 1e20 drew as a ring; a master scaled by 1e-16; one scaled by 3e22
+        // placing one scaled by 1e-23, 0.3 in all, drew nothing with the
+        // hierarchy and the sphere with --no-bvh).
+        let beyond = |xml: String, at: &str, scale: &str| {
+            let e = outcome(xml).expect_err(at);
+            assert!(e.starts_with(at) && e.contains(&format!("is scaled by {scale} in all")), "{e}");
+        };
+        beyond(
+            scene_with(near_camera, near_light, &sphere(r#"<scale x="1e20" y="1e20" z="1e20"/>"#)),
+            "t.xml:4:",
+            "up to 1.0e20",
+        );
+        beyond(
+            scene_with(near_camera, near_light, &master(r#"<scale x="1e-16" y="1" z="1"/>"#)),
+            "t.xml:4:",
+            "down to 1.0e-16",
+        );
+        let chain = r#"<scenefile><cameradata><pos x="0" y="0" z="5"/><look x="0" y="0" z="-1"/></cameradata>
+<object type="tree" name="m0"><transblock><object type="primitive" name="sphere"/></transblock></object>
+<object type="tree" name="m1"><transblock><scale x="1e-23" y="1e-23" z="1e-23"/><object type="master" name="m0"/></transblock></object>
+<object type="tree" name="root"><transblock><scale x="3e22" y="3e22" z="3e22"/><object type="master" name="m1"/></transblock></object></scenefile>"#;
+        beyond(chain.to_string(), "t.xml:4:", "up to 3.0e22");
+        // The ranges compound down a chain of masters, each within the bound.
+        let compound = chain.replace("3e22", "1e8").replace("1e-23", "1e8");
+        beyond(compound, "t.xml:3:", "up to 1.0e16");
     }
 }
