@@ -1039,19 +1039,25 @@ precise vec3 texel_rgb(Texture tex, uint column, uint row) {
     return c;
 }
 
-// Wraps a texel coordinate x (>= -1) into [0, size).
+// Wraps a texel coordinate x into [0, size): floor(x) mod size, the
+// modulus of arithmetic (never negative), so a negative repeat count tiles
+// the texture as a positive one does, the other way (the spec's rule;
+// until 2026-11-27 x was held at 0 and such a texture was one texel).
+// Beyond 1e9 texels either way x is held there (a repeat count that large
+// has no picture to show).
 uint wrap(float x, uint size) {
-    precise float f = floor(min_f(x, 1.0e9f));
+    precise float f = floor(max_f(min_f(x, 1.0e9f), -1.0e9f));
     if (f < 0.0f) {
-        return size - 1u;
+        uint r = uint(-f) % size;
+        return (r == 0u) ? 0u : size - r;
     }
     return uint(f) % size;
 }
 
 // The bilinear filter of sample_texture at texel coordinates (x, y).
 precise vec3 bilinear(Texture tex, float x, float y) {
-    precise float bx = max_f(x - 0.5f, -1.0f);
-    precise float by = max_f(y - 0.5f, -1.0f);
+    precise float bx = x - 0.5f;
+    precise float by = y - 0.5f;
     precise float fx = bx - floor(bx);
     precise float fy = by - floor(by);
     uint c0 = wrap(bx, tex.width);
@@ -1074,7 +1080,7 @@ precise vec3 sample_texture(Material m, vec2 uv) {
     if (HAS_BILINEAR && frame.texture_filter != FILTER_NEAREST) {
         return bilinear(tex, x, y);
     }
-    return texel_rgb(tex, wrap(max_f(x, 0.0f), tex.width), wrap(max_f(y, 0.0f), tex.height));
+    return texel_rgb(tex, wrap(x, tex.width), wrap(y, tex.height));
 }
 
 // ---------------------------------------------------------------------------
