@@ -285,6 +285,45 @@ fn unwritable_output() {
     } else {
         eprintln!("SKIP: no /dev/full here to fill");
     }
+    // Standard output closed as raycast starts (`>&-`): Rust's runtime puts
+    // /dev/null there, where the product would vanish with exit 0.
+    let closed_stdout = |args: &[&str]| {
+        let bin = env!("CARGO_BIN_EXE_raycast");
+        std::process::Command::new("sh").args(["-c", "exec \"$0\" \"$@\" >&-", bin]).args(args).output().unwrap()
+    };
+    let o = closed_stdout(&["gen", "recursive-spheres", "--depth", "2"]);
+    assert_fails(&o, 1, "cannot write the scene to standard output: it was closed when raycast started");
+    let o = closed_stdout(&["info", "--json"]);
+    assert_fails(&o, 1, "cannot write to standard output: it was closed when raycast started");
+    let o = closed_stdout(&["render", "--backend", "cpu", "--width", "8", "--height", "6", "-o", "/dev/stdout"]);
+    assert_fails(&o, 1, "cannot write /dev/stdout: standard output was closed when raycast started");
+    // Nothing written over what the command reads: a texture of the scene
+    // rendered, a picture compared; nor numbered pictures beside a device.
+    let texture = folder.join("own-texture.png");
+    let o =
+        raycast(&["render", "--backend", "cpu", "--width", "8", "--height", "6", "-o", texture.to_str().unwrap()], &[]);
+    assert_eq!(o.status.code(), Some(0), "{:?}", text(&o));
+    let textured = folder.join("own-texture.xml");
+    std::fs::write(
+        &textured,
+        format!(
+            r#"<scenefile><cameradata><pos x="0" y="0" z="5"/><look x="0" y="0" z="-1"/></cameradata>
+<object type="tree" name="root"><transblock><object type="primitive" name="cube"><texture file="{}" u="1" v="1"/><blend v="1"/></object></transblock></object></scenefile>"#,
+            texture.display()
+        ),
+    )
+    .unwrap();
+    let before = std::fs::read(&texture).unwrap();
+    for args in [
+        vec!["render", textured.to_str().unwrap(), "--width", "8", "--height", "6", "-o", texture.to_str().unwrap()],
+        vec!["compare", texture.to_str().unwrap(), texture.to_str().unwrap(), "-o", texture.to_str().unwrap()],
+    ] {
+        let o = raycast(&args, &[]);
+        assert_fails(&o, 2, "which this command reads: name another file");
+        assert_eq!(std::fs::read(&texture).unwrap(), before, "{args:?} wrote over its input");
+    }
+    let o = raycast(&["render", "--orbit", "3", "-o", "/dev/null"], &[]);
+    assert_fails(&o, 2, "--orbit 3 writes 3 pictures, each named as -o's file with -000, -001, … before .png, and /dev/null is not a file");
     for args in [
         vec!["check", "-o", "/nonexistent-dir/d.png"],
         vec!["compare", "a.png", "b.png", "-o", "/nonexistent-dir/d.png"],

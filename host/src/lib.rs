@@ -48,12 +48,38 @@ pub(crate) fn status_on_stderr() -> bool {
     STATUS_ON_STDERR.load(std::sync::atomic::Ordering::Relaxed)
 }
 
+/// Whether standard output was closed as the process started (`raycast gen
+/// >&-`): Rust's runtime then opens /dev/null in its place before `main`,
+/// and every write would "succeed", so `emit` refuses instead. Noted by a
+/// constructor (`.init_array`), which runs before the runtime's set-up.
+static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+#[cfg(target_os = "linux")]
+#[used]
+#[link_section = ".init_array"]
+static NOTE_CLOSED_STDOUT: extern "C" fn() = {
+    extern "C" fn note() {
+        extern "C" {
+            fn fcntl(fd: i32, cmd: i32, ...) -> i32;
+        }
+        const F_GETFD: i32 = 1;
+        // SAFETY: fcntl(F_GETFD) only asks whether the descriptor is open.
+        if unsafe { fcntl(1, F_GETFD) } == -1 {
+            STDOUT_CLOSED.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+    note
+};
+
 /// A command's product on stdout (`gen`'s scene, a `--json` report):
 /// written and flushed here, its error returned, where `outln!` lets
 /// status lines go (and the flush at exit would lose it): what a program
 /// reads is not lost while the command says it succeeded.
 pub(crate) fn emit(text: &str) -> std::io::Result<()> {
     use std::io::Write as _;
+    if STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err(std::io::Error::other("it was closed when raycast started"));
+    }
     let mut out = std::io::stdout().lock();
     out.write_all(text.as_bytes())?;
     out.flush()
@@ -73,6 +99,9 @@ pub(crate) fn emit_line(text: &str) -> Result<(), String> {
 /// Errors read `cannot write PATH: …`.
 pub(crate) fn write_whole(path: &std::path::Path, bytes: &[u8]) -> Result<(), String> {
     let cannot = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+    if path == std::path::Path::new("/dev/stdout") && STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err(cannot(std::io::Error::other("standard output was closed when raycast started")));
+    }
     // A link is written through, as it was: renaming over it would replace the link.
     let regular = std::fs::symlink_metadata(path).map_or(true, |m| m.is_file());
     let name = path.file_name().filter(|_| regular);
