@@ -58,7 +58,8 @@ pub struct BenchArgs {
     pub versus: Option<PathBuf>,
     /// After the results, how each scene's frame median grows against the
     /// first scene's, beside ln N / ln N0 (what logarithmic growth in the
-    /// primitive count N allows).
+    /// primitive count N allows); with --json a line a scene, told by its
+    /// `growth_against`.
     #[arg(long)]
     pub growth: bool,
 }
@@ -506,6 +507,25 @@ impl Growth<'_> {
     fn per_ray(&self, frame: Option<f64>) -> Option<f64> {
         Some(frame? / self.rays?)
     }
+
+    /// One line of `--growth --json`: told from a result's line by its
+    /// `growth_against` (the first scene's name); a ratio that is not there
+    /// is null.
+    fn json(&self, against: &str) -> String {
+        format!(
+            "{{\"growth_against\":{},\"scene\":{},\"primitives_expanded\":{},\"log_ratio\":{},\"rays_ratio\":{},\
+             \"gpu_frame_ratio\":{},\"gpu_ray_ratio\":{},\"cpu_frame_ratio\":{},\"cpu_ray_ratio\":{}}}",
+            json_str(against),
+            json_str(self.scene),
+            self.primitives,
+            json_num(self.log_ratio),
+            json_num(self.rays),
+            json_num(self.gpu),
+            json_num(self.per_ray(self.gpu)),
+            json_num(self.cpu),
+            json_num(self.per_ray(self.cpu))
+        )
+    }
 }
 
 /// The growth table of `rows`, against the first scene; a backend is
@@ -759,7 +779,11 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             settings.width, settings.height, settings.spp
         );
     }
-    if args.growth && !args.json {
+    if args.growth && args.json {
+        for g in growth(&all_rows) {
+            crate::emit_line(&g.json(&all_rows[0].scene))?;
+        }
+    } else if args.growth {
         print_growth(&all_rows, args.markdown);
     }
     if let Some(g) = gpu {
@@ -865,6 +889,14 @@ mod tests {
         assert_eq!(g[1].rays, Some(2.0));
         assert_eq!((g[1].per_ray(g[1].gpu), g[1].per_ray(g[1].cpu)), (Some(1.25), Some(0.75)));
         assert!((g[1].log_ratio.unwrap() - 2.0).abs() < 1e-12);
+        // --growth --json: a line a scene, after the results' lines.
+        let j = g[1].json(&rows[0].scene);
+        assert!(j.starts_with("{\"growth_against\":\""), "{j}");
+        for needle in
+            ["\"gpu_frame_ratio\":2.5,\"gpu_ray_ratio\":1.25,", "\"cpu_frame_ratio\":1.5,\"cpu_ray_ratio\":0.75}"]
+        {
+            assert!(j.contains(needle), "{needle} in {j}");
+        }
     }
 
     #[test]
