@@ -1187,6 +1187,28 @@ fn conformance_command() {
     let o = raycast(&[&["conformance", &corpus, "--only", "test_unit/"][..], &dir_arg].concat(), &[]);
     assert!(o.status.success(), "{:?}", text(&o));
     assert_eq!(files_in(&dir), ["table.md"], "pictures of the earlier run's failures are left");
+
+    // A corpus copy missing a scene file whose reference it has: the case
+    // fails, saying so (it was left out, and the run passed with fewer).
+    let partial = out_dir().join("conformance-partial-corpus");
+    let _ = std::fs::remove_dir_all(&partial);
+    std::fs::create_dir_all(partial.join("test_unit")).unwrap();
+    for kept in ["bench", "test_intersect", "test_light", "test_efficiency", "test_feature", "image"] {
+        std::os::unix::fs::symlink(Path::new(&corpus).join(kept), partial.join(kept)).unwrap();
+    }
+    let units = files_in(&Path::new(&corpus).join("test_unit"));
+    for f in units.iter().filter(|f| f.ends_with(".xml") && *f != "unit_cylinder.xml") {
+        std::os::unix::fs::symlink(Path::new(&corpus).join("test_unit").join(f), partial.join("test_unit").join(f))
+            .unwrap();
+    }
+    let o = raycast(
+        &[&["conformance", partial.to_str().unwrap(), "--only", "test_unit/", "--backend", "cpu"][..], &dir_arg]
+            .concat(),
+        &[],
+    );
+    assert_fails(&o, 4, "raycast: conformance failed: 2 of ");
+    let missing = "FAILED test_unit/unit_cylinder Color 512x384: the corpus has this case's reference";
+    assert!(text(&o).0.contains(missing) && text(&o).0.contains("and not its scene"), "{:?}", text(&o));
 }
 
 /// A fresh copy of shaders/ in the test output folder, to plant changes in.

@@ -1543,7 +1543,8 @@ fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
     if summary.failed > 0 {
         return Err(Failure(
             format!(
-                "raycast: conformance failed: {} of {count} cases beyond the rule (their pictures in {})",
+                "raycast: conformance failed: {} of {count} cases (each FAILED line above says why; the actual, expected \
+                 and diff pictures of those beyond the rule are in {})",
                 summary.failed,
                 args.out_dir.display()
             ),

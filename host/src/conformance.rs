@@ -62,12 +62,20 @@ pub struct Case {
     pub width: u32,
     pub height: u32,
     pub reference: PathBuf,
+    /// Where the corpus holds a reference without its scene file: the
+    /// generated scene of the same construction (`gen:recursive-spheres:5`
+    /// for test_efficiency's recursiveSpheres5, one level deeper than the
+    /// corpus's deepest file), or None where none is (the case fails,
+    /// saying so, rather than being left out).
+    pub generated: Option<String>,
 }
 
 impl Case {
     /// `test_light/point_light_1 Color 512x384`.
     pub fn label(&self) -> String {
-        format!("{}/{} {:?} {}x{}", self.group, self.name, self.aov, self.width, self.height)
+        let generated =
+            self.generated.as_ref().map(|g| format!(" ({g}: the corpus has no scene file)")).unwrap_or_default();
+        format!("{}/{} {:?} {}x{}{generated}", self.group, self.name, self.aov, self.width, self.height)
     }
 
     fn picture_text(&self) -> String {
@@ -82,11 +90,27 @@ impl Case {
         }
     }
 
-    /// The scene loaded from `corpus` and packed as its reference was rendered.
+    /// The case's scene file in `corpus` (absent where `generated` stands in).
+    fn scene_file(&self, corpus: &Path) -> PathBuf {
+        corpus.join(self.group).join(format!("{}.xml", self.name))
+    }
+
+    /// The scene loaded from `corpus` (or generated) and packed as its reference was rendered.
     pub fn frame(&self, corpus: &Path) -> Result<FrameData, String> {
-        let xml = corpus.join(self.group).join(format!("{}.xml", self.name));
+        let xml = self.scene_file(corpus);
         let parse = ParseOptions { assets: vec![corpus.to_path_buf()], ..ParseOptions::default() };
-        let scene = scene::load(&xml, &parse, &FlattenLimits::default()).map_err(|e| e.to_string())?;
+        let scene = match &self.generated {
+            Some(name) => crate::bench::parse_scene(Some(name), &parse)
+                .and_then(|file| scene::flatten(&file, &FlattenLimits::default()).map_err(|e| e.to_string()))?,
+            None if !xml.exists() => {
+                return Err(format!(
+                    "the corpus has this case's reference, {}, and not its scene, {}",
+                    self.reference.display(),
+                    xml.display()
+                ))
+            }
+            None => scene::load(&xml, &parse, &FlattenLimits::default()).map_err(|e| e.to_string())?,
+        };
         let settings = RenderSettings {
             width: self.width,
             height: self.height,
@@ -123,21 +147,54 @@ pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
     ];
     let mut cases = Vec::new();
     for (group, aov, features, width, height, bench) in plan {
-        let dir = corpus.join(group);
-        let mut names: Vec<String> = std::fs::read_dir(&dir)
-            .map_err(|e| format!("cannot list {}: {e}", dir.display()))?
-            .filter_map(|e| {
-                let p = e.ok()?.path();
-                (p.extension()? == "xml").then(|| p.file_stem().map(|s| s.to_string_lossy().into_owned()))?
-            })
-            .collect();
+        // Each scene file of the group, and each reference of the group
+        // whose scene file is not there (generated, or a failing case).
+        let stems = |dir: &Path, ext: &str, prefix: &str| -> Result<Vec<String>, String> {
+            Ok(std::fs::read_dir(dir)
+                .map_err(|e| format!("cannot list {}: {e}", dir.display()))?
+                .filter_map(|e| {
+                    let p = e.ok()?.path();
+                    let stem = p.file_stem()?.to_str()?.strip_prefix(prefix)?.to_string();
+                    (p.extension()? == ext).then_some(stem)
+                })
+                .collect())
+        };
+        let mut names = stems(&corpus.join(group), "xml", "")?;
+        let references = corpus.join("bench").join(bench);
+        if references.is_dir() {
+            names.extend(stems(&references, "png", &format!("{group}_"))?);
+        }
         names.sort();
+        names.dedup();
         for name in names {
-            let reference = corpus.join("bench").join(bench).join(format!("{group}_{name}.png"));
-            cases.push(Case { group, name, aov, features, width, height, reference });
+            let reference = references.join(format!("{group}_{name}.png"));
+            let generated = (!corpus.join(group).join(format!("{name}.xml")).exists())
+                .then(|| generated_stand_in(group, &name))
+                .flatten();
+            cases.push(Case { group, name, aov, features, width, height, reference, generated });
         }
     }
     Ok(cases)
+}
+
+/// The generated scene that stands in for a corpus file the corpus does not
+/// hold: test_efficiency's recursiveSpheresN (and Cones, Cubes) for N past
+/// the files it has, built as `raycast gen` builds them.
+fn generated_stand_in(group: &str, name: &str) -> Option<String> {
+    if group != "test_efficiency" {
+        return None;
+    }
+    [
+        ("recursiveSpheres", "recursive-spheres"),
+        ("recursiveCones", "recursive-cones"),
+        ("recursiveCubes", "recursive-cubes"),
+    ]
+    .iter()
+    .find_map(|(file, family)| {
+        let depth: u32 = name.strip_prefix(file)?.parse().ok()?;
+        let generated = format!("gen:{family}:{depth}");
+        matches!(crate::gen::parse_scene_name(&generated), Some(Ok(_))).then_some(generated)
+    })
 }
 
 /// `picture` (the case's render) against its reference. Ok: the report
