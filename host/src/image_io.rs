@@ -73,10 +73,23 @@ pub const PICTURE_FORMATS: &str = "PNG, JPEG, BMP and PNM (PPM, PGM, PBM)";
 /// A picture file opened with its format told by its content, whatever its
 /// name's extension says (a PNG named .jpg is read as PNG).
 fn picture_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, String> {
-    if std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() == 0) {
+    let metadata = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if metadata.is_dir() {
+        return Err("it is a folder".into());
+    }
+    if metadata.is_file() && metadata.len() == 0 {
         return Err("the file is empty".into());
     }
-    image::ImageReader::open(path).and_then(|r| r.with_guessed_format()).map_err(|e| e.to_string())
+    let reader = image::ImageReader::open(path).and_then(|r| r.with_guessed_format()).map_err(|e| e.to_string())?;
+    // Content that starts as no picture format does: said so, not judged
+    // by the name (the image crate falls back on the extension: "Invalid
+    // PNG signature" for a .png, "extension not recognized" for a .xml).
+    let mut start = [0u8; 16];
+    let n = std::io::Read::read(&mut std::fs::File::open(path).map_err(|e| e.to_string())?, &mut start).unwrap_or(0);
+    if image::guess_format(&start[..n]).is_err() {
+        return Err(format!("its content is not a picture raycast reads ({PICTURE_FORMATS}), whatever its name says"));
+    }
+    Ok(reader)
 }
 
 /// The image crate's error, with the formats raycast reads where the
@@ -98,7 +111,11 @@ fn picture_error(e: image::ImageError) -> String {
 /// decoded (a picture too large can be refused with its size). Errors are
 /// the reason; the caller names the file.
 pub fn picture_size(path: &Path) -> Result<(u32, u32), String> {
-    picture_reader(path)?.into_dimensions().map_err(picture_error)
+    // The header alone, whatever size it gives (the decoder's memory limit
+    // refused a 300000000x1 header as "Memory limit exceeded").
+    let mut reader = picture_reader(path)?;
+    reader.no_limits();
+    reader.into_dimensions().map_err(picture_error)
 }
 
 /// A picture file decoded whole, its format told by its content. The
@@ -408,6 +425,40 @@ mod tests {
         std::fs::write(&gif, b"GIF89a\x01\x00\x01\x00\x00\x00\x00;").unwrap();
         let e = read_picture(&gif).unwrap_err();
         assert!(e.contains("a.gif") && e.contains(PICTURE_FORMATS), "{e}");
+        // Content that is no picture, whatever the name (the image crate
+        // judged it by the name: "Invalid PNG signature", "extension not
+        // recognized"); a folder said to be one.
+        for name in ["text.png", "text.xml"] {
+            std::fs::write(dir.join(name), b"<scenefile></scenefile>").unwrap();
+            let e = read_picture(&dir.join(name)).unwrap_err();
+            let why = format!(
+                "{name}: its content is not a picture raycast reads ({PICTURE_FORMATS}), whatever its name says"
+            );
+            assert!(e.ends_with(&why), "{e}");
+        }
+        assert!(read_picture(&dir).unwrap_err().ends_with(": it is a folder"));
+        // A PNG header of 300000000x1 is measured, not refused by the
+        // decoder's memory limit ("Memory limit exceeded").
+        let crc = |bytes: &[u8]| {
+            !bytes.iter().fold(!0u32, |c, &b| {
+                (0..8).fold(c ^ u32::from(b), |c, _| if c & 1 != 0 { (c >> 1) ^ 0xedb8_8320 } else { c >> 1 })
+            })
+        };
+        let mut ihdr = b"IHDR".to_vec();
+        ihdr.extend(300_000_000u32.to_be_bytes());
+        ihdr.extend(1u32.to_be_bytes());
+        ihdr.extend([8, 2, 0, 0, 0]);
+        let mut wide = b"\x89PNG\r\n\x1a\n".to_vec();
+        wide.extend(13u32.to_be_bytes());
+        wide.extend(&ihdr);
+        wide.extend(crc(&ihdr).to_be_bytes());
+        // An empty IDAT: the decoder reads up to the first before it tells the size.
+        wide.extend(0u32.to_be_bytes());
+        wide.extend(b"IDAT");
+        wide.extend(crc(b"IDAT").to_be_bytes());
+        std::fs::write(dir.join("wide.png"), &wide).unwrap();
+        let e = read_picture(&dir.join("wide.png")).unwrap_err();
+        assert!(e.ends_with("wide.png: the picture is 300000000x1, more than the 268,435,456 pixels (16384x16384) of the largest picture raycast renders"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
