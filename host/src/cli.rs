@@ -1579,15 +1579,31 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
         }
         Ok::<_, String>(rgb)
     };
-    let actual = read(&args.actual)?;
-    let expected = read(&args.expected)?;
-    let diff = image_io::compare(&actual, &expected, args.tolerance)?;
+    let path = |p: &Path| crate::units::json_str(&p.display().to_string());
+    let compared = read(&args.actual).and_then(|actual| {
+        let expected = read(&args.expected)?;
+        image_io::compare(&actual, &expected, args.tolerance)
+    });
+    let diff = match compared {
+        Ok(diff) => diff,
+        // With --json a grader still gets its object: the pictures could
+        // not be compared (sizes that differ, a file that is no picture).
+        Err(e) if args.json => {
+            crate::emit_line(&format!(
+                "{{\"actual\":{},\"expected\":{},\"error\":{},\"passes\":false}}",
+                path(&args.actual),
+                path(&args.expected),
+                crate::units::json_str(&e)
+            ))?;
+            return Err(e.into());
+        }
+        Err(e) => return Err(e.into()),
+    };
     let passes = diff.fraction() * 100.0 <= args.max_percent;
     if let Some(path) = &args.output {
         image_io::write_png(path, &diff.diff_image)?;
     }
     if args.json {
-        let path = |p: &Path| crate::units::json_str(&p.display().to_string());
         crate::emit_line(&format!(
             "{{\"actual\":{},\"expected\":{},{},\"max_percent\":{},\"passes\":{passes},\"diff_image\":{}}}",
             path(&args.actual),
