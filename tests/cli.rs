@@ -1131,12 +1131,19 @@ fn several_scenes_check_on_one_device() {
 }
 
 /// The CPU build is raycast's own code: a shader folder for it is a
-/// mistake, said before any work rather than ignored.
+/// mistake, said before any work rather than ignored; so are the options
+/// only a Vulkan device uses (they were ignored in silence).
 #[test]
 fn cpu_backend_refuses_a_shader_folder() {
     for command in ["conformance", "render", "bench"] {
         let o = raycast(&[command, "--backend", "cpu", "--shaders", repo().join("shaders").to_str().unwrap()], &[]);
         assert_fails(&o, 2, "compiles the device's kernel, but --backend cpu runs the CPU build");
+        let o = raycast(&[command, "--backend", "cpu", "--device", "nvidia", "--timeout", "5"], &[]);
+        assert_fails(&o, 2, "--device and --timeout are for a Vulkan device, and --backend cpu runs the CPU build");
+        for given in [&["--validate"][..], &["--scene-buffers", "storage"][..]] {
+            let o = raycast(&[&[command, "--backend", "cpu"][..], given].concat(), &[]);
+            assert_fails(&o, 2, &format!("{} is for a Vulkan device", given[0]));
+        }
     }
 }
 
@@ -1876,6 +1883,12 @@ fn trace_follows_one_pixel() {
     // A negative pixel reaches the parser (not clap's "unexpected argument '-1'").
     assert_fails(&raycast(&["trace", "--pixel", "-1,0"], &[]), 2, "\"-1,0\" is not X,Y");
     assert_fails(&raycast(&["trace", "--pixel", "1,1", "--device", "0"], &[]), 2, "trace runs the CPU build");
+    let o = raycast(&["trace", "--pixel", "1,1", "--timeout", "5"], &[]);
+    assert_fails(
+        &o,
+        2,
+        "trace runs the CPU build of the shared code: --timeout is for the commands that render on a device",
+    );
     assert_fails(&raycast(&["trace", "--pixel", "1,1", "--aov", "depth"], &[]), 2, "trace follows the colour's rays");
     assert_fails(&raycast(&["trace", "no/such.xml", "--pixel", "1,1"], &[]), 1, "no/such.xml");
 }

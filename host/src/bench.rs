@@ -597,7 +597,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     if let Some(dir) = &args.versus {
         return crate::versus::run(args, dir);
     }
-    crate::cli::cpu_takes_no_shaders(args.backend == BenchBackend::Cpu, &args.render.kernel.shaders)?;
+    crate::cli::cpu_takes_no_device_options(args.backend == BenchBackend::Cpu, &args.render.kernel)?;
     let settings = args.render.settings();
     settings.validate().map_err(crate::cli::usage_error)?;
     let r = &args.render;

@@ -142,11 +142,32 @@ pub struct KernelOptions {
     /// about a quarter of a second each, so this bounds one sample of the
     /// picture, or of a band of its rows: raise it for a huge or very slow
     /// picture (`--no-bvh` on millions of primitives).
-    #[arg(long, value_name = "SECONDS", default_value = "600", value_parser = parse_timeout)]
-    pub timeout: Duration,
+    /// [default: 600]
+    #[arg(long, value_name = "SECONDS", value_parser = parse_timeout)]
+    pub timeout: Option<Duration>,
 }
 
 impl KernelOptions {
+    /// `--timeout`, or its default.
+    pub fn timeout(&self) -> Duration {
+        self.timeout.unwrap_or(crate::gpu::GpuOptions::default().timeout)
+    }
+
+    /// The options given that only a Vulkan device uses (by flag), which
+    /// the CPU build would ignore: `trace` and `--backend cpu` refuse them.
+    fn device_only_given(&self) -> Vec<&'static str> {
+        [
+            ("--device", self.device.is_some()),
+            ("--shaders", self.shaders.is_some()),
+            ("--scene-buffers", self.scene_buffers != SceneBuffers::Auto),
+            ("--validate", self.validate),
+            ("--timeout", self.timeout.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(flag, given)| given.then_some(flag))
+        .collect()
+    }
+
     /// The render kernel on the device these options name (`open_renderer`).
     pub(crate) fn renderer(&self) -> Result<GpuRenderer, Failure> {
         open_renderer(self, self.shaders.as_deref())
@@ -375,11 +396,15 @@ struct InfoArgs {
 fn trace(args: &TraceArgs) -> Result<(), Failure> {
     let o = &args.render;
     let k = &o.kernel;
-    if k.device.is_some() || k.shaders.is_some() || k.validate || k.scene_buffers != SceneBuffers::Auto {
+    let given = k.device_only_given();
+    if !given.is_empty() {
         return Err(Failure(
-            "raycast: error: trace runs the CPU build of the shared code: --device, --shaders, --scene-buffers and --validate are \
-             for the commands that render on a device (`raycast check --pixel X,Y` runs one pixel on both)"
-                .to_string(),
+            format!(
+                "raycast: error: trace runs the CPU build of the shared code: {} {} for the commands that render on a \
+                 device (`raycast check --pixel X,Y` runs one pixel on both)",
+                crate::units::listed(&given, "and"),
+                if given.len() == 1 { "is" } else { "are" }
+            ),
             2,
         ));
     }
@@ -781,7 +806,7 @@ fn default_output(scene: Option<&Path>, suffix: &str, dir: Option<&Path>) -> Pat
 /// the scene as `--scene-buffers` says: for `render`, `check` and `bench`.
 pub(crate) fn open_renderer(k: &KernelOptions, shaders: Option<&Path>) -> Result<GpuRenderer, Failure> {
     let options =
-        GpuOptions { device: k.device.clone(), validation: validation_wanted(k.validate), timeout: k.timeout };
+        GpuOptions { device: k.device.clone(), validation: validation_wanted(k.validate), timeout: k.timeout() };
     let mut renderer = match shaders {
         Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
         None => GpuRenderer::new(&options)?,
@@ -981,6 +1006,27 @@ enum RenderBackend {
     Gpu(GpuRenderer),
 }
 
+/// `--backend cpu` with options only a Vulkan device uses (`--device`,
+/// `--scene-buffers`, `--validate`, `--timeout`; `--shaders` with its own
+/// message): a usage error, as the CPU build would silently ignore them.
+pub(crate) fn cpu_takes_no_device_options(cpu_only: bool, k: &KernelOptions) -> Result<(), Failure> {
+    cpu_takes_no_shaders(cpu_only, &k.shaders)?;
+    let given = k.device_only_given();
+    if !cpu_only || given.is_empty() {
+        return Ok(());
+    }
+    Err(Failure(
+        format!(
+            "raycast: error: {} {} for a Vulkan device, and --backend cpu runs the CPU build without one: drop {}, or \
+             the --backend cpu",
+            crate::units::listed(&given, "and"),
+            if given.len() == 1 { "is" } else { "are" },
+            if given.len() == 1 { "it" } else { "them" }
+        ),
+        2,
+    ))
+}
+
 /// `--shaders DIR` with `--backend cpu`: a usage error, since the CPU build
 /// is the code raycast was built with and would silently ignore DIR.
 pub(crate) fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) -> Result<(), Failure> {
@@ -998,7 +1044,7 @@ pub(crate) fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) ->
 }
 
 fn render(args: &RenderArgs) -> Result<(), Failure> {
-    cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.render.kernel.shaders)?;
+    cpu_takes_no_device_options(args.backend == Backend::Cpu, &args.render.kernel)?;
     if let Some(n) = args.orbit.filter(|n| !(1..=MAX_ORBIT).contains(n)) {
         return Err(Failure(format!("raycast: error: --orbit {n} is out of range: 1 to {MAX_ORBIT} pictures"), 2));
     }
@@ -1440,7 +1486,7 @@ fn isolated_pixels(
         shaders: args.render.kernel.shaders.clone(),
         device: args.render.kernel.device.clone(),
         validation: validation_wanted(args.render.kernel.validate),
-        timeout: args.render.kernel.timeout,
+        timeout: args.render.kernel.timeout(),
     })
     .map_err(|e| Failure(format!("raycast: error: --pixel: {e}"), 1))?;
     // The frame's buffers under the names scene_buffers.glsl gives them.
@@ -1490,7 +1536,7 @@ fn pixel_text(p: &crate::layout::PixelOut) -> String {
 }
 
 fn conformance(args: &ConformanceArgs) -> Result<(), Failure> {
-    cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.kernel.shaders)?;
+    cpu_takes_no_device_options(args.backend == Backend::Cpu, &args.kernel)?;
     let from_env = std::env::var_os("RAYCAST_CORPUS").filter(|v| !v.is_empty()).map(PathBuf::from);
     let Some(corpus) = args.corpus.clone().or(from_env) else {
         return Err(Failure(

@@ -53,6 +53,18 @@ pub(crate) fn thousands(n: u64) -> String {
 }
 
 /// `s` as a JSON string, quoted and escaped.
+/// Items in a sentence: "a", "a and b", "a, b and c" (`word`: "and", "or").
+pub(crate) fn listed(items: &[impl AsRef<str>], word: &str) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.as_ref().to_string(),
+        [rest @ .., last] => {
+            let rest: Vec<&str> = rest.iter().map(AsRef::as_ref).collect();
+            format!("{} {word} {}", rest.join(", "), last.as_ref())
+        }
+    }
+}
+
 pub(crate) fn json_str(s: &str) -> String {
     let mut out = String::from("\"");
     for c in s.chars() {
@@ -78,6 +90,13 @@ mod tests {
         assert_eq!(fmt_bytes(16), "16 bytes");
         assert_eq!(fmt_bytes(2 << 30), "2 GiB (2147483648 bytes)");
         assert_eq!(fmt_bytes(3_435_973_836), "3.2 GiB (3435973836 bytes)");
+    }
+
+    #[test]
+    fn items_listed_in_a_sentence() {
+        assert_eq!(listed(&["a"], "and"), "a");
+        assert_eq!(listed(&["a", "b"], "or"), "a or b");
+        assert_eq!(listed(&["a", "b", "c"], "and"), "a, b and c");
     }
 
     #[test]
