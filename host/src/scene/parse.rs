@@ -340,6 +340,8 @@ const MATERIAL_ELEMENTS: &[&str] = &[
     "bumpmap",
 ];
 const TRANSBLOCK_ELEMENTS: &[&str] = &["translate", "rotate", "scale", "matrix", "object"];
+/// Every attribute an `<object>` takes (a mesh's among them).
+const OBJECT_ATTRIBUTES: &[&str] = &["type", "name", "meshfile", "filename"];
 
 impl<'a> Ctx<'a> {
     // -- positions and messages -------------------------------------------
@@ -487,10 +489,13 @@ impl<'a> Ctx<'a> {
     }
 
     /// The error for a missing required attribute, pointing at a misspelled
-    /// attribute when there is one.
-    fn missing(&self, n: XNode, name: &str, expected: &str) -> SceneError {
+    /// attribute when there is one: one that `n` does not take (`takes`),
+    /// as an attribute of its own is no typo.
+    fn missing(&self, n: XNode, name: &str, takes: &[&str], expected: &str) -> SceneError {
         let el = n.tag_name().name();
-        let misspelt = n.attributes().find(|a| a.name() != name && suggest(a.name(), &[name]).is_some());
+        let misspelt = n
+            .attributes()
+            .find(|a| a.name() != name && !takes.contains(&a.name()) && suggest(a.name(), &[name]).is_some());
         match misspelt {
             Some(a) => self.err(
                 self.aloc(&a),
@@ -500,8 +505,9 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    fn req_attr<'d, 'i>(&self, n: XNode<'d, 'i>, name: &str, expected: &str) -> R<Attribute<'d, 'i>> {
-        Self::attr(n, name).ok_or_else(|| self.missing(n, name, expected))
+    /// Attribute `name` of `n`, which takes the attributes `takes`.
+    fn req_attr<'d, 'i>(&self, n: XNode<'d, 'i>, name: &str, takes: &[&str], expected: &str) -> R<Attribute<'d, 'i>> {
+        Self::attr(n, name).ok_or_else(|| self.missing(n, name, takes, expected))
     }
 
     fn number(&self, n: XNode, a: &Attribute) -> R<f64> {
@@ -543,8 +549,8 @@ impl<'a> Ctx<'a> {
         ))
     }
 
-    fn req_num(&self, n: XNode, name: &str, expected: &str) -> R<f64> {
-        let a = self.req_attr(n, name, expected)?;
+    fn req_num(&self, n: XNode, name: &str, takes: &[&str], expected: &str) -> R<f64> {
+        let a = self.req_attr(n, name, takes, expected)?;
         self.number(n, &a)
     }
 
@@ -570,10 +576,11 @@ impl<'a> Ctx<'a> {
 
     /// `<e x y z/>`.
     fn xyz(&mut self, n: XNode) -> R<DVec3> {
-        self.check_attrs(n, &["x", "y", "z"]);
+        const XYZ: &[&str] = &["x", "y", "z"];
+        self.check_attrs(n, XYZ);
         self.leaf(n);
         let e = "x, y and z";
-        Ok(DVec3::new(self.req_num(n, "x", e)?, self.req_num(n, "y", e)?, self.req_num(n, "z", e)?))
+        Ok(DVec3::new(self.req_num(n, "x", XYZ, e)?, self.req_num(n, "y", XYZ, e)?, self.req_num(n, "z", XYZ, e)?))
     }
 
     /// `xyz` for a point the renderer takes as it is (the camera's
@@ -589,12 +596,13 @@ impl<'a> Ctx<'a> {
 
     /// `<e r g b/>`.
     fn rgb(&mut self, n: XNode) -> R<[f32; 3]> {
-        self.check_attrs(n, &["r", "g", "b"]);
+        const RGB: &[&str] = &["r", "g", "b"];
+        self.check_attrs(n, RGB);
         self.leaf(n);
         let e = "r, g and b";
         let mut out = [0f32; 3];
-        for (i, name) in ["r", "g", "b"].iter().enumerate() {
-            let v = self.req_num(n, name, e)?;
+        for (i, name) in RGB.iter().enumerate() {
+            let v = self.req_num(n, name, RGB, e)?;
             out[i] = self.to_f32(n, name, v)?;
         }
         Ok(out)
@@ -604,7 +612,7 @@ impl<'a> Ctx<'a> {
     fn v(&mut self, n: XNode) -> R<f64> {
         self.check_attrs(n, &["v"]);
         self.leaf(n);
-        self.req_num(n, "v", "v")
+        self.req_num(n, "v", &["v"], "v")
     }
 
     fn v32(&mut self, n: XNode) -> R<f32> {
@@ -642,7 +650,7 @@ impl<'a> Ctx<'a> {
             }
             [f] => {
                 let expected = join_list(f, "and");
-                f.iter().map(|name| self.req_num(n, name, &expected)).collect()
+                f.iter().map(|name| self.req_num(n, name, &all, &expected)).collect()
             }
             _ => Err(self.err(
                 self.nloc(n),
@@ -809,7 +817,7 @@ impl<'a> Ctx<'a> {
                 "heightangle" => {
                     let v = self.v(c)?;
                     if !(v > 0.0 && v < 180.0) {
-                        let a = self.req_attr(c, "v", "v")?;
+                        let a = self.req_attr(c, "v", &["v"], "v")?;
                         return Err(self.err(
                             self.aloc(&a),
                             format!(
@@ -823,7 +831,7 @@ impl<'a> Ctx<'a> {
                 "aspectratio" => {
                     let v = self.v(c)?;
                     if v <= 0.0 {
-                        let a = self.req_attr(c, "v", "v")?;
+                        let a = self.req_attr(c, "v", &["v"], "v")?;
                         return Err(self.err(
                             self.aloc(&a),
                             format!("<aspectratio> is {} (expected a positive width/height ratio)", fmt_number(v)),
@@ -910,7 +918,7 @@ impl<'a> Ctx<'a> {
                 "id" => {
                     let v = self.v(c)?;
                     if v.fract() != 0.0 || v < i32::MIN as f64 || v > i32::MAX as f64 {
-                        let a = self.req_attr(c, "v", "v")?;
+                        let a = self.req_attr(c, "v", &["v"], "v")?;
                         return Err(self
                             .err(self.aloc(&a), format!("light <id> is {} (expected a whole number)", fmt_number(v))));
                     }
@@ -919,7 +927,7 @@ impl<'a> Ctx<'a> {
                 "type" => {
                     self.check_attrs(c, &["v"]);
                     self.leaf(c);
-                    let a = self.req_attr(c, "v", "point, directional, spot or area")?;
+                    let a = self.req_attr(c, "v", &["v"], "point, directional, spot or area")?;
                     const KINDS: &[&str] = &["point", "directional", "spot", "area"];
                     light.kind = match a.value().trim() {
                         "point" => LightKind::Point,
@@ -997,7 +1005,7 @@ impl<'a> Ctx<'a> {
 
     fn top_tree(&mut self, n: XNode) -> R<()> {
         self.check_attrs(n, &["type", "name"]);
-        let t = self.req_attr(n, "type", "type=\"tree\"")?;
+        let t = self.req_attr(n, "type", &["type", "name"], "type=\"tree\"")?;
         if t.value() != "tree" {
             return Err(self.err(
                 self.aloc(&t),
@@ -1007,7 +1015,7 @@ impl<'a> Ctx<'a> {
                 ),
             ));
         }
-        let name_attr = self.req_attr(n, "name", "a name, such as name=\"root\"")?;
+        let name_attr = self.req_attr(n, "name", &["type", "name"], "a name, such as name=\"root\"")?;
         let name = name_attr.value().to_string();
         if let Some(&i) = self.declared.get(&name) {
             let first = self.trees.get(i).map(|t| t.loc.line).unwrap_or(0);
@@ -1065,11 +1073,16 @@ impl<'a> Ctx<'a> {
                 "translate" => transforms.push(Transform::Translate(self.xyz(c)?)),
                 "scale" => transforms.push(Transform::Scale(self.xyz(c)?)),
                 "rotate" => {
-                    self.check_attrs(c, &["x", "y", "z", "angle"]);
+                    const ROTATE: &[&str] = &["x", "y", "z", "angle"];
+                    self.check_attrs(c, ROTATE);
                     self.leaf(c);
                     let e = "x, y, z and angle";
-                    let axis = DVec3::new(self.req_num(c, "x", e)?, self.req_num(c, "y", e)?, self.req_num(c, "z", e)?);
-                    let angle_deg = self.req_num(c, "angle", "an angle in degrees, e.g. angle=\"90\"")?;
+                    let axis = DVec3::new(
+                        self.req_num(c, "x", ROTATE, e)?,
+                        self.req_num(c, "y", ROTATE, e)?,
+                        self.req_num(c, "z", ROTATE, e)?,
+                    );
+                    let angle_deg = self.req_num(c, "angle", ROTATE, "an angle in degrees, e.g. angle=\"90\"")?;
                     if unit(axis).is_none() {
                         return Err(self.err(
                             self.nloc(c),
@@ -1154,7 +1167,7 @@ impl<'a> Ctx<'a> {
 
     /// `<object>` inside a transblock at nesting `depth`.
     fn object(&mut self, n: XNode, depth: usize) -> R<Node> {
-        let t = self.req_attr(n, "type", "type=\"primitive\", \"tree\" or \"master\"")?;
+        let t = self.req_attr(n, "type", OBJECT_ATTRIBUTES, "type=\"primitive\", \"tree\" or \"master\"")?;
         match t.value() {
             "primitive" => self.primitive(n),
             "tree" => {
@@ -1171,7 +1184,7 @@ impl<'a> Ctx<'a> {
                     );
                     self.warn(self.nloc(c), msg);
                 }
-                let a = self.req_attr(n, "name", "the name of an earlier top-level tree")?;
+                let a = self.req_attr(n, "name", OBJECT_ATTRIBUTES, "the name of an earlier top-level tree")?;
                 let name = a.value();
                 if let Some(&tree) = self.declared.get(name) {
                     return Ok(Node::Master { tree, loc: self.nloc(n) });
@@ -1202,7 +1215,7 @@ impl<'a> Ctx<'a> {
     }
 
     fn primitive(&mut self, n: XNode) -> R<Node> {
-        let name_attr = self.req_attr(n, "name", "cube, cone, cylinder, sphere, torus or mesh")?;
+        let name_attr = self.req_attr(n, "name", OBJECT_ATTRIBUTES, "cube, cone, cylinder, sphere, torus or mesh")?;
         let pname = name_attr.value().trim();
         let shape = match pname {
             "cube" => Shape::Cube,
@@ -1211,7 +1224,7 @@ impl<'a> Ctx<'a> {
             "sphere" => Shape::Sphere,
             "torus" => Shape::Torus,
             "mesh" => {
-                self.check_attrs(n, &["type", "name", "meshfile", "filename"]);
+                self.check_attrs(n, OBJECT_ATTRIBUTES);
                 let mf = Self::attr(n, "meshfile");
                 let f = Self::attr(n, "filename");
                 match (mf, f) {
@@ -1277,10 +1290,11 @@ impl<'a> Ctx<'a> {
     }
 
     fn texture(&mut self, n: XNode) -> R<TextureRef> {
-        self.check_attrs(n, &["file", "u", "v"]);
+        const TEXTURE: &[&str] = &["file", "u", "v"];
+        self.check_attrs(n, TEXTURE);
         self.leaf(n);
         let el = n.tag_name().name();
-        let fa = self.req_attr(n, "file", "file=\"path/to/image.png\"")?;
+        let fa = self.req_attr(n, "file", TEXTURE, "file=\"path/to/image.png\"")?;
         let file = fa.value().to_string();
         let u = self.opt_num(n, "u")?.unwrap_or(1.0);
         let v = self.opt_num(n, "v")?.unwrap_or(1.0);
@@ -2265,5 +2279,37 @@ mod tests {
         assert_eq!(suggest("X", &["x", "y"]), Some("x"));
         assert_eq!(suggest("w", &["x", "y", "z"]), None);
         assert_eq!(suggest("colour", &["type", "name"]), None);
+    }
+
+    #[test]
+    fn missing_attribute_suggests_only_names_the_element_does_not_take() {
+        // `v1` is one of <function>'s own attributes, not a misspelt `v2`.
+        let e = light("<function v1=\"1\"/>").unwrap_err();
+        assert_eq!(at(&e), (3, 1), "{e}");
+        assert_eq!(e.message, "<function> is missing attribute `v2` (expected v1, v2 and v3)");
+        let e = bad_at(
+            &block("<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\"/></matrix><object type=\"primitive\" name=\"cube\"/>"),
+            4,
+            9,
+            "<row0> is missing attribute `v4` (expected v1, v2, v3 and v4)",
+        );
+        assert!(!e.message.contains("did you mean"), "{e}");
+        let e = bad_at(
+            &block("<translate x=\"1\" y=\"2\"/><object type=\"primitive\" name=\"cube\"/>"),
+            4,
+            1,
+            "<translate> is missing attribute `z` (expected x, y and z)",
+        );
+        assert!(!e.message.contains("did you mean"), "{e}");
+        // A name the element does not take is still offered.
+        let e = light("<function v1=\"1\" v2=\"2\" v33=\"3\"/>").unwrap_err();
+        assert_eq!(at(&e), (3, 25), "{e}");
+        assert!(e.message.contains("missing attribute `v3` (found `v33`: did you mean `v3`?)"), "{e}");
+        bad_at(
+            &block("<rotate x=\"1\" y=\"0\" z=\"0\" angel=\"90\"/><object type=\"primitive\" name=\"cube\"/>"),
+            4,
+            27,
+            "<rotate> is missing attribute `angle` (found `angel`: did you mean `angle`?)",
+        );
     }
 }
