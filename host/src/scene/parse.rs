@@ -1207,10 +1207,16 @@ impl<'a> Ctx<'a> {
                 };
                 Err(self.err(self.aloc(&a), msg))
             }
-            other => Err(self.err(
-                self.aloc(&t),
-                format!("unknown object type {} (expected primitive, tree or master)", shown(other)),
-            )),
+            other => {
+                let hint = match suggest(other, &["primitive", "tree", "master"]) {
+                    Some(s) => format!("; did you mean \"{s}\"?"),
+                    None => String::new(),
+                };
+                Err(self.err(
+                    self.aloc(&t),
+                    format!("unknown object type {} (expected primitive, tree or master{hint})", shown(other)),
+                ))
+            }
         }
     }
 
@@ -2311,5 +2317,18 @@ mod tests {
             27,
             "<rotate> is missing attribute `angle` (found `angel`: did you mean `angle`?)",
         );
+    }
+
+    #[test]
+    fn object_type_misspelt_or_in_the_wrong_case_gets_a_suggestion() {
+        bad_at(
+            &block("<object type=\"Primitive\" name=\"cube\"/>"),
+            4,
+            9,
+            "unknown object type \"Primitive\" (expected primitive, tree or master; did you mean \"primitive\"?)",
+        );
+        bad_at(&block("<object type=\"mastr\" name=\"m\"/>"), 4, 9, "did you mean \"master\"?");
+        let e = bad_at(&block("<object type=\"thing\" name=\"cube\"/>"), 4, 9, "unknown object type \"thing\"");
+        assert!(!e.message.contains("did you mean"), "{e}");
     }
 }
