@@ -389,6 +389,12 @@ impl<'a> Ctx<'a> {
 
     fn xml_error(&self, e: &roxmltree::Error) -> SceneError {
         use roxmltree::Error as E;
+        if let E::UnknownToken(p) = e {
+            let at = self.xml_offset(*p);
+            if let Some(what) = self.after_root(at) {
+                return self.err(self.loc(at), format!("malformed XML: {what}"));
+            }
+        }
         let end = self.loc(self.text.len());
         let (loc, message) = match e {
             E::UnexpectedEndOfStream | E::UnclosedRootNode => {
@@ -424,6 +430,45 @@ impl<'a> Ctx<'a> {
             }
         };
         self.err(loc, message)
+    }
+
+    /// The byte position of one of roxmltree's positions (rows counted by
+    /// `\n`, columns in characters).
+    fn xml_offset(&self, p: roxmltree::TextPos) -> usize {
+        let mut start = 0;
+        for _ in 1..p.row {
+            match self.text[start..].find('\n') {
+                Some(i) => start += i + 1,
+                None => break,
+            }
+        }
+        let rest = &self.text[start..];
+        start + rest.char_indices().nth(p.col.saturating_sub(1) as usize).map_or(rest.len(), |(i, _)| i)
+    }
+
+    /// What is wrong at byte `at` when the text before it is a whole
+    /// document: something after its root element (a second root, text, a
+    /// stray close tag), which roxmltree calls an unknown token.
+    fn after_root(&self, at: usize) -> Option<String> {
+        let before = self.text.get(..at)?;
+        let doc = Document::parse_with_options(before, ParsingOptions::default()).ok()?;
+        let root = doc.root_element().tag_name().name();
+        let rest = &self.text[at..];
+        let name = |s: &str| -> String {
+            s.split(|c: char| c.is_whitespace() || c == '>' || c == '/').next().unwrap_or("").to_string()
+        };
+        Some(if let Some(tag) = rest.strip_prefix("</").map(name).filter(|n| !n.is_empty()) {
+            format!("a close tag </{tag}> after the root element </{root}> has ended (one too many?); remove it")
+        } else if let Some(tag) = rest.strip_prefix('<').map(name).filter(|n| !n.is_empty() && !n.starts_with('!')) {
+            format!(
+                "a second root element <{tag}> after </{root}>: a scene file has one <scenefile>, which holds everything; move it inside or remove it"
+            )
+        } else if rest.starts_with('<') {
+            format!("markup after the root element </{root}>; a scene file ends there")
+        } else {
+            let line = rest.split(['\r', '\n']).next().unwrap_or("").trim();
+            format!("text {} after the root element </{root}>; a scene file ends there: remove it", shown(line))
+        })
     }
 
     fn text_pos(&self, e: &roxmltree::Error) -> SourceLoc {
@@ -2330,5 +2375,22 @@ mod tests {
         bad_at(&block("<object type=\"mastr\" name=\"m\"/>"), 4, 9, "did you mean \"master\"?");
         let e = bad_at(&block("<object type=\"thing\" name=\"cube\"/>"), 4, 9, "unknown object type \"thing\"");
         assert!(!e.message.contains("did you mean"), "{e}");
+    }
+
+    #[test]
+    fn what_follows_the_root_element_is_named() {
+        let doc = "<scenefile>\n<object type=\"tree\" name=\"root\"/>\n</scenefile>\n";
+        bad_at(
+            &format!("{doc}<x a=\"1\"/>\n"),
+            4,
+            1,
+            "malformed XML: a second root element <x> after </scenefile>: a scene file has one <scenefile>",
+        );
+        bad_at(&format!("{doc}  hello\n"), 4, 3, "malformed XML: text \"hello\" after the root element </scenefile>");
+        bad_at(&format!("{doc}</scenefile>\n"), 4, 1, "malformed XML: a close tag </scenefile> after the root element");
+        // Comments after the root are fine.
+        ok(&format!("{doc}<!-- end -->\n"));
+        // Inside the root, an unknown token is still reported as one.
+        bad_at("<scenefile>\n<!x>\n</scenefile>", 2, 1, "malformed XML: unknown token");
     }
 }
