@@ -153,8 +153,9 @@ pub fn parse_file(path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneEr
             let good = e.utf8_error().valid_up_to();
             let bytes = e.as_bytes();
             let prefix = std::str::from_utf8(&bytes[..good]).unwrap_or("");
-            let line = prefix.matches('\n').count() + 1;
-            let col = prefix.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+            let starts = line_starts(prefix);
+            let line = starts.len();
+            let col = prefix[starts[line - 1]..].chars().count() + 1;
             let byte = bytes.get(good).copied().unwrap_or(0);
             return Err(SceneError {
                 loc: Some(SourceLoc { file: file.clone(), line: sat_u32(line), col: sat_u32(col) }),
@@ -170,6 +171,20 @@ pub fn parse_file(path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneEr
 /// folder for relative texture paths.
 pub fn parse_str(text: &str, path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneError> {
     parse_text(text, Arc::new(path.to_path_buf()), opts)
+}
+
+/// Where each line of `text` starts: after a `\n`, a `\r\n` or a `\r`
+/// alone (old Mac files), each one line break as XML reads them.
+fn line_starts(text: &str) -> Vec<usize> {
+    let b = text.as_bytes();
+    let mut starts = vec![0usize];
+    starts.extend(
+        b.iter()
+            .enumerate()
+            .filter(|&(i, &c)| c == b'\n' || (c == b'\r' && b.get(i + 1) != Some(&b'\n')))
+            .map(|(i, _)| i + 1),
+    );
+    starts
 }
 
 fn sat_u32(v: usize) -> u32 {
@@ -189,8 +204,7 @@ fn parse_text(text: &str, file: Arc<PathBuf>, opts: &ParseOptions) -> Result<Sce
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let mut line_starts = vec![0usize];
-    line_starts.extend(text.bytes().enumerate().filter(|&(_, b)| b == b'\n').map(|(i, _)| i + 1));
+    let line_starts = line_starts(text);
     let mut cx = Ctx {
         file: file.clone(),
         text,
@@ -471,9 +485,10 @@ impl<'a> Ctx<'a> {
         })
     }
 
+    /// Where roxmltree places `e`, in lines as [`line_starts`] counts them
+    /// (roxmltree counts `\n` only).
     fn text_pos(&self, e: &roxmltree::Error) -> SourceLoc {
-        let p = e.pos();
-        SourceLoc { file: self.file.clone(), line: p.row.max(1), col: p.col.max(1) }
+        self.loc(self.xml_offset(e.pos()))
     }
 
     // -- generic element and attribute access ------------------------------
@@ -2392,5 +2407,33 @@ mod tests {
         ok(&format!("{doc}<!-- end -->\n"));
         // Inside the root, an unknown token is still reported as one.
         bad_at("<scenefile>\n<!x>\n</scenefile>", 2, 1, "malformed XML: unknown token");
+    }
+
+    #[test]
+    fn a_lone_carriage_return_ends_a_line() {
+        // Old Mac files end lines with CR alone; XML reads it as a line break.
+        let cr = "<scenefile>\r\r<cameradata><heightangle v=\"x\"/></cameradata>\r</scenefile>";
+        bad_at(cr, 3, 26, "attribute `v` of <heightangle> is \"x\"");
+        bad_at(&cr.replace('\r', "\r\n"), 3, 26, "attribute `v` of <heightangle> is \"x\"");
+        bad_at(&cr.replacen('\r', "\r\n", 1), 3, 26, "attribute `v` of <heightangle> is \"x\"");
+        // Warnings, and the XML parser's own positions.
+        let f = ok(&prim("cube", "<glow/>").replace('\n', "\r"));
+        warned_at(&f, 5, 1, "<glow>");
+        bad_at(
+            "<scenefile>\r<object type=\"tree\" name=\"root\">\r<transblock>\r</object>\r</scenefile>",
+            4,
+            1,
+            "found </object> while <transblock> is still open",
+        );
+        bad_at("<scenefile>\r<object", 2, 8, "malformed XML");
+        bad_at("<scenefile>\r<a x=\"1\" x=\"2\"/></scenefile>", 2, 10, "malformed XML: attribute 'x'");
+        // Bytes that are not UTF-8.
+        let dir = std::env::temp_dir().join(format!("raycast-parse-cr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let latin1 = dir.join("latin1.xml");
+        std::fs::write(&latin1, b"<scenefile>\r<!-- caf\xe9 -->\r</scenefile>").unwrap();
+        let e = parse_file(&latin1, &opts()).unwrap_err();
+        assert_eq!(at(&e), (2, 9), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
