@@ -7,6 +7,7 @@
 //! unknown element or attribute, a duplicate, a texture that cannot be found)
 //! is a warning.
 
+use super::flatten::{check_invertible, NotInvertible};
 use super::model::*;
 use crate::units::{fmt_number, fmt_vector};
 use glam::{DMat4, DVec3};
@@ -1131,7 +1132,34 @@ impl<'a> Ctx<'a> {
         for c in self.elements(n) {
             match c.tag_name().name() {
                 "translate" => transforms.push(Transform::Translate(self.xyz(c)?)),
-                "scale" => transforms.push(Transform::Scale(self.xyz(c)?)),
+                "scale" => {
+                    let v = self.xyz(c)?;
+                    let zeros: Vec<String> = [("x", v.x), ("y", v.y), ("z", v.z)]
+                        .iter()
+                        .filter(|a| a.1 == 0.0)
+                        .map(|a| format!("{} = 0", a.0))
+                        .collect();
+                    let problem = if !zeros.is_empty() {
+                        let factors = if zeros.len() == 1 { "a zero factor" } else { "zero factors" };
+                        Some(format!("<scale> has {factors} ({})", zeros.join(", ")))
+                    } else if check_invertible(&DMat4::from_scale(v)) == Err(NotInvertible::Singular) {
+                        Some(format!(
+                            "<scale> {} is too small: the product of its factors is 0 in double precision",
+                            fmt_vector(v)
+                        ))
+                    } else {
+                        None
+                    };
+                    if let Some(problem) = problem {
+                        return Err(self.err(
+                            self.nloc(c),
+                            format!(
+                                "{problem}: the transform is singular (it flattens the shape, and cannot be inverted to cast rays into it); use a small non-zero scale such as 0.001"
+                            ),
+                        ));
+                    }
+                    transforms.push(Transform::Scale(v));
+                }
                 "rotate" => {
                     const ROTATE: &[&str] = &["x", "y", "z", "angle"];
                     self.check_attrs(c, ROTATE);
@@ -1152,7 +1180,16 @@ impl<'a> Ctx<'a> {
                     }
                     transforms.push(Transform::Rotate { axis, angle_deg });
                 }
-                "matrix" => transforms.push(Transform::Matrix(Box::new(self.matrix(c)?))),
+                "matrix" => {
+                    let m = self.matrix(c)?;
+                    if check_invertible(&m) == Err(NotInvertible::Singular) {
+                        return Err(self.err(
+                            self.nloc(c),
+                            "<matrix> is singular: its columns are linearly dependent (or nearly so), so it flattens the shape and cannot be inverted to cast rays into it".to_string(),
+                        ));
+                    }
+                    transforms.push(Transform::Matrix(Box::new(m)));
+                }
                 "object" => {
                     let line = self.nloc(c).line;
                     if let Some((_, first)) = &object {
@@ -2435,5 +2472,39 @@ mod tests {
         let e = parse_file(&latin1, &opts()).unwrap_err();
         assert_eq!(at(&e), (2, 9), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn singular_transforms_are_errors_at_their_element() {
+        bad_at(
+            &block("<translate x=\"1\" y=\"0\" z=\"0\"/>\n  <scale x=\"1\" y=\"0\" z=\"1\"/>\n<object type=\"primitive\" name=\"cube\"/>"),
+            5,
+            3,
+            "<scale> has a zero factor (y = 0): the transform is singular",
+        );
+        // Rotated, so the zero is not on the diagonal of the product.
+        bad_at(
+            &block("<rotate x=\"1\" y=\"1\" z=\"0\" angle=\"37\"/><scale x=\"0\" y=\"1\" z=\"0\"/><object type=\"primitive\" name=\"cube\"/>"),
+            4,
+            39,
+            "<scale> has zero factors (x = 0, z = 0)",
+        );
+        // In an enclosing transblock.
+        bad_at(
+            &root("<transblock><scale x=\"0\" y=\"0\" z=\"0\"/><object type=\"tree\">\n<transblock><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>"),
+            3,
+            13,
+            "<scale> has zero factors (x = 0, y = 0, z = 0)",
+        );
+        // A degenerate shear (dependent columns) in a matrix.
+        bad_at(
+            &block(
+                "<rotate x=\"0\" y=\"1\" z=\"0\" angle=\"10\"/>\n<matrix><row0 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/><row1 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
+                 <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/><row3 v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\"/></matrix><object type=\"primitive\" name=\"cube\"/>",
+            ),
+            5,
+            1,
+            "<matrix> is singular",
+        );
     }
 }
