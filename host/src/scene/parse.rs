@@ -188,6 +188,11 @@ fn line_starts(text: &str) -> Vec<usize> {
     starts
 }
 
+/// `line:col` of a place, for a message that names another place.
+fn line_col(l: &SourceLoc) -> String {
+    format!("{}:{}", l.line, l.col)
+}
+
 fn sat_u32(v: usize) -> u32 {
     u32::try_from(v).unwrap_or(u32::MAX)
 }
@@ -748,29 +753,29 @@ impl<'a> Ctx<'a> {
             }
         }
 
-        let mut globals: Option<(Globals, u32)> = None;
-        let mut camera: Option<(Camera, u32)> = None;
+        let mut globals: Option<(Globals, SourceLoc)> = None;
+        let mut camera: Option<(Camera, SourceLoc)> = None;
         let mut lights = Vec::new();
         for c in children {
             match c.tag_name().name() {
                 "globaldata" => {
                     let g = self.globaldata(c)?;
-                    let line = self.nloc(c).line;
+                    let here = self.nloc(c);
                     match &globals {
-                        None => globals = Some((g, line)),
+                        None => globals = Some((g, here)),
                         Some((_, first)) => {
-                            let msg = format!("second <globaldata> (the first is at line {first}); ignored");
+                            let msg = format!("second <globaldata> (the first is at {}); ignored", line_col(first));
                             self.warn(self.nloc(c), msg);
                         }
                     }
                 }
                 "cameradata" => {
                     let cam = self.cameradata(c)?;
-                    let line = self.nloc(c).line;
+                    let here = self.nloc(c);
                     match &camera {
-                        None => camera = Some((cam, line)),
+                        None => camera = Some((cam, here)),
                         Some((_, first)) => {
-                            let msg = format!("second <cameradata> (the first is at line {first}); ignored");
+                            let msg = format!("second <cameradata> (the first is at {}); ignored", line_col(first));
                             self.warn(self.nloc(c), msg);
                         }
                     }
@@ -813,11 +818,12 @@ impl<'a> Ctx<'a> {
     }
 
     /// Warns about a repeated child element; the later one is used.
-    fn dup(&mut self, seen: &mut HashMap<String, u32>, c: XNode, parent: &str) {
+    fn dup(&mut self, seen: &mut HashMap<String, SourceLoc>, c: XNode, parent: &str) {
         let name = c.tag_name().name().to_string();
-        let line = self.nloc(c).line;
-        if let Some(first) = seen.insert(name.clone(), line) {
-            let msg = format!("second <{name}> in <{parent}> (the first is at line {first}); the later one is used");
+        let here = self.nloc(c);
+        if let Some(first) = seen.insert(name.clone(), here) {
+            let msg =
+                format!("second <{name}> in <{parent}> (the first is at {}); the later one is used", line_col(&first));
             self.warn(self.nloc(c), msg);
         }
     }
@@ -1079,11 +1085,11 @@ impl<'a> Ctx<'a> {
         let name_attr = self.req_attr(n, "name", &["type", "name"], "a name, such as name=\"root\"")?;
         let name = name_attr.value().to_string();
         if let Some(&i) = self.declared.get(&name) {
-            let first = self.trees.get(i).map(|t| t.loc.line).unwrap_or(0);
+            let first = self.trees.get(i).map(|t| line_col(&t.loc)).unwrap_or_default();
             return Err(self.err(
                 self.aloc(&name_attr),
                 format!(
-                    "a second tree named {} (the first is at line {first}); tree names must be unique — rename one",
+                    "a second tree named {} (the first is at {first}); tree names must be unique — rename one",
                     shown(&name)
                 ),
             ));
@@ -1128,7 +1134,7 @@ impl<'a> Ctx<'a> {
         }
         self.check_attrs(n, &[]);
         let mut transforms = Vec::new();
-        let mut object: Option<(Node, u32)> = None;
+        let mut object: Option<(Node, SourceLoc)> = None;
         for c in self.elements(n) {
             match c.tag_name().name() {
                 "translate" => transforms.push(Transform::Translate(self.xyz(c)?)),
@@ -1191,17 +1197,18 @@ impl<'a> Ctx<'a> {
                     transforms.push(Transform::Matrix(Box::new(m)));
                 }
                 "object" => {
-                    let line = self.nloc(c).line;
+                    let here = self.nloc(c);
                     if let Some((_, first)) = &object {
                         return Err(self.err(
-                            self.nloc(c),
+                            here,
                             format!(
-                                "a second <object> in one <transblock> (the first is at line {first}); a transblock holds exactly one object — put each in its own transblock"
+                                "a second <object> in one <transblock> (the first is at {}); a transblock holds exactly one object — put each in its own transblock",
+                                line_col(first)
                             ),
                         ));
                     }
                     let node = self.object(c, depth)?;
-                    object = Some((node, line));
+                    object = Some((node, here));
                 }
                 _ => self.unknown_element(c, "transblock", TRANSBLOCK_ELEMENTS),
             }
@@ -1741,7 +1748,7 @@ mod tests {
             "<cameradata><heightangle v=\"30\"/></cameradata>\n<cameradata><heightangle v=\"60\"/></cameradata>",
         ));
         assert_eq!(f.camera.height_angle_deg, 30.0);
-        warned_at(&f, 3, 1, "second <cameradata> (the first is at line 2); ignored");
+        warned_at(&f, 3, 1, "second <cameradata> (the first is at 2:1); ignored");
         let f = ok(&with_top("<globaldata/>\n<globaldata><ambientcoeff v=\"1\"/></globaldata>"));
         assert_eq!(f.globals.ka, 0.5);
         warned_at(&f, 3, 1, "second <globaldata>");
@@ -1866,7 +1873,7 @@ mod tests {
             "<diffuse r=\"1\" g=\"0\" b=\"0\"/>\n<diffuse r=\"0\" g=\"1\" b=\"0\"/>\n<glow v=\"1\"/>",
         ));
         assert_eq!(first_prim(&f).1.diffuse, [0.0, 1.0, 0.0]);
-        warned_at(&f, 6, 1, "second <diffuse> in <object> (the first is at line 5); the later one is used");
+        warned_at(&f, 6, 1, "second <diffuse> in <object> (the first is at 5:1); the later one is used");
         warned_at(&f, 7, 1, "unknown element <glow> in <object>");
     }
 
@@ -2077,7 +2084,7 @@ mod tests {
             &block("<object type=\"primitive\" name=\"cube\"/>\n<object type=\"primitive\" name=\"sphere\"/>"),
             5,
             1,
-            "a second <object> in one <transblock> (the first is at line 4)",
+            "a second <object> in one <transblock> (the first is at 4:1)",
         );
         let f = ok(&block("<object type=\"primitive\" name=\"cube\"/>\n<frobnicate/>"));
         warned_at(&f, 5, 1, "unknown element <frobnicate> in <transblock> (expected translate, rotate, scale, matrix or object); skipped");
@@ -2216,7 +2223,7 @@ mod tests {
         );
         bad_at("<scenefile>\n<object type=\"tree\"/>\n</scenefile>", 2, 1, "missing attribute `name`");
         let dup = "<scenefile>\n<object type=\"tree\" name=\"a\"/>\n<object type=\"tree\" name=\"root\"/>\n  <object type=\"tree\" name=\"a\"/>\n</scenefile>";
-        bad_at(dup, 4, 23, "a second tree named \"a\" (the first is at line 2)");
+        bad_at(dup, 4, 23, "a second tree named \"a\" (the first is at 2:1)");
         let e =
             bad_at("<scenefile>\n<object type=\"tree\" name=\"main\"/>\n</scenefile>", 1, 1, "no tree named \"root\"");
         assert!(e.message.contains("trees found: main"), "{e}");
@@ -2371,7 +2378,7 @@ mod tests {
         assert!(t.elapsed().as_secs_f64() < 2.0);
         // Positions asked for out of order are still right.
         let xml = "<scenefile><object type=\"tree\" name=\"a\"/><object type=\"tree\" name=\"a\"/></scenefile>";
-        bad_at_str(xml, "name=\"a\"/></scenefile>", "a second tree named \"a\" (the first is at line 1)");
+        bad_at_str(xml, "name=\"a\"/></scenefile>", "a second tree named \"a\" (the first is at 1:12)");
     }
 
     #[test]
@@ -2505,6 +2512,24 @@ mod tests {
             5,
             1,
             "<matrix> is singular",
+        );
+    }
+
+    #[test]
+    fn duplicates_name_the_first_by_line_and_column() {
+        let first = "<diffuse r=\"1\" g=\"0\" b=\"0\"/>";
+        let f = ok(&prim("cube", &format!("{first}<diffuse r=\"0\" g=\"1\" b=\"0\"/>")));
+        let col = first.len() as u32 + 1;
+        warned_at(&f, 5, col, "second <diffuse> in <object> (the first is at 5:1); the later one is used");
+        let f = ok(&with_top("<cameradata/> <cameradata/>"));
+        warned_at(&f, 2, 15, "second <cameradata> (the first is at 2:1); ignored");
+        let f = ok(&with_top(" <globaldata/><globaldata/>"));
+        warned_at(&f, 2, 15, "second <globaldata> (the first is at 2:2); ignored");
+        bad_at(
+            &block("<object type=\"primitive\" name=\"cube\"/><object type=\"primitive\" name=\"sphere\"/>"),
+            4,
+            39,
+            "a second <object> in one <transblock> (the first is at 4:1)",
         );
     }
 }
