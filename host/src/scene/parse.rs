@@ -360,6 +360,29 @@ const MATERIAL_ELEMENTS: &[&str] = &[
     "bumpmap",
 ];
 const TRANSBLOCK_ELEMENTS: &[&str] = &["translate", "rotate", "scale", "matrix", "object"];
+const GLOBAL_ELEMENTS: &[&str] = &["ambientcoeff", "diffusecoeff", "specularcoeff", "transparentcoeff"];
+const CAMERA_ELEMENTS: &[&str] =
+    &["pos", "focus", "look", "up", "heightangle", "aspectratio", "aperture", "focallength"];
+const LIGHT_ELEMENTS: &[&str] =
+    &["id", "type", "color", "position", "direction", "function", "angle", "penumbra", "width", "height"];
+
+/// Where an element of the format belongs, for one found elsewhere; None
+/// for a name the format does not have.
+fn home(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "scenefile" => "it is the root element, and a file has one",
+        "globaldata" | "cameradata" | "lightdata" => "it goes at the top level, in <scenefile>",
+        "object" => "objects go in a <transblock> (or, as trees, at the top level)",
+        "transblock" => "transblocks go in an <object type=\"tree\">",
+        "translate" | "rotate" | "scale" | "matrix" => "transforms go in a <transblock>",
+        "row0" | "row1" | "row2" | "row3" => "rows go in a <matrix>",
+        n if MATERIAL_ELEMENTS.contains(&n) => "material elements go in an <object type=\"primitive\">",
+        n if GLOBAL_ELEMENTS.contains(&n) => "it goes in a <globaldata>",
+        n if CAMERA_ELEMENTS.contains(&n) => "it goes in a <cameradata>",
+        n if LIGHT_ELEMENTS.contains(&n) => "it goes in a <lightdata>",
+        _ => return None,
+    })
+}
 /// Every attribute an `<object>` takes (a mesh's among them).
 const OBJECT_ATTRIBUTES: &[&str] = &["type", "name", "meshfile", "filename"];
 
@@ -538,14 +561,20 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    /// Warns about an element that does not belong where it is.
+    /// Warns about an element that does not belong where it is: one of the
+    /// format's elements in the wrong place, or an unknown one.
     fn unknown_element(&mut self, n: XNode, parent: &str, expected: &[&str]) {
         let name = n.tag_name().name();
-        let hint = match suggest(name, expected) {
-            Some(s) => format!("did you mean <{s}>?"),
-            None => format!("expected {}", or_list(expected)),
+        let msg = match home(name) {
+            Some(home) => format!("<{name}> cannot be inside <{parent}>: {home}; skipped"),
+            None => {
+                let hint = match suggest(name, expected) {
+                    Some(s) => format!("did you mean <{s}>?"),
+                    None => format!("expected {}", or_list(expected)),
+                };
+                format!("unknown element <{name}> in <{parent}> ({hint}); skipped")
+            }
         };
-        let msg = format!("unknown element <{name}> in <{parent}> ({hint}); skipped");
         let loc = self.nloc(n);
         self.warn(loc, msg);
     }
@@ -783,11 +812,16 @@ impl<'a> Ctx<'a> {
                 "lightdata" => lights.push(self.lightdata(c)?),
                 "object" => self.top_tree(c)?,
                 name => {
-                    let hint = match suggest(name, &["globaldata", "cameradata", "lightdata", "object"]) {
-                        Some(s) => format!("did you mean <{s}>?"),
-                        None => "expected globaldata, cameradata, lightdata or object".to_string(),
+                    let msg = match home(name) {
+                        Some(home) => format!("<{name}> cannot be at the top level: {home}; skipped"),
+                        None => {
+                            let hint = match suggest(name, &["globaldata", "cameradata", "lightdata", "object"]) {
+                                Some(s) => format!("did you mean <{s}>?"),
+                                None => "expected globaldata, cameradata, lightdata or object".to_string(),
+                            };
+                            format!("unknown top-level element <{name}> ({hint}); skipped")
+                        }
                     };
-                    let msg = format!("unknown top-level element <{name}> ({hint}); skipped");
                     self.warn(self.nloc(c), msg);
                 }
             }
@@ -832,7 +866,6 @@ impl<'a> Ctx<'a> {
         self.check_attrs(n, &[]);
         let mut g = Globals::default();
         let mut seen = HashMap::new();
-        const KNOWN: &[&str] = &["ambientcoeff", "diffusecoeff", "specularcoeff", "transparentcoeff"];
         for c in self.elements(n) {
             let slot = match c.tag_name().name() {
                 "ambientcoeff" => &mut g.ka,
@@ -840,7 +873,7 @@ impl<'a> Ctx<'a> {
                 "specularcoeff" => &mut g.ks,
                 "transparentcoeff" => &mut g.kt,
                 _ => {
-                    self.unknown_element(c, "globaldata", KNOWN);
+                    self.unknown_element(c, "globaldata", GLOBAL_ELEMENTS);
                     continue;
                 }
             };
@@ -852,7 +885,6 @@ impl<'a> Ctx<'a> {
 
     fn cameradata(&mut self, n: XNode) -> R<Camera> {
         self.check_attrs(n, &[]);
-        const KNOWN: &[&str] = &["pos", "focus", "look", "up", "heightangle", "aspectratio", "aperture", "focallength"];
         let mut cam = Camera::default();
         let mut seen = HashMap::new();
         let mut aim: Option<(XNode, DVec3)> = None; // <focus> or <look>, value as written
@@ -909,7 +941,7 @@ impl<'a> Ctx<'a> {
                 "aperture" => cam.aperture = Some(self.v(c)?),
                 "focallength" => cam.focal_length = Some(self.v(c)?),
                 _ => {
-                    self.unknown_element(c, "cameradata", KNOWN);
+                    self.unknown_element(c, "cameradata", CAMERA_ELEMENTS);
                     continue;
                 }
             }
@@ -962,8 +994,6 @@ impl<'a> Ctx<'a> {
 
     fn lightdata(&mut self, n: XNode) -> R<Light> {
         self.check_attrs(n, &[]);
-        const KNOWN: &[&str] =
-            &["id", "type", "color", "position", "direction", "function", "angle", "penumbra", "width", "height"];
         let mut light = Light {
             id: 0,
             kind: LightKind::Point,
@@ -1042,7 +1072,7 @@ impl<'a> Ctx<'a> {
                 "width" => light.width = self.v32(c)?,
                 "height" => light.height = self.v32(c)?,
                 _ => {
-                    self.unknown_element(c, "lightdata", KNOWN);
+                    self.unknown_element(c, "lightdata", LIGHT_ELEMENTS);
                     continue;
                 }
             }
@@ -2531,5 +2561,37 @@ mod tests {
             39,
             "a second <object> in one <transblock> (the first is at 4:1)",
         );
+    }
+
+    #[test]
+    fn misplaced_known_elements_say_where_they_go() {
+        let f = ok(&root(
+            "<transblock><object type=\"tree\">\n<object type=\"primitive\" name=\"cube\"/>\n\
+             <transblock><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>",
+        ));
+        warned_at(&f, 4, 1, "<object> cannot be inside <object>: objects go in a <transblock>");
+        let f = ok(&prim("cube", "<translate x=\"1\" y=\"0\" z=\"0\"/>"));
+        warned_at(&f, 5, 1, "<translate> cannot be inside <object>: transforms go in a <transblock>; skipped");
+        let f = ok(&block("<diffuse r=\"1\" g=\"0\" b=\"0\"/><object type=\"primitive\" name=\"cube\"/>"));
+        warned_at(
+            &f,
+            4,
+            1,
+            "<diffuse> cannot be inside <transblock>: material elements go in an <object type=\"primitive\">; skipped",
+        );
+        let f = ok(&with_top("<cameradata><color r=\"1\" g=\"1\" b=\"1\"/></cameradata>"));
+        warned_at(&f, 2, 13, "<color> cannot be inside <cameradata>: it goes in a <lightdata>; skipped");
+        let f = ok(&with_top("<transblock/>"));
+        warned_at(
+            &f,
+            2,
+            1,
+            "<transblock> cannot be at the top level: transblocks go in an <object type=\"tree\">; skipped",
+        );
+        let f = ok(&with_top("<globaldata><lightdata/></globaldata>"));
+        warned_at(&f, 2, 13, "<lightdata> cannot be inside <globaldata>: it goes at the top level, in <scenefile>");
+        // Unknown names keep their suggestion.
+        let f = ok(&with_top("<lightdata><colour r=\"1\" g=\"1\" b=\"1\"/></lightdata>"));
+        warned_at(&f, 2, 12, "unknown element <colour> in <lightdata> (did you mean <color>?); skipped");
     }
 }
