@@ -1259,6 +1259,7 @@ impl<'a> Ctx<'a> {
         self.check_attrs(n, &[]);
         const ROWS: &[&str] = &["row0", "row1", "row2", "row3"];
         let mut rows: [Option<[f64; 4]>; 4] = [None; 4];
+        let mut row3_loc = None;
         let mut seen = HashMap::new();
         for c in self.elements(n) {
             let Some(i) = ROWS.iter().position(|r| *r == c.tag_name().name()) else {
@@ -1271,6 +1272,9 @@ impl<'a> Ctx<'a> {
                 row[k] = *x;
             }
             rows[i] = Some(row);
+            if i == 3 {
+                row3_loc = Some(self.nloc(c));
+            }
             self.dup(&mut seen, c, "matrix");
         }
         let mut m = [[0.0f64; 4]; 4];
@@ -1285,15 +1289,20 @@ impl<'a> Ctx<'a> {
                 }
             }
         }
+        // The renderer's transforms are affine (it keeps three rows): the
+        // last row is taken as 0 0 0 1 before anything is checked, so that
+        // what is checked is what is drawn.
         if m[3] != [0.0, 0.0, 0.0, 1.0] {
             let msg = format!(
-                "<matrix> row3 is {} {} {} {}, not 0 0 0 1: a projective transform; it is used as written",
+                "<matrix> row3 is {} {} {} {}, not 0 0 0 1: raycast's transforms are affine; the last row is ignored (taken as 0 0 0 1)",
                 fmt_number(m[3][0]),
                 fmt_number(m[3][1]),
                 fmt_number(m[3][2]),
                 fmt_number(m[3][3])
             );
-            self.warn(self.nloc(n), msg);
+            let loc = row3_loc.unwrap_or_else(|| self.nloc(n));
+            self.warn(loc, msg);
+            m[3] = [0.0, 0.0, 0.0, 1.0];
         }
         // Rows as written; glam stores columns.
         Ok(DMat4::from_cols_array_2d(&m).transpose())
@@ -2099,12 +2108,22 @@ mod tests {
             1,
             "<matrix> has no <row1>",
         );
-        let f = ok(&block(
+        // The last row is ignored, with a warning at it: the renderer's
+        // transforms are affine (matrix_last_row_is_ignored_with_a_warning).
+        let xml = block(
             "<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\" v4=\"0\"/><row1 v1=\"0\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
              <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/><row3 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"1\"/></matrix>\
              <object type=\"primitive\" name=\"cube\"/>",
-        ));
-        warned_at(&f, 4, 1, "projective");
+        );
+        let f = ok(&xml);
+        let (line, col) = pos_of(&xml, "<row3");
+        warned_at(
+            &f,
+            line,
+            col,
+            "<matrix> row3 is 0 0 1 1, not 0 0 0 1: raycast's transforms are affine; the last row is ignored",
+        );
+        assert_eq!(f.trees[f.root].blocks[0].matrix, DMat4::IDENTITY);
     }
 
     #[test]
@@ -2593,5 +2612,37 @@ mod tests {
         // Unknown names keep their suggestion.
         let f = ok(&with_top("<lightdata><colour r=\"1\" g=\"1\" b=\"1\"/></lightdata>"));
         warned_at(&f, 2, 12, "unknown element <colour> in <lightdata> (did you mean <color>?); skipped");
+    }
+
+    #[test]
+    fn matrix_last_row_is_ignored_with_a_warning() {
+        let rows = |row3: &str| {
+            block(&format!(
+                "<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\" v4=\"5\"/><row1 v1=\"0\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
+                 <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/>\n  <row3 {row3}/></matrix>\
+                 <object type=\"primitive\" name=\"cube\"/>"
+            ))
+        };
+        let affine = DMat4::from_translation(DVec3::new(5.0, 0.0, 0.0));
+        for (row3, shown) in [
+            ("v1=\"0\" v2=\"0\" v3=\"0\" v4=\"2\"", "0 0 0 2"),
+            ("v1=\"0\" v2=\"0\" v3=\"0\" v4=\"0\"", "0 0 0 0"),
+            ("a=\"0.5\" b=\"0\" c=\"1\" d=\"1\"", "0.5 0 1 1"),
+        ] {
+            let f = ok(&rows(row3));
+            warned_at(
+                &f,
+                5,
+                3,
+                &format!(
+                    "<matrix> row3 is {shown}, not 0 0 0 1: raycast's transforms are affine; the last row is ignored (taken as 0 0 0 1)"
+                ),
+            );
+            let b = &f.trees[f.root].blocks[0];
+            assert_eq!(b.matrix, affine, "{row3}");
+            assert_eq!(b.transforms, vec![Transform::Matrix(Box::new(affine))]);
+        }
+        let f = ok(&rows("v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\""));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
     }
 }
