@@ -878,6 +878,11 @@ impl<'a> Ctx<'a> {
                 }
             };
             *slot = self.v32(c)?;
+            // k_t scales transparency, which is not drawn; zero changes nothing.
+            if c.tag_name().name() == "transparentcoeff" && g.kt != 0.0 {
+                let msg = "raycast's ray caster has no transparency; <transparentcoeff> is ignored";
+                self.warn(self.nloc(c), msg.to_string());
+            }
             self.dup(&mut seen, c, "globaldata");
         }
         Ok(g)
@@ -937,7 +942,13 @@ impl<'a> Ctx<'a> {
                         ));
                     }
                     cam.aspect_ratio = Some(v);
+                    let msg = "raycast takes the aspect ratio from the picture's size (--width and --height); <aspectratio> is ignored";
+                    self.warn(self.nloc(c), msg.to_string());
                 }
+                // Depth of field is an extra of the format that the course's
+                // own renders do not draw either (recursiveSpheres4 and
+                // texture_sphere carry an aperture): raycast's pinhole picture
+                // is the expected one, so these are kept without a word.
                 "aperture" => cam.aperture = Some(self.v(c)?),
                 "focallength" => cam.focal_length = Some(self.v(c)?),
                 _ => {
@@ -1421,13 +1432,28 @@ impl<'a> Ctx<'a> {
                 "ambient" => m.ambient = self.rgb(c)?,
                 "specular" => m.specular = self.rgb(c)?,
                 "reflective" => m.reflective = self.rgb(c)?,
-                "transparent" => m.transparent = self.rgb(c)?,
+                "transparent" => {
+                    m.transparent = self.rgb(c)?;
+                    // Zero is what the renderer draws anyway; <ior> alone
+                    // changes nothing without transparency, so it is not
+                    // warned about.
+                    if m.transparent != [0.0; 3] {
+                        let msg = "raycast's ray caster has no transparency or refraction; <transparent> is ignored (the surface is drawn opaque)";
+                        self.warn(self.nloc(c), msg.to_string());
+                    }
+                }
                 "emissive" => m.emissive = self.rgb(c)?,
                 "shininess" => m.shininess = self.v32(c)?,
                 "ior" => m.ior = self.v32(c)?,
                 "blend" => m.blend = self.v32(c)?,
-                "texture" => m.texture = Some(self.texture(c)?),
-                "bumpmap" => m.bumpmap = Some(self.texture(c)?),
+                "texture" => m.texture = Some(self.texture(c, true)?),
+                "bumpmap" => {
+                    // Kept (gen writes it back), but its image is not looked
+                    // for: a warning that it is missing would advise
+                    // --assets for a picture that is never used.
+                    m.bumpmap = Some(self.texture(c, false)?);
+                    self.warn(self.nloc(c), "raycast does no bump mapping; <bumpmap> is ignored".to_string());
+                }
                 _ => {
                     self.unknown_element(c, "object", MATERIAL_ELEMENTS);
                     continue;
@@ -1438,7 +1464,8 @@ impl<'a> Ctx<'a> {
         Ok(m)
     }
 
-    fn texture(&mut self, n: XNode) -> R<TextureRef> {
+    /// `<texture>` or `<bumpmap>`; its image looked for when `look_up`.
+    fn texture(&mut self, n: XNode, look_up: bool) -> R<TextureRef> {
         const TEXTURE: &[&str] = &["file", "u", "v"];
         self.check_attrs(n, TEXTURE);
         self.leaf(n);
@@ -1450,7 +1477,7 @@ impl<'a> Ctx<'a> {
         let repeat_u = self.to_f32(n, "u", u)?;
         let repeat_v = self.to_f32(n, "v", v)?;
         let loc = self.nloc(n);
-        let resolved = if self.opts.skip_textures {
+        let resolved = if self.opts.skip_textures || !look_up {
             None
         } else if file.trim().is_empty() {
             let msg = format!("<{el}> has an empty file=: name the image, or render with --no-textures");
@@ -1901,8 +1928,10 @@ mod tests {
         assert_eq!((t.loc.line, t.loc.col), (5, 1 + "<diffuse r=\"0.1\" g=\"0.2\" b=\"0.3\"/><ambient r=\"0.4\" g=\"0.5\" b=\"0.6\"/><specular r=\"1\" g=\"1\" b=\"1\"/><reflective r=\"0.7\" g=\"0.7\" b=\"0.7\"/><transparent r=\"0.2\" g=\"0.2\" b=\"0.2\"/><emissive r=\"0.05\" g=\"0\" b=\"0\"/><shininess v=\"25\"/><ior v=\"1.5\"/><blend v=\"0.75\"/>".len() as u32));
         let b = m.bumpmap.as_ref().unwrap();
         assert_eq!((b.file.as_str(), b.repeat_u, b.repeat_v), ("b.png", 1.0, 1.0));
-        // Neither image exists: two warnings, no error.
-        assert_eq!(f.warnings.iter().filter(|w| w.message.contains("not found")).count(), 2);
+        // The texture does not exist: a warning, no error. The bump map is
+        // ignored (a warning that says so), its image not looked for.
+        assert_eq!(f.warnings.iter().filter(|w| w.message.contains("not found")).count(), 1);
+        assert!(f.warnings.iter().any(|w| w.message.contains("<bumpmap> is ignored")), "{:?}", f.warnings);
     }
 
     #[test]
@@ -2643,6 +2672,34 @@ mod tests {
             assert_eq!(b.transforms, vec![Transform::Matrix(Box::new(affine))]);
         }
         let f = ok(&rows("v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\""));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+    }
+
+    #[test]
+    fn elements_raycast_does_not_render_are_noted() {
+        let f = ok(&prim(
+            "sphere",
+            "<transparent r=\"0.5\" g=\"0.5\" b=\"0.5\"/>\n<ior v=\"1.5\"/>\n<bumpmap file=\"bump.png\"/>",
+        ));
+        warned_at(&f, 5, 1, "raycast's ray caster has no transparency or refraction; <transparent> is ignored (the surface is drawn opaque)");
+        warned_at(&f, 7, 1, "raycast does no bump mapping; <bumpmap> is ignored");
+        assert_eq!(f.warnings.len(), 2, "{:?}", f.warnings);
+        // Values that change nothing are not worth a word.
+        let f = ok(&prim("sphere", "<transparent r=\"0\" g=\"0\" b=\"0\"/><ior v=\"1.33\"/>"));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+        let f = camera("<aperture v=\"0.08\"/>\n<focallength v=\"15\"/>\n<aspectratio v=\"1.5\"/>").unwrap();
+        warned_at(
+            &f,
+            5,
+            1,
+            "raycast takes the aspect ratio from the picture's size (--width and --height); <aspectratio> is ignored",
+        );
+        // Depth of field: the course's renders draw none either (corpus
+        // files carry an aperture), so no word.
+        assert_eq!(f.warnings.len(), 1, "{:?}", f.warnings);
+        let f = ok(&with_top("<globaldata><transparentcoeff v=\"0.3\"/></globaldata>"));
+        warned_at(&f, 2, 13, "raycast's ray caster has no transparency; <transparentcoeff> is ignored");
+        let f = ok(&with_top("<globaldata><transparentcoeff v=\"0\"/></globaldata>"));
         assert!(f.warnings.is_empty(), "{:?}", f.warnings);
     }
 }
