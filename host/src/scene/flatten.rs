@@ -28,20 +28,42 @@ pub fn load(path: &Path, opts: &ParseOptions, limits: &FlattenLimits) -> Result<
     flatten(&parse_file(path, opts)?, limits)
 }
 
+/// Why a transform cannot be inverted reliably.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum NotInvertible {
+    /// An entry is not finite.
+    NotFinite,
+    /// The determinant is zero, or the columns are so nearly dependent that
+    /// the determinant of the normalised columns is below 1e-12.
+    Singular,
+    /// The determinant or the inverse overflows or underflows.
+    OutOfRange,
+}
+
+impl std::fmt::Display for NotInvertible {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            NotInvertible::NotFinite => "transform is not finite (an overflow?)",
+            NotInvertible::Singular => "transform is singular (a scale of 0?)",
+            NotInvertible::OutOfRange => "transform is out of range (a scale too large or too small?)",
+        })
+    }
+}
+
 /// Why a transform cannot be inverted reliably, if it cannot: entries not
 /// finite; a determinant that is zero, overflows or underflows; or columns
 /// so nearly dependent that the determinant of the normalised columns is
 /// below 1e-12. Else the inverse.
-fn check_invertible(m: &DMat4) -> Result<DMat4, &'static str> {
+pub(super) fn check_invertible(m: &DMat4) -> Result<DMat4, NotInvertible> {
     if !m.is_finite() {
-        return Err("transform is not finite (an overflow?)");
+        return Err(NotInvertible::NotFinite);
     }
     let det = m.determinant();
     if det == 0.0 {
-        return Err("transform is singular (a scale of 0?)");
+        return Err(NotInvertible::Singular);
     }
     if !det.is_finite() || det.abs() < f64::MIN_POSITIVE {
-        return Err("transform is out of range (a scale too large or too small?)");
+        return Err(NotInvertible::OutOfRange);
     }
     let conditioning = if m.row(3) == glam::DVec4::new(0.0, 0.0, 0.0, 1.0) {
         match (unit(m.x_axis.truncate()), unit(m.y_axis.truncate()), unit(m.z_axis.truncate())) {
@@ -57,11 +79,11 @@ fn check_invertible(m: &DMat4) -> Result<DMat4, &'static str> {
         DMat4::from_cols(u(m.x_axis), u(m.y_axis), u(m.z_axis), u(m.w_axis)).determinant().abs()
     };
     if conditioning.is_nan() || conditioning < 1e-12 {
-        return Err("transform is singular (a scale of 0?)");
+        return Err(NotInvertible::Singular);
     }
     let inverse = m.inverse();
     if !inverse.is_finite() {
-        return Err("transform is out of range (a scale too large or too small?)");
+        return Err(NotInvertible::OutOfRange);
     }
     Ok(inverse)
 }
@@ -71,10 +93,16 @@ fn check_invertible(m: &DMat4) -> Result<DMat4, &'static str> {
 /// renderer's 32-bit floats: an entry beyond f32's range (`<translate
 /// x="1e39">`, `<scale x="1e-45">`) would become an infinity on the device
 /// and drop the shape from the picture without a word. `what` names the
-/// shape for the message.
+/// shape for the message. (Each transblock's own transform has been
+/// checked: a singular one here is singular only with those around it.)
 fn renderable_inverse(ctm: &DMat4, what: &str) -> Result<DMat4, String> {
-    let inverse = check_invertible(ctm)
-        .map_err(|why| format!("{why}: the combined transform of this {what} cannot be inverted"))?;
+    let inverse = check_invertible(ctm).map_err(|why| match why {
+        NotInvertible::Singular => format!(
+            "the combined transform of this {what} is singular, though each enclosing transblock's alone can be \
+             inverted (scales whose product underflows to 0?): it cannot be inverted"
+        ),
+        _ => format!("{why}: the combined transform of this {what} cannot be inverted"),
+    })?;
     let beyond = |m: &DMat4| m.to_cols_array().iter().any(|&x| !crate::units::f32_holds(x));
     if beyond(ctm) || beyond(&inverse) {
         return Err(format!(
@@ -165,7 +193,16 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
             };
             top.1 += 1;
             if let Err(why) = check_invertible(&b.matrix) {
-                return Err(err(Some(b.loc.clone()), why.to_string()));
+                // The parser refuses a transform singular alone, at its
+                // element; here only the combination can be.
+                let message = if why == NotInvertible::Singular && b.transforms.len() > 1 {
+                    "the transforms of this <transblock> are singular together, though each alone can be inverted \
+                     (scales whose product underflows to 0, or shears that cancel): their product cannot be inverted"
+                        .to_string()
+                } else {
+                    why.to_string()
+                };
+                return Err(err(Some(b.loc.clone()), message));
             }
             let ctm = parent * b.matrix;
             match &b.object {
@@ -406,19 +443,32 @@ mod tests {
 
     #[test]
     fn singular_transforms_are_errors_at_the_transblock() {
-        let e = flat_err(&doc("", &format!("\n  {}", cube_block("<scale x=\"1\" y=\"0\" z=\"1\"/>"))));
+        // A transform singular alone is the parser's error at its element
+        // (parse's singular_transforms_are_errors_at_their_element); one
+        // singular only with the others of its transblock is reported at the
+        // transblock, and says so.
+        let tiny = "<scale x=\"1e-200\" y=\"1\" z=\"1\"/>";
+        let e = flat_err(&doc("", &format!("\n  {}", cube_block(&tiny.repeat(2)))));
         assert_eq!(at(&e), (4, 3));
-        assert!(e.message.contains("transform is singular (a scale of 0?)"), "{e}");
-        // Rotated, so the zero is not on the diagonal.
-        let e = flat_err(&doc(
-            "",
-            &cube_block("<rotate x=\"1\" y=\"1\" z=\"0\" angle=\"37\"/><scale x=\"1\" y=\"0\" z=\"1\"/>"),
-        ));
-        assert!(e.message.contains("singular"), "{e}");
+        assert!(
+            e.message.starts_with(
+                "the transforms of this <transblock> are singular together, though each alone can be inverted"
+            ),
+            "{e}"
+        );
         // From an enclosing transblock: reported at that block.
-        let body = "<transblock><scale x=\"0\" y=\"0\" z=\"0\"/><object type=\"tree\">\n<transblock><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>";
-        let e = flat_err(&doc("", body));
+        let body = format!("<transblock>{tiny}{tiny}<object type=\"tree\">\n<transblock><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>");
+        let e = flat_err(&doc("", &body));
         assert_eq!(at(&e), (3, 1));
+        assert!(e.message.contains("singular together"), "{e}");
+        // Singular only across transblocks: at the inner one, saying so.
+        let body = format!("<transblock>{tiny}<object type=\"tree\">\n<transblock>{tiny}<object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>");
+        let e = flat_err(&doc("", &body));
+        assert_eq!(at(&e), (4, 1));
+        assert!(
+            e.message.starts_with("the combined transform of this primitive is singular, though each enclosing"),
+            "{e}"
+        );
         // Small but regular scales are fine.
         let p = one("<scale x=\"1e-6\" y=\"1e-6\" z=\"1e-6\"/>");
         assert!(p.object_from_world.is_finite());
@@ -453,15 +503,6 @@ mod tests {
         assert!(one("<translate x=\"1e38\" y=\"0\" z=\"0\"/>").object_from_world.is_finite());
         assert!(one("<scale x=\"1e-38\" y=\"1\" z=\"1\"/>").object_from_world.is_finite());
         scene(&doc(inner, &placed("<scale x=\"1e-38\" y=\"1\" z=\"1\"/>")));
-        // A degenerate shear (dependent columns) in a matrix.
-        let e = flat_err(&doc(
-            "",
-            &cube_block(
-                "<matrix><row0 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/><row1 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
-             <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/><row3 v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\"/></matrix>",
-            ),
-        ));
-        assert!(e.message.contains("singular"), "{e}");
     }
 
     #[test]

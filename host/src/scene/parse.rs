@@ -7,6 +7,7 @@
 //! unknown element or attribute, a duplicate, a texture that cannot be found)
 //! is a warning.
 
+use super::flatten::{check_invertible, NotInvertible};
 use super::model::*;
 use crate::units::{fmt_number, fmt_vector};
 use glam::{DMat4, DVec3};
@@ -153,8 +154,9 @@ pub fn parse_file(path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneEr
             let good = e.utf8_error().valid_up_to();
             let bytes = e.as_bytes();
             let prefix = std::str::from_utf8(&bytes[..good]).unwrap_or("");
-            let line = prefix.matches('\n').count() + 1;
-            let col = prefix.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+            let starts = line_starts(prefix);
+            let line = starts.len();
+            let col = prefix[starts[line - 1]..].chars().count() + 1;
             let byte = bytes.get(good).copied().unwrap_or(0);
             return Err(SceneError {
                 loc: Some(SourceLoc { file: file.clone(), line: sat_u32(line), col: sat_u32(col) }),
@@ -170,6 +172,25 @@ pub fn parse_file(path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneEr
 /// folder for relative texture paths.
 pub fn parse_str(text: &str, path: &Path, opts: &ParseOptions) -> Result<SceneFile, SceneError> {
     parse_text(text, Arc::new(path.to_path_buf()), opts)
+}
+
+/// Where each line of `text` starts: after a `\n`, a `\r\n` or a `\r`
+/// alone (old Mac files), each one line break as XML reads them.
+fn line_starts(text: &str) -> Vec<usize> {
+    let b = text.as_bytes();
+    let mut starts = vec![0usize];
+    starts.extend(
+        b.iter()
+            .enumerate()
+            .filter(|&(i, &c)| c == b'\n' || (c == b'\r' && b.get(i + 1) != Some(&b'\n')))
+            .map(|(i, _)| i + 1),
+    );
+    starts
+}
+
+/// `line:col` of a place, for a message that names another place.
+fn line_col(l: &SourceLoc) -> String {
+    format!("{}:{}", l.line, l.col)
 }
 
 fn sat_u32(v: usize) -> u32 {
@@ -189,8 +210,7 @@ fn parse_text(text: &str, file: Arc<PathBuf>, opts: &ParseOptions) -> Result<Sce
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let mut line_starts = vec![0usize];
-    line_starts.extend(text.bytes().enumerate().filter(|&(_, b)| b == b'\n').map(|(i, _)| i + 1));
+    let line_starts = line_starts(text);
     let mut cx = Ctx {
         file: file.clone(),
         text,
@@ -340,6 +360,31 @@ const MATERIAL_ELEMENTS: &[&str] = &[
     "bumpmap",
 ];
 const TRANSBLOCK_ELEMENTS: &[&str] = &["translate", "rotate", "scale", "matrix", "object"];
+const GLOBAL_ELEMENTS: &[&str] = &["ambientcoeff", "diffusecoeff", "specularcoeff", "transparentcoeff"];
+const CAMERA_ELEMENTS: &[&str] =
+    &["pos", "focus", "look", "up", "heightangle", "aspectratio", "aperture", "focallength"];
+const LIGHT_ELEMENTS: &[&str] =
+    &["id", "type", "color", "position", "direction", "function", "angle", "penumbra", "width", "height"];
+
+/// Where an element of the format belongs, for one found elsewhere; None
+/// for a name the format does not have.
+fn home(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "scenefile" => "it is the root element, and a file has one",
+        "globaldata" | "cameradata" | "lightdata" => "it goes at the top level, in <scenefile>",
+        "object" => "objects go in a <transblock> (or, as trees, at the top level)",
+        "transblock" => "transblocks go in an <object type=\"tree\">",
+        "translate" | "rotate" | "scale" | "matrix" => "transforms go in a <transblock>",
+        "row0" | "row1" | "row2" | "row3" => "rows go in a <matrix>",
+        n if MATERIAL_ELEMENTS.contains(&n) => "material elements go in an <object type=\"primitive\">",
+        n if GLOBAL_ELEMENTS.contains(&n) => "it goes in a <globaldata>",
+        n if CAMERA_ELEMENTS.contains(&n) => "it goes in a <cameradata>",
+        n if LIGHT_ELEMENTS.contains(&n) => "it goes in a <lightdata>",
+        _ => return None,
+    })
+}
+/// Every attribute an `<object>` takes (a mesh's among them).
+const OBJECT_ATTRIBUTES: &[&str] = &["type", "name", "meshfile", "filename"];
 
 impl<'a> Ctx<'a> {
     // -- positions and messages -------------------------------------------
@@ -387,6 +432,12 @@ impl<'a> Ctx<'a> {
 
     fn xml_error(&self, e: &roxmltree::Error) -> SceneError {
         use roxmltree::Error as E;
+        if let E::UnknownToken(p) = e {
+            let at = self.xml_offset(*p);
+            if let Some(what) = self.after_root(at) {
+                return self.err(self.loc(at), format!("malformed XML: {what}"));
+            }
+        }
         let end = self.loc(self.text.len());
         let (loc, message) = match e {
             E::UnexpectedEndOfStream | E::UnclosedRootNode => {
@@ -424,9 +475,49 @@ impl<'a> Ctx<'a> {
         self.err(loc, message)
     }
 
+    /// The byte position of one of roxmltree's positions (rows counted by
+    /// `\n`, columns in characters).
+    fn xml_offset(&self, p: roxmltree::TextPos) -> usize {
+        let mut start = 0;
+        for _ in 1..p.row {
+            match self.text[start..].find('\n') {
+                Some(i) => start += i + 1,
+                None => break,
+            }
+        }
+        let rest = &self.text[start..];
+        start + rest.char_indices().nth(p.col.saturating_sub(1) as usize).map_or(rest.len(), |(i, _)| i)
+    }
+
+    /// What is wrong at byte `at` when the text before it is a whole
+    /// document: something after its root element (a second root, text, a
+    /// stray close tag), which roxmltree calls an unknown token.
+    fn after_root(&self, at: usize) -> Option<String> {
+        let before = self.text.get(..at)?;
+        let doc = Document::parse_with_options(before, ParsingOptions::default()).ok()?;
+        let root = doc.root_element().tag_name().name();
+        let rest = &self.text[at..];
+        let name = |s: &str| -> String {
+            s.split(|c: char| c.is_whitespace() || c == '>' || c == '/').next().unwrap_or("").to_string()
+        };
+        Some(if let Some(tag) = rest.strip_prefix("</").map(name).filter(|n| !n.is_empty()) {
+            format!("a close tag </{tag}> after the root element </{root}> has ended (one too many?); remove it")
+        } else if let Some(tag) = rest.strip_prefix('<').map(name).filter(|n| !n.is_empty() && !n.starts_with('!')) {
+            format!(
+                "a second root element <{tag}> after </{root}>: a scene file has one <scenefile>, which holds everything; move it inside or remove it"
+            )
+        } else if rest.starts_with('<') {
+            format!("markup after the root element </{root}>; a scene file ends there")
+        } else {
+            let line = rest.split(['\r', '\n']).next().unwrap_or("").trim();
+            format!("text {} after the root element </{root}>; a scene file ends there: remove it", shown(line))
+        })
+    }
+
+    /// Where roxmltree places `e`, in lines as [`line_starts`] counts them
+    /// (roxmltree counts `\n` only).
     fn text_pos(&self, e: &roxmltree::Error) -> SourceLoc {
-        let p = e.pos();
-        SourceLoc { file: self.file.clone(), line: p.row.max(1), col: p.col.max(1) }
+        self.loc(self.xml_offset(e.pos()))
     }
 
     // -- generic element and attribute access ------------------------------
@@ -470,14 +561,20 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    /// Warns about an element that does not belong where it is.
+    /// Warns about an element that does not belong where it is: one of the
+    /// format's elements in the wrong place, or an unknown one.
     fn unknown_element(&mut self, n: XNode, parent: &str, expected: &[&str]) {
         let name = n.tag_name().name();
-        let hint = match suggest(name, expected) {
-            Some(s) => format!("did you mean <{s}>?"),
-            None => format!("expected {}", or_list(expected)),
+        let msg = match home(name) {
+            Some(home) => format!("<{name}> cannot be inside <{parent}>: {home}; skipped"),
+            None => {
+                let hint = match suggest(name, expected) {
+                    Some(s) => format!("did you mean <{s}>?"),
+                    None => format!("expected {}", or_list(expected)),
+                };
+                format!("unknown element <{name}> in <{parent}> ({hint}); skipped")
+            }
         };
-        let msg = format!("unknown element <{name}> in <{parent}> ({hint}); skipped");
         let loc = self.nloc(n);
         self.warn(loc, msg);
     }
@@ -487,10 +584,13 @@ impl<'a> Ctx<'a> {
     }
 
     /// The error for a missing required attribute, pointing at a misspelled
-    /// attribute when there is one.
-    fn missing(&self, n: XNode, name: &str, expected: &str) -> SceneError {
+    /// attribute when there is one: one that `n` does not take (`takes`),
+    /// as an attribute of its own is no typo.
+    fn missing(&self, n: XNode, name: &str, takes: &[&str], expected: &str) -> SceneError {
         let el = n.tag_name().name();
-        let misspelt = n.attributes().find(|a| a.name() != name && suggest(a.name(), &[name]).is_some());
+        let misspelt = n
+            .attributes()
+            .find(|a| a.name() != name && !takes.contains(&a.name()) && suggest(a.name(), &[name]).is_some());
         match misspelt {
             Some(a) => self.err(
                 self.aloc(&a),
@@ -500,8 +600,9 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    fn req_attr<'d, 'i>(&self, n: XNode<'d, 'i>, name: &str, expected: &str) -> R<Attribute<'d, 'i>> {
-        Self::attr(n, name).ok_or_else(|| self.missing(n, name, expected))
+    /// Attribute `name` of `n`, which takes the attributes `takes`.
+    fn req_attr<'d, 'i>(&self, n: XNode<'d, 'i>, name: &str, takes: &[&str], expected: &str) -> R<Attribute<'d, 'i>> {
+        Self::attr(n, name).ok_or_else(|| self.missing(n, name, takes, expected))
     }
 
     fn number(&self, n: XNode, a: &Attribute) -> R<f64> {
@@ -543,8 +644,8 @@ impl<'a> Ctx<'a> {
         ))
     }
 
-    fn req_num(&self, n: XNode, name: &str, expected: &str) -> R<f64> {
-        let a = self.req_attr(n, name, expected)?;
+    fn req_num(&self, n: XNode, name: &str, takes: &[&str], expected: &str) -> R<f64> {
+        let a = self.req_attr(n, name, takes, expected)?;
         self.number(n, &a)
     }
 
@@ -570,10 +671,11 @@ impl<'a> Ctx<'a> {
 
     /// `<e x y z/>`.
     fn xyz(&mut self, n: XNode) -> R<DVec3> {
-        self.check_attrs(n, &["x", "y", "z"]);
+        const XYZ: &[&str] = &["x", "y", "z"];
+        self.check_attrs(n, XYZ);
         self.leaf(n);
         let e = "x, y and z";
-        Ok(DVec3::new(self.req_num(n, "x", e)?, self.req_num(n, "y", e)?, self.req_num(n, "z", e)?))
+        Ok(DVec3::new(self.req_num(n, "x", XYZ, e)?, self.req_num(n, "y", XYZ, e)?, self.req_num(n, "z", XYZ, e)?))
     }
 
     /// `xyz` for a point the renderer takes as it is (the camera's
@@ -589,12 +691,13 @@ impl<'a> Ctx<'a> {
 
     /// `<e r g b/>`.
     fn rgb(&mut self, n: XNode) -> R<[f32; 3]> {
-        self.check_attrs(n, &["r", "g", "b"]);
+        const RGB: &[&str] = &["r", "g", "b"];
+        self.check_attrs(n, RGB);
         self.leaf(n);
         let e = "r, g and b";
         let mut out = [0f32; 3];
-        for (i, name) in ["r", "g", "b"].iter().enumerate() {
-            let v = self.req_num(n, name, e)?;
+        for (i, name) in RGB.iter().enumerate() {
+            let v = self.req_num(n, name, RGB, e)?;
             out[i] = self.to_f32(n, name, v)?;
         }
         Ok(out)
@@ -604,7 +707,7 @@ impl<'a> Ctx<'a> {
     fn v(&mut self, n: XNode) -> R<f64> {
         self.check_attrs(n, &["v"]);
         self.leaf(n);
-        self.req_num(n, "v", "v")
+        self.req_num(n, "v", &["v"], "v")
     }
 
     fn v32(&mut self, n: XNode) -> R<f32> {
@@ -642,7 +745,7 @@ impl<'a> Ctx<'a> {
             }
             [f] => {
                 let expected = join_list(f, "and");
-                f.iter().map(|name| self.req_num(n, name, &expected)).collect()
+                f.iter().map(|name| self.req_num(n, name, &all, &expected)).collect()
             }
             _ => Err(self.err(
                 self.nloc(n),
@@ -679,29 +782,29 @@ impl<'a> Ctx<'a> {
             }
         }
 
-        let mut globals: Option<(Globals, u32)> = None;
-        let mut camera: Option<(Camera, u32)> = None;
+        let mut globals: Option<(Globals, SourceLoc)> = None;
+        let mut camera: Option<(Camera, SourceLoc)> = None;
         let mut lights = Vec::new();
         for c in children {
             match c.tag_name().name() {
                 "globaldata" => {
                     let g = self.globaldata(c)?;
-                    let line = self.nloc(c).line;
+                    let here = self.nloc(c);
                     match &globals {
-                        None => globals = Some((g, line)),
+                        None => globals = Some((g, here)),
                         Some((_, first)) => {
-                            let msg = format!("second <globaldata> (the first is at line {first}); ignored");
+                            let msg = format!("second <globaldata> (the first is at {}); ignored", line_col(first));
                             self.warn(self.nloc(c), msg);
                         }
                     }
                 }
                 "cameradata" => {
                     let cam = self.cameradata(c)?;
-                    let line = self.nloc(c).line;
+                    let here = self.nloc(c);
                     match &camera {
-                        None => camera = Some((cam, line)),
+                        None => camera = Some((cam, here)),
                         Some((_, first)) => {
-                            let msg = format!("second <cameradata> (the first is at line {first}); ignored");
+                            let msg = format!("second <cameradata> (the first is at {}); ignored", line_col(first));
                             self.warn(self.nloc(c), msg);
                         }
                     }
@@ -709,11 +812,16 @@ impl<'a> Ctx<'a> {
                 "lightdata" => lights.push(self.lightdata(c)?),
                 "object" => self.top_tree(c)?,
                 name => {
-                    let hint = match suggest(name, &["globaldata", "cameradata", "lightdata", "object"]) {
-                        Some(s) => format!("did you mean <{s}>?"),
-                        None => "expected globaldata, cameradata, lightdata or object".to_string(),
+                    let msg = match home(name) {
+                        Some(home) => format!("<{name}> cannot be at the top level: {home}; skipped"),
+                        None => {
+                            let hint = match suggest(name, &["globaldata", "cameradata", "lightdata", "object"]) {
+                                Some(s) => format!("did you mean <{s}>?"),
+                                None => "expected globaldata, cameradata, lightdata or object".to_string(),
+                            };
+                            format!("unknown top-level element <{name}> ({hint}); skipped")
+                        }
                     };
-                    let msg = format!("unknown top-level element <{name}> ({hint}); skipped");
                     self.warn(self.nloc(c), msg);
                 }
             }
@@ -744,11 +852,12 @@ impl<'a> Ctx<'a> {
     }
 
     /// Warns about a repeated child element; the later one is used.
-    fn dup(&mut self, seen: &mut HashMap<String, u32>, c: XNode, parent: &str) {
+    fn dup(&mut self, seen: &mut HashMap<String, SourceLoc>, c: XNode, parent: &str) {
         let name = c.tag_name().name().to_string();
-        let line = self.nloc(c).line;
-        if let Some(first) = seen.insert(name.clone(), line) {
-            let msg = format!("second <{name}> in <{parent}> (the first is at line {first}); the later one is used");
+        let here = self.nloc(c);
+        if let Some(first) = seen.insert(name.clone(), here) {
+            let msg =
+                format!("second <{name}> in <{parent}> (the first is at {}); the later one is used", line_col(&first));
             self.warn(self.nloc(c), msg);
         }
     }
@@ -757,7 +866,6 @@ impl<'a> Ctx<'a> {
         self.check_attrs(n, &[]);
         let mut g = Globals::default();
         let mut seen = HashMap::new();
-        const KNOWN: &[&str] = &["ambientcoeff", "diffusecoeff", "specularcoeff", "transparentcoeff"];
         for c in self.elements(n) {
             let slot = match c.tag_name().name() {
                 "ambientcoeff" => &mut g.ka,
@@ -765,11 +873,16 @@ impl<'a> Ctx<'a> {
                 "specularcoeff" => &mut g.ks,
                 "transparentcoeff" => &mut g.kt,
                 _ => {
-                    self.unknown_element(c, "globaldata", KNOWN);
+                    self.unknown_element(c, "globaldata", GLOBAL_ELEMENTS);
                     continue;
                 }
             };
             *slot = self.v32(c)?;
+            // k_t scales transparency, which is not drawn; zero changes nothing.
+            if c.tag_name().name() == "transparentcoeff" && g.kt != 0.0 {
+                let msg = "raycast's ray caster has no transparency; <transparentcoeff> is ignored";
+                self.warn(self.nloc(c), msg.to_string());
+            }
             self.dup(&mut seen, c, "globaldata");
         }
         Ok(g)
@@ -777,7 +890,6 @@ impl<'a> Ctx<'a> {
 
     fn cameradata(&mut self, n: XNode) -> R<Camera> {
         self.check_attrs(n, &[]);
-        const KNOWN: &[&str] = &["pos", "focus", "look", "up", "heightangle", "aspectratio", "aperture", "focallength"];
         let mut cam = Camera::default();
         let mut seen = HashMap::new();
         let mut aim: Option<(XNode, DVec3)> = None; // <focus> or <look>, value as written
@@ -809,7 +921,7 @@ impl<'a> Ctx<'a> {
                 "heightangle" => {
                     let v = self.v(c)?;
                     if !(v > 0.0 && v < 180.0) {
-                        let a = self.req_attr(c, "v", "v")?;
+                        let a = self.req_attr(c, "v", &["v"], "v")?;
                         return Err(self.err(
                             self.aloc(&a),
                             format!(
@@ -823,18 +935,24 @@ impl<'a> Ctx<'a> {
                 "aspectratio" => {
                     let v = self.v(c)?;
                     if v <= 0.0 {
-                        let a = self.req_attr(c, "v", "v")?;
+                        let a = self.req_attr(c, "v", &["v"], "v")?;
                         return Err(self.err(
                             self.aloc(&a),
                             format!("<aspectratio> is {} (expected a positive width/height ratio)", fmt_number(v)),
                         ));
                     }
                     cam.aspect_ratio = Some(v);
+                    let msg = "raycast takes the aspect ratio from the picture's size (--width and --height); <aspectratio> is ignored";
+                    self.warn(self.nloc(c), msg.to_string());
                 }
+                // Depth of field is an extra of the format that the course's
+                // own renders do not draw either (recursiveSpheres4 and
+                // texture_sphere carry an aperture): raycast's pinhole picture
+                // is the expected one, so these are kept without a word.
                 "aperture" => cam.aperture = Some(self.v(c)?),
                 "focallength" => cam.focal_length = Some(self.v(c)?),
                 _ => {
-                    self.unknown_element(c, "cameradata", KNOWN);
+                    self.unknown_element(c, "cameradata", CAMERA_ELEMENTS);
                     continue;
                 }
             }
@@ -887,8 +1005,6 @@ impl<'a> Ctx<'a> {
 
     fn lightdata(&mut self, n: XNode) -> R<Light> {
         self.check_attrs(n, &[]);
-        const KNOWN: &[&str] =
-            &["id", "type", "color", "position", "direction", "function", "angle", "penumbra", "width", "height"];
         let mut light = Light {
             id: 0,
             kind: LightKind::Point,
@@ -910,7 +1026,7 @@ impl<'a> Ctx<'a> {
                 "id" => {
                     let v = self.v(c)?;
                     if v.fract() != 0.0 || v < i32::MIN as f64 || v > i32::MAX as f64 {
-                        let a = self.req_attr(c, "v", "v")?;
+                        let a = self.req_attr(c, "v", &["v"], "v")?;
                         return Err(self
                             .err(self.aloc(&a), format!("light <id> is {} (expected a whole number)", fmt_number(v))));
                     }
@@ -919,7 +1035,7 @@ impl<'a> Ctx<'a> {
                 "type" => {
                     self.check_attrs(c, &["v"]);
                     self.leaf(c);
-                    let a = self.req_attr(c, "v", "point, directional, spot or area")?;
+                    let a = self.req_attr(c, "v", &["v"], "point, directional, spot or area")?;
                     const KINDS: &[&str] = &["point", "directional", "spot", "area"];
                     light.kind = match a.value().trim() {
                         "point" => LightKind::Point,
@@ -967,7 +1083,7 @@ impl<'a> Ctx<'a> {
                 "width" => light.width = self.v32(c)?,
                 "height" => light.height = self.v32(c)?,
                 _ => {
-                    self.unknown_element(c, "lightdata", KNOWN);
+                    self.unknown_element(c, "lightdata", LIGHT_ELEMENTS);
                     continue;
                 }
             }
@@ -997,7 +1113,7 @@ impl<'a> Ctx<'a> {
 
     fn top_tree(&mut self, n: XNode) -> R<()> {
         self.check_attrs(n, &["type", "name"]);
-        let t = self.req_attr(n, "type", "type=\"tree\"")?;
+        let t = self.req_attr(n, "type", &["type", "name"], "type=\"tree\"")?;
         if t.value() != "tree" {
             return Err(self.err(
                 self.aloc(&t),
@@ -1007,14 +1123,14 @@ impl<'a> Ctx<'a> {
                 ),
             ));
         }
-        let name_attr = self.req_attr(n, "name", "a name, such as name=\"root\"")?;
+        let name_attr = self.req_attr(n, "name", &["type", "name"], "a name, such as name=\"root\"")?;
         let name = name_attr.value().to_string();
         if let Some(&i) = self.declared.get(&name) {
-            let first = self.trees.get(i).map(|t| t.loc.line).unwrap_or(0);
+            let first = self.trees.get(i).map(|t| line_col(&t.loc)).unwrap_or_default();
             return Err(self.err(
                 self.aloc(&name_attr),
                 format!(
-                    "a second tree named {} (the first is at line {first}); tree names must be unique — rename one",
+                    "a second tree named {} (the first is at {first}); tree names must be unique — rename one",
                     shown(&name)
                 ),
             ));
@@ -1059,17 +1175,49 @@ impl<'a> Ctx<'a> {
         }
         self.check_attrs(n, &[]);
         let mut transforms = Vec::new();
-        let mut object: Option<(Node, u32)> = None;
+        let mut object: Option<(Node, SourceLoc)> = None;
         for c in self.elements(n) {
             match c.tag_name().name() {
                 "translate" => transforms.push(Transform::Translate(self.xyz(c)?)),
-                "scale" => transforms.push(Transform::Scale(self.xyz(c)?)),
+                "scale" => {
+                    let v = self.xyz(c)?;
+                    let zeros: Vec<String> = [("x", v.x), ("y", v.y), ("z", v.z)]
+                        .iter()
+                        .filter(|a| a.1 == 0.0)
+                        .map(|a| format!("{} = 0", a.0))
+                        .collect();
+                    let problem = if !zeros.is_empty() {
+                        let factors = if zeros.len() == 1 { "a zero factor" } else { "zero factors" };
+                        Some(format!("<scale> has {factors} ({})", zeros.join(", ")))
+                    } else if check_invertible(&DMat4::from_scale(v)) == Err(NotInvertible::Singular) {
+                        Some(format!(
+                            "<scale> {} is too small: the product of its factors is 0 in double precision",
+                            fmt_vector(v)
+                        ))
+                    } else {
+                        None
+                    };
+                    if let Some(problem) = problem {
+                        return Err(self.err(
+                            self.nloc(c),
+                            format!(
+                                "{problem}: the transform is singular (it flattens the shape, and cannot be inverted to cast rays into it); use a small non-zero scale such as 0.001"
+                            ),
+                        ));
+                    }
+                    transforms.push(Transform::Scale(v));
+                }
                 "rotate" => {
-                    self.check_attrs(c, &["x", "y", "z", "angle"]);
+                    const ROTATE: &[&str] = &["x", "y", "z", "angle"];
+                    self.check_attrs(c, ROTATE);
                     self.leaf(c);
                     let e = "x, y, z and angle";
-                    let axis = DVec3::new(self.req_num(c, "x", e)?, self.req_num(c, "y", e)?, self.req_num(c, "z", e)?);
-                    let angle_deg = self.req_num(c, "angle", "an angle in degrees, e.g. angle=\"90\"")?;
+                    let axis = DVec3::new(
+                        self.req_num(c, "x", ROTATE, e)?,
+                        self.req_num(c, "y", ROTATE, e)?,
+                        self.req_num(c, "z", ROTATE, e)?,
+                    );
+                    let angle_deg = self.req_num(c, "angle", ROTATE, "an angle in degrees, e.g. angle=\"90\"")?;
                     if unit(axis).is_none() {
                         return Err(self.err(
                             self.nloc(c),
@@ -1079,19 +1227,29 @@ impl<'a> Ctx<'a> {
                     }
                     transforms.push(Transform::Rotate { axis, angle_deg });
                 }
-                "matrix" => transforms.push(Transform::Matrix(Box::new(self.matrix(c)?))),
-                "object" => {
-                    let line = self.nloc(c).line;
-                    if let Some((_, first)) = &object {
+                "matrix" => {
+                    let m = self.matrix(c)?;
+                    if check_invertible(&m) == Err(NotInvertible::Singular) {
                         return Err(self.err(
                             self.nloc(c),
+                            "<matrix> is singular: its columns are linearly dependent (or nearly so), so it flattens the shape and cannot be inverted to cast rays into it".to_string(),
+                        ));
+                    }
+                    transforms.push(Transform::Matrix(Box::new(m)));
+                }
+                "object" => {
+                    let here = self.nloc(c);
+                    if let Some((_, first)) = &object {
+                        return Err(self.err(
+                            here,
                             format!(
-                                "a second <object> in one <transblock> (the first is at line {first}); a transblock holds exactly one object — put each in its own transblock"
+                                "a second <object> in one <transblock> (the first is at {}); a transblock holds exactly one object — put each in its own transblock",
+                                line_col(first)
                             ),
                         ));
                     }
                     let node = self.object(c, depth)?;
-                    object = Some((node, line));
+                    object = Some((node, here));
                 }
                 _ => self.unknown_element(c, "transblock", TRANSBLOCK_ELEMENTS),
             }
@@ -1112,6 +1270,7 @@ impl<'a> Ctx<'a> {
         self.check_attrs(n, &[]);
         const ROWS: &[&str] = &["row0", "row1", "row2", "row3"];
         let mut rows: [Option<[f64; 4]>; 4] = [None; 4];
+        let mut row3_loc = None;
         let mut seen = HashMap::new();
         for c in self.elements(n) {
             let Some(i) = ROWS.iter().position(|r| *r == c.tag_name().name()) else {
@@ -1124,6 +1283,9 @@ impl<'a> Ctx<'a> {
                 row[k] = *x;
             }
             rows[i] = Some(row);
+            if i == 3 {
+                row3_loc = Some(self.nloc(c));
+            }
             self.dup(&mut seen, c, "matrix");
         }
         let mut m = [[0.0f64; 4]; 4];
@@ -1138,15 +1300,20 @@ impl<'a> Ctx<'a> {
                 }
             }
         }
+        // The renderer's transforms are affine (it keeps three rows): the
+        // last row is taken as 0 0 0 1 before anything is checked, so that
+        // what is checked is what is drawn.
         if m[3] != [0.0, 0.0, 0.0, 1.0] {
             let msg = format!(
-                "<matrix> row3 is {} {} {} {}, not 0 0 0 1: a projective transform; it is used as written",
+                "<matrix> row3 is {} {} {} {}, not 0 0 0 1: raycast's transforms are affine; the last row is ignored (taken as 0 0 0 1)",
                 fmt_number(m[3][0]),
                 fmt_number(m[3][1]),
                 fmt_number(m[3][2]),
                 fmt_number(m[3][3])
             );
-            self.warn(self.nloc(n), msg);
+            let loc = row3_loc.unwrap_or_else(|| self.nloc(n));
+            self.warn(loc, msg);
+            m[3] = [0.0, 0.0, 0.0, 1.0];
         }
         // Rows as written; glam stores columns.
         Ok(DMat4::from_cols_array_2d(&m).transpose())
@@ -1154,7 +1321,7 @@ impl<'a> Ctx<'a> {
 
     /// `<object>` inside a transblock at nesting `depth`.
     fn object(&mut self, n: XNode, depth: usize) -> R<Node> {
-        let t = self.req_attr(n, "type", "type=\"primitive\", \"tree\" or \"master\"")?;
+        let t = self.req_attr(n, "type", OBJECT_ATTRIBUTES, "type=\"primitive\", \"tree\" or \"master\"")?;
         match t.value() {
             "primitive" => self.primitive(n),
             "tree" => {
@@ -1171,7 +1338,7 @@ impl<'a> Ctx<'a> {
                     );
                     self.warn(self.nloc(c), msg);
                 }
-                let a = self.req_attr(n, "name", "the name of an earlier top-level tree")?;
+                let a = self.req_attr(n, "name", OBJECT_ATTRIBUTES, "the name of an earlier top-level tree")?;
                 let name = a.value();
                 if let Some(&tree) = self.declared.get(name) {
                     return Ok(Node::Master { tree, loc: self.nloc(n) });
@@ -1194,15 +1361,21 @@ impl<'a> Ctx<'a> {
                 };
                 Err(self.err(self.aloc(&a), msg))
             }
-            other => Err(self.err(
-                self.aloc(&t),
-                format!("unknown object type {} (expected primitive, tree or master)", shown(other)),
-            )),
+            other => {
+                let hint = match suggest(other, &["primitive", "tree", "master"]) {
+                    Some(s) => format!("; did you mean \"{s}\"?"),
+                    None => String::new(),
+                };
+                Err(self.err(
+                    self.aloc(&t),
+                    format!("unknown object type {} (expected primitive, tree or master{hint})", shown(other)),
+                ))
+            }
         }
     }
 
     fn primitive(&mut self, n: XNode) -> R<Node> {
-        let name_attr = self.req_attr(n, "name", "cube, cone, cylinder, sphere, torus or mesh")?;
+        let name_attr = self.req_attr(n, "name", OBJECT_ATTRIBUTES, "cube, cone, cylinder, sphere, torus or mesh")?;
         let pname = name_attr.value().trim();
         let shape = match pname {
             "cube" => Shape::Cube,
@@ -1211,7 +1384,7 @@ impl<'a> Ctx<'a> {
             "sphere" => Shape::Sphere,
             "torus" => Shape::Torus,
             "mesh" => {
-                self.check_attrs(n, &["type", "name", "meshfile", "filename"]);
+                self.check_attrs(n, OBJECT_ATTRIBUTES);
                 let mf = Self::attr(n, "meshfile");
                 let f = Self::attr(n, "filename");
                 match (mf, f) {
@@ -1259,13 +1432,28 @@ impl<'a> Ctx<'a> {
                 "ambient" => m.ambient = self.rgb(c)?,
                 "specular" => m.specular = self.rgb(c)?,
                 "reflective" => m.reflective = self.rgb(c)?,
-                "transparent" => m.transparent = self.rgb(c)?,
+                "transparent" => {
+                    m.transparent = self.rgb(c)?;
+                    // Zero is what the renderer draws anyway; <ior> alone
+                    // changes nothing without transparency, so it is not
+                    // warned about.
+                    if m.transparent != [0.0; 3] {
+                        let msg = "raycast's ray caster has no transparency or refraction; <transparent> is ignored (the surface is drawn opaque)";
+                        self.warn(self.nloc(c), msg.to_string());
+                    }
+                }
                 "emissive" => m.emissive = self.rgb(c)?,
                 "shininess" => m.shininess = self.v32(c)?,
                 "ior" => m.ior = self.v32(c)?,
                 "blend" => m.blend = self.v32(c)?,
-                "texture" => m.texture = Some(self.texture(c)?),
-                "bumpmap" => m.bumpmap = Some(self.texture(c)?),
+                "texture" => m.texture = Some(self.texture(c, true)?),
+                "bumpmap" => {
+                    // Kept (gen writes it back), but its image is not looked
+                    // for: a warning that it is missing would advise
+                    // --assets for a picture that is never used.
+                    m.bumpmap = Some(self.texture(c, false)?);
+                    self.warn(self.nloc(c), "raycast does no bump mapping; <bumpmap> is ignored".to_string());
+                }
                 _ => {
                     self.unknown_element(c, "object", MATERIAL_ELEMENTS);
                     continue;
@@ -1276,18 +1464,20 @@ impl<'a> Ctx<'a> {
         Ok(m)
     }
 
-    fn texture(&mut self, n: XNode) -> R<TextureRef> {
-        self.check_attrs(n, &["file", "u", "v"]);
+    /// `<texture>` or `<bumpmap>`; its image looked for when `look_up`.
+    fn texture(&mut self, n: XNode, look_up: bool) -> R<TextureRef> {
+        const TEXTURE: &[&str] = &["file", "u", "v"];
+        self.check_attrs(n, TEXTURE);
         self.leaf(n);
         let el = n.tag_name().name();
-        let fa = self.req_attr(n, "file", "file=\"path/to/image.png\"")?;
+        let fa = self.req_attr(n, "file", TEXTURE, "file=\"path/to/image.png\"")?;
         let file = fa.value().to_string();
         let u = self.opt_num(n, "u")?.unwrap_or(1.0);
         let v = self.opt_num(n, "v")?.unwrap_or(1.0);
         let repeat_u = self.to_f32(n, "u", u)?;
         let repeat_v = self.to_f32(n, "v", v)?;
         let loc = self.nloc(n);
-        let resolved = if self.opts.skip_textures {
+        let resolved = if self.opts.skip_textures || !look_up {
             None
         } else if file.trim().is_empty() {
             let msg = format!("<{el}> has an empty file=: name the image, or render with --no-textures");
@@ -1624,7 +1814,7 @@ mod tests {
             "<cameradata><heightangle v=\"30\"/></cameradata>\n<cameradata><heightangle v=\"60\"/></cameradata>",
         ));
         assert_eq!(f.camera.height_angle_deg, 30.0);
-        warned_at(&f, 3, 1, "second <cameradata> (the first is at line 2); ignored");
+        warned_at(&f, 3, 1, "second <cameradata> (the first is at 2:1); ignored");
         let f = ok(&with_top("<globaldata/>\n<globaldata><ambientcoeff v=\"1\"/></globaldata>"));
         assert_eq!(f.globals.ka, 0.5);
         warned_at(&f, 3, 1, "second <globaldata>");
@@ -1738,8 +1928,10 @@ mod tests {
         assert_eq!((t.loc.line, t.loc.col), (5, 1 + "<diffuse r=\"0.1\" g=\"0.2\" b=\"0.3\"/><ambient r=\"0.4\" g=\"0.5\" b=\"0.6\"/><specular r=\"1\" g=\"1\" b=\"1\"/><reflective r=\"0.7\" g=\"0.7\" b=\"0.7\"/><transparent r=\"0.2\" g=\"0.2\" b=\"0.2\"/><emissive r=\"0.05\" g=\"0\" b=\"0\"/><shininess v=\"25\"/><ior v=\"1.5\"/><blend v=\"0.75\"/>".len() as u32));
         let b = m.bumpmap.as_ref().unwrap();
         assert_eq!((b.file.as_str(), b.repeat_u, b.repeat_v), ("b.png", 1.0, 1.0));
-        // Neither image exists: two warnings, no error.
-        assert_eq!(f.warnings.iter().filter(|w| w.message.contains("not found")).count(), 2);
+        // The texture does not exist: a warning, no error. The bump map is
+        // ignored (a warning that says so), its image not looked for.
+        assert_eq!(f.warnings.iter().filter(|w| w.message.contains("not found")).count(), 1);
+        assert!(f.warnings.iter().any(|w| w.message.contains("<bumpmap> is ignored")), "{:?}", f.warnings);
     }
 
     #[test]
@@ -1749,7 +1941,7 @@ mod tests {
             "<diffuse r=\"1\" g=\"0\" b=\"0\"/>\n<diffuse r=\"0\" g=\"1\" b=\"0\"/>\n<glow v=\"1\"/>",
         ));
         assert_eq!(first_prim(&f).1.diffuse, [0.0, 1.0, 0.0]);
-        warned_at(&f, 6, 1, "second <diffuse> in <object> (the first is at line 5); the later one is used");
+        warned_at(&f, 6, 1, "second <diffuse> in <object> (the first is at 5:1); the later one is used");
         warned_at(&f, 7, 1, "unknown element <glow> in <object>");
     }
 
@@ -1945,12 +2137,22 @@ mod tests {
             1,
             "<matrix> has no <row1>",
         );
-        let f = ok(&block(
+        // The last row is ignored, with a warning at it: the renderer's
+        // transforms are affine (matrix_last_row_is_ignored_with_a_warning).
+        let xml = block(
             "<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\" v4=\"0\"/><row1 v1=\"0\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
              <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/><row3 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"1\"/></matrix>\
              <object type=\"primitive\" name=\"cube\"/>",
-        ));
-        warned_at(&f, 4, 1, "projective");
+        );
+        let f = ok(&xml);
+        let (line, col) = pos_of(&xml, "<row3");
+        warned_at(
+            &f,
+            line,
+            col,
+            "<matrix> row3 is 0 0 1 1, not 0 0 0 1: raycast's transforms are affine; the last row is ignored",
+        );
+        assert_eq!(f.trees[f.root].blocks[0].matrix, DMat4::IDENTITY);
     }
 
     #[test]
@@ -1960,7 +2162,7 @@ mod tests {
             &block("<object type=\"primitive\" name=\"cube\"/>\n<object type=\"primitive\" name=\"sphere\"/>"),
             5,
             1,
-            "a second <object> in one <transblock> (the first is at line 4)",
+            "a second <object> in one <transblock> (the first is at 4:1)",
         );
         let f = ok(&block("<object type=\"primitive\" name=\"cube\"/>\n<frobnicate/>"));
         warned_at(&f, 5, 1, "unknown element <frobnicate> in <transblock> (expected translate, rotate, scale, matrix or object); skipped");
@@ -2099,7 +2301,7 @@ mod tests {
         );
         bad_at("<scenefile>\n<object type=\"tree\"/>\n</scenefile>", 2, 1, "missing attribute `name`");
         let dup = "<scenefile>\n<object type=\"tree\" name=\"a\"/>\n<object type=\"tree\" name=\"root\"/>\n  <object type=\"tree\" name=\"a\"/>\n</scenefile>";
-        bad_at(dup, 4, 23, "a second tree named \"a\" (the first is at line 2)");
+        bad_at(dup, 4, 23, "a second tree named \"a\" (the first is at 2:1)");
         let e =
             bad_at("<scenefile>\n<object type=\"tree\" name=\"main\"/>\n</scenefile>", 1, 1, "no tree named \"root\"");
         assert!(e.message.contains("trees found: main"), "{e}");
@@ -2254,7 +2456,7 @@ mod tests {
         assert!(t.elapsed().as_secs_f64() < 2.0);
         // Positions asked for out of order are still right.
         let xml = "<scenefile><object type=\"tree\" name=\"a\"/><object type=\"tree\" name=\"a\"/></scenefile>";
-        bad_at_str(xml, "name=\"a\"/></scenefile>", "a second tree named \"a\" (the first is at line 1)");
+        bad_at_str(xml, "name=\"a\"/></scenefile>", "a second tree named \"a\" (the first is at 1:12)");
     }
 
     #[test]
@@ -2265,5 +2467,239 @@ mod tests {
         assert_eq!(suggest("X", &["x", "y"]), Some("x"));
         assert_eq!(suggest("w", &["x", "y", "z"]), None);
         assert_eq!(suggest("colour", &["type", "name"]), None);
+    }
+
+    #[test]
+    fn missing_attribute_suggests_only_names_the_element_does_not_take() {
+        // `v1` is one of <function>'s own attributes, not a misspelt `v2`.
+        let e = light("<function v1=\"1\"/>").unwrap_err();
+        assert_eq!(at(&e), (3, 1), "{e}");
+        assert_eq!(e.message, "<function> is missing attribute `v2` (expected v1, v2 and v3)");
+        let e = bad_at(
+            &block("<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\"/></matrix><object type=\"primitive\" name=\"cube\"/>"),
+            4,
+            9,
+            "<row0> is missing attribute `v4` (expected v1, v2, v3 and v4)",
+        );
+        assert!(!e.message.contains("did you mean"), "{e}");
+        let e = bad_at(
+            &block("<translate x=\"1\" y=\"2\"/><object type=\"primitive\" name=\"cube\"/>"),
+            4,
+            1,
+            "<translate> is missing attribute `z` (expected x, y and z)",
+        );
+        assert!(!e.message.contains("did you mean"), "{e}");
+        // A name the element does not take is still offered.
+        let e = light("<function v1=\"1\" v2=\"2\" v33=\"3\"/>").unwrap_err();
+        assert_eq!(at(&e), (3, 25), "{e}");
+        assert!(e.message.contains("missing attribute `v3` (found `v33`: did you mean `v3`?)"), "{e}");
+        bad_at(
+            &block("<rotate x=\"1\" y=\"0\" z=\"0\" angel=\"90\"/><object type=\"primitive\" name=\"cube\"/>"),
+            4,
+            27,
+            "<rotate> is missing attribute `angle` (found `angel`: did you mean `angle`?)",
+        );
+    }
+
+    #[test]
+    fn object_type_misspelt_or_in_the_wrong_case_gets_a_suggestion() {
+        bad_at(
+            &block("<object type=\"Primitive\" name=\"cube\"/>"),
+            4,
+            9,
+            "unknown object type \"Primitive\" (expected primitive, tree or master; did you mean \"primitive\"?)",
+        );
+        bad_at(&block("<object type=\"mastr\" name=\"m\"/>"), 4, 9, "did you mean \"master\"?");
+        let e = bad_at(&block("<object type=\"thing\" name=\"cube\"/>"), 4, 9, "unknown object type \"thing\"");
+        assert!(!e.message.contains("did you mean"), "{e}");
+    }
+
+    #[test]
+    fn what_follows_the_root_element_is_named() {
+        let doc = "<scenefile>\n<object type=\"tree\" name=\"root\"/>\n</scenefile>\n";
+        bad_at(
+            &format!("{doc}<x a=\"1\"/>\n"),
+            4,
+            1,
+            "malformed XML: a second root element <x> after </scenefile>: a scene file has one <scenefile>",
+        );
+        bad_at(&format!("{doc}  hello\n"), 4, 3, "malformed XML: text \"hello\" after the root element </scenefile>");
+        bad_at(&format!("{doc}</scenefile>\n"), 4, 1, "malformed XML: a close tag </scenefile> after the root element");
+        // Comments after the root are fine.
+        ok(&format!("{doc}<!-- end -->\n"));
+        // Inside the root, an unknown token is still reported as one.
+        bad_at("<scenefile>\n<!x>\n</scenefile>", 2, 1, "malformed XML: unknown token");
+    }
+
+    #[test]
+    fn a_lone_carriage_return_ends_a_line() {
+        // Old Mac files end lines with CR alone; XML reads it as a line break.
+        let cr = "<scenefile>\r\r<cameradata><heightangle v=\"x\"/></cameradata>\r</scenefile>";
+        bad_at(cr, 3, 26, "attribute `v` of <heightangle> is \"x\"");
+        bad_at(&cr.replace('\r', "\r\n"), 3, 26, "attribute `v` of <heightangle> is \"x\"");
+        bad_at(&cr.replacen('\r', "\r\n", 1), 3, 26, "attribute `v` of <heightangle> is \"x\"");
+        // Warnings, and the XML parser's own positions.
+        let f = ok(&prim("cube", "<glow/>").replace('\n', "\r"));
+        warned_at(&f, 5, 1, "<glow>");
+        bad_at(
+            "<scenefile>\r<object type=\"tree\" name=\"root\">\r<transblock>\r</object>\r</scenefile>",
+            4,
+            1,
+            "found </object> while <transblock> is still open",
+        );
+        bad_at("<scenefile>\r<object", 2, 8, "malformed XML");
+        bad_at("<scenefile>\r<a x=\"1\" x=\"2\"/></scenefile>", 2, 10, "malformed XML: attribute 'x'");
+        // Bytes that are not UTF-8.
+        let dir = std::env::temp_dir().join(format!("raycast-parse-cr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let latin1 = dir.join("latin1.xml");
+        std::fs::write(&latin1, b"<scenefile>\r<!-- caf\xe9 -->\r</scenefile>").unwrap();
+        let e = parse_file(&latin1, &opts()).unwrap_err();
+        assert_eq!(at(&e), (2, 9), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn singular_transforms_are_errors_at_their_element() {
+        bad_at(
+            &block("<translate x=\"1\" y=\"0\" z=\"0\"/>\n  <scale x=\"1\" y=\"0\" z=\"1\"/>\n<object type=\"primitive\" name=\"cube\"/>"),
+            5,
+            3,
+            "<scale> has a zero factor (y = 0): the transform is singular",
+        );
+        // Rotated, so the zero is not on the diagonal of the product.
+        bad_at(
+            &block("<rotate x=\"1\" y=\"1\" z=\"0\" angle=\"37\"/><scale x=\"0\" y=\"1\" z=\"0\"/><object type=\"primitive\" name=\"cube\"/>"),
+            4,
+            39,
+            "<scale> has zero factors (x = 0, z = 0)",
+        );
+        // In an enclosing transblock.
+        bad_at(
+            &root("<transblock><scale x=\"0\" y=\"0\" z=\"0\"/><object type=\"tree\">\n<transblock><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>"),
+            3,
+            13,
+            "<scale> has zero factors (x = 0, y = 0, z = 0)",
+        );
+        // A degenerate shear (dependent columns) in a matrix.
+        bad_at(
+            &block(
+                "<rotate x=\"0\" y=\"1\" z=\"0\" angle=\"10\"/>\n<matrix><row0 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/><row1 v1=\"1\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
+                 <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/><row3 v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\"/></matrix><object type=\"primitive\" name=\"cube\"/>",
+            ),
+            5,
+            1,
+            "<matrix> is singular",
+        );
+    }
+
+    #[test]
+    fn duplicates_name_the_first_by_line_and_column() {
+        let first = "<diffuse r=\"1\" g=\"0\" b=\"0\"/>";
+        let f = ok(&prim("cube", &format!("{first}<diffuse r=\"0\" g=\"1\" b=\"0\"/>")));
+        let col = first.len() as u32 + 1;
+        warned_at(&f, 5, col, "second <diffuse> in <object> (the first is at 5:1); the later one is used");
+        let f = ok(&with_top("<cameradata/> <cameradata/>"));
+        warned_at(&f, 2, 15, "second <cameradata> (the first is at 2:1); ignored");
+        let f = ok(&with_top(" <globaldata/><globaldata/>"));
+        warned_at(&f, 2, 15, "second <globaldata> (the first is at 2:2); ignored");
+        bad_at(
+            &block("<object type=\"primitive\" name=\"cube\"/><object type=\"primitive\" name=\"sphere\"/>"),
+            4,
+            39,
+            "a second <object> in one <transblock> (the first is at 4:1)",
+        );
+    }
+
+    #[test]
+    fn misplaced_known_elements_say_where_they_go() {
+        let f = ok(&root(
+            "<transblock><object type=\"tree\">\n<object type=\"primitive\" name=\"cube\"/>\n\
+             <transblock><object type=\"primitive\" name=\"cube\"/></transblock></object></transblock>",
+        ));
+        warned_at(&f, 4, 1, "<object> cannot be inside <object>: objects go in a <transblock>");
+        let f = ok(&prim("cube", "<translate x=\"1\" y=\"0\" z=\"0\"/>"));
+        warned_at(&f, 5, 1, "<translate> cannot be inside <object>: transforms go in a <transblock>; skipped");
+        let f = ok(&block("<diffuse r=\"1\" g=\"0\" b=\"0\"/><object type=\"primitive\" name=\"cube\"/>"));
+        warned_at(
+            &f,
+            4,
+            1,
+            "<diffuse> cannot be inside <transblock>: material elements go in an <object type=\"primitive\">; skipped",
+        );
+        let f = ok(&with_top("<cameradata><color r=\"1\" g=\"1\" b=\"1\"/></cameradata>"));
+        warned_at(&f, 2, 13, "<color> cannot be inside <cameradata>: it goes in a <lightdata>; skipped");
+        let f = ok(&with_top("<transblock/>"));
+        warned_at(
+            &f,
+            2,
+            1,
+            "<transblock> cannot be at the top level: transblocks go in an <object type=\"tree\">; skipped",
+        );
+        let f = ok(&with_top("<globaldata><lightdata/></globaldata>"));
+        warned_at(&f, 2, 13, "<lightdata> cannot be inside <globaldata>: it goes at the top level, in <scenefile>");
+        // Unknown names keep their suggestion.
+        let f = ok(&with_top("<lightdata><colour r=\"1\" g=\"1\" b=\"1\"/></lightdata>"));
+        warned_at(&f, 2, 12, "unknown element <colour> in <lightdata> (did you mean <color>?); skipped");
+    }
+
+    #[test]
+    fn matrix_last_row_is_ignored_with_a_warning() {
+        let rows = |row3: &str| {
+            block(&format!(
+                "<matrix><row0 v1=\"1\" v2=\"0\" v3=\"0\" v4=\"5\"/><row1 v1=\"0\" v2=\"1\" v3=\"0\" v4=\"0\"/>\
+                 <row2 v1=\"0\" v2=\"0\" v3=\"1\" v4=\"0\"/>\n  <row3 {row3}/></matrix>\
+                 <object type=\"primitive\" name=\"cube\"/>"
+            ))
+        };
+        let affine = DMat4::from_translation(DVec3::new(5.0, 0.0, 0.0));
+        for (row3, shown) in [
+            ("v1=\"0\" v2=\"0\" v3=\"0\" v4=\"2\"", "0 0 0 2"),
+            ("v1=\"0\" v2=\"0\" v3=\"0\" v4=\"0\"", "0 0 0 0"),
+            ("a=\"0.5\" b=\"0\" c=\"1\" d=\"1\"", "0.5 0 1 1"),
+        ] {
+            let f = ok(&rows(row3));
+            warned_at(
+                &f,
+                5,
+                3,
+                &format!(
+                    "<matrix> row3 is {shown}, not 0 0 0 1: raycast's transforms are affine; the last row is ignored (taken as 0 0 0 1)"
+                ),
+            );
+            let b = &f.trees[f.root].blocks[0];
+            assert_eq!(b.matrix, affine, "{row3}");
+            assert_eq!(b.transforms, vec![Transform::Matrix(Box::new(affine))]);
+        }
+        let f = ok(&rows("v1=\"0\" v2=\"0\" v3=\"0\" v4=\"1\""));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+    }
+
+    #[test]
+    fn elements_raycast_does_not_render_are_noted() {
+        let f = ok(&prim(
+            "sphere",
+            "<transparent r=\"0.5\" g=\"0.5\" b=\"0.5\"/>\n<ior v=\"1.5\"/>\n<bumpmap file=\"bump.png\"/>",
+        ));
+        warned_at(&f, 5, 1, "raycast's ray caster has no transparency or refraction; <transparent> is ignored (the surface is drawn opaque)");
+        warned_at(&f, 7, 1, "raycast does no bump mapping; <bumpmap> is ignored");
+        assert_eq!(f.warnings.len(), 2, "{:?}", f.warnings);
+        // Values that change nothing are not worth a word.
+        let f = ok(&prim("sphere", "<transparent r=\"0\" g=\"0\" b=\"0\"/><ior v=\"1.33\"/>"));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+        let f = camera("<aperture v=\"0.08\"/>\n<focallength v=\"15\"/>\n<aspectratio v=\"1.5\"/>").unwrap();
+        warned_at(
+            &f,
+            5,
+            1,
+            "raycast takes the aspect ratio from the picture's size (--width and --height); <aspectratio> is ignored",
+        );
+        // Depth of field: the course's renders draw none either (corpus
+        // files carry an aperture), so no word.
+        assert_eq!(f.warnings.len(), 1, "{:?}", f.warnings);
+        let f = ok(&with_top("<globaldata><transparentcoeff v=\"0.3\"/></globaldata>"));
+        warned_at(&f, 2, 13, "raycast's ray caster has no transparency; <transparentcoeff> is ignored");
+        let f = ok(&with_top("<globaldata><transparentcoeff v=\"0\"/></globaldata>"));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
     }
 }
