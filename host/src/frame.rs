@@ -275,7 +275,8 @@ impl TextureTable {
     fn add(&mut self, t: &TextureRef) -> Result<i32, String> {
         let Some(path) = &t.resolved else {
             return Err(format!(
-                "{}: error: texture \"{}\" not found; pass the folder that holds it with --assets DIR, or render with --no-textures",
+                "{}: error: texture \"{}\" not found as a picture file (the warning at this element says where raycast looked); \
+                 pass the folder that holds it with --assets DIR, or render with --no-textures",
                 t.loc, t.file
             ));
         };

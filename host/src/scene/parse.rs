@@ -1573,6 +1573,17 @@ impl<'a> Ctx<'a> {
                 }
             }
         }
+        // One that is there and is no file (a folder, a device): said so,
+        // not "not found".
+        if let Some((there, metadata)) = tried.iter().find_map(|t| Some((t, std::fs::metadata(t).ok()?))) {
+            let what = if metadata.is_dir() { "a folder" } else { "not a regular file" };
+            let msg = format!(
+                "<{el}> file \"{file}\" is {what} (\"{}\"), not a picture: name the picture's file, or render with \
+                 --no-textures",
+                there.display()
+            );
+            return (None, Some(msg));
+        }
         let tried: Vec<String> = tried.iter().map(|t| format!("\"{}\"", t.display())).collect();
         let above = if p.is_absolute() {
             format!(", and its trailing folders in those and the {FOLDERS_ABOVE} folders above the scene's")
@@ -2400,6 +2411,12 @@ mod tests {
         let f = ok(&prim("cube", "<texture file=\"/course/cs123/data/image/x.png\"/>"));
         assert_eq!(first_prim(&f).1.texture.as_ref().unwrap().resolved, None);
         warned_at(&f, 5, 1, "<texture> file \"/course/cs123/data/image/x.png\" not found (tried \"/course/cs123/data/image/x.png\", \"/nonexistent-dir/x.png\", and its trailing folders in those and the 3 folders above the scene's)");
+        // A texture that names a folder or a device: said so, not "not found".
+        for (there, what) in [(std::env::temp_dir(), "a folder"), (PathBuf::from("/dev/null"), "not a regular file")] {
+            let f = ok(&prim("cube", &format!("<texture file=\"{}\"/>", there.display())));
+            assert_eq!(first_prim(&f).1.texture.as_ref().unwrap().resolved, None);
+            warned_at(&f, 5, 1, &format!("<texture> file \"{0}\" is {what} (\"{0}\"), not a picture", there.display()));
+        }
         // A rotate without angle.
         bad_at(
             &block("  <rotate x=\"1\" y=\"0\" z=\"0\"/>\n<object type=\"primitive\" name=\"cube\"/>"),
