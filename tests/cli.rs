@@ -260,6 +260,13 @@ fn unwritable_output() {
     let o = raycast(&["render", "-o", jpg.to_str().unwrap()], &[]);
     assert_fails(&o, 1, "raycast writes PNG pictures; name the file .png, not .jpg");
     assert!(!text(&o).0.contains("device:") && !jpg.exists(), "{:?}", text(&o));
+    // A folder that takes no new file (/proc): refused before the work,
+    // not after the render as "No such file or directory".
+    if Path::new("/proc/self").exists() {
+        let o = raycast(&["render", "-o", "/proc/raycast-test.png"], &[]);
+        assert_fails(&o, 1, "cannot write /proc/raycast-test.png: its folder /proc takes no new file");
+        assert!(!text(&o).0.contains("device:"), "{:?}", text(&o));
+    }
     // No extension (a device, a pipe's name): PNG all the same.
     let bare = folder.join("no-extension");
     let _ = std::fs::remove_file(&bare);

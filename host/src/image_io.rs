@@ -58,7 +58,25 @@ pub fn check_output_path(path: &Path) -> Result<(), String> {
     if !folder.is_dir() {
         return cannot(&format!("no folder {}", folder.display()));
     }
-    Ok(())
+    // A folder that takes no new file (/proc, a read-only disk), found
+    // before the work rather than after the render (write_whole writes a
+    // temporary file beside the picture): a probe file made and removed.
+    // A device (/dev/stdout) is written as it is; a writable file in a
+    // folder that takes none is written in place (write_whole), so either
+    // passes.
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+        return Ok(());
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let probe = folder.join(format!(".{name}.{}.probe", std::process::id()));
+    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(_) if std::fs::OpenOptions::new().write(true).open(path).is_ok() => Ok(()),
+        Err(e) => cannot(&format!("its folder {} takes no new file ({e})", folder.display())),
+    }
 }
 
 /// The most pixels a picture read whole may have (`read_picture`: compare,
