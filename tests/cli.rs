@@ -1897,6 +1897,14 @@ fn trace_follows_one_pixel() {
         "trace runs the CPU build of the shared code: --timeout is for the commands that render on a device",
     );
     assert_fails(&raycast(&["trace", "--pixel", "1,1", "--aov", "depth"], &[]), 2, "trace follows the colour's rays");
+    // Its help lists what it takes, not the options it refuses.
+    let help = text(&raycast(&["trace", "--help"], &[])).0;
+    for refused in
+        ["--device", "--shaders", "--scene-buffers", "--validate", "--timeout", "--aov", "--depth-range", "--cost-max"]
+    {
+        assert!(!help.contains(&format!("{refused} ")), "{refused} in trace --help:\n{help}");
+    }
+    assert!(help.contains("--width <W>") && help.contains("--no-bvh"), "{help}");
     assert_fails(&raycast(&["trace", "no/such.xml", "--pixel", "1,1"], &[]), 1, "no/such.xml");
 }
 

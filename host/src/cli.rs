@@ -48,6 +48,18 @@ enum Command {
     /// Run shader unit tests (tests/shaders/*.toml by default) on the device and the CPU build.
     ShaderTest(crate::harness::cli::ShaderTestArgs),
     /// Follow one sample of one pixel through the shared code (its CPU build), step by step: each ray and what it meets, each light's term and shadow ray, each level's colour and mirror weight.
+    // Hidden from its help: the options of the renders it shares that
+    // trace refuses (a device's, the AOVs'), which it would list otherwise.
+    #[command(
+        mut_arg("device", |a| a.hide(true)),
+        mut_arg("shaders", |a| a.hide(true)),
+        mut_arg("scene_buffers", |a| a.hide(true)),
+        mut_arg("validate", |a| a.hide(true)),
+        mut_arg("timeout", |a| a.hide(true)),
+        mut_arg("aov", |a| a.hide(true)),
+        mut_arg("depth_range", |a| a.hide(true)),
+        mut_arg("cost_max", |a| a.hide(true))
+    )]
     Trace(TraceArgs),
     /// Describe scenes without rendering them: camera, primitives, lights, materials, the world box, each group's hierarchy (nodes, leaves, depth, SAH cost) and buffer sizes
     Info(InfoArgs),
