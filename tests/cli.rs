@@ -1341,6 +1341,11 @@ fn render_settings_out_of_range() {
         ("0,NaN", "--depth-range 0,NaN is out of range"),
         ("1e39,2e39", "1e39 is beyond what the renderer's 32-bit floats hold"),
         ("-1,5", "--depth-range -1,5 is out of range"),
+        // Two numbers that are one 32-bit float: said so, in few digits.
+        (
+            "1e-45,2e-45",
+            "--depth-range 1e-45,1e-45 (as the renderer's 32-bit floats they are the same) is out of range",
+        ),
     ] {
         assert_fails(&raycast(&["render", "--aov", "depth", "--depth-range", range], &[]), 2, says);
     }
