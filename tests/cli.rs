@@ -722,6 +722,24 @@ fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
             "{out}"
         );
         assert!(!out.contains("hint:"), "{out}");
+        // An option only a device uses asks for the device, lavapipe included.
+        let o = raycast(
+            &[
+                "render",
+                "--width",
+                "8",
+                "--height",
+                "6",
+                "--backend",
+                "auto",
+                "--timeout",
+                "60",
+                "-o",
+                none.to_str().unwrap(),
+            ],
+            &[],
+        );
+        assert!(o.status.success() && text(&o).0.contains("device: llvmpipe"), "{:?}", text(&o));
         // Rule: bit-exact.
         let diff = raycast::image_io::compare(
             &raycast::image_io::read_picture(&auto).unwrap(),

@@ -1225,7 +1225,8 @@ fn render_scenes(
 /// Vulkan's start-up or a pipeline to build, and on lavapipe gives the same
 /// bits) or, without `--device`, none opens (no driver, no device): then
 /// the CPU build, and a line says why. With `--shaders` it is the device
-/// (the folder's kernel runs only there). The second value says why the
+/// (the folder's kernel runs only there), as with any option only a device
+/// uses (`KernelOptions::device_only_given`). The second value says why the
 /// CPU build was chosen (`; --backend auto: …`, or empty), to follow its
 /// thread count on the command's first line.
 fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, String), Failure> {
@@ -1235,7 +1236,9 @@ fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, S
     match backend {
         Backend::Cpu => cpu(None),
         Backend::Gpu => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
-        Backend::Auto if k.shaders.is_some() => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
+        // Options only a device uses (a shader folder, a device named,
+        // validation, a buffer kind, a timeout) ask for the device.
+        Backend::Auto if !k.device_only_given().is_empty() => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
         Backend::Auto => match k.renderer() {
             Ok(renderer) if renderer.context().info().runs_on_cpu() => {
                 let why = format!("--backend auto: {} runs on the CPU", renderer.context().info().name);
