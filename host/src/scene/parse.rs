@@ -254,8 +254,8 @@ struct Ctx<'a> {
     trees: Vec<NamedTree>,
     /// Trees fully parsed so far: name → index in `trees`.
     declared: HashMap<String, usize>,
-    /// Every top-level tree name in the file → line of its first declaration.
-    all_names: HashMap<String, u32>,
+    /// Every top-level tree name in the file → line and column of its first declaration.
+    all_names: HashMap<String, (u32, u32)>,
     current_tree: Option<String>,
     /// (byte position, 0-based line, 0-based column) of the last position
     /// asked for.
@@ -776,8 +776,8 @@ impl<'a> Ctx<'a> {
         for c in &children {
             if c.tag_name().name() == "object" {
                 if let Some(a) = Self::attr(*c, "name") {
-                    let line = self.nloc(*c).line;
-                    self.all_names.entry(a.value().to_string()).or_insert(line);
+                    let at = self.nloc(*c);
+                    self.all_names.entry(a.value().to_string()).or_insert((at.line, at.col));
                 }
             }
         }
@@ -906,8 +906,9 @@ impl<'a> Ctx<'a> {
                             return Err(self.err(
                                 self.nloc(c),
                                 format!(
-                                    "<cameradata> has both <{pname}> (line {}) and <{name}>; use one (<focus> is a point to look at, <look> a direction)",
-                                    self.nloc(prev).line
+                                    "<cameradata> has both <{pname}> (at {}:{}) and <{name}>; use one (<focus> is a point to look at, <look> a direction)",
+                                    self.nloc(prev).line,
+                                    self.nloc(prev).col
                                 ),
                             ));
                         }
@@ -1345,9 +1346,9 @@ impl<'a> Ctx<'a> {
                 }
                 let msg = if self.current_tree.as_deref() == Some(name) {
                     format!("tree {} uses itself as a master; a tree cannot contain itself", shown(name))
-                } else if let Some(line) = self.all_names.get(name) {
+                } else if let Some((line, col)) = self.all_names.get(name) {
                     format!(
-                        "master {} is used before its tree is declared (line {line}); move that tree above this one",
+                        "master {} is used before its tree is declared (at {line}:{col}); move that tree above this one",
                         shown(name)
                     )
                 } else {
@@ -1783,7 +1784,7 @@ mod tests {
         // Lines: 1 <scenefile>, 2 <cameradata>, 3 the inner text.
         let e = camera("<focus x=\"0\" y=\"0\" z=\"0\"/><look x=\"0\" y=\"0\" z=\"-1\"/>").unwrap_err();
         assert_eq!(at(&e), (3, 27));
-        assert!(e.message.contains("both <focus> (line 3) and <look>"), "{e}");
+        assert!(e.message.contains("both <focus> (at 3:1) and <look>"), "{e}");
         let e = camera("<look x=\"0\" y=\"0\" z=\"0\"/>").unwrap_err();
         assert_eq!(at(&e), (3, 1));
         assert!(e.message.contains("<look> is the zero vector"), "{e}");
@@ -2294,7 +2295,7 @@ mod tests {
             <object type=\"tree\" name=\"root\"><transblock><object type=\"master\" name=\"later\"/></transblock></object>\n\
             <object type=\"tree\" name=\"later\"><transblock><object type=\"primitive\" name=\"cone\"/></transblock></object>\n\
             </scenefile>";
-        bad_at_str(used_before, "name=\"later\"/>", "master \"later\" is used before its tree is declared (line 3)");
+        bad_at_str(used_before, "name=\"later\"/>", "master \"later\" is used before its tree is declared (at 3:1)");
         let unknown = root("<transblock><object type=\"master\" name=\"nope\"/></transblock>");
         bad_at(&unknown, 3, 35, "unknown master \"nope\"");
         let selfref = root("<transblock><object type=\"master\" name=\"root\"/></transblock>");
