@@ -258,7 +258,7 @@ fn unwritable_output() {
     // Another image format's name: refused before the work, not a PNG under a .jpg name.
     let jpg = folder.join("x.jpg");
     let o = raycast(&["render", "-o", jpg.to_str().unwrap()], &[]);
-    assert_fails(&o, 1, "raycast writes PNG pictures; name the file .png, not .jpg");
+    assert_fails(&o, 2, "raycast writes PNG pictures; name the file .png, not .jpg");
     assert!(!text(&o).0.contains("device:") && !jpg.exists(), "{:?}", text(&o));
     // A folder that takes no new file (/proc): refused before the work,
     // not after the render as "No such file or directory".
@@ -345,7 +345,7 @@ fn unwritable_output() {
         vec!["preview", "--screenshot", "s.tiff"],
     ] {
         let o = raycast(&args, &[]);
-        assert_fails(&o, 1, "raycast writes PNG pictures");
+        assert_fails(&o, 2, "raycast writes PNG pictures");
     }
 }
 

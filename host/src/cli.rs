@@ -301,6 +301,14 @@ fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Pa
     }
 }
 
+/// Whether a picture can be written to `path` (`image_io`'s checks): a
+/// name of another format is a usage error (exit 2), a folder that is not
+/// there or takes no file an error (exit 1).
+pub(crate) fn check_output(path: &Path) -> Result<(), Failure> {
+    image_io::check_output_name(path).map_err(usage_error)?;
+    Ok(image_io::check_output_path(path)?)
+}
+
 /// Whether `path` names something there that is not a file or a link to
 /// one (a device such as /dev/stdout, a pipe): written as it is, by name.
 fn not_a_file(path: &Path) -> bool {
@@ -932,7 +940,7 @@ fn output_paths(
         .map(|scene| output.clone().unwrap_or_else(|| default_output(*scene, suffix, out_dir.as_deref())))
         .collect();
     for (i, path) in outputs.iter().enumerate() {
-        image_io::check_output_path(path)?;
+        check_output(path)?;
         if let Some(j) = outputs[..i].iter().position(|earlier| earlier == path) {
             return Err(Failure(
                 format!(
@@ -1624,7 +1632,7 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
         ));
     }
     if let Some(path) = &args.output {
-        image_io::check_output_path(path)?;
+        check_output(path)?;
         refuse_overwriting(path, [args.actual.as_path(), args.expected.as_path()])?;
     }
     let read = |path: &Path| {

@@ -38,18 +38,28 @@ pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
     crate::write_whole(path, &bytes)
 }
 
+/// A picture's name ends in .png or has no extension (a device such as
+/// /dev/stdout): raycast writes PNG, and `out.jpg` holding PNG bytes would
+/// mislead. Its error is a usage error (exit 2: a malformed value).
+pub fn check_output_name(path: &Path) -> Result<(), String> {
+    match path.extension().filter(|e| !e.eq_ignore_ascii_case("png")) {
+        Some(ext) => Err(format!(
+            "cannot write {}: raycast writes PNG pictures; name the file .png, not .{}",
+            path.display(),
+            ext.to_string_lossy()
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Whether a picture could be written to `path`, asked before the work that
-/// makes it: its folder exists, it is not itself a folder, and its name
-/// ends in .png or has no extension (a device such as /dev/stdout): raycast
-/// writes PNG, and `out.jpg` holding PNG bytes would mislead. (The write can
-/// still fail later, on permissions or a full disk; `write_png` says so.)
+/// makes it (its name asked apart: `check_output_name`): its folder exists
+/// and takes a new file, and it is not itself a folder. (The write can
+/// still fail later, on a full disk; `write_png` says so.)
 pub fn check_output_path(path: &Path) -> Result<(), String> {
     let cannot = |why: &str| Err(format!("cannot write {}: {why}", path.display()));
     if path.is_dir() {
         return cannot("it is a folder");
-    }
-    if let Some(ext) = path.extension().filter(|e| !e.eq_ignore_ascii_case("png")) {
-        return cannot(&format!("raycast writes PNG pictures; name the file .png, not .{}", ext.to_string_lossy()));
     }
     let folder = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,

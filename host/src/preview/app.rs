@@ -124,7 +124,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     };
     settings.validate().map_err(crate::cli::usage_error)?;
     if let Some(path) = &args.screenshot {
-        crate::image_io::check_output_path(path)?;
+        crate::cli::check_output(path)?;
     }
     let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
