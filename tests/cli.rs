@@ -913,6 +913,58 @@ fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
     }
 }
 
+/// shader-test runs the C++ build in a process of its own: a case whose
+/// scene says it has more primitives than its array holds (the C++ build
+/// reads past it) fails with the crash said, where the command ended on
+/// SIGSEGV; a tested function that never ends in the C++ build fails at
+/// --timeout, where the command hung for ever; and `cpu = false` keeps a
+/// case off the C++ build in a batch too (it ran there all the same).
+#[test]
+fn shader_test_contains_the_cpp_build() {
+    let shaders = copy_of_shaders("contained-cpp-shaders");
+    let glsl = shaders.join("raycast.glsl");
+    let spin = "\nuint spin(uint n) {\n    uint i = 0u;\n    uint acc = 0u;\n    while (i != n) {\n        i = i + 2u;\n        \
+                acc = acc + i;\n    }\n    return acc;\n}\n";
+    std::fs::write(&glsl, std::fs::read_to_string(&glsl).unwrap() + spin).unwrap();
+    let cases = out_dir().join("contained.toml");
+    std::fs::write(
+        &cases,
+        "[scenes.lie]\nframe = { primitive_count = 1000000 }\n\
+         primitives = [{ object_from_world = 1.0, shape = \"SHAPE_CUBE\" }]\n\n\
+         [[case]]\nname = \"lie\"\nfunction = \"trace\"\n\
+         inputs = { r = { origin = [0.0, 0.0, 2.0], direction = [0.0, 0.0, -1.0] } }\nsame_as_cpu = true\nscene = \"lie\"\n\n\
+         [[case]]\nname = \"even\"\nfunction = \"spin\"\ninputs = { n = 4 }\nexpected = 6\nrule = \"exact\"\n\n\
+         [[case]]\nname = \"odd, device only\"\nfunction = \"spin\"\ninputs = { n = 3 }\nexpected = 0\nrule = \"exact\"\ncpu = false\n",
+    )
+    .unwrap();
+    let run = |file: &Path| {
+        Command::new("timeout")
+            .args(["60", env!("CARGO_BIN_EXE_raycast"), "shader-test", "--shaders", shaders.to_str().unwrap()])
+            .args(["--timeout", "2", file.to_str().unwrap()])
+            .output()
+            .unwrap()
+    };
+    let o = run(&cases);
+    let out = text(&o).0;
+    assert_eq!(o.status.code(), Some(4), "{out}{}", text(&o).1);
+    assert!(out.contains("cpu: the C++ build of trace__Ray crashed (SIGSEGV"), "{out}");
+    assert!(out.contains("1 passed, 2 failed") && !out.contains("FAIL even"), "{out}");
+    // The odd case is the device's alone: lavapipe's loop budget ends it (a
+    // wrong value), a device without one times out; never the C++ build.
+    assert!(!out.contains("C++ build of spin__uint did not finish"), "{out}");
+    // Now on the C++ build too: it fails at the timeout, the command ends.
+    let odd = out_dir().join("contained-odd.toml");
+    std::fs::write(&odd, "[[case]]\nfunction = \"spin\"\ninputs = { n = 3 }\nexpected = 0\nrule = \"exact\"\n")
+        .unwrap();
+    let o = run(&odd);
+    let out = text(&o).0;
+    assert_eq!(o.status.code(), Some(4), "{out}{}", text(&o).1);
+    assert!(
+        out.contains("the C++ build of spin__uint did not finish within --timeout 2 s (a loop that never ends?)"),
+        "{out}"
+    );
+}
+
 /// `render` tells how far it is: on a terminal a line rewritten in place
 /// (from the first second on), with `RAYCAST_PROGRESS=1` a line a step:
 /// the device's samples as their submissions finish, the CPU build's rows

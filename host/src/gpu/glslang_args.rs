@@ -148,17 +148,35 @@ pub const TOOL_LIMIT: std::time::Duration = std::time::Duration::from_secs(60);
 pub fn run_tool(
     tool: &str,
     package: &str,
-    mut command: std::process::Command,
+    command: std::process::Command,
     limit: std::time::Duration,
 ) -> Result<std::process::Output, String> {
-    use std::io::Read;
+    run_tool_fed(tool, package, command, limit, None)
+}
+
+/// `run_tool` with `input` written to the tool's standard input (on a
+/// thread of its own, as its output is read), or none.
+pub fn run_tool_fed(
+    tool: &str,
+    package: &str,
+    mut command: std::process::Command,
+    limit: std::time::Duration,
+    input: Option<Vec<u8>>,
+) -> Result<std::process::Output, String> {
+    use std::io::{Read, Write};
     use std::process::Stdio;
     let mut child = command
-        .stdin(Stdio::null())
+        .stdin(if input.is_some() { Stdio::piped() } else { Stdio::null() })
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .map_err(|e| format!("cannot run {tool} (Debian package {package}): {e}"))?;
+    if let (Some(bytes), Some(mut stdin)) = (input, child.stdin.take()) {
+        // A tool that ends before reading it all closes the pipe: its status says why.
+        std::thread::spawn(move || {
+            let _ = stdin.write_all(&bytes);
+        });
+    }
     // Read on threads of their own, so that a tool that fills one pipe
     // while we wait on the other cannot stall; each sends what it read, by
     // pipe (0 stdout, 1 stderr), at the pipe's end.

@@ -36,9 +36,9 @@ pub fn compile_flags() -> Vec<String> {
 
 type Entry = unsafe extern "C" fn(*const *const std::ffi::c_void, *const u32, *mut u32);
 
-/// A loaded library of case runners.
+/// A library of case runners, built and known to load (each run loads it
+/// in a process of its own: `run`).
 pub struct CpuLibrary {
-    lib: libloading::Library,
     pub path: PathBuf,
 }
 
@@ -103,25 +103,139 @@ impl CpuLibrary {
         }
         // SAFETY: the library is ours, generated above; its initialisers are
         // those of the C++ standard library and thread_local variables.
-        let lib = unsafe { libloading::Library::new(&lib_path) }
-            .map_err(|e| format!("cannot load {}: {e}", lib_path.display()))?;
-        Ok(CpuLibrary { lib, path: lib_path })
+        drop(
+            unsafe { libloading::Library::new(&lib_path) }
+                .map_err(|e| format!("cannot load {}: {e}", lib_path.display()))?,
+        );
+        Ok(CpuLibrary { path: lib_path })
     }
 
     /// Runs the cases of `key` (`Function::key`): `input` as for the kernel, `out_words` long
-    /// output pre-filled with the sentinel.
-    pub fn run(&self, key: &str, scene: &[&[u32]], input: &[u32], out_words: usize) -> Result<Vec<u32>, String> {
-        let symbol = codegen::cpp_symbol(key);
-        // SAFETY: the symbol was generated with exactly this signature.
-        let entry: libloading::Symbol<Entry> = unsafe { self.lib.get(symbol.as_bytes()) }
-            .map_err(|e| format!("{}: no symbol {symbol}: {e}", self.path.display()))?;
-        let mut out = vec![codegen::SENTINEL; out_words];
-        let pointers: Vec<*const std::ffi::c_void> = scene.iter().map(|b| b.as_ptr().cast()).collect();
-        // SAFETY: every scene buffer holds at least one whole struct of its
-        // type (checked by the caller) and at least as many as the scene's
-        // counts say; `input` holds its case count and every case's words;
-        // `out` has room for every case's written word and result.
-        unsafe { entry(pointers.as_ptr(), input.as_ptr(), out.as_mut_ptr()) };
-        Ok(out)
+    /// output pre-filled with the sentinel. In a process of its own
+    /// (`run_in_child`), so that a tested function that never ends is
+    /// stopped after `timeout`, and one that reads past the scene's arrays
+    /// (a scene whose counts say more than its arrays hold) fails its cases
+    /// rather than crash the command.
+    pub fn run(
+        &self,
+        key: &str,
+        scene: &[&[u32]],
+        input: &[u32],
+        out_words: usize,
+        timeout: std::time::Duration,
+    ) -> Result<Vec<u32>, String> {
+        let mut fed: Vec<u32> = vec![scene.len() as u32];
+        for b in scene {
+            fed.push(b.len() as u32);
+            fed.extend_from_slice(b);
+        }
+        fed.push(input.len() as u32);
+        fed.extend_from_slice(input);
+        let exe = std::env::current_exe().map_err(|e| format!("cannot find raycast's own program: {e}"))?;
+        let mut command = Command::new(&exe);
+        command.env(CHILD_ENV, format!("{}\t{key}\t{out_words}", self.path.display()));
+        let bytes: Vec<u8> = bytemuck::cast_slice(&fed).to_vec();
+        let out =
+            crate::gpu::run_tool_fed("the C++ build's run", "raycast", command, timeout, Some(bytes)).map_err(|e| {
+                if e.contains("was stopped") {
+                    format!(
+                        "the C++ build of {key} did not finish within --timeout {} s (a loop that never ends?)",
+                        timeout.as_secs_f64()
+                    )
+                } else {
+                    e
+                }
+            })?;
+        if !out.status.success() {
+            use std::os::unix::process::ExitStatusExt;
+            let why = match out.status.signal() {
+                Some(11) => {
+                    "SIGSEGV: a read past the scene's arrays? each count and index of the scene must fit its arrays"
+                        .to_string()
+                }
+                Some(n) => format!("signal {n}"),
+                None => format!("{}: {}", out.status, String::from_utf8_lossy(&out.stderr).trim()),
+            };
+            return Err(format!("the C++ build of {key} crashed ({why})"));
+        }
+        if out.stdout.len() != out_words * 4 {
+            return Err(format!(
+                "the C++ build of {key} gave {} bytes, not {}: {}",
+                out.stdout.len(),
+                out_words * 4,
+                String::from_utf8_lossy(&out.stderr).trim()
+            ));
+        }
+        Ok(out.stdout.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
+}
+
+/// The variable that starts a process as one run of a case library
+/// (`CpuLibrary::run`): `LIBRARY<tab>KEY<tab>OUT_WORDS`, the scene's buffers
+/// and the input on standard input (`run`'s words), the output words on
+/// standard output.
+const CHILD_ENV: &str = "RAYCAST_HARNESS_CPU_RUN";
+
+/// Runs before `main` in every program that holds this library (raycast,
+/// the test programs), so that `CpuLibrary::run` can start its own program
+/// as the child: with CHILD_ENV set, the process is that run and exits.
+#[cfg(target_os = "linux")]
+#[used]
+#[link_section = ".init_array"]
+static RUN_AS_CHILD: extern "C" fn() = {
+    extern "C" fn child() {
+        if let Some(spec) = std::env::var_os(CHILD_ENV) {
+            std::process::exit(match run_in_child(&spec.to_string_lossy()) {
+                Ok(()) => 0,
+                Err(e) => {
+                    eprintln!("{e}");
+                    1
+                }
+            });
+        }
+    }
+    child
+};
+
+/// The child's side of `CpuLibrary::run`.
+fn run_in_child(spec: &str) -> Result<(), String> {
+    use std::io::{Read, Write};
+    let mut parts = spec.split('\t');
+    let (Some(path), Some(key), Some(out_words)) = (parts.next(), parts.next(), parts.next()) else {
+        return Err(format!("{CHILD_ENV}: {spec:?} is not LIBRARY<tab>KEY<tab>OUT_WORDS"));
+    };
+    let out_words: usize = out_words.parse().map_err(|e| format!("{CHILD_ENV}: {e}"))?;
+    let mut bytes = Vec::new();
+    std::io::stdin().read_to_end(&mut bytes).map_err(|e| format!("standard input: {e}"))?;
+    let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let mut at = 0usize;
+    let mut take = |n: usize| -> Result<&[u32], String> {
+        let slice = words.get(at..at + n).ok_or("standard input ends early")?;
+        at += n;
+        Ok(slice)
+    };
+    let buffers = take(1)?[0] as usize;
+    let mut scene: Vec<Vec<u32>> = Vec::with_capacity(buffers);
+    for _ in 0..buffers {
+        let n = take(1)?[0] as usize;
+        scene.push(take(n)?.to_vec());
+    }
+    let n = take(1)?[0] as usize;
+    let input = take(n)?.to_vec();
+    // SAFETY: the library is the parent's, built by `CpuLibrary::build`.
+    let lib = unsafe { libloading::Library::new(path) }.map_err(|e| format!("cannot load {path}: {e}"))?;
+    let symbol = codegen::cpp_symbol(key);
+    // SAFETY: the symbol was generated with exactly this signature.
+    let entry: libloading::Symbol<Entry> =
+        unsafe { lib.get(symbol.as_bytes()) }.map_err(|e| format!("{path}: no symbol {symbol}: {e}"))?;
+    let mut out = vec![codegen::SENTINEL; out_words];
+    let pointers: Vec<*const std::ffi::c_void> = scene.iter().map(|b| b.as_ptr().cast()).collect();
+    // SAFETY: every scene buffer holds at least one whole struct of its type
+    // (checked by the parent); `input` holds its case count and every case's
+    // words; `out` has room for every case's written word and result. A
+    // scene whose counts say more than its arrays hold reads past them:
+    // this process, not the command, then ends on the signal.
+    unsafe { entry(pointers.as_ptr(), input.as_ptr(), out.as_mut_ptr()) };
+    std::io::stdout().write_all(bytemuck::cast_slice(&out)).map_err(|e| format!("standard output: {e}"))?;
+    Ok(())
 }
