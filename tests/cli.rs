@@ -963,6 +963,32 @@ fn shader_test_contains_the_cpp_build() {
         out.contains("the C++ build of spin__uint did not finish within --timeout 2 s (a loop that never ends?)"),
         "{out}"
     );
+    // A C++ build that fails (a syntax error) gives the compiler's output
+    // once, at the first case, where every case of the batch repeated it.
+    let broken = copy_of_shaders("contained-broken-shaders");
+    let glsl = broken.join("raycast.glsl");
+    std::fs::write(&glsl, std::fs::read_to_string(&glsl).unwrap() + "\nfloat broken(float x) { return x +; }\n")
+        .unwrap();
+    let three = out_dir().join("contained-three.toml");
+    std::fs::write(
+        &three,
+        "[[case]]\nfunction = \"clamp01\"\ninputs = { x = 0.5 }\nsame_as_cpu = true\n\n\
+         [[case]]\nfunction = \"min_f\"\ninputs = { a = 1.0, b = 2.0 }\nsame_as_cpu = true\n\n\
+         [[case]]\nfunction = \"max_f\"\ninputs = { a = 1.0, b = 2.0 }\nsame_as_cpu = true\n",
+    )
+    .unwrap();
+    let o = Command::new("timeout")
+        .args(["120", env!("CARGO_BIN_EXE_raycast"), "shader-test", "--shaders", broken.to_str().unwrap()])
+        .arg(three.to_str().unwrap())
+        .output()
+        .unwrap();
+    let out = text(&o).0;
+    assert_eq!(o.status.code(), Some(4), "{out}{}", text(&o).1);
+    assert_eq!(
+        out.matches("(its full output is in the report of the first case it failed, above)").count(),
+        2,
+        "{out}"
+    );
 }
 
 /// `render` tells how far it is: on a terminal a line rewritten in place

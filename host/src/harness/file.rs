@@ -154,6 +154,9 @@ fn case(t: &toml::Table, info: &ShaderInfo, scenes: &BTreeMap<String, Arc<SceneB
     };
     case.rule = rule.unwrap_or(Rule::Exact);
     case.cpu = boolean("cpu")?.unwrap_or(true);
+    if same && !case.cpu {
+        return Err("`same_as_cpu = true` compares with the C++ build, which `cpu = false` turns off: drop one".into());
+    }
 
     case.scene = match t.get("scene") {
         None => None,
@@ -349,6 +352,18 @@ scene = "one_cube"
         );
         let e = parse("\n[[case]]\nfunction = \"plane\"\n", "t.toml", &i).unwrap_err();
         assert!(e.starts_with("t.toml:2: error: ") && e.contains("no top-level function \"plane\""), "{e}");
+        let e = parse(
+            "[[case]]\nfunction = \"clamp01\"\ninputs = { x = 0.5 }\nsame_as_cpu = true\ncpu = false\n",
+            "t.toml",
+            &i,
+        )
+        .unwrap_err();
+        assert!(
+            e.contains(
+                "t.toml:1: error: `same_as_cpu = true` compares with the C++ build, which `cpu = false` turns off"
+            ),
+            "{e}"
+        );
         let e = parse("[[case]]\nfunction = \"dot3\"\ninputs = { a = [1, 2, 3] }\nsame_as_cpu = true\n", "t.toml", &i)
             .unwrap_err();
         assert!(e.contains("input b of float dot3(vec3 a, vec3 b) is missing"), "{e}");

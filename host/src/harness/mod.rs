@@ -412,6 +412,25 @@ impl Harness {
             }
         }
 
+        // A build's error shared by many cases (the one C++ library of every
+        // function: its compiler's output, 150 lines) in full once, at the
+        // first case it fails; the others name its first line.
+        let mut told: std::collections::HashSet<String> = std::collections::HashSet::new();
+        let mut once = |r: &mut Result<Vec<u32>, String>| {
+            if let Err(e) = r {
+                if e.lines().count() > 3 && !told.insert(e.clone()) {
+                    let first = e.lines().next().unwrap_or_default().to_string();
+                    *e = format!("{first} (its full output is in the report of the first case it failed, above)");
+                }
+            }
+        };
+        for i in 0..cases.len() {
+            once(&mut device[i]);
+            if let Some(c) = cpu[i].as_mut() {
+                once(c);
+            }
+        }
+
         cases
             .iter()
             .enumerate()
