@@ -856,3 +856,61 @@ fn a_click_prints_the_pixel_and_its_rays() {
         text(&o)
     );
 }
+
+/// The screenshot is never written over what the preview reads: its scene
+/// file (whatever its name says) or a texture the scene uses. Rule: as
+/// `render -o`, a usage error (exit 2) before any window opens (no status
+/// line), and the file as it was.
+#[test]
+fn a_screenshot_over_the_scene_or_its_texture_is_refused() {
+    let dir = out_dir().join("screenshot-over-input");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("scene.png");
+    std::fs::copy(repo().join("scenes/default.xml"), &scene).unwrap();
+    let texture = dir.join("texture.png");
+    image_io::write_png(&texture, &Rgb8 { width: 2, height: 2, data: vec![200; 12] }).unwrap();
+    let textured = dir.join("textured.xml");
+    std::fs::write(
+        &textured,
+        r#"<scenefile><cameradata><pos x="0" y="0" z="5"/><look x="0" y="0" z="-1"/></cameradata>
+<object type="tree" name="root"><transblock><object type="primitive" name="cube"><texture file="texture.png" u="1" v="1"/><blend v="1"/></object></transblock></object></scenefile>"#,
+    )
+    .unwrap();
+    for (scene, output) in [(&scene, &scene), (&textured, &texture)] {
+        let before = std::fs::read(output).unwrap();
+        let o = preview(&[
+            scene.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--frames",
+            "1",
+            "--screenshot",
+            output.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert_says(
+            &o,
+            &[&format!("would be written over {}, which this command reads: name another file", output.display())],
+        );
+        assert!(!String::from_utf8_lossy(&o.stdout).contains("device:"), "a window opened: {}", text(&o));
+        assert_eq!(std::fs::read(output).unwrap(), before, "{} was written over", output.display());
+    }
+}
+
+/// `--screenshot /dev/stdout`: the PNG is all that goes to stdout; the
+/// status lines (device, scene, wrote) go to stderr, as `render -o
+/// /dev/stdout`'s. Rule: stdout is a PNG of the picture's size, whole.
+#[test]
+fn a_screenshot_to_stdout_is_the_png_alone() {
+    let o = preview(&["--width", "32", "--height", "24", "--frames", "1", "--screenshot", "/dev/stdout"]);
+    assert_clean(&o, "--screenshot /dev/stdout");
+    assert!(o.stdout.starts_with(b"\x89PNG\r\n\x1a\n"), "stdout is not a PNG: {}", text(&o));
+    let png = out_dir().join("stdout-screenshot.png");
+    std::fs::write(&png, &o.stdout).unwrap();
+    let shot = image_io::read_picture(&png).unwrap_or_else(|e| panic!("{e}: {}", text(&o)));
+    assert_eq!((shot.width, shot.height), (32, 24));
+    assert_says(&o, &["device: ", "scene: ", "wrote /dev/stdout (32x24"]);
+}

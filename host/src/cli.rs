@@ -281,7 +281,7 @@ struct RenderArgs {
 /// (`inputs`: the same file, by device and inode, whatever the names say):
 /// writing it would replace what it was made from (`render -o` a texture
 /// of its scene, `compare -o` one of the pictures compared).
-fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Result<(), Failure> {
+pub(crate) fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Result<(), Failure> {
     use std::os::unix::fs::MetadataExt;
     let Ok(out) = std::fs::metadata(output) else { return Ok(()) };
     let same = |input: &Path| std::fs::metadata(input).is_ok_and(|m| (m.dev(), m.ino()) == (out.dev(), out.ino()));
@@ -1368,7 +1368,7 @@ struct CheckBackends {
 
 /// Status lines to stderr where `-o` sends the picture to stdout
 /// (`render`, `check`'s and `compare`'s diff images): they would corrupt it.
-fn status_beside(output: &Option<PathBuf>) {
+pub(crate) fn status_beside(output: &Option<PathBuf>) {
     if output.as_deref() == Some(Path::new("/dev/stdout")) {
         crate::status_to_stderr();
     }

@@ -122,6 +122,8 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         textures: !args.no_textures,
         ..RenderSettings::default()
     };
+    // A screenshot to stdout: the status lines go to stderr, as `render -o /dev/stdout`'s.
+    crate::cli::status_beside(&args.screenshot);
     settings.validate().map_err(crate::cli::usage_error)?;
     if let Some(path) = &args.screenshot {
         crate::cli::check_output(path)?;
@@ -129,6 +131,12 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
     let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(scene_failure)?;
+    // Nothing written over what the preview reads (its scene, the scene's
+    // textures), as `render -o`: refused before any window opens.
+    if let Some(path) = &args.screenshot {
+        let textures = scene.texture_files();
+        crate::cli::refuse_overwriting(path, args.scene.iter().chain(&textures).map(PathBuf::as_path))?;
+    }
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
         errln!("raycast: note: {note}");
