@@ -914,3 +914,27 @@ fn a_screenshot_to_stdout_is_the_png_alone() {
     assert_eq!((shot.width, shot.height), (32, 24));
     assert_says(&o, &["device: ", "scene: ", "wrote /dev/stdout (32x24"]);
 }
+
+/// What a scripted run asks of frames it will not draw is known before the
+/// first: a --click outside the picture, a --keys press or --moving turn
+/// past --frames. Rule: a usage error (exit 2) naming the value, before any
+/// window opens (no status line), as `trace --pixel` outside the picture.
+#[test]
+fn a_script_beyond_the_picture_or_the_frames_is_a_usage_error() {
+    let size = ["--width", "32", "--height", "24", "--frames", "3"];
+    for (extra, said) in [
+        (&["--click", "32,12"][..], "--click 32,12 is outside the 32x24 picture"),
+        (&["--click", "0,24"], "--click 0,24 is outside the 32x24 picture"),
+        (&["--keys", "2:H,4:M"], "--keys 4:M presses M before frame 4, past --frames 3"),
+        (&["--moving", "4"], "--moving 4 turns the camera before frame 4, past --frames 3"),
+    ] {
+        let o = preview(&[&size[..], extra].concat());
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", text(&o));
+        assert_says(&o, &[said]);
+        assert!(!String::from_utf8_lossy(&o.stdout).contains("device:"), "a window opened: {}", text(&o));
+    }
+    // At the edge: the last pixel, a key before the last frame, every frame turning.
+    let o = preview(&[&size[..], &["--click", "31,23", "--keys", "3:H", "--moving", "3"]].concat());
+    assert_clean(&o, "the last pixel, frame and turn");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("pixel (31, 23)"), "{}", text(&o));
+}

@@ -125,6 +125,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     // A screenshot to stdout: the status lines go to stderr, as `render -o /dev/stdout`'s.
     crate::cli::status_beside(&args.screenshot);
     settings.validate().map_err(crate::cli::usage_error)?;
+    super::check_script(args)?;
     if let Some(path) = &args.screenshot {
         crate::cli::check_output(path)?;
     }

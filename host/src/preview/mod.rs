@@ -24,7 +24,7 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use crate::cli::{Backend, Failure};
+use crate::cli::{usage_error, Backend, Failure};
 use crate::frame::Aov;
 use crate::gpu::DeviceSelector;
 use crate::scene::FlattenLimits;
@@ -173,4 +173,26 @@ pub(crate) use reload::{shader_stamps, stamps, POLL};
 /// Runs `raycast preview`.
 pub(crate) fn run(args: &PreviewArgs) -> Result<(), Failure> {
     app::run(args)
+}
+
+/// What a scripted run asks of the frames it draws (`--click`, `--keys`,
+/// `--moving`), checked before any work: a pixel outside the picture, or a
+/// frame past `--frames`, is a usage error (it would be ignored in silence).
+fn check_script(args: &PreviewArgs) -> Result<(), Failure> {
+    let (w, h) = (args.width, args.height);
+    if let Some((x, y)) = args.click.filter(|&(x, y)| x >= w || y >= h) {
+        return Err(usage_error(format!("--click {x},{y} is outside the {w}x{h} picture")));
+    }
+    // --keys and --moving require --frames.
+    let Some(frames) = args.frames else { return Ok(()) };
+    let past = |what: String, n: u32| usage_error(format!("{what} before frame {n}, past --frames {frames}"));
+    let keys = args.keys.as_ref().map_or(&[][..], |k| &k.0[..]);
+    if let Some(&(n, key)) = keys.iter().find(|(n, _)| *n > frames) {
+        let name = SCRIPTED_KEYS.iter().find(|k| k.1 == key).map_or('?', |k| k.0);
+        return Err(past(format!("--keys {n}:{name} presses {name}"), n));
+    }
+    if args.moving > frames {
+        return Err(past(format!("--moving {} turns the camera", args.moving), args.moving));
+    }
+    Ok(())
 }
