@@ -938,3 +938,26 @@ fn a_script_beyond_the_picture_or_the_frames_is_a_usage_error() {
     assert_clean(&o, "the last pixel, frame and turn");
     assert!(String::from_utf8_lossy(&o.stdout).contains("pixel (31, 23)"), "{}", text(&o));
 }
+
+/// Without a Vulkan driver (VK_ICD_FILENAMES at a file that is not there)
+/// the preview says so, as `render` does, naming the variable and what to
+/// do, and that the window needs Vulkan even where the CPU build draws.
+/// Rule: exit 1, no panic, no empty "()" where the reason should be.
+#[test]
+fn no_vulkan_driver_is_named_as_the_reason() {
+    let env = [("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("RAYCAST_VALIDATION", "0")];
+    for backend in ["cpu", "gpu"] {
+        let o = preview_on("-screen 0 1280x1024x24", &env, &["--frames", "1", "--backend", backend]);
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+        assert_says(
+            &o,
+            &[
+                "no Vulkan device found",
+                "VK_ICD_FILENAMES=\"/nonexistent/icd.json\"; unset it or point it at an existing ICD file",
+                "even with --backend cpu",
+            ],
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("()") && !err.contains("panicked"), "{}", text(&o));
+    }
+}
