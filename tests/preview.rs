@@ -961,3 +961,15 @@ fn no_vulkan_driver_is_named_as_the_reason() {
         assert!(!err.contains("()") && !err.contains("panicked"), "{}", text(&o));
     }
 }
+
+/// `preview --help` describes the views as the preview draws them: it takes
+/// no --depth-range or --cost-max (render's), so its text names neither and
+/// says what it does instead.
+#[test]
+fn the_help_names_only_the_previews_own_options() {
+    let o = raycast(&["preview", "--help"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let help = String::from_utf8_lossy(&o.stdout);
+    assert!(!help.contains("--depth-range") && !help.contains("--cost-max"), "{help}");
+    assert!(help.contains("bounding sphere") && help.contains("64 passes") && help.contains("256"), "{help}");
+}
