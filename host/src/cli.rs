@@ -957,16 +957,16 @@ fn output_paths(
 }
 
 /// What came of the scenes of a command that takes several (`each_scene`).
-struct Batch<T> {
+pub(crate) struct Batch<T> {
     /// Each scene that went through, by name, with what it gave.
-    done: Vec<(String, T)>,
+    pub(crate) done: Vec<(String, T)>,
     /// The scenes that failed (already reported), by name.
-    failed: Vec<String>,
+    pub(crate) failed: Vec<String>,
 }
 
 impl<T> Batch<T> {
     /// `K of N scenes failed: …` (exit 1), with `also` added, where any failed.
-    fn failure(&self, also: &str) -> Option<Failure> {
+    pub(crate) fn failure(&self, also: &str) -> Option<Failure> {
         let n = self.done.len() + self.failed.len();
         (!self.failed.is_empty()).then(|| {
             Failure(
