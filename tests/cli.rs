@@ -2054,3 +2054,53 @@ fn trace_json_holds_the_text_trace() {
         "{out}{err}"
     );
 }
+
+/// `bench` over several scenes, one of which fails to load: as `render`,
+/// `check` and `info`, the failure is reported on stderr as it happens and
+/// the others are timed and printed (human, --markdown with its footnote,
+/// --json and --growth lines), then `K of N scenes failed: …`, exit 1. One
+/// scene alone fails with its own error.
+#[test]
+fn bench_reports_a_failing_scene_and_times_the_others() {
+    let bad = repo().join("tests/scenes/bad/malformed.xml");
+    let bad = bad.to_str().unwrap();
+    let scenes = ["gen:recursive-spheres:2", bad, "gen:recursive-spheres:3"];
+    let size = ["--no-textures", "--width", "16", "--height", "12", "--frames", "2", "--warmup", "0"];
+    let base = [&["bench"][..], &size, &scenes].concat();
+    let failed = format!("raycast: error: 1 of 3 scenes failed: {bad}");
+    for (extra, wanted) in [
+        (&[][..], &["scene: gen:recursive-spheres:2 (", "scene: gen:recursive-spheres:3 ("][..]),
+        (
+            &["--markdown", "--growth"],
+            &[
+                "| gen:recursive-spheres:2 |",
+                "| gen:recursive-spheres:3 |",
+                "load: parse, count, flatten",
+                "Growth against gen:recursive-spheres:2",
+            ],
+        ),
+        (
+            &["--json", "--growth", "--backend", "cpu"],
+            &[
+                "{\"scene\":\"gen:recursive-spheres:3\"",
+                "{\"growth_against\":\"gen:recursive-spheres:2\",\"scene\":\"gen:recursive-spheres:3\"",
+            ],
+        ),
+    ] {
+        let o = raycast(&[&base[..], extra].concat(), &[]);
+        assert_fails(&o, 1, "malformed.xml:");
+        assert_fails(&o, 1, &failed);
+        let (out, err) = text(&o);
+        for w in wanted {
+            assert!(out.contains(w), "{extra:?}: {w:?} missing\nstdout:\n{out}\nstderr:\n{err}");
+        }
+        assert!(!out.contains("malformed.xml:"), "the failure is on stdout: {out}");
+        // Reported as it happens, once, before the batch's last line.
+        assert_eq!(err.matches("malformed.xml:").count(), 1, "{err}");
+        assert!(err.trim_end().ends_with(&failed), "{err}");
+    }
+    // One scene alone: its error, no count.
+    let o = raycast(&["bench", "--width", "16", "--height", "12", "--frames", "1", bad], &[]);
+    assert_fails(&o, 1, "malformed.xml:");
+    assert!(!text(&o).1.contains("scenes failed"), "{:?}", text(&o));
+}

@@ -856,3 +856,120 @@ fn a_click_prints_the_pixel_and_its_rays() {
         text(&o)
     );
 }
+
+/// The screenshot is never written over what the preview reads: its scene
+/// file (whatever its name says) or a texture the scene uses. Rule: as
+/// `render -o`, a usage error (exit 2) before any window opens (no status
+/// line), and the file as it was.
+#[test]
+fn a_screenshot_over_the_scene_or_its_texture_is_refused() {
+    let dir = out_dir().join("screenshot-over-input");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("scene.png");
+    std::fs::copy(repo().join("scenes/default.xml"), &scene).unwrap();
+    let texture = dir.join("texture.png");
+    image_io::write_png(&texture, &Rgb8 { width: 2, height: 2, data: vec![200; 12] }).unwrap();
+    let textured = dir.join("textured.xml");
+    std::fs::write(
+        &textured,
+        r#"<scenefile><cameradata><pos x="0" y="0" z="5"/><look x="0" y="0" z="-1"/></cameradata>
+<object type="tree" name="root"><transblock><object type="primitive" name="cube"><texture file="texture.png" u="1" v="1"/><blend v="1"/></object></transblock></object></scenefile>"#,
+    )
+    .unwrap();
+    for (scene, output) in [(&scene, &scene), (&textured, &texture)] {
+        let before = std::fs::read(output).unwrap();
+        let o = preview(&[
+            scene.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--frames",
+            "1",
+            "--screenshot",
+            output.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert_says(
+            &o,
+            &[&format!("would be written over {}, which this command reads: name another file", output.display())],
+        );
+        assert!(!String::from_utf8_lossy(&o.stdout).contains("device:"), "a window opened: {}", text(&o));
+        assert_eq!(std::fs::read(output).unwrap(), before, "{} was written over", output.display());
+    }
+}
+
+/// `--screenshot /dev/stdout`: the PNG is all that goes to stdout; the
+/// status lines (device, scene, wrote) go to stderr, as `render -o
+/// /dev/stdout`'s. Rule: stdout is a PNG of the picture's size, whole.
+#[test]
+fn a_screenshot_to_stdout_is_the_png_alone() {
+    let o = preview(&["--width", "32", "--height", "24", "--frames", "1", "--screenshot", "/dev/stdout"]);
+    assert_clean(&o, "--screenshot /dev/stdout");
+    assert!(o.stdout.starts_with(b"\x89PNG\r\n\x1a\n"), "stdout is not a PNG: {}", text(&o));
+    let png = out_dir().join("stdout-screenshot.png");
+    std::fs::write(&png, &o.stdout).unwrap();
+    let shot = image_io::read_picture(&png).unwrap_or_else(|e| panic!("{e}: {}", text(&o)));
+    assert_eq!((shot.width, shot.height), (32, 24));
+    assert_says(&o, &["device: ", "scene: ", "wrote /dev/stdout (32x24"]);
+}
+
+/// What a scripted run asks of frames it will not draw is known before the
+/// first: a --click outside the picture, a --keys press or --moving turn
+/// past --frames. Rule: a usage error (exit 2) naming the value, before any
+/// window opens (no status line), as `trace --pixel` outside the picture.
+#[test]
+fn a_script_beyond_the_picture_or_the_frames_is_a_usage_error() {
+    let size = ["--width", "32", "--height", "24", "--frames", "3"];
+    for (extra, said) in [
+        (&["--click", "32,12"][..], "--click 32,12 is outside the 32x24 picture"),
+        (&["--click", "0,24"], "--click 0,24 is outside the 32x24 picture"),
+        (&["--keys", "2:H,4:M"], "--keys 4:M presses M before frame 4, past --frames 3"),
+        (&["--moving", "4"], "--moving 4 turns the camera before frame 4, past --frames 3"),
+    ] {
+        let o = preview(&[&size[..], extra].concat());
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", text(&o));
+        assert_says(&o, &[said]);
+        assert!(!String::from_utf8_lossy(&o.stdout).contains("device:"), "a window opened: {}", text(&o));
+    }
+    // At the edge: the last pixel, a key before the last frame, every frame turning.
+    let o = preview(&[&size[..], &["--click", "31,23", "--keys", "3:H", "--moving", "3"]].concat());
+    assert_clean(&o, "the last pixel, frame and turn");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("pixel (31, 23)"), "{}", text(&o));
+}
+
+/// Without a Vulkan driver (VK_ICD_FILENAMES at a file that is not there)
+/// the preview says so, as `render` does, naming the variable and what to
+/// do, and that the window needs Vulkan even where the CPU build draws.
+/// Rule: exit 1, no panic, no empty "()" where the reason should be.
+#[test]
+fn no_vulkan_driver_is_named_as_the_reason() {
+    let env = [("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("RAYCAST_VALIDATION", "0")];
+    for backend in ["cpu", "gpu"] {
+        let o = preview_on("-screen 0 1280x1024x24", &env, &["--frames", "1", "--backend", backend]);
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+        assert_says(
+            &o,
+            &[
+                "no Vulkan device found",
+                "VK_ICD_FILENAMES=\"/nonexistent/icd.json\"; unset it or point it at an existing ICD file",
+                "even with --backend cpu",
+            ],
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("()") && !err.contains("panicked"), "{}", text(&o));
+    }
+}
+
+/// `preview --help` describes the views as the preview draws them: it takes
+/// no --depth-range or --cost-max (render's), so its text names neither and
+/// says what it does instead.
+#[test]
+fn the_help_names_only_the_previews_own_options() {
+    let o = raycast(&["preview", "--help"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let help = String::from_utf8_lossy(&o.stdout);
+    assert!(!help.contains("--depth-range") && !help.contains("--cost-max"), "{help}");
+    assert!(help.contains("bounding sphere") && help.contains("64 passes") && help.contains("256"), "{help}");
+}

@@ -11,7 +11,7 @@
 //! median, min and max of their wall times. Every backend runs on the same
 //! FrameData in the same process, so ratios compare like with like.
 
-use crate::cli::{check_validation, scene_failure, Failure, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
+use crate::cli::{check_validation, scene_failure, Batch, Failure, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
@@ -646,10 +646,11 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
     let primary_rays = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
     let mut all_rows: Vec<Row> = Vec::new();
-    for name in names {
+    // A scene loaded and timed on each backend: its rows (None: skipped, and listed so).
+    let time = |name: Option<&str>| -> Result<Option<(LoadedScene, Vec<Row>)>, Failure> {
         reset_peak_host();
         let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
-            continue;
+            return Ok(None);
         };
         let load_peak = peak_host_bytes();
         let row = |backend: &'static str, device: &str| Row {
@@ -740,6 +741,28 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
             }
             rows.push(row);
         }
+        Ok(Some((loaded, rows)))
+    };
+    // Of several scenes, one that fails is reported as it happens and the
+    // others go on (as `render`, `check` and `info`); the command fails at
+    // the end, naming it. One scene's failure ends the command.
+    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
+    for &name in &names {
+        let scene = name.unwrap_or(DEFAULT_SCENE_NAME).to_string();
+        let (loaded, mut rows) = match time(name) {
+            Ok(Some(timed)) => timed,
+            Ok(None) => {
+                batch.done.push((scene, ()));
+                continue;
+            }
+            Err(e) if names.len() == 1 => return Err(e),
+            Err(Failure(message, _)) => {
+                errln!("{message}");
+                batch.failed.push(scene);
+                continue;
+            }
+        };
+        batch.done.push((scene, ()));
         for row in &mut rows {
             row.frames.sort();
             row.dispatch.sort();
@@ -786,12 +809,13 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     } else if args.growth {
         print_growth(&all_rows, args.markdown);
     }
+    let result = batch.failure("").map_or(Ok(()), Err);
     if let Some(g) = gpu {
         let messages = g.context().take_validation_messages();
         drop(g);
-        check_validation(messages)?;
+        return result.and(check_validation(messages));
     }
-    Ok(())
+    result
 }
 
 #[cfg(test)]

@@ -281,7 +281,7 @@ struct RenderArgs {
 /// (`inputs`: the same file, by device and inode, whatever the names say):
 /// writing it would replace what it was made from (`render -o` a texture
 /// of its scene, `compare -o` one of the pictures compared).
-fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Result<(), Failure> {
+pub(crate) fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Result<(), Failure> {
     use std::os::unix::fs::MetadataExt;
     let Ok(out) = std::fs::metadata(output) else { return Ok(()) };
     let same = |input: &Path| std::fs::metadata(input).is_ok_and(|m| (m.dev(), m.ino()) == (out.dev(), out.ino()));
@@ -957,16 +957,16 @@ fn output_paths(
 }
 
 /// What came of the scenes of a command that takes several (`each_scene`).
-struct Batch<T> {
+pub(crate) struct Batch<T> {
     /// Each scene that went through, by name, with what it gave.
-    done: Vec<(String, T)>,
+    pub(crate) done: Vec<(String, T)>,
     /// The scenes that failed (already reported), by name.
-    failed: Vec<String>,
+    pub(crate) failed: Vec<String>,
 }
 
 impl<T> Batch<T> {
     /// `K of N scenes failed: …` (exit 1), with `also` added, where any failed.
-    fn failure(&self, also: &str) -> Option<Failure> {
+    pub(crate) fn failure(&self, also: &str) -> Option<Failure> {
         let n = self.done.len() + self.failed.len();
         (!self.failed.is_empty()).then(|| {
             Failure(
@@ -1368,7 +1368,7 @@ struct CheckBackends {
 
 /// Status lines to stderr where `-o` sends the picture to stdout
 /// (`render`, `check`'s and `compare`'s diff images): they would corrupt it.
-fn status_beside(output: &Option<PathBuf>) {
+pub(crate) fn status_beside(output: &Option<PathBuf>) {
     if output.as_deref() == Some(Path::new("/dev/stdout")) {
         crate::status_to_stderr();
     }

@@ -122,13 +122,22 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         textures: !args.no_textures,
         ..RenderSettings::default()
     };
+    // A screenshot to stdout: the status lines go to stderr, as `render -o /dev/stdout`'s.
+    crate::cli::status_beside(&args.screenshot);
     settings.validate().map_err(crate::cli::usage_error)?;
+    super::check_script(args)?;
     if let Some(path) = &args.screenshot {
         crate::cli::check_output(path)?;
     }
     let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
     let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(scene_failure)?;
+    // Nothing written over what the preview reads (its scene, the scene's
+    // textures), as `render -o`: refused before any window opens.
+    if let Some(path) = &args.screenshot {
+        let textures = scene.texture_files();
+        crate::cli::refuse_overwriting(path, args.scene.iter().chain(&textures).map(PathBuf::as_path))?;
+    }
     let data = frame::build(&scene, &settings).map_err(scene_failure)?;
     for note in &data.notes {
         errln!("raycast: note: {note}");
@@ -159,10 +168,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     }
     let instance_extensions = glfw.get_required_instance_extensions().unwrap_or_default();
     if instance_extensions.is_empty() {
-        return Err(Failure::from(format!(
-            "cannot open a window: no Vulkan surface extension for this window system ({})",
-            last_glfw_error()
-        )));
+        return Err(Failure::from(no_surface_extension(&last_glfw_error())));
     }
     let fixed_size = args.screenshot.is_some() || args.frames.is_some();
     glfw.window_hint(glfw::WindowHint::ClientApi(glfw::ClientApiHint::NoApi));
@@ -288,7 +294,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     preview.click = args.click;
     preview.keys = args.keys.clone().map(|k| k.0).unwrap_or_default();
     preview.shaders = shaders;
-    preview.aov = args.aov;
+    preview.aov = args.aov.into();
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
     preview.textures = !args.no_textures;
@@ -324,6 +330,24 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     drop(window);
     result?;
     check_validation(messages)
+}
+
+/// Why the window cannot open where GLFW finds no Vulkan surface extension
+/// (`glfw_error`: GLFW's last message, often none). The loader offers none
+/// where it found no driver (VK_ICD_FILENAMES at a file that is not there,
+/// no driver installed): that is said as `render` says it
+/// (`GpuError::no_device`), the CPU build's drawing no way around it.
+fn no_surface_extension(glfw_error: &str) -> String {
+    let needs = "the preview shows its pictures in the window through Vulkan, even with --backend cpu";
+    match crate::gpu::list_devices() {
+        Err(e @ (GpuError::NoDevice { .. } | GpuError::LoaderMissing { .. })) => {
+            format!("cannot open a window: {e} ({needs})")
+        }
+        _ => {
+            let glfw_error = if glfw_error.is_empty() { String::new() } else { format!(" ({glfw_error})") };
+            format!("cannot open a window: no Vulkan surface extension for this window system{glfw_error}; {needs}")
+        }
+    }
 }
 
 /// The window's device, opened by `open_window` for the selector given, and
