@@ -963,13 +963,19 @@ fn no_vulkan_driver_is_named_as_the_reason() {
 }
 
 /// `preview --help` describes the views as the preview draws them: it takes
-/// no --depth-range or --cost-max (render's), so its text names neither and
-/// says what it does instead.
+/// no --depth-range or --cost-max (render's and check's), so its text names
+/// them only as theirs and says what the preview does instead (the depth
+/// range follows the camera, the cost scales are 64 and 256 passes).
 #[test]
 fn the_help_names_only_the_previews_own_options() {
     let o = raycast(&["preview", "--help"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let help = String::from_utf8_lossy(&o.stdout);
-    assert!(!help.contains("--depth-range") && !help.contains("--cost-max"), "{help}");
-    assert!(help.contains("bounding sphere") && help.contains("64 passes") && help.contains("256"), "{help}");
+    let mentions = |flag: &str| help.matches(flag).count();
+    let as_theirs = |flag: &str| help.matches(&format!("(render and check: {flag}")).count();
+    for flag in ["--depth-range", "--cost-max"] {
+        assert_eq!(mentions(flag), as_theirs(flag), "{flag} told as the preview's own:\n{help}");
+    }
+    assert!(help.contains("the preview: that sphere, following the camera"), "{help}");
+    assert!(help.contains("from 64 passes on") && help.contains("from 256 passes on"), "{help}");
 }

@@ -32,16 +32,17 @@ pub enum Aov {
     Color,
     /// The first hit's world-space normal, floor(255·clamp((n+1)/2)); black on a miss
     Normal,
-    /// The first hit's distance from the eye in grey: white at --depth-range's near distance, black at its far one
-    /// and beyond, and on a miss
+    /// The first hit's distance from the eye in grey: white at the near end of the depth range, black at its far
+    /// end and beyond, and on a miss (render and check: --depth-range, by default the scene's bounding sphere as the
+    /// camera sees it; the preview: that sphere, following the camera)
     Depth,
     /// The first hit's primitive, a colour each (its id scrambled); black on a miss
     Id,
     /// What the camera ray's walk through the hierarchy cost: its passes on a heat scale, dark blue for none, dark
-    /// red from --cost-max on; misses too
+    /// red from 64 passes on (render and check: --cost-max); misses too
     Cost,
     /// What all the pixel's rays cost (camera, shadow and mirror rays, traced as in colour): their walks' passes
-    /// summed, on the same scale
+    /// summed, on the same scale, dark red from 256 passes on (render and check: --cost-max)
     CostAll,
 }
 
@@ -1532,6 +1533,16 @@ mod tests {
             vec![u32::from_le_bytes([4, 5, 6, 255]); 4]
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// `--aov`'s help (render's, check's and the preview's) tells the cost
+    /// views' default scales as they are.
+    #[test]
+    fn aov_help_tells_the_cost_scales() {
+        use clap::ValueEnum;
+        let help = |v: Aov| v.to_possible_value().unwrap().get_help().unwrap().to_string();
+        assert!(help(Aov::Cost).contains(&format!("from {} passes on", Aov::Cost.default_cost_max())));
+        assert!(help(Aov::CostAll).contains(&format!("from {} passes on", Aov::CostAll.default_cost_max())));
     }
 
     /// A camera whose rows are closer than the floats resolve is refused,

@@ -294,7 +294,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     preview.click = args.click;
     preview.keys = args.keys.clone().map(|k| k.0).unwrap_or_default();
     preview.shaders = shaders;
-    preview.aov = args.aov.into();
+    preview.aov = args.aov;
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
     preview.textures = !args.no_textures;

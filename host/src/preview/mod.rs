@@ -81,8 +81,8 @@ pub struct PreviewArgs {
     #[arg(long, value_name = "DIR")]
     pub shaders: Option<PathBuf>,
     /// What the window shows at first (keys 1 to 6 switch)
-    #[arg(long, value_enum, default_value_t = PreviewAov::Color)]
-    pub aov: PreviewAov,
+    #[arg(long, value_enum, default_value_t = Aov::Color)]
+    pub aov: Aov,
     /// With --frames: after the last frame, click pixel (X, Y) of the
     /// picture, as a left click does (what it sees, then its rays as
     /// `raycast trace` follows them).
@@ -158,42 +158,6 @@ fn parse_key_presses(s: &str) -> Result<KeyPresses, String> {
     Ok(KeyPresses(presses))
 }
 
-/// `--aov`: `Aov`'s views, told as the preview draws them. It takes no
-/// `--depth-range` or `--cost-max` (render's): the depth view's range
-/// follows the camera (`frame::depth_range` from its eye, each frame), and
-/// the cost views' scales are render's defaults (`Aov::default_cost_max`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum PreviewAov {
-    /// The shaded colour
-    Color,
-    /// The first hit's world-space normal, floor(255·clamp((n+1)/2)); black on a miss
-    Normal,
-    /// The first hit's distance from the eye in grey: white at the nearest point of the scene's bounding sphere,
-    /// black at its farthest and beyond, and on a miss; the range follows the camera as it moves
-    Depth,
-    /// The first hit's primitive, a colour each (its id scrambled); black on a miss
-    Id,
-    /// What the camera ray's walk through the hierarchy cost: its passes on a heat scale, dark blue for none, dark
-    /// red from 64 passes on; misses too
-    Cost,
-    /// What all the pixel's rays cost (camera, shadow and mirror rays, traced as in colour): their walks' passes
-    /// summed, on the same scale to dark red at 256 passes
-    CostAll,
-}
-
-impl From<PreviewAov> for Aov {
-    fn from(aov: PreviewAov) -> Aov {
-        match aov {
-            PreviewAov::Color => Aov::Color,
-            PreviewAov::Normal => Aov::Normal,
-            PreviewAov::Depth => Aov::Depth,
-            PreviewAov::Id => Aov::Id,
-            PreviewAov::Cost => Aov::Cost,
-            PreviewAov::CostAll => Aov::CostAll,
-        }
-    }
-}
-
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum PresentArg {
     Fifo,
@@ -231,25 +195,4 @@ fn check_script(args: &PreviewArgs) -> Result<(), Failure> {
         return Err(past(format!("--moving {} turns the camera", args.moving), args.moving));
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::PreviewAov;
-    use crate::frame::Aov;
-    use clap::ValueEnum;
-
-    /// `--aov`'s names are render's, each the same view; the help's passes
-    /// drawn dark red (64, 256) are the scales the preview draws with.
-    #[test]
-    fn preview_aov_is_renders_view_and_its_help_tells_its_scale() {
-        for v in PreviewAov::value_variants() {
-            let name = v.to_possible_value().unwrap().get_name().to_string();
-            assert_eq!(Aov::from(*v).name(), name);
-        }
-        assert_eq!(PreviewAov::value_variants().len(), Aov::value_variants().len());
-        let help = |v: PreviewAov| v.to_possible_value().unwrap().get_help().unwrap().to_string();
-        assert!(help(PreviewAov::Cost).contains(&format!("from {} passes", Aov::Cost.default_cost_max())));
-        assert!(help(PreviewAov::CostAll).contains(&format!("at {} passes", Aov::CostAll.default_cost_max())));
-    }
 }
