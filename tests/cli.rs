@@ -2099,6 +2099,12 @@ fn bench_reports_a_failing_scene_and_times_the_others() {
         assert_eq!(err.matches("malformed.xml:").count(), 1, "{err}");
         assert!(err.trim_end().ends_with(&failed), "{err}");
     }
+    // `--versus` likewise: both scenes that load compared, the failure counted.
+    let shaders = repo().join("shaders");
+    let o = raycast(&[&base[..], &["--versus", shaders.to_str().unwrap()]].concat(), &[]);
+    assert_fails(&o, 1, &failed);
+    let out = text(&o).0;
+    assert_eq!(out.matches("  pictures: identical").count(), 2, "{out}");
     // One scene alone: its error, no count.
     let o = raycast(&["bench", "--width", "16", "--height", "12", "--frames", "1", bad], &[]);
     assert_fails(&o, 1, "malformed.xml:");

@@ -16,7 +16,7 @@
 
 use crate::bench::{load_or_skip, median, skipped, BenchArgs, BenchBackend};
 use crate::check;
-use crate::cli::{check_validation, open_renderer, scene_failure, Failure};
+use crate::cli::{check_validation, open_renderer, scene_failure, Batch, Failure, DEFAULT_SCENE_NAME};
 use crate::gpu::GpuError;
 use crate::render::Picture;
 use crate::scene::FlattenLimits;
@@ -113,10 +113,11 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     let limits = FlattenLimits { max_primitives: args.render.max_primitives };
     let names: Vec<Option<&str>> =
         if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
-    for name in names {
+    // One scene compared (or listed as skipped).
+    let compare_one = |name: Option<&str>| -> Result<(), Failure> {
         // Over --max-primitives: listed as skipped, as `bench` does.
         let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
-            continue;
+            return Ok(());
         };
         // Which kernel each runs: a folder without render_uniform.comp has only the storage one.
         let kernels = (a.kernel_for(&loaded.data)?.name().to_string(), b.kernel_for(&loaded.data)?.name().to_string());
@@ -148,11 +149,11 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
                     "not timed: a kernel cut {count} of {total} pixels short (Mesa's loop budget per invocation)"
                 );
                 skipped(&loaded.name, None, loaded.counts, &why, args);
-                continue;
+                return Ok(());
             }
             Err(e) => return Err(e.into()),
         };
-        let (Some(pa), Some(pb)) = (pa, pb) else { continue };
+        let (Some(pa), Some(pb)) = (pa, pb) else { return Ok(()) };
         let report = check::compare(&pa, "A", &pb, "B").map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
         let v = pairs.verdict();
         let pictures = if report.identical() {
@@ -197,11 +198,27 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
             );
             outln!("  pictures: {pictures}");
         }
+        Ok(())
+    };
+    // Of several scenes, one that fails is reported as it happens and the
+    // others go on (as `bench`); the command fails at the end, naming it.
+    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
+    for &name in &names {
+        let scene = name.unwrap_or(DEFAULT_SCENE_NAME).to_string();
+        match compare_one(name) {
+            Ok(()) => batch.done.push((scene, ())),
+            Err(e) if names.len() == 1 => return Err(e),
+            Err(Failure(message, _)) => {
+                errln!("{message}");
+                batch.failed.push(scene);
+            }
+        }
     }
+    let result = batch.failure("").map_or(Ok(()), Err);
     let messages = [a.context().take_validation_messages(), b.context().take_validation_messages()].concat();
     drop(a);
     drop(b);
-    check_validation(messages)
+    result.and(check_validation(messages))
 }
 
 #[cfg(test)]
