@@ -11,7 +11,7 @@
 //! median, min and max of their wall times. Every backend runs on the same
 //! FrameData in the same process, so ratios compare like with like.
 
-use crate::cli::{check_validation, scene_failure, Batch, Failure, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
+use crate::cli::{check_validation, each_named, scene_failure, Failure, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
@@ -746,37 +746,29 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     // Of several scenes, one that fails is reported as it happens and the
     // others go on (as `render`, `check` and `info`); the command fails at
     // the end, naming it. One scene's failure ends the command.
-    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
-    for &name in &names {
-        let scene = name.unwrap_or(DEFAULT_SCENE_NAME).to_string();
-        let (loaded, mut rows) = match time(name) {
-            Ok(Some(timed)) => timed,
-            Ok(None) => {
-                batch.done.push((scene, ()));
-                continue;
+    let batch = each_named(
+        &names,
+        |n| n.unwrap_or(DEFAULT_SCENE_NAME).to_string(),
+        |name| {
+            let (loaded, mut rows) = match time(name) {
+                Ok(Some(timed)) => timed,
+                Ok(None) => return Ok(Ok(())),
+                Err(e) => return Ok(Err(e)),
+            };
+            for row in &mut rows {
+                row.frames.sort();
+                row.dispatch.sort();
             }
-            Err(e) if names.len() == 1 => return Err(e),
-            Err(Failure(message, _)) => {
-                errln!("{message}");
-                batch.failed.push(scene);
-                continue;
-            }
-        };
-        batch.done.push((scene, ()));
-        for row in &mut rows {
-            row.frames.sort();
-            row.dispatch.sort();
-        }
-        if args.json {
-            for row in &rows {
-                crate::emit_line(&row.json(&settings, args.warmup))?;
-            }
-        } else if args.markdown {
-            for row in &rows {
-                outln!("{}", row.markdown());
-            }
-        } else {
-            outln!(
+            if args.json {
+                for row in &rows {
+                    crate::emit_line(&row.json(&settings, args.warmup))?;
+                }
+            } else if args.markdown {
+                for row in &rows {
+                    outln!("{}", row.markdown());
+                }
+            } else {
+                outln!(
                 "scene: {} ({} primitives expanded, {} unique; {} lights)\n  load {} (parse, count, flatten, textures), build {} (hierarchy)",
                 loaded.name,
                 thousands(loaded.counts.expanded),
@@ -785,12 +777,14 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
                 ms(loaded.load),
                 ms(loaded.build)
             );
-            for row in &rows {
-                outln!("{}", row.human());
+                for row in &rows {
+                    outln!("{}", row.human());
+                }
             }
-        }
-        all_rows.extend(rows);
-    }
+            all_rows.extend(rows);
+            Ok(Ok(()))
+        },
+    )?;
     if args.markdown {
         outln!();
         outln!(

@@ -959,9 +959,9 @@ fn output_paths(
 /// What came of the scenes of a command that takes several (`each_scene`).
 pub(crate) struct Batch<T> {
     /// Each scene that went through, by name, with what it gave.
-    pub(crate) done: Vec<(String, T)>,
+    done: Vec<(String, T)>,
     /// The scenes that failed (already reported), by name.
-    pub(crate) failed: Vec<String>,
+    failed: Vec<String>,
 }
 
 impl<T> Batch<T> {
@@ -990,30 +990,51 @@ fn each_scene<B, T>(
     open: impl Fn() -> Result<B, Failure>,
     mut each: impl FnMut(&B, Prepared, &Path) -> Result<T, Failure>,
 ) -> Result<Batch<T>, Failure> {
-    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
-    for (scene, output) in scenes.iter().zip(outputs) {
-        let prepared = prepare(*scene, o).and_then(|p| {
-            refuse_overwriting(
-                output,
-                scene.iter().copied().chain(p.scene.texture_files().iter().map(PathBuf::as_path)),
-            )?;
-            Ok(p)
-        });
-        let result = match prepared {
-            Ok(p) => {
-                if backend.is_none() {
-                    *backend = Some(open()?);
+    let pairs: Vec<(Option<&Path>, &Path)> = scenes.iter().copied().zip(outputs.iter().map(PathBuf::as_path)).collect();
+    each_named(
+        &pairs,
+        |(scene, _)| scene_name(scene),
+        |(scene, output)| {
+            let prepared = prepare(scene, o).and_then(|p| {
+                refuse_overwriting(
+                    output,
+                    scene.into_iter().chain(p.scene.texture_files().iter().map(PathBuf::as_path)),
+                )?;
+                Ok(p)
+            });
+            Ok(match prepared {
+                Ok(p) => {
+                    if backend.is_none() {
+                        // The backend's failure ends the command.
+                        *backend = Some(open()?);
+                    }
+                    each(backend.as_ref().expect("opened above"), p, output)
                 }
-                each(backend.as_ref().expect("opened above"), p, output)
-            }
-            Err(e) => Err(e),
-        };
-        match result {
-            Ok(t) => batch.done.push((scene_name(*scene), t)),
-            Err(e) if scenes.len() == 1 => return Err(e),
+                Err(e) => Err(e),
+            })
+        },
+    )
+}
+
+/// Each of `names` given to `one`, whose inner result is that one's (a
+/// failure of its own) and whose outer error ends the command (a device
+/// that does not open). Of several, one that fails is reported on stderr
+/// as it happens and named in the batch while the others go on; one alone
+/// ends the command with its error. `render`, `check`, `bench` and
+/// `bench --versus` (`name` says how each is named).
+pub(crate) fn each_named<N: Copy, T>(
+    names: &[N],
+    name: impl Fn(N) -> String,
+    mut one: impl FnMut(N) -> Result<Result<T, Failure>, Failure>,
+) -> Result<Batch<T>, Failure> {
+    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
+    for &n in names {
+        match one(n)? {
+            Ok(t) => batch.done.push((name(n), t)),
+            Err(e) if names.len() == 1 => return Err(e),
             Err(Failure(message, _)) => {
                 errln!("{message}");
-                batch.failed.push(scene_name(*scene));
+                batch.failed.push(name(n));
             }
         }
     }

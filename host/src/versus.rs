@@ -16,7 +16,7 @@
 
 use crate::bench::{load_or_skip, median, skipped, BenchArgs, BenchBackend};
 use crate::check;
-use crate::cli::{check_validation, open_renderer, scene_failure, Batch, Failure, DEFAULT_SCENE_NAME};
+use crate::cli::{check_validation, each_named, open_renderer, scene_failure, Failure, DEFAULT_SCENE_NAME};
 use crate::gpu::GpuError;
 use crate::render::Picture;
 use crate::scene::FlattenLimits;
@@ -200,20 +200,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
         }
         Ok(())
     };
-    // Of several scenes, one that fails is reported as it happens and the
-    // others go on (as `bench`); the command fails at the end, naming it.
-    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
-    for &name in &names {
-        let scene = name.unwrap_or(DEFAULT_SCENE_NAME).to_string();
-        match compare_one(name) {
-            Ok(()) => batch.done.push((scene, ())),
-            Err(e) if names.len() == 1 => return Err(e),
-            Err(Failure(message, _)) => {
-                errln!("{message}");
-                batch.failed.push(scene);
-            }
-        }
-    }
+    let batch = each_named(&names, |n| n.unwrap_or(DEFAULT_SCENE_NAME).to_string(), |name| Ok(compare_one(name)))?;
     let result = batch.failure("").map_or(Ok(()), Err);
     let messages = [a.context().take_validation_messages(), b.context().take_validation_messages()].concat();
     drop(a);
