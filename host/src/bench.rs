@@ -642,8 +642,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     let opts = r.parse_options();
     let limits = FlattenLimits { max_primitives: r.max_primitives };
-    let names: Vec<Option<&str>> =
-        if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    let names = crate::cli::scene_names(&args.scenes);
     let primary_rays = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
     let mut all_rows: Vec<Row> = Vec::new();
     // A scene loaded and timed on each backend: its rows (None: skipped, and listed so).

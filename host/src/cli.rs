@@ -517,34 +517,29 @@ fn trace(args: &TraceArgs) -> Result<(), Failure> {
 /// it, and described. A scene that fails is reported and the others go on;
 /// the command then fails naming it.
 fn info(args: &InfoArgs) -> Result<(), Failure> {
-    let names: Vec<Option<&str>> =
-        if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    let names = scene_names(&args.scenes);
     let parse = ParseOptions { assets: args.assets.clone(), ..ParseOptions::default() };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
-    let mut batch = Batch { done: Vec::new(), failed: Vec::new() };
-    for name in &names {
-        let label = name.unwrap_or(DEFAULT_SCENE_NAME).to_string();
-        // Warnings on stderr as every command prints them; the notes are in the description.
-        let described = load_scene(name.map(Path::new), &parse, &limits).and_then(|scene| {
-            let data = crate::info::pack(&scene)?;
-            Ok(crate::info::Info::of(&label, &scene, &data))
-        });
-        match described {
-            Ok(info) => {
-                if args.json {
-                    crate::emit_line(&info.json())?;
-                } else {
+    let batch = each_named(
+        &names,
+        |n| n.unwrap_or(DEFAULT_SCENE_NAME).to_string(),
+        |name| {
+            let label = name.unwrap_or(DEFAULT_SCENE_NAME);
+            // Warnings on stderr as every command prints them; the notes are in the description.
+            let described = load_scene(name.map(Path::new), &parse, &limits).and_then(|scene| {
+                let data = crate::info::pack(&scene)?;
+                Ok(crate::info::Info::of(label, &scene, &data))
+            });
+            Ok(match described {
+                Ok(info) if args.json => Ok(crate::emit_line(&info.json())?),
+                Ok(info) => {
                     out!("{}", info.text());
+                    Ok(())
                 }
-                batch.done.push((label, ()));
-            }
-            Err(e) if names.len() == 1 => return Err(scene_failure(e)),
-            Err(e) => {
-                errln!("{e}");
-                batch.failed.push(label);
-            }
-        }
-    }
+                Err(e) => Err(scene_failure(e)),
+            })
+        },
+    )?;
     batch.failure("").map_or(Ok(()), Err)
 }
 
@@ -1014,6 +1009,17 @@ fn each_scene<B, T>(
             })
         },
     )
+}
+
+/// The scenes named on a command line as `bench`, `info` and `bench
+/// --versus` take them (a file or a generated scene's name), None (the
+/// embedded default scene) where none is.
+pub(crate) fn scene_names(scenes: &[String]) -> Vec<Option<&str>> {
+    if scenes.is_empty() {
+        vec![None]
+    } else {
+        scenes.iter().map(|s| Some(s.as_str())).collect()
+    }
 }
 
 /// Each of `names` given to `one`, whose inner result is that one's (a

@@ -111,8 +111,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     }
     let opts = args.render.parse_options();
     let limits = FlattenLimits { max_primitives: args.render.max_primitives };
-    let names: Vec<Option<&str>> =
-        if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    let names = crate::cli::scene_names(&args.scenes);
     // One scene compared (or listed as skipped).
     let compare_one = |name: Option<&str>| -> Result<(), Failure> {
         // Over --max-primitives: listed as skipped, as `bench` does.
