@@ -269,6 +269,10 @@ fn the_cpu_build_draws_the_devices_samples() {
     } else {
         assert_eq!(auto, device, "auto on a device that is not a CPU");
     }
+    // A device named to draw draws, lavapipe included (as render's auto).
+    let named = preview(&["--width", "32", "--height", "24", "--frames", "1", "--backend", "auto", "--device", "0"]);
+    assert_clean(&named, "preview --backend auto --device 0");
+    assert!(!line(&named).unwrap_or_default().contains("CPU build"), "{}", text(&named));
     let o = raycast(&["preview", "--backend", "cpu", "--shaders", "shaders"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--backend cpu runs the CPU build"), "{}", text(&o));

@@ -217,7 +217,8 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let candidate = apart.as_ref().map_or(&info, |a| a.info());
     let cpu_why = match args.backend {
         Backend::Cpu => Some(String::new()),
-        Backend::Auto if !compile_at_start && candidate.runs_on_cpu() => {
+        // A device named to draw (--device) draws, as render's auto takes it.
+        Backend::Auto if !compile_at_start && args.device.is_none() && candidate.runs_on_cpu() => {
             Some(format!("; --backend auto: {} runs on the CPU", candidate.name))
         }
         Backend::Gpu | Backend::Auto => None,
