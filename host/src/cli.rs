@@ -593,7 +593,9 @@ pub enum Backend {
     Gpu,
     /// The C++ build of the shared GLSL on every core.
     Cpu,
-    /// The device, unless it runs on the CPU (lavapipe) or, without --device, none opens: then the CPU build.
+    /// The device, unless it runs on the CPU (lavapipe) and nothing asks for the device (--device, --shaders; and
+    /// for render, check, bench and conformance --scene-buffers, --validate, --timeout), or none opens and no
+    /// --device is given (not the preview, which needs Vulkan for its window): then the CPU build.
     Auto,
 }
 

@@ -33,9 +33,16 @@ const ALLOWANCES: &[(&str, f64, &str)] = &[
     ("intersect_normal_color/test_intersect_phong_diffuse", 0.0032, SUPERSAMPLED), // [0.2860%]
     ("intersect_normal_color/test_intersect_phong_specular", 0.0032, SUPERSAMPLED), // [0.2860%]
     ("intersect_normal_color/test_intersect_phong_total", 0.0032, SUPERSAMPLED),   // [0.2860%]
-    ("grading_illuminate/test_efficiency_recursiveSpheres3", 0.0013, DEEP_MIRRORS), // [0.1094%]
-    ("grading_illuminate/test_efficiency_recursiveSpheres4", 0.0065, DEEP_MIRRORS), // [0.5880%]
-    ("grading_illuminate/test_efficiency_recursiveCones4", 0.0090, DEEP_MIRRORS),  // [0.8367%]
+    ("intersect_normal_color/test_light_directional_light_1", 0.0040, SUPERSAMPLED), // [0.3549%]
+    ("intersect_normal_color/test_light_directional_light_2", 0.0040, SUPERSAMPLED), // [0.3549%]
+    ("intersect_normal_color/test_light_point_light_1", 0.0040, SUPERSAMPLED),     // [0.3549%]
+    ("intersect_normal_color/test_light_point_light_2", 0.0040, SUPERSAMPLED),     // [0.3549%]
+    ("intersect_normal_color/test_light_spot_light_1", 0.0040, SUPERSAMPLED),      // [0.3549%]
+    ("intersect_normal_color/test_light_spot_light_2", 0.0040, SUPERSAMPLED),      // [0.3549%]
+    // Measured 0.1094%, 0.5880% and 0.8367% when set; 0.0783%, 0.4196% and 0.6165% on 2026-11-27.
+    ("grading_illuminate/test_efficiency_recursiveSpheres3", 0.0013, DEEP_MIRRORS), // [0.0783%]
+    ("grading_illuminate/test_efficiency_recursiveSpheres4", 0.0065, DEEP_MIRRORS), // [0.4196%]
+    ("grading_illuminate/test_efficiency_recursiveCones4", 0.0090, DEEP_MIRRORS),   // [0.6165%]
 ];
 
 /// Pixels whose 3x3 neighbourhood holds more than one hit id (or a miss and a hit).
@@ -135,7 +142,7 @@ pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
             corpus.display()
         ));
     }
-    let plan: [(&str, Aov, bool, u32, u32, &str); 8] = [
+    let plan: [(&str, Aov, bool, u32, u32, &str); 9] = [
         ("test_unit", Aov::Color, false, 512, 384, "grading_illuminate"),
         ("test_intersect", Aov::Color, false, 512, 384, "grading_illuminate"),
         ("test_light", Aov::Color, true, 512, 384, "grading_illuminate"),
@@ -143,6 +150,7 @@ pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
         ("test_feature", Aov::Color, true, 512, 384, "grading_illuminate"),
         ("test_unit", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
         ("test_intersect", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
+        ("test_light", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
         ("test_efficiency", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
     ];
     let mut cases = Vec::new();

@@ -31,8 +31,9 @@ pub struct ShaderTestArgs {
     /// `--only div_rn`); repeatable, a case runs if any matches.
     #[arg(long, value_name = "TEXT")]
     only: Vec<String>,
-    /// The longest one case's run on the device may take before the command
-    /// gives up with an error (a tested function's endless loop).
+    /// The longest a function's run of cases may take, on the device or in
+    /// the C++ build (each in a process of its own), before its cases fail
+    /// with the timeout's error (a tested function's endless loop).
     #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::cli::parse_timeout)]
     timeout: std::time::Duration,
 }

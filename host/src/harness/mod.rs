@@ -215,7 +215,7 @@ pub fn summary(results: &[CaseResult]) -> String {
 }
 
 /// Where the harness runs cases.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct HarnessOptions {
     /// The folder with layout.h, scene_buffers.glsl and raycast.glsl under
     /// test (both the device and the C++ build); default: the source tree's shaders/.
@@ -223,8 +223,23 @@ pub struct HarnessOptions {
     pub device: Option<DeviceSelector>,
     /// The Khronos validation layer; read its messages with `take_validation_messages`.
     pub validation: bool,
-    /// The longest one run of a kernel may take (`GpuOptions::timeout`).
+    /// The longest one run of a kernel (or of the C++ build's cases) may
+    /// take (`GpuOptions::timeout`).
     pub timeout: std::time::Duration,
+}
+
+/// The source tree's shaders on the first device, without validation,
+/// with a Vulkan context's default timeout (a derived default's zero
+/// timed every case out).
+impl Default for HarnessOptions {
+    fn default() -> Self {
+        HarnessOptions {
+            shaders: None,
+            device: None,
+            validation: false,
+            timeout: crate::gpu::GpuOptions::default().timeout,
+        }
+    }
 }
 
 /// A device, the shaders under test, and the kernels and C++ builds made so far.
