@@ -84,6 +84,8 @@ pub fn check_output_path(path: &Path) -> Result<(), String> {
             let _ = std::fs::remove_file(&probe);
             Ok(())
         }
+        // A probe left by an earlier process of this id: the folder takes files.
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
         Err(_) if std::fs::OpenOptions::new().write(true).open(path).is_ok() => Ok(()),
         Err(e) => cannot(&format!("its folder {} takes no new file ({e})", folder.display())),
     }
