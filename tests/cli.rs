@@ -914,9 +914,9 @@ fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
 }
 
 /// shader-test runs the C++ build in a process of its own: a case whose
-/// scene says it has more primitives than its array holds (the C++ build
-/// reads past it) fails with the crash said, where the command ended on
-/// SIGSEGV; a tested function that never ends in the C++ build fails at
+/// scene's node points past its arrays (the C++ build reads past them)
+/// fails with the crash said, where the command ended on SIGSEGV (a count
+/// past its array is said before the run); a tested function that never ends in the C++ build fails at
 /// --timeout, where the command hung for ever; and `cpu = false` keeps a
 /// case off the C++ build in a batch too (it ran there all the same).
 #[test]
@@ -929,8 +929,14 @@ fn shader_test_contains_the_cpp_build() {
     let cases = out_dir().join("contained.toml");
     std::fs::write(
         &cases,
-        "[scenes.lie]\nframe = { primitive_count = 1000000 }\n\
+        "[scenes.lie]\nframe = { node_count = 1, root_node = 0, primitive_count = 1 }\n\
+         primitives = [{ object_from_world = 1.0, shape = \"SHAPE_CUBE\" }]\n\
+         nodes = [{ lo = [-1.0, -1.0, -1.0, 0.0], hi = [1.0, 1.0, 1.0, 0.0], first = 100000000, count = 1, primitives = 1, \
+         axis = 100000000 }]\n\n\
+         [scenes.count]\nframe = { primitive_count = 1000000 }\n\
          primitives = [{ object_from_world = 1.0, shape = \"SHAPE_CUBE\" }]\n\n\
+         [[case]]\nname = \"count\"\nfunction = \"trace\"\n\
+         inputs = { r = { origin = [0.0, 0.0, 2.0], direction = [0.0, 0.0, -1.0] } }\nsame_as_cpu = true\nscene = \"count\"\n\n\
          [[case]]\nname = \"lie\"\nfunction = \"trace\"\n\
          inputs = { r = { origin = [0.0, 0.0, 2.0], direction = [0.0, 0.0, -1.0] } }\nsame_as_cpu = true\nscene = \"lie\"\n\n\
          [[case]]\nname = \"even\"\nfunction = \"spin\"\ninputs = { n = 4 }\nexpected = 6\nrule = \"exact\"\n\n\
@@ -947,13 +953,16 @@ fn shader_test_contains_the_cpp_build() {
     let o = run(&cases);
     let out = text(&o).0;
     assert_eq!(o.status.code(), Some(4), "{out}{}", text(&o).1);
+    // A count past its array is said up front; an index past one (a node's
+    // first item) is the C++ build's crash, contained.
+    assert!(out.contains("error: scene: frame.primitive_count is 1000000, but the scene gives 1 primitives"), "{out}");
     assert!(out.contains("cpu: the C++ build of trace__Ray crashed (SIGSEGV"), "{out}");
     // The odd case is the device's alone: lavapipe 22's loop budget ends it
     // (a wrong value; the even case passes), a device without one times out
     // (both fail there); the C++ build runs the even case alone and ends.
     assert!(!out.contains("C++ build of spin__uint"), "{out}");
     assert!(
-        out.contains("1 passed, 2 failed") || out.contains("device: the dispatch did not finish within 2 s"),
+        out.contains("1 passed, 3 failed") || out.contains("device: the dispatch did not finish within 2 s"),
         "{out}"
     );
     // Now on the C++ build too: it fails at the timeout, the command ends.

@@ -527,7 +527,50 @@ impl Harness {
             }
             scene.push(words);
         }
+        self.check_counts(given, &scene)?;
         Ok(Prepared { function: f, input, expected, scene })
+    }
+
+    /// The frame's counts against the arrays the scene gives: a count past
+    /// its array (`primitive_count = 1000000` over one primitive) would have
+    /// the C++ build read past it (a crash `CpuLibrary::run` contains) and
+    /// the device read zeros, so it is the case's error, said up front.
+    /// Indices inside the arrays (a node's first item, a material) are not
+    /// checked here.
+    fn check_counts(&self, given: &SceneBuffers, scene: &[Vec<u32>]) -> Result<(), String> {
+        let at = |name: &str| self.info.scene_buffers.iter().position(|b| b.name == name);
+        let member = |buffer: &str, member: &str| -> Option<u32> {
+            let i = at(buffer)?;
+            let mut offset = 0;
+            for (name, ty) in &self.info.scene_buffers[i].ty.members {
+                if name == member {
+                    return scene[i].get(offset).copied();
+                }
+                offset += ty.words();
+            }
+            None
+        };
+        // The structs the scene gives (an array not given holds none).
+        let held = |buffer: &str| -> u32 {
+            let Some(i) = at(buffer) else { return 0 };
+            let size = Type::Struct(self.info.scene_buffers[i].ty.clone()).words().max(1);
+            given.buffers.get(buffer).map_or(0, |w| (w.len() / size) as u32)
+        };
+        for (count, buffer) in [("primitive_count", "primitives"), ("light_count", "lights"), ("node_count", "nodes")] {
+            if let Some(n) = member("frame", count).filter(|&n| n > held(buffer)) {
+                return Err(format!(
+                    "scene: frame.{count} is {n}, but the scene gives {} {buffer}: the C++ build would read past them; \
+                     give the count the array holds",
+                    held(buffer)
+                ));
+            }
+        }
+        if let (Some(root), Some(nodes)) = (member("frame", "root_node"), member("frame", "node_count")) {
+            if nodes > 0 && root >= nodes {
+                return Err(format!("scene: frame.root_node is {root}, past the {nodes} nodes (frame.node_count)"));
+            }
+        }
+        Ok(())
     }
 
     fn build_kernel(&self, f: &Function) -> Result<Kernel, String> {
