@@ -142,6 +142,11 @@ impl CpuLibrary {
                         "the C++ build of {key} did not finish within --timeout {} s (a loop that never ends?)",
                         timeout.as_secs_f64()
                     )
+                } else if let Some(why) = e.strip_prefix("cannot run the C++ build's run (Debian package raycast): ") {
+                    format!(
+                        "cannot start raycast's own program ({}) to run the C++ build of {key}: {why}",
+                        exe.display()
+                    )
                 } else {
                     e
                 }
