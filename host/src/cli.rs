@@ -309,12 +309,6 @@ pub(crate) fn check_output(path: &Path) -> Result<(), Failure> {
     Ok(image_io::check_output_path(path)?)
 }
 
-/// Whether `path` names something there that is not a file or a link to
-/// one (a device such as /dev/stdout, a pipe): written as it is, by name.
-fn not_a_file(path: &Path) -> bool {
-    std::fs::metadata(path).is_ok_and(|m| !m.is_file())
-}
-
 /// Most pictures `render --orbit` takes.
 const MAX_ORBIT: u32 = 10_000;
 
@@ -1099,7 +1093,7 @@ fn render(args: &RenderArgs) -> Result<(), Failure> {
     }
     let scenes = scene_list(&args.scenes);
     let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
-    if let (Some(n), Some(device)) = (args.orbit, args.output.as_ref().filter(|o| not_a_file(o))) {
+    if let (Some(n), Some(device)) = (args.orbit, args.output.as_ref().filter(|o| image_io::not_a_file(o))) {
         // Numbered names beside a device would be new files in its folder (/dev/stdout-000.png).
         return Err(Failure(
             format!(

@@ -38,6 +38,12 @@ pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
     crate::write_whole(path, &bytes)
 }
 
+/// Whether `path` names something there that is not a file or a link to
+/// one (a device such as /dev/stdout, a pipe): written as it is, by name.
+pub fn not_a_file(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file())
+}
+
 /// A picture's name ends in .png or has no extension (a device such as
 /// /dev/stdout): raycast writes PNG, and `out.jpg` holding PNG bytes would
 /// mislead. Its error is a usage error (exit 2: a malformed value).
@@ -74,7 +80,7 @@ pub fn check_output_path(path: &Path) -> Result<(), String> {
     // A device (/dev/stdout) is written as it is; a writable file in a
     // folder that takes none is written in place (write_whole), so either
     // passes.
-    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+    if not_a_file(path) {
         return Ok(());
     }
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
