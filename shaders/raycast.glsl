@@ -1301,6 +1301,16 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     precise vec3 pending = vec3(0.0f, 0.0f, 0.0f);
     uint li = 0u;
     uint passes = 0u; // every walk's, for AOV_COST_ALL
+    // Whether s.hit holds the camera ray's hit. Not `level == 0u`: Mesa
+    // 22.3's lavapipe ran that assignment again, for a lane that had left
+    // the loop, in a later pass of a neighbour lane still tracing mirror
+    // rays, with that pass's walk of the lane's camera ray, whose normal
+    // (computed under a branch the lane was masked out of) was 0: t, id
+    // and colour right, the stored normal 0 (found by fuzzing `check`;
+    // mirror_depth.xml at 160x120 --no-shadows: 636 pixels; Mesa 25.0 did
+    // not). tests/check.rs, "160x120 --no-shadows", over
+    // tests/scenes/stress/mirrors_beside_matte.xml.
+    bool first_kept = false;
     while (true) {
         SceneHit h = walk(next, next_t_max, shadow);
         s.rays = s.rays + 1u;
@@ -1315,8 +1325,9 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             }
             li = li + 1u;
         } else {
-            if (level == 0u) {
+            if (!first_kept) {
                 s.hit = h;
+                first_kept = true;
             }
             // The AOVs other than colour: the first hit's, black on a miss
             // but for the cost, which a miss has too. AOV_COST_ALL goes on

@@ -11,7 +11,7 @@
 //! filtering. And the hierarchy changes nothing: every scene rendered on
 //! the CPU with --no-bvh (every primitive tested) has the same bits as with
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
-//! build's bits. The device renders every scene that fits with its arrays in
+//! build's bits, as does its render without shadows (160x120). The device renders every scene that fits with its arrays in
 //! uniform buffers (render_uniform.comp); each scene is also checked with
 //! them in storage buffers (render.comp, 128x96), and drawn in bands of 16
 //! rows, a dispatch each (131x97, 2 samples per pixel), as pictures too
@@ -160,6 +160,15 @@ fn main() -> ExitCode {
                 (
                     "64x48 --no-bvh",
                     RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() },
+                    SceneBuffers::Auto,
+                    None,
+                ),
+                (
+                    // No shadow rays: a lane whose camera ray meets a
+                    // matte shape leaves the loop while its neighbours
+                    // trace mirror paths (tests/scenes/stress/mirrors_beside_matte.xml).
+                    "160x120 --no-shadows",
+                    RenderSettings { width: 160, height: 120, shadows: false, ..RenderSettings::default() },
                     SceneBuffers::Auto,
                     None,
                 ),
