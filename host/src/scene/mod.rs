@@ -5,6 +5,8 @@ pub mod bounds;
 pub mod camera_control;
 pub mod flatten;
 pub mod model;
+#[doc(hidden)]
+pub mod mutate;
 #[cfg(test)]
 mod mutation_tests;
 pub mod parse;

@@ -8,6 +8,7 @@
 //! column (`FILE:LINE:COL: error: …`). A failure writes the mutated scene
 //! to the temporary folder (raycast-mutated-scenes) and names it.
 
+use super::mutate::{mutate, Rng, VALUES};
 use super::{flatten, parse_str, FlattenLimits, ParseOptions};
 use crate::cpu::CpuRenderer;
 use crate::frame::{self, RenderSettings};
@@ -15,132 +16,6 @@ use std::path::{Path, PathBuf};
 
 /// Mutated scenes per run: about two seconds on 2 cores.
 const CASES: usize = 4000;
-
-/// xorshift64: the same cases on every machine.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-
-    fn pick<'a>(&mut self, items: &[&'a str]) -> &'a str {
-        items[self.below(items.len())]
-    }
-}
-
-/// What a quoted attribute value may become: extremes, non-numbers, near misses.
-const VALUES: &[&str] = &[
-    "0",
-    "-0",
-    "1e38",
-    "-1e38",
-    "3.4e38",
-    "1e-45",
-    "nan",
-    "inf",
-    "-inf",
-    "4294967296",
-    "-1",
-    "99999999999999999999",
-    "0.0000001",
-    "1e300",
-    "65536",
-    "2147483648",
-    " ",
-    "",
-    "1,2",
-    "0x10",
-    "1e",
-    "--1",
-    "1 2",
-];
-
-/// Words whose swap keeps the XML well formed but the scene's meaning not.
-const WORDS: &[&str] = &[
-    "tree",
-    "master",
-    "primitive",
-    "sphere",
-    "cube",
-    "cone",
-    "cylinder",
-    "root",
-    "directional",
-    "point",
-    "spot",
-    "area",
-];
-
-fn lines_of(s: &str) -> Vec<String> {
-    s.lines().map(String::from).collect()
-}
-
-/// One to four mutations of `source`.
-fn mutate(source: &str, rng: &mut Rng) -> String {
-    let mut s = source.to_string();
-    for _ in 0..1 + rng.below(4) {
-        let mut lines = lines_of(&s);
-        let n = lines.len().max(1);
-        let a = rng.below(n).min(lines.len());
-        let b = (a + 1 + rng.below(8)).min(lines.len());
-        match rng.below(7) {
-            0 => {
-                // A quoted value replaced.
-                let quotes: Vec<usize> = s.match_indices('"').map(|(i, _)| i).collect();
-                if quotes.len() >= 2 {
-                    let k = rng.below(quotes.len() / 2) * 2;
-                    s = format!("{}\"{}\"{}", &s[..quotes[k]], rng.pick(VALUES), &s[quotes[k + 1] + 1..]);
-                }
-                continue;
-            }
-            1 => drop(lines.drain(a..b)),
-            2 => {
-                let copy: Vec<String> = lines[a..b].to_vec();
-                lines.splice(b..b, copy);
-            }
-            3 => {
-                if a < lines.len() {
-                    let line = lines.remove(a);
-                    let to = rng.below(lines.len() + 1);
-                    lines.insert(to, line);
-                }
-            }
-            4 => {
-                let (from, to) = (rng.pick(WORDS), rng.pick(WORDS));
-                s = s.replacen(&format!("\"{from}\""), &format!("\"{to}\""), 1);
-                continue;
-            }
-            5 => {
-                // One byte changed to a character XML cares about.
-                let mut bytes = s.into_bytes();
-                if !bytes.is_empty() {
-                    let i = rng.below(bytes.len());
-                    bytes[i] = b"<>/\"= aZ0\n&;"[rng.below(12)];
-                }
-                s = String::from_utf8_lossy(&bytes).into_owned();
-                continue;
-            }
-            _ => {
-                let mut cut = rng.below(s.len());
-                while !s.is_char_boundary(cut) {
-                    cut -= 1;
-                }
-                s.truncate(cut);
-                continue;
-            }
-        }
-        s = lines.join("\n");
-    }
-    s
-}
 
 /// The repository's scenes, and the corpus's when RAYCAST_CORPUS is set.
 fn sources() -> (Vec<PathBuf>, Vec<PathBuf>) {
@@ -181,7 +56,7 @@ fn mutated_scenes_fail_with_located_errors_and_never_panic() {
     let mut failures: Vec<String> = Vec::new();
     for case in 0..CASES {
         let k = rng.below(files.len());
-        let text = mutate(&texts[k], &mut rng);
+        let text = mutate(&texts[k], &mut rng, VALUES);
         let name = files[k].display().to_string();
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             let file = parse_str(&text, &files[k], &options).map_err(|e| e.to_string())?;
