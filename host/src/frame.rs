@@ -206,18 +206,11 @@ impl RenderSettings {
             if !(near.is_finite() && far.is_finite() && near >= 0.0 && far > near) {
                 // As 32-bit floats, in few digits: two numbers given apart
                 // may be one float (1e-45,2e-45), which the message says.
-                let short = |x: f32| {
-                    if x == 0.0 || (1e-4..1e16).contains(&x.abs()) {
-                        format!("{x}")
-                    } else {
-                        format!("{x:e}")
-                    }
-                };
                 let same = if near == far { " (as the renderer's 32-bit floats they are the same)" } else { "" };
                 return Err(SettingsError(format!(
                     "--depth-range {},{}{same} is out of range: two finite distances with 0 <= NEAR < FAR",
-                    short(near),
-                    short(far)
+                    crate::units::fmt_number(near),
+                    crate::units::fmt_number(far)
                 )));
             }
         }

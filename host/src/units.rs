@@ -26,8 +26,13 @@ pub(crate) fn f32_holds(x: f64) -> bool {
 
 /// A coordinate as a message shows it: `0.25`, `-3` as written, or
 /// `1e-300` and `1e39` where the plain form would run to hundreds of digits.
-pub(crate) fn fmt_number(x: f64) -> String {
-    if x == 0.0 || (1e-4..1e16).contains(&x.abs()) {
+/// An f32 in the fewest digits that give it back (`1e-45`, not the f64's
+/// `1.401298464324817e-45`).
+pub(crate) fn fmt_number<T>(x: T) -> String
+where
+    T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp,
+{
+    if x.into() == 0.0 || (1e-4..1e16).contains(&x.into().abs()) {
         format!("{x}")
     } else {
         format!("{x:e}")
