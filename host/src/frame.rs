@@ -369,11 +369,14 @@ fn check_row_angle(scene: &Scene, height: u32) -> Result<(), String> {
     if per_row >= MIN_ROW_ANGLE {
         return Ok(());
     }
+    let place = match &scene.camera.height_angle_loc {
+        Some(loc) => loc.to_string(),
+        None => format!("{} (its default heightangle)", scene.path.display()),
+    };
     Err(format!(
-        "{}: error: the camera's heightangle of {}° over {height} rows is {per_row:.1e} radians a row, less than the \
+        "{place}: error: the camera's heightangle of {}° over {height} rows is {per_row:.1e} radians a row, less than the \
          {MIN_ROW_ANGLE:.0e} the renderer's 32-bit floats resolve (the picture would be noise): widen it (at least \
          {:.1e}°), or render fewer rows",
-        scene.path.display(),
         crate::units::fmt_number(degrees),
         (MIN_ROW_ANGLE * f64::from(height.max(1))).to_degrees()
     ))
@@ -1540,7 +1543,8 @@ mod tests {
 
     /// A camera whose rows are closer than the floats resolve is refused,
     /// by its angle a row (the picture's height counts): heightangle 1e-5
-    /// degrees at 384 rows; 0.01 degrees there renders, as 1e-5 at 1 row.
+    /// degrees at 384 rows, at its `<heightangle>`; 0.01 degrees there
+    /// renders, as 1e-5 at 1 row.
     #[test]
     fn rows_narrower_than_the_floats_resolve_are_refused() {
         let scene = |degrees: &str| {
@@ -1554,7 +1558,7 @@ mod tests {
         };
         let e = build(&scene("1e-5"), &RenderSettings::default()).map(|_| ()).unwrap_err();
         assert!(
-            e.starts_with("t.xml: error: the camera's heightangle of 1e-5° over 384 rows is 4.5e-10 radians a row"),
+            e.starts_with("t.xml:1:99: error: the camera's heightangle of 1e-5° over 384 rows is 4.5e-10 radians a row"),
             "{e}"
         );
         build(&scene("0.01"), &RenderSettings::default()).unwrap();

@@ -112,6 +112,8 @@ pub struct Camera {
     pub up: DVec3,
     /// Full vertical field of view, degrees.
     pub height_angle_deg: f64,
+    /// Its `<heightangle>` (None: the default), for messages about it.
+    pub height_angle_loc: Option<SourceLoc>,
     pub aspect_ratio: Option<f64>,
     pub aperture: Option<f64>,
     pub focal_length: Option<f64>,
@@ -124,6 +126,7 @@ impl Default for Camera {
             look: DVec3::new(-1.0, -1.0, -1.0),
             up: DVec3::new(0.0, 1.0, 0.0),
             height_angle_deg: 45.0,
+            height_angle_loc: None,
             aspect_ratio: None,
             aperture: None,
             focal_length: None,

@@ -932,6 +932,7 @@ impl<'a> Ctx<'a> {
                         ));
                     }
                     cam.height_angle_deg = v;
+                    cam.height_angle_loc = Some(self.nloc(c));
                 }
                 "aspectratio" => {
                     let v = self.v(c)?;
