@@ -1301,12 +1301,14 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     precise vec3 pending = vec3(0.0f, 0.0f, 0.0f);
     uint li = 0u;
     uint passes = 0u; // every walk's, for AOV_COST_ALL
-    // Whether s.hit holds the camera ray's hit. Not `level == 0u`: Mesa
-    // 22.3's lavapipe ran that assignment again, for a lane that had left
-    // the loop, in a later pass of a neighbour lane still tracing mirror
-    // rays, with that pass's walk of the lane's camera ray, whose normal
-    // (computed under a branch the lane was masked out of) was 0: t, id
-    // and colour right, the stored normal 0 (found by fuzzing `check`;
+    // Whether s.hit holds the camera ray's hit. Not `level == 0u`: with
+    // that test Mesa 22.3's lavapipe stored 0 as the normal of a lane that
+    // left the loop while a neighbour went on tracing mirror rays, its t,
+    // id and colour right. By every sign it ran the assignment again in the
+    // neighbour's later pass, with that pass's walk of the lane's camera ray
+    // (the same t and id), whose normal, computed under a branch the lane
+    // was masked out of, stayed 0; one invocation alone (check --pixel) was
+    // right. Kept by a flag, it is right (found by fuzzing `check`;
     // mirror_depth.xml at 160x120 --no-shadows: 636 pixels; Mesa 25.0 did
     // not). tests/check.rs, "160x120 --no-shadows", over
     // tests/scenes/stress/mirrors_beside_matte.xml.
