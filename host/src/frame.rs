@@ -1558,7 +1558,9 @@ mod tests {
         };
         let e = build(&scene("1e-5"), &RenderSettings::default()).map(|_| ()).unwrap_err();
         assert!(
-            e.starts_with("t.xml:1:99: error: the camera's heightangle of 1e-5° over 384 rows is 4.5e-10 radians a row"),
+            e.starts_with(
+                "t.xml:1:99: error: the camera's heightangle of 1e-5° over 384 rows is 4.5e-10 radians a row"
+            ),
             "{e}"
         );
         build(&scene("0.01"), &RenderSettings::default()).unwrap();
