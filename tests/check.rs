@@ -11,7 +11,9 @@
 //! filtering. And the hierarchy changes nothing: every scene rendered on
 //! the CPU with --no-bvh (every primitive tested) has the same bits as with
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
-//! build's bits, as does its render without shadows (160x120). The device renders every scene that fits with its arrays in
+//! build's bits, as does its render without shadows (160x120); the stress
+//! scene divergent_lanes.xml under every combination of shadows, mirrors,
+//! bounces and the colour or cost-all AOV (64x48). The device renders every scene that fits with its arrays in
 //! uniform buffers (render_uniform.comp); each scene is also checked with
 //! them in storage buffers (render.comp, 128x96), and drawn in bands of 16
 //! rows, a dispatch each (131x97, 2 samples per pixel), as pictures too
@@ -194,9 +196,9 @@ fn main() -> ExitCode {
             // The same device with the scene always in storage buffers
             // (render.comp; it takes uniform buffers, render_uniform.comp,
             // wherever a scene fits), and in bands (above).
-            let checks = [
+            let mut checks = vec![
                 (
-                    "64x48 --no-bvh",
+                    "64x48 --no-bvh".to_string(),
                     RenderSettings { width: 64, height: 48, bvh: false, ..RenderSettings::default() },
                     SceneBuffers::Auto,
                     None,
@@ -205,28 +207,52 @@ fn main() -> ExitCode {
                     // No shadow rays: a lane whose camera ray meets a
                     // matte shape leaves the loop while its neighbours
                     // trace mirror paths (tests/scenes/stress/mirrors_beside_matte.xml).
-                    "160x120 --no-shadows",
+                    "160x120 --no-shadows".to_string(),
                     RenderSettings { width: 160, height: 120, shadows: false, ..RenderSettings::default() },
                     SceneBuffers::Auto,
                     None,
                 ),
                 (
-                    "128x96 storage buffers",
+                    "128x96 storage buffers".to_string(),
                     RenderSettings { width: 128, height: 96, ..RenderSettings::default() },
                     SceneBuffers::Storage,
                     None,
                 ),
                 (
-                    "131x97 in bands of 16 rows, 2 samples",
+                    "131x97 in bands of 16 rows, 2 samples".to_string(),
                     RenderSettings { width: BAND_WIDTH, height: 97, spp: 2, ..RenderSettings::default() },
                     SceneBuffers::Auto,
                     Some(band_bytes),
                 ),
             ];
+            if path.ends_with("tests/scenes/stress/divergent_lanes.xml") {
+                // Lanes held apart (the scene's comment): every combination
+                // of shadows, mirrors, bounces and the colour or cost-all AOV.
+                for shadows in [true, false] {
+                    for reflections in [true, false] {
+                        for max_depth in [1, 5] {
+                            for aov in [Aov::Color, Aov::CostAll] {
+                                let settings = RenderSettings {
+                                    width: 64,
+                                    height: 48,
+                                    shadows,
+                                    reflections,
+                                    max_depth,
+                                    aov,
+                                    ..RenderSettings::default()
+                                };
+                                let what =
+                                    format!("64x48 shadows {shadows}, mirrors {reflections}, {max_depth} bounces");
+                                checks.push((what, settings, SceneBuffers::Auto, None));
+                            }
+                        }
+                    }
+                }
+            }
             for (what, settings, buffers, bands) in checks {
                 gpu.set_scene_buffers(buffers);
                 gpu.set_band_bytes(bands);
-                let label = format!("{name} Color {what}, device against cpu");
+                let label = format!("{name} {:?} {what}, device against cpu", settings.aov);
                 let result = frame::build(&scene, &settings).map_err(|e| e.to_string()).and_then(|d| {
                     let (g, _) = gpu.render(&d).map_err(|e| e.to_string())?;
                     check::compare(&g, "device", &cpu.render(&d).unwrap(), "cpu")
