@@ -227,7 +227,8 @@ fn main() -> ExitCode {
             ];
             if path.ends_with("tests/scenes/stress/divergent_lanes.xml") {
                 // Lanes held apart (the scene's comment): every combination
-                // of shadows, mirrors, bounces and the colour or cost-all AOV.
+                // of shadows, mirrors, bounces (1 with nearest texels, 5
+                // with bilinear) and the colour or cost-all AOV.
                 for shadows in [true, false] {
                     for reflections in [true, false] {
                         for max_depth in [1, 5] {
@@ -239,10 +240,17 @@ fn main() -> ExitCode {
                                     reflections,
                                     max_depth,
                                     aov,
+                                    texture_filter: if max_depth == 1 {
+                                        TextureFilter::Nearest
+                                    } else {
+                                        TextureFilter::Bilinear
+                                    },
                                     ..RenderSettings::default()
                                 };
-                                let what =
-                                    format!("64x48 shadows {shadows}, mirrors {reflections}, {max_depth} bounces");
+                                let what = format!(
+                                    "64x48 shadows {shadows}, mirrors {reflections}, {max_depth} bounces, {:?}",
+                                    settings.texture_filter
+                                );
                                 checks.push((what, settings, SceneBuffers::Auto, None));
                             }
                         }
