@@ -13,8 +13,9 @@
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
 //! build's bits, as does its render without shadows (160x120); the stress
 //! scene divergent_lanes.xml under every combination of shadows, mirrors,
-//! bounces and the colour or cost-all AOV (64x48). The device renders every scene that fits with its arrays in
-//! uniform buffers (render_uniform.comp); each scene is also checked with
+//! bounces and the colour or cost-all AOV (64x48). The device renders every
+//! scene that fits with its arrays in uniform buffers
+//! (render_uniform.comp); each scene is also checked with
 //! them in storage buffers (render.comp, 128x96), and drawn in bands of 16
 //! rows, a dispatch each (131x97, 2 samples per pixel), as pictures too
 //! large for one storage buffer are. A failure
@@ -28,9 +29,9 @@
 
 use raycast::check;
 use raycast::cpu::CpuRenderer;
-use raycast::frame::{self, Aov, RenderSettings, TextureFilter};
+use raycast::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use raycast::gpu::GpuOptions;
-use raycast::image_io;
+use raycast::image_io::{self, Rgb8};
 use raycast::render::{GpuRenderer, SceneBuffers};
 use raycast::scene::mutate::{mutate, mutate_numbers, Rng, ORDINARY};
 use raycast::scene::{self, FlattenLimits, ParseOptions};
@@ -81,6 +82,32 @@ fn random_settings(rng: &mut Rng) -> RenderSettings {
         spp: 1 + rng.below(3) as u32,
         texture_filter: if rng.below(2) == 0 { TextureFilter::Nearest } else { TextureFilter::Bilinear },
         ..RenderSettings::default()
+    }
+}
+
+/// One frame on the device and on the CPU build, every buffer compared bit
+/// for bit, and what the validation layer said meanwhile: Err with what to
+/// print (the report, the messages, or the error) and the diff image where
+/// the two rendered.
+fn device_against_cpu(gpu: &GpuRenderer, cpu: &CpuRenderer, data: &FrameData) -> Result<(), (String, Option<Rgb8>)> {
+    let result = gpu
+        .render(data)
+        .map_err(|e| e.to_string())
+        .and_then(|(g, _)| check::compare(&g, "device", &cpu.render(data)?, "cpu"));
+    let messages = gpu.context().take_validation_messages();
+    let validation: String = messages.iter().map(|m| format!("\nvalidation: {m}")).collect();
+    match result {
+        Ok(report) if report.identical() && messages.is_empty() => Ok(()),
+        Ok(report) => Err((format!("{report}{validation}"), Some(report.diff_image))),
+        Err(e) => Err((format!("{e}{validation}"), None)),
+    }
+}
+
+/// `FAILED label:` and what went wrong, indented under it.
+fn print_failure(label: &str, problem: &str) {
+    println!("FAILED {label}:");
+    for line in problem.lines() {
+        println!("       {line}");
     }
 }
 
@@ -178,10 +205,7 @@ fn main() -> ExitCode {
                         println!("ok     {label}: identical");
                     } else {
                         failed += 1;
-                        println!("FAILED {label}:");
-                        for line in report.to_string().lines() {
-                            println!("       {line}");
-                        }
+                        print_failure(&label, &report.to_string());
                     }
                 }
                 (Err(e), _) | (_, Err(e)) => {
@@ -261,33 +285,19 @@ fn main() -> ExitCode {
                 gpu.set_scene_buffers(buffers);
                 gpu.set_band_bytes(bands);
                 let label = format!("{name} {:?} {what}, device against cpu", settings.aov);
-                let result = frame::build(&scene, &settings).map_err(|e| e.to_string()).and_then(|d| {
-                    let (g, _) = gpu.render(&d).map_err(|e| e.to_string())?;
-                    check::compare(&g, "device", &cpu.render(&d).unwrap(), "cpu")
-                });
+                let result = frame::build(&scene, &settings)
+                    .map_err(|e| (e, None))
+                    .and_then(|d| device_against_cpu(&gpu, &cpu, &d));
                 gpu.set_scene_buffers(SceneBuffers::Auto);
                 gpu.set_band_bytes(None);
-                let messages = gpu.context().take_validation_messages();
-                if !messages.is_empty() {
-                    failed += 1;
-                    println!("FAILED {label}: validation: {}", messages.join("; "));
-                    continue;
-                }
                 match result {
-                    Ok(report) if report.identical() => {
+                    Ok(()) => {
                         passed += 1;
                         println!("ok     {label}: identical");
                     }
-                    Ok(report) => {
+                    Err((problem, _)) => {
                         failed += 1;
-                        println!("FAILED {label}:");
-                        for line in report.to_string().lines() {
-                            println!("       {line}");
-                        }
-                    }
-                    Err(e) => {
-                        failed += 1;
-                        println!("FAILED {label}: {e}");
+                        print_failure(&label, &problem);
                     }
                 }
             }
@@ -307,36 +317,20 @@ fn main() -> ExitCode {
                         continue;
                     }
                 };
-                let gpu_picture = match gpu.render(&data) {
-                    Ok((p, _)) => p,
-                    Err(e) => {
-                        failed += 1;
-                        println!("FAILED {label}: {e}");
-                        continue;
-                    }
-                };
-                let cpu_picture = cpu.render(&data).unwrap();
-                let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu").expect("same size");
-                let messages = gpu.context().take_validation_messages();
-                if report.identical() && messages.is_empty() {
+                let Err((problem, diff_image)) = device_against_cpu(&gpu, &cpu, &data) else {
                     passed += 1;
                     println!("ok     {label}: identical");
                     continue;
-                }
+                };
                 failed += 1;
-                println!("FAILED {label}:");
-                for line in report.to_string().lines() {
-                    println!("       {line}");
-                }
-                for m in messages {
-                    println!("       validation: {m}");
-                }
+                print_failure(&label, &problem);
+                let Some(diff_image) = diff_image else { continue };
                 let file = out_dir.join(format!(
                     "{}-{aov:?}-{width}x{height}-diff.png",
                     label.split(' ').next().unwrap().replace('/', "_")
                 ));
                 let _ = std::fs::create_dir_all(&out_dir);
-                match image_io::write_png(&file, &report.diff_image) {
+                match image_io::write_png(&file, &diff_image) {
                     Ok(()) => println!("       diff image: {}", file.display()),
                     Err(e) => println!("       {e}"),
                 }
@@ -345,8 +339,9 @@ fn main() -> ExitCode {
     }
     // Mutated scenes (raycast::scene::mutate from a fixed seed: numbers
     // swapped for ordinary ones; one in four also lines deleted, duplicated
-    // or moved, words swapped, bytes changed) under random settings (random_settings, uniform or
-    // storage buffers): whatever still loads has the same bits on both.
+    // or moved, words swapped, bytes changed) under random settings
+    // (random_settings, uniform or storage buffers): whatever still loads
+    // has the same bits on both.
     // Found a kernel bug the fixed variants above had missed (the first
     // hit's normal without shadows: tests/scenes/stress/mirrors_beside_matte.xml).
     let mutants = match std::env::var("RAYCAST_MUTANTS") {
@@ -382,34 +377,21 @@ fn main() -> ExitCode {
             }
         };
         gpu.set_scene_buffers(buffers);
-        let result = gpu
-            .render(&data)
-            .map_err(|e| e.to_string())
-            .and_then(|(g, _)| check::compare(&g, "device", &cpu.render(&data)?, "cpu"));
+        let result = device_against_cpu(&gpu, &cpu, &data);
         gpu.set_scene_buffers(SceneBuffers::Auto);
-        let messages = gpu.context().take_validation_messages();
-        let problem = match result {
-            Ok(report) if report.identical() && messages.is_empty() => None,
-            Ok(report) => {
-                Some(format!("{report}{}", messages.iter().map(|m| format!("\nvalidation: {m}")).collect::<String>()))
-            }
-            Err(e) => Some(e),
-        };
-        match problem {
-            None => same += 1,
-            Some(problem) => {
+        match result {
+            Ok(()) => same += 1,
+            Err((problem, _)) => {
                 mutant_failures += 1;
                 let _ = std::fs::create_dir_all(&out_dir);
                 let kept = out_dir.join(format!("mutant-{case}.xml"));
                 let _ = std::fs::write(&kept, &text);
-                println!(
-                    "FAILED mutant {case} of {} (written to {}), {settings:?}, {buffers:?}:",
+                let label = format!(
+                    "mutant {case} of {} (written to {}), {settings:?}, {buffers:?}",
                     short_name(path, corpus.as_deref(), &repo),
                     kept.display()
                 );
-                for line in problem.lines() {
-                    println!("       {line}");
-                }
+                print_failure(&label, &problem);
             }
         }
     }

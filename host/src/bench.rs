@@ -192,14 +192,7 @@ fn load_parsed(
     for note in &data.notes {
         errln!("raycast: note: {note}");
     }
-    Ok(LoadedScene {
-        name: name.unwrap_or(DEFAULT_SCENE_NAME).to_string(),
-        counts,
-        lights: data.lights.len(),
-        load,
-        build,
-        data,
-    })
+    Ok(LoadedScene { name: crate::cli::scene_label(name), counts, lights: data.lights.len(), load, build, data })
 }
 
 /// One scene on one backend.
@@ -745,29 +738,26 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     // Of several scenes, one that fails is reported as it happens and the
     // others go on (as `render`, `check` and `info`); the command fails at
     // the end, naming it. One scene's failure ends the command.
-    let batch = each_named(
-        &names,
-        |n| n.unwrap_or(DEFAULT_SCENE_NAME).to_string(),
-        |name| {
-            let (loaded, mut rows) = match time(name) {
-                Ok(Some(timed)) => timed,
-                Ok(None) => return Ok(Ok(())),
-                Err(e) => return Ok(Err(e)),
-            };
-            for row in &mut rows {
-                row.frames.sort();
-                row.dispatch.sort();
+    let batch = each_named(&names, crate::cli::scene_label, |name| {
+        let (loaded, mut rows) = match time(name) {
+            Ok(Some(timed)) => timed,
+            Ok(None) => return Ok(Ok(())),
+            Err(e) => return Ok(Err(e)),
+        };
+        for row in &mut rows {
+            row.frames.sort();
+            row.dispatch.sort();
+        }
+        if args.json {
+            for row in &rows {
+                crate::emit_line(&row.json(&settings, args.warmup))?;
             }
-            if args.json {
-                for row in &rows {
-                    crate::emit_line(&row.json(&settings, args.warmup))?;
-                }
-            } else if args.markdown {
-                for row in &rows {
-                    outln!("{}", row.markdown());
-                }
-            } else {
-                outln!(
+        } else if args.markdown {
+            for row in &rows {
+                outln!("{}", row.markdown());
+            }
+        } else {
+            outln!(
                 "scene: {} ({} primitives expanded, {} unique; {} lights)\n  load {} (parse, count, flatten, textures), build {} (hierarchy)",
                 loaded.name,
                 thousands(loaded.counts.expanded),
@@ -776,14 +766,13 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
                 ms(loaded.load),
                 ms(loaded.build)
             );
-                for row in &rows {
-                    outln!("{}", row.human());
-                }
+            for row in &rows {
+                outln!("{}", row.human());
             }
-            all_rows.extend(rows);
-            Ok(Ok(()))
-        },
-    )?;
+        }
+        all_rows.extend(rows);
+        Ok(Ok(()))
+    })?;
     if args.markdown {
         outln!();
         outln!(

@@ -514,26 +514,22 @@ fn info(args: &InfoArgs) -> Result<(), Failure> {
     let names = scene_names(&args.scenes);
     let parse = ParseOptions { assets: args.assets.clone(), ..ParseOptions::default() };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
-    let batch = each_named(
-        &names,
-        |n| n.unwrap_or(DEFAULT_SCENE_NAME).to_string(),
-        |name| {
-            let label = name.unwrap_or(DEFAULT_SCENE_NAME);
-            // Warnings on stderr as every command prints them; the notes are in the description.
-            let described = load_scene(name.map(Path::new), &parse, &limits).and_then(|scene| {
-                let data = crate::info::pack(&scene)?;
-                Ok(crate::info::Info::of(label, &scene, &data))
-            });
-            Ok(match described {
-                Ok(info) if args.json => Ok(crate::emit_line(&info.json())?),
-                Ok(info) => {
-                    out!("{}", info.text());
-                    Ok(())
-                }
-                Err(e) => Err(scene_failure(e)),
-            })
-        },
-    )?;
+    let batch = each_named(&names, scene_label, |name| {
+        let label = name.unwrap_or(DEFAULT_SCENE_NAME);
+        // Warnings on stderr as every command prints them; the notes are in the description.
+        let described = load_scene(name.map(Path::new), &parse, &limits).and_then(|scene| {
+            let data = crate::info::pack(&scene)?;
+            Ok(crate::info::Info::of(label, &scene, &data))
+        });
+        Ok(match described {
+            Ok(info) if args.json => Ok(crate::emit_line(&info.json())?),
+            Ok(info) => {
+                out!("{}", info.text());
+                Ok(())
+            }
+            Err(e) => Err(scene_failure(e)),
+        })
+    })?;
     batch.failure("").map_or(Ok(()), Err)
 }
 
@@ -1016,6 +1012,11 @@ pub(crate) fn scene_names(scenes: &[String]) -> Vec<Option<&str>> {
     } else {
         scenes.iter().map(|s| Some(s.as_str())).collect()
     }
+}
+
+/// A scene of `scene_names` as batch reports name it.
+pub(crate) fn scene_label(name: Option<&str>) -> String {
+    name.unwrap_or(DEFAULT_SCENE_NAME).to_string()
 }
 
 /// Each of `names` given to `one`, whose inner result is that one's (a

@@ -16,7 +16,7 @@
 
 use crate::bench::{load_or_skip, median, skipped, BenchArgs, BenchBackend};
 use crate::check;
-use crate::cli::{check_validation, each_named, open_renderer, scene_failure, Failure, DEFAULT_SCENE_NAME};
+use crate::cli::{check_validation, each_named, open_renderer, scene_failure, Failure};
 use crate::gpu::GpuError;
 use crate::render::Picture;
 use crate::scene::FlattenLimits;
@@ -199,7 +199,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
         }
         Ok(())
     };
-    let batch = each_named(&names, |n| n.unwrap_or(DEFAULT_SCENE_NAME).to_string(), |name| Ok(compare_one(name)))?;
+    let batch = each_named(&names, crate::cli::scene_label, |name| Ok(compare_one(name)))?;
     let result = batch.failure("").map_or(Ok(()), Err);
     let messages = [a.context().take_validation_messages(), b.context().take_validation_messages()].concat();
     drop(a);

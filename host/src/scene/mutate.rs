@@ -89,12 +89,7 @@ pub fn mutate(source: &str, rng: &mut Rng, values: &[&str]) -> String {
         let b = (a + 1 + rng.below(8)).min(lines.len());
         match rng.below(7) {
             0 => {
-                // A quoted value replaced.
-                let quotes: Vec<usize> = s.match_indices('"').map(|(i, _)| i).collect();
-                if quotes.len() >= 2 {
-                    let k = rng.below(quotes.len() / 2) * 2;
-                    s = format!("{}\"{}\"{}", &s[..quotes[k]], rng.pick(values), &s[quotes[k + 1] + 1..]);
-                }
+                s = replace_quoted(&s, rng, values, |_| true).unwrap_or(s);
                 continue;
             }
             1 => drop(lines.drain(a..b)),
@@ -143,17 +138,23 @@ pub fn mutate(source: &str, rng: &mut Rng, values: &[&str]) -> String {
 pub fn mutate_numbers(source: &str, rng: &mut Rng, values: &[&str]) -> String {
     let mut s = source.to_string();
     for _ in 0..1 + rng.below(4) {
-        let quotes: Vec<usize> = s.match_indices('"').map(|(i, _)| i).collect();
-        let numbers: Vec<(usize, usize)> = quotes
-            .chunks_exact(2)
-            .map(|q| (q[0], q[1]))
-            .filter(|&(a, b)| s[a + 1..b].trim().parse::<f64>().is_ok())
-            .collect();
-        if numbers.is_empty() {
-            break;
+        match replace_quoted(&s, rng, values, |v| v.trim().parse::<f64>().is_ok()) {
+            Some(t) => s = t,
+            None => break,
         }
-        let (a, b) = numbers[rng.below(numbers.len())];
-        s = format!("{}\"{}\"{}", &s[..a], rng.pick(values), &s[b + 1..]);
     }
     s
+}
+
+/// `s` with one of its quoted values that `take` accepts (chosen by `rng`)
+/// replaced by one of `values`; None where it has none.
+fn replace_quoted(s: &str, rng: &mut Rng, values: &[&str], take: impl Fn(&str) -> bool) -> Option<String> {
+    let quotes: Vec<usize> = s.match_indices('"').map(|(i, _)| i).collect();
+    let quoted: Vec<(usize, usize)> =
+        quotes.chunks_exact(2).map(|q| (q[0], q[1])).filter(|&(a, b)| take(&s[a + 1..b])).collect();
+    if quoted.is_empty() {
+        return None;
+    }
+    let (a, b) = quoted[rng.below(quoted.len())];
+    Some(format!("{}\"{}\"{}", &s[..a], rng.pick(values), &s[b + 1..]))
 }

@@ -903,12 +903,13 @@ impl<'a> Ctx<'a> {
                     if let Some((prev, _)) = aim {
                         let pname = prev.tag_name().name();
                         if pname != name {
+                            let at = self.nloc(prev);
                             return Err(self.err(
                                 self.nloc(c),
                                 format!(
                                     "<cameradata> has both <{pname}> (at {}:{}) and <{name}>; use one (<focus> is a point to look at, <look> a direction)",
-                                    self.nloc(prev).line,
-                                    self.nloc(prev).col
+                                    at.line,
+                                    at.col
                                 ),
                             ));
                         }
