@@ -14,7 +14,14 @@
 #   check-dekker, shader-test-dekker
 #                the colour check and the harness again with the correction's residuals by
 #                Dekker's product (RAYCAST_FMA_RESIDUALS=0), where the fma probe chose fma
+#   check-no-shadows
+#                the same without shadow rays at 160x120, our scenes and the stress scenes too
+#                (where Mesa 22.3's lavapipe once stored a 0 normal beside mirror paths)
 #   check-spp2   two samples a pixel on generated deep scenes
+#   check-suite  the check suite's own binary (tests/check.rs, where ci/lent-gpu.sh carried it as
+#                build/check-suite; skipped and said so otherwise) on the default device, which
+#                is the GPU there: its fixed variants and RAYCAST_MUTANTS mutated scenes (2000
+#                unless set) under random settings
 #   orbit        `render --orbit 6` of recursiveSpheres4 on the device and the CPU build: the
 #                same PNG files byte for byte
 #   conformance  the course's reference renders, under each case's stated rule
@@ -58,8 +65,15 @@ done
 # Where the probe gave the kernels fma residuals (FUSED_FMA), Dekker's too, which any other GPU gets.
 step check-dekker env RAYCAST_FMA_RESIDUALS=0 "${check[@]}" "${scenes[@]}"
 step shader-test-dekker env RAYCAST_FMA_RESIDUALS=0 "$raycast" shader-test --device "$device" --validate
+step check-no-shadows "${check[@]}" --no-shadows --width 160 --height 120 \
+  "${scenes[@]}" scenes/*.xml tests/scenes/stress/*.xml
 step check-spp2 "$raycast" check --device "$device" --spp 2 --assets "$corpus" \
   gen:recursive-spheres:10 gen:recursive-cones:6 gen:recursive-cones:8 gen:recursive-cubes:6
+check_suite() {
+  [ -x build/check-suite ] || { echo "check-suite: no build/check-suite (ci/lent-gpu.sh checks carries it): skipped"; return 0; }
+  RAYCAST_REPO="$PWD" RAYCAST_MUTANTS="${RAYCAST_MUTANTS:-2000}" build/check-suite
+}
+step check-suite check_suite
 orbit() {
   local dir; dir="$(mktemp -d)"
   "$raycast" render "$corpus/test_efficiency/recursiveSpheres4.xml" --assets "$corpus" --device "$device" \

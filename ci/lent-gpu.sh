@@ -22,6 +22,8 @@
 #               test_efficiency scenes and the texture they use with `preview`
 #               (all of it would pass the call's 64 MiB beside the window)
 #   raycast, shaders/   build/raycast stripped (7 MB where it is 42) and build/shaders
+#   check-suite with `checks`, where ci/test.sh built it: the check suite's binary
+#               (tests/check.rs) stripped, for gpu-checks.sh's step of that name
 #   run.sh      there: unpacks, sets PATH, LD_LIBRARY_PATH, VK_DRIVER_FILES,
 #               VK_LAYER_PATH, RAYCAST_CORPUS and RAYCAST_COMMIT, puts raycast and
 #               the shaders in build/, then runs its arguments
@@ -102,6 +104,12 @@ fi
 
 strip -o "$dir/raycast" "$BUILD/raycast"
 cp -r "$BUILD/shaders" "$dir/shaders"
+if [ "$kind" = checks ]; then
+  # The newest build of tests/check.rs (cargo names it check-HASH).
+  suite="$(ls -t "$BUILD"/cargo/release/deps/check-* 2>/dev/null | grep -v '\.d$' | head -n 1)"
+  if [ -n "$suite" ]; then strip -o "$dir/check-suite" "$suite"
+  else echo "lent-gpu: no check suite binary in $BUILD/cargo (ci/test.sh builds it): gpu-checks will skip that step"; fi
+fi
 commit="$(git -C "$ROOT" rev-parse --short HEAD)"
 git -C "$ROOT" diff --quiet HEAD || commit="$commit with changes"
 cat >"$dir/run.sh" <<EOF
@@ -135,6 +143,7 @@ export RAYCAST_CORPUS="\$here/corpus" RAYCAST_COMMIT="$commit"
 mkdir -p build
 cp "\$here/raycast" build/raycast
 rm -rf build/shaders && cp -r "\$here/shaders" build/shaders
+[ ! -f "\$here/check-suite" ] || cp "\$here/check-suite" build/check-suite
 "\$@"
 EOF
 chmod +x "$dir/run.sh"

@@ -26,6 +26,10 @@
 //! under random settings: every one that loads has the same bits on both;
 //! a failure writes the mutated scene beside the diff images and prints its
 //! settings.
+//!
+//! Elsewhere (a lent GPU, ci/gpu-checks.sh): RAYCAST_REPO names the
+//! repository whose scenes it reads; the device is the default one (a
+//! discrete GPU before a CPU one, as `--device` unset picks).
 
 use raycast::check;
 use raycast::cpu::CpuRenderer;
@@ -115,7 +119,11 @@ fn print_failure(label: &str, problem: &str) {
 const BAND_WIDTH: u32 = 131;
 
 fn main() -> ExitCode {
-    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    // The repository's scenes: this checkout's, or RAYCAST_REPO's where the
+    // binary runs elsewhere (ci/gpu-checks.sh on a lent machine).
+    let repo = std::env::var_os("RAYCAST_REPO")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
     let mut scenes: Vec<(PathBuf, &[(u32, u32)])> = Vec::new();
     for f in xml_files(&repo.join("scenes")) {
         scenes.push((f, &[(512, 384)]));
