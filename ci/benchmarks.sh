@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates BENCHMARKS.md in one command:
 #
-#   ci/benchmarks.sh [--no-build] [--only TEXT] [FILE]     (FILE: BENCHMARKS.md by default)
+#   ci/benchmarks.sh [--no-build] [--only TEXT] [--skip TEXT] [FILE]     (FILE: BENCHMARKS.md by default)
 #
 # Every block of FILE that opens with `<!-- bench: COMMAND -->` and closes
 # with `<!-- /bench -->` is replaced by what COMMAND prints, run from the
@@ -9,6 +9,8 @@
 # $CORPUS (RAYCAST_CORPUS, else ../shared/corpus/cs1230). Builds
 # build/raycast first unless --no-build. With --only TEXT, only the blocks
 # whose COMMAND contains TEXT are run again; the others stay as they are.
+# With --skip TEXT, the blocks whose COMMAND contains TEXT stay as they are
+# (a lent GPU's `checks` pack has no Xvfb for the preview's blocks).
 #
 # RAYCAST_COMMIT names the commit in the machine block where the tree's .git
 # is not its own (a copy sent to a GPU machine). A block whose COMMAND uses
@@ -85,7 +87,8 @@ machine() {
   # raycast's own words for the CPU (cpu::host_cpu: family, model, vector width, caches).
   echo "- CPU: $("$RAYCAST" devices 2>/dev/null | sed -n 's/^cpu: .* threads on //p'), \`nproc\` $(nproc)"
   echo "- memory: $(awk '/MemTotal/ { printf "%.1f GiB", $2 / 1048576 }' /proc/meminfo); kernel $(uname -r)"
-  echo "- Vulkan device: $("$RAYCAST" devices | grep -m1 -i llvmpipe || "$RAYCAST" devices | head -1)"
+  # Every device the loader shows (a lent GPU's run may carry lavapipe beside it for a window).
+  echo "- Vulkan devices: $("$RAYCAST" devices | grep -E '^[0-9]+: ' | paste -sd ';' | sed 's/;/; /g')"
   echo "- mesa-vulkan-drivers $(dpkg-query -W -f '${Version}' mesa-vulkan-drivers 2>/dev/null || echo '(not a Debian package)'); $(rustc --version 2>/dev/null || echo 'rustc unknown')"
   echo "- load average when the run began (other work on the machine slows every number): $(cut -d' ' -f1-3 /proc/loadavg)"
 }
@@ -368,9 +371,10 @@ case "${1:-}" in
   preview) shift; preview_rates "$@"; exit ;;
 esac
 
-build=1 only=""
+build=1 only="" skip=""
 if [ "${1:-}" = --no-build ]; then build=0; shift; fi
 if [ "${1:-}" = --only ]; then only="$2"; shift 2; fi
+if [ "${1:-}" = --skip ]; then skip="$2"; shift 2; fi
 FILE="${1:-BENCHMARKS.md}"
 [ "$build" = 1 ] && build_raycast
 [ -x "$RAYCAST" ] || { echo "benchmarks: $RAYCAST is missing: run without --no-build" >&2; exit 1; }
@@ -385,7 +389,7 @@ while IFS= read -r line || [ -n "$line" ]; do
       # The second driver is not on every machine: its block stays as it is.
       echo "benchmarks: kept as it is (LAVAPIPE_ICD names no driver manifest; ci/benchmarks.sh unpack-driver DEB DIR writes one): ${BASH_REMATCH[1]}" >&2
       in_block=2
-    elif [[ "${BASH_REMATCH[1]}" == *"$only"* ]]; then
+    elif [[ "${BASH_REMATCH[1]}" == *"$only"* ]] && { [ -z "$skip" ] || [[ "${BASH_REMATCH[1]}" != *"$skip"* ]]; }; then
       echo "benchmarks: ${BASH_REMATCH[1]}" >&2
       eval "${BASH_REMATCH[1]}" >>"$out" </dev/null
       in_block=1
