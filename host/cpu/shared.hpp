@@ -8,6 +8,8 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <glm/glm.hpp>
 
@@ -18,28 +20,47 @@ using namespace glm;
 #include "layout.h"
 #include "preview.h"
 
-struct Scene {
-    Frame frame;
-    const Primitive* primitives;
-    const Material* materials;
-    const Light* lights;
-    const Texture* textures;
-    const Texel* texels;
-    const BvhNode* nodes;
-    const LeafItem* leaf_items;
-    const Instance* instances;
+#ifdef RAYCAST_CHECKED_BUFFERS
+// The shader-test harness's build (host/src/harness/cpu.rs): every element
+// read is checked against the buffer the case gave, so a scene whose index
+// points past an array (a node's first leaf item, a material) ends the run
+// with what was read, not with SIGSEGV or a value from beyond. The check
+// steers no arithmetic: the results are the unchecked build's bits.
+// Exit status of a run that read past an array (stderr says which).
+const int BUFFER_OVERRUN_EXIT = 3;
+[[noreturn]] inline void buffer_overrun(const char* name, uint i, uint count) {
+    std::fprintf(stderr, "read %s[%u], past its %u element%s\n", name, i, count, count == 1u ? "" : "s");
+    std::fflush(stderr);
+    std::_Exit(BUFFER_OVERRUN_EXIT);
+}
+template <class T>
+struct CheckedArray {
+    const T* data = nullptr;
+    uint count = 0u;
+    const char* name = "";
+    const T& operator[](uint i) const {
+        if (i >= count) {
+            buffer_overrun(name, i, count);
+        }
+        return data[i];
+    }
 };
+#define RAYCAST_SCENE_ARRAY(T) CheckedArray<T>
+#else
+#define RAYCAST_SCENE_ARRAY(T) const T*
+#endif
 
 // The names the shared GLSL reads: `frame.width`, `primitives[i]`, …
 inline thread_local Frame frame;
-inline thread_local const Primitive* primitives;
-inline thread_local const Material* materials;
-inline thread_local const Light* lights;
-inline thread_local const Texture* textures;
-inline thread_local const Texel* texels;
-inline thread_local const BvhNode* nodes;
-inline thread_local const LeafItem* leaf_items;
-inline thread_local const Instance* instances;
+inline thread_local RAYCAST_SCENE_ARRAY(Primitive) primitives;
+inline thread_local RAYCAST_SCENE_ARRAY(Material) materials;
+inline thread_local RAYCAST_SCENE_ARRAY(Light) lights;
+inline thread_local RAYCAST_SCENE_ARRAY(Texture) textures;
+inline thread_local RAYCAST_SCENE_ARRAY(Texel) texels;
+inline thread_local RAYCAST_SCENE_ARRAY(BvhNode) nodes;
+inline thread_local RAYCAST_SCENE_ARRAY(LeafItem) leaf_items;
+inline thread_local RAYCAST_SCENE_ARRAY(Instance) instances;
+#undef RAYCAST_SCENE_ARRAY
 
 // Element i of primitives, nodes and instances, as scene_buffers.glsl reads them.
 #define primitive_at(i) primitives[i]
@@ -58,6 +79,19 @@ inline uvec4 leaf_record(uint t) {
     uint i = t * 4u;
     return uvec4(leaf_item(i), leaf_item(i + 1u), leaf_item(i + 2u), leaf_item(i + 3u));
 }
+
+#ifndef RAYCAST_CHECKED_BUFFERS
+struct Scene {
+    Frame frame;
+    const Primitive* primitives;
+    const Material* materials;
+    const Light* lights;
+    const Texture* textures;
+    const Texel* texels;
+    const BvhNode* nodes;
+    const LeafItem* leaf_items;
+    const Instance* instances;
+};
 
 inline void bind_scene(const Scene& s) {
     frame = s.frame;
@@ -87,6 +121,7 @@ inline Scene bind_buffers(const void* const* buffers) {
     bind_scene(s);
     return s;
 }
+#endif
 
 // The kernels' specialization constants (scene_buffers.glsl): the CPU
 // build is never specialised, so it runs every path the shaders have.

@@ -31,10 +31,19 @@ pub fn compile_flags() -> Vec<String> {
         .map(String::from)
         .collect();
     flags.extend(["-std=c++17", "-O2", "-fPIC", "-shared", "-Wdouble-promotion"].map(String::from));
+    // Every element the tested functions read is checked against the
+    // case's buffers (host/cpu/shared.hpp): a read past them says what it read.
+    flags.push("-DRAYCAST_CHECKED_BUFFERS".into());
     flags
 }
 
-type Entry = unsafe extern "C" fn(*const *const std::ffi::c_void, *const u32, *mut u32);
+/// `codegen::cpp_source`'s entry: the scene's buffers, their lengths in
+/// words, the input words, the output words.
+type Entry = unsafe extern "C" fn(*const *const std::ffi::c_void, *const u32, *const u32, *mut u32);
+
+/// The exit status of a run that read past the scene's arrays
+/// (host/cpu/shared.hpp BUFFER_OVERRUN_EXIT), its standard error saying what.
+const BUFFER_OVERRUN_EXIT: i32 = 3;
 
 /// A library of case runners, built and known to load (each run loads it
 /// in a process of its own: `run`).
@@ -114,8 +123,8 @@ impl CpuLibrary {
     /// output pre-filled with the sentinel. In a process of its own
     /// (`run_in_child`), so that a tested function that never ends is
     /// stopped after `timeout`, and one that reads past the scene's arrays
-    /// (a scene whose counts say more than its arrays hold) fails its cases
-    /// rather than crash the command.
+    /// (a scene whose index points past them) fails its cases with what it
+    /// read, rather than crash the command.
     pub fn run(
         &self,
         key: &str,
@@ -153,13 +162,17 @@ impl CpuLibrary {
             })?;
         if !out.status.success() {
             use std::os::unix::process::ExitStatusExt;
+            let said = String::from_utf8_lossy(&out.stderr);
+            if out.status.code() == Some(BUFFER_OVERRUN_EXIT) {
+                return Err(format!(
+                    "the C++ build of {key} {}: each count and index of the scene must fit its arrays \
+                     (a buffer the scene leaves out is one zeroed element)",
+                    said.trim()
+                ));
+            }
             let why = match out.status.signal() {
-                Some(11) => {
-                    "SIGSEGV: a read past the scene's arrays? each count and index of the scene must fit its arrays"
-                        .to_string()
-                }
                 Some(n) => format!("signal {n}"),
-                None => format!("{}: {}", out.status, String::from_utf8_lossy(&out.stderr).trim()),
+                None => format!("{}: {}", out.status, said.trim()),
             };
             return Err(format!("the C++ build of {key} crashed ({why})"));
         }
@@ -235,12 +248,14 @@ fn run_in_child(spec: &str) -> Result<(), String> {
         unsafe { lib.get(symbol.as_bytes()) }.map_err(|e| format!("{path}: no symbol {symbol}: {e}"))?;
     let mut out = vec![codegen::SENTINEL; out_words];
     let pointers: Vec<*const std::ffi::c_void> = scene.iter().map(|b| b.as_ptr().cast()).collect();
+    let lengths: Vec<u32> = scene.iter().map(|b| b.len() as u32).collect();
     // SAFETY: every scene buffer holds at least one whole struct of its type
-    // (checked by the parent); `input` holds its case count and every case's
-    // words; `out` has room for every case's written word and result. A
-    // scene whose counts say more than its arrays hold reads past them:
-    // this process, not the command, then ends on the signal.
-    unsafe { entry(pointers.as_ptr(), input.as_ptr(), out.as_mut_ptr()) };
+    // (checked by the parent) and `lengths` says how many words; `input`
+    // holds its case count and every case's words; `out` has room for every
+    // case's written word and result. A read past the scene's arrays ends
+    // this process with BUFFER_OVERRUN_EXIT (the library's checked
+    // buffers), or on a signal should the check be missed: the command goes on.
+    unsafe { entry(pointers.as_ptr(), lengths.as_ptr(), input.as_ptr(), out.as_mut_ptr()) };
     std::io::stdout().write_all(bytemuck::cast_slice(&out)).map_err(|e| format!("standard output: {e}"))?;
     Ok(())
 }
