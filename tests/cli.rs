@@ -913,6 +913,56 @@ fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
     }
 }
 
+/// A shader edit whose bindings clash with the host's layout (layout.h's
+/// BINDING_PRIMITIVES moved onto the frame's binding) is naga's error
+/// before the driver sees the kernel, with the uniform kernel and the
+/// storage one alike; without the validation layer, which had hidden it:
+/// lavapipe 22.3 built the uniform kernel beside naga's checks and ended
+/// `render --shaders` on SIGSEGV. shader-test's kernels likewise.
+#[test]
+fn a_shader_edit_that_clashes_with_the_layout_is_an_error_before_the_driver() {
+    let shaders = copy_of_shaders("clashing-shaders");
+    let layout = shaders.join("layout.h");
+    let source = std::fs::read_to_string(&layout).unwrap();
+    let at = "#define BINDING_PRIMITIVES 1 ";
+    assert_eq!(source.matches(at).count(), 1, "layout.h changed: update this test");
+    std::fs::write(&layout, source.replace(at, "#define BINDING_PRIMITIVES 0 ")).unwrap();
+    let png = out_dir().join("clashing.png");
+    for buffers in ["uniform", "storage"] {
+        let o = raycast(
+            &[
+                "render",
+                "--shaders",
+                shaders.to_str().unwrap(),
+                "--scene-buffers",
+                buffers,
+                "-o",
+                png.to_str().unwrap(),
+            ],
+            &[("RAYCAST_VALIDATION", "0")],
+        );
+        assert_fails(&o, 1, "the SPIR-V is not valid");
+        assert_fails(&o, 1, "conflict");
+        assert!(!png.exists());
+    }
+    let cases = out_dir().join("clashing.toml");
+    std::fs::write(
+        &cases,
+        "[[case]]\nfunction = \"stack_word\"\ninputs = { entry = 3, level = 0 }\nexpected = 3\nrule = \"exact\"\n",
+    )
+    .unwrap();
+    let o = raycast(
+        &["shader-test", "--shaders", shaders.to_str().unwrap(), cases.to_str().unwrap()],
+        &[("RAYCAST_VALIDATION", "0")],
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.code().is_some(), "ended on a signal: {:?}\n{out}{err}", o.status);
+    assert!(
+        out.contains("0 passed, 1 failed") && out.contains("the shader's buffers do not match the host's"),
+        "{out}{err}"
+    );
+}
+
 /// shader-test runs the C++ build in a process of its own: a case whose
 /// scene's node points past its arrays fails with what the C++ build read
 /// (its checked buffers), where the command ended on SIGSEGV (a count past

@@ -70,12 +70,16 @@ impl Kernel {
     /// 0 .. constants.len() set to `constants` (32-bit each: a bool is 0 or
     /// 1); the others keep their defaults.
     ///
-    /// naga's checks run beside the driver's build, on another thread: the
-    /// kernel is returned only when they pass (a mismatch is still an error
-    /// before anything runs), and the build no longer waits for them (5 ms
-    /// of lavapipe's 45 ms kernel for recursiveSpheres4). What the driver
-    /// is given meanwhile is glslang's SPIR-V (spirv-opt's where specialised
-    /// ahead), never a file of unknown make.
+    /// For the embedded kernels, naga's checks run beside the driver's
+    /// build, on another thread: the kernel is returned only when they pass
+    /// (a mismatch is still an error before anything runs), and the build
+    /// no longer waits for them (5 ms of lavapipe's 45 ms kernel for
+    /// recursiveSpheres4). Any other SPIR-V (`--shaders`, the preview's
+    /// reload, a shader-test kernel) is checked first and given to the
+    /// driver only when it passes: bindings that clash with the pipeline
+    /// layout are undefined behaviour there, and lavapipe 22.3 crashed on
+    /// them (a shader edit moving BINDING_PRIMITIVES onto the frame's
+    /// binding ended `render --shaders` on SIGSEGV).
     pub fn specialized(
         ctx: &GpuContext,
         name: &str,
@@ -93,6 +97,10 @@ impl Kernel {
             kernel.workgroup_size = reflection.workgroup_size;
             Ok(kernel)
         };
+        if !super::EMBEDDED_KERNELS.iter().any(|(_, embedded)| *embedded == spirv) {
+            let reflection = check()?;
+            return finish(Ok(reflection), build());
+        }
         std::thread::scope(|s| match std::thread::Builder::new().spawn_scoped(s, check) {
             Ok(checking) => {
                 let built = build();
