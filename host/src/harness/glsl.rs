@@ -193,6 +193,10 @@ impl ShaderInfo {
                 members.push((n.to_string(), ty.clone()));
             }
         }
+        if members.is_empty() {
+            // GLSL has no empty structs; the harness would lay out one of no words.
+            return Err("has no members".into());
+        }
         Ok(StructDef { name: name.to_string(), members })
     }
 
@@ -510,5 +514,25 @@ mod tests {
         }
         assert!(info.scene_buffers.iter().any(|b| b.name == "frame" && !b.array));
         assert!(info.scene_buffers.iter().any(|b| b.name == "primitives" && b.array));
+    }
+
+    /// A struct left with no members (a shader edit moved its one line
+    /// away) is its file's located error: its layout of no words divided
+    /// by zero when a case's scene was laid out (a panic, found by fuzzing).
+    #[test]
+    fn a_struct_without_members_is_a_located_error() {
+        let dir = std::env::temp_dir().join(format!("raycast-glsl-empty-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
+        for f in [SCENE_BUFFERS, SHARED] {
+            std::fs::copy(real.join(f), dir.join(f)).unwrap();
+        }
+        let layout = std::fs::read_to_string(real.join(LAYOUT)).unwrap();
+        let member = "struct LeafItem {\n    uint item;";
+        assert_eq!(layout.matches(member).count(), 1, "layout.h changed: update this test");
+        std::fs::write(dir.join(LAYOUT), layout.replace(member, "struct LeafItem {\n")).unwrap();
+        let e = ShaderInfo::load(&dir).err().unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(e.contains("layout.h:") && e.ends_with("struct LeafItem: has no members"), "{e}");
     }
 }
