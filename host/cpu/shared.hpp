@@ -21,17 +21,17 @@ using namespace glm;
 #include "preview.h"
 
 #ifdef RAYCAST_CHECKED_BUFFERS
-// The shader-test harness's build (host/src/harness/cpu.rs): every element
-// read is checked against the buffer the case gave, so a scene whose index
-// points past an array (a node's first leaf item, a material) ends the run
-// with what was read, not with SIGSEGV or a value from beyond. The check
-// steers no arithmetic: the results are the unchecked build's bits.
-// Exit status of a run that read past an array (stderr says which).
-const int BUFFER_OVERRUN_EXIT = 3;
+// The shader-test harness's build (its generated source defines this as
+// the exit status of a run that reads past an array: host/src/harness/cpu.rs
+// BUFFER_OVERRUN_EXIT): every element read is checked against the buffer
+// the case gave, so a scene whose index points past an array (a node's
+// first leaf item, a material) ends the run with what was read on stderr,
+// not with SIGSEGV or a value from beyond. The check steers no arithmetic:
+// the results are the unchecked build's bits.
 [[noreturn]] inline void buffer_overrun(const char* name, uint i, uint count) {
     std::fprintf(stderr, "read %s[%u], past its %u element%s\n", name, i, count, count == 1u ? "" : "s");
     std::fflush(stderr);
-    std::_Exit(BUFFER_OVERRUN_EXIT);
+    std::_Exit(RAYCAST_CHECKED_BUFFERS);
 }
 template <class T>
 struct CheckedArray {

@@ -31,9 +31,6 @@ pub fn compile_flags() -> Vec<String> {
         .map(String::from)
         .collect();
     flags.extend(["-std=c++17", "-O2", "-fPIC", "-shared", "-Wdouble-promotion"].map(String::from));
-    // Every element the tested functions read is checked against the
-    // case's buffers (host/cpu/shared.hpp): a read past them says what it read.
-    flags.push("-DRAYCAST_CHECKED_BUFFERS".into());
     flags
 }
 
@@ -41,9 +38,11 @@ pub fn compile_flags() -> Vec<String> {
 /// words, the input words, the output words.
 type Entry = unsafe extern "C" fn(*const *const std::ffi::c_void, *const u32, *const u32, *mut u32);
 
-/// The exit status of a run that read past the scene's arrays
-/// (host/cpu/shared.hpp BUFFER_OVERRUN_EXIT), its standard error saying what.
-const BUFFER_OVERRUN_EXIT: i32 = 3;
+/// The exit status of a run that read past the scene's arrays, its
+/// standard error saying what: the generated source defines
+/// RAYCAST_CHECKED_BUFFERS as this, which turns on host/cpu/shared.hpp's
+/// checked arrays (`codegen::cpp_source`).
+pub const BUFFER_OVERRUN_EXIT: i32 = 3;
 
 /// A library of case runners, built and known to load (each run loads it
 /// in a process of its own: `run`).
