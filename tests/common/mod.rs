@@ -36,6 +36,16 @@ pub fn copy_of_shaders(dir: &Path) -> PathBuf {
     dir.to_path_buf()
 }
 
+/// Plants a change in a copy of the shaders: `file` of `dir` with its one
+/// `from` replaced by `to`; fails, asking for the test to be updated, where
+/// `from` is not there exactly once.
+pub fn plant(dir: &Path, file: &str, from: &str, to: &str) {
+    let path = dir.join(file);
+    let source = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(source.matches(from).count(), 1, "{file} changed ({from:?} is not in it once): update this test");
+    std::fs::write(&path, source.replacen(from, to, 1)).unwrap();
+}
+
 /// The shader-binary cache the tests' commands use (RAYCAST_CACHE_DIR),
 /// not the user's.
 pub fn shader_cache() -> PathBuf {
