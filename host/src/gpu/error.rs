@@ -173,7 +173,7 @@ impl fmt::Display for GpuError {
             GpuError::InvalidSpirv { kernel, message } => write!(
                 f,
                 "kernel {kernel}: the SPIR-V is not valid: {message}; where the shaders are an edit of yours \
-                 (--shaders), glslang took that edit and naga refuses what it made (two resources on one \
+                 (--shaders, --versus), glslang took that edit and naga refuses what it made (two resources on one \
                  binding, say: layout.h's BINDING_* numbers); else rebuild the shaders (cargo build) and check \
                  glslangValidator's output"
             ),
