@@ -956,6 +956,120 @@ fn a_shader_edit_that_clashes_with_the_layout_is_an_error_before_the_driver() {
     );
 }
 
+/// One edit of a shader file from `rng`: a line deleted, duplicated or
+/// moved, a number or a type name swapped; with what it did, for the report.
+fn mutate_shader(source: &str, rng: &mut raycast::scene::mutate::Rng) -> (String, String) {
+    let mut lines: Vec<&str> = source.lines().collect();
+    let a = rng.below(lines.len());
+    // The words of the text (letters, digits, '_' and '.'), as byte spans.
+    let mut words = Vec::new();
+    let mut start = None;
+    for (i, c) in source.char_indices().chain([(source.len(), ' ')]) {
+        match (c.is_ascii_alphanumeric() || c == '_' || c == '.', start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) => {
+                words.push((s, i));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    let swap = |pred: &dyn Fn(&str) -> bool, to: &[&str], rng: &mut raycast::scene::mutate::Rng| {
+        let spans: Vec<&(usize, usize)> = words.iter().filter(|&&(s, e)| pred(&source[s..e])).collect();
+        if spans.is_empty() {
+            return (source.to_string(), "nothing to swap".to_string());
+        }
+        let &(s, e) = spans[rng.below(spans.len())];
+        let new = rng.pick(to);
+        let line = source[..s].lines().count().max(1);
+        (format!("{}{new}{}", &source[..s], &source[e..]), format!("line {line}: {:?} made {new:?}", &source[s..e]))
+    };
+    match rng.below(5) {
+        0 => {
+            let gone = lines.remove(a);
+            (lines.join("\n"), format!("line {} deleted: {gone:?}", a + 1))
+        }
+        1 => {
+            lines.insert(a, lines[a]);
+            (lines.join("\n"), format!("line {} duplicated: {:?}", a + 1, lines[a]))
+        }
+        2 => {
+            let moved = lines.remove(a);
+            let to = rng.below(lines.len() + 1);
+            lines.insert(to, moved);
+            (lines.join("\n"), format!("line {} moved to {}: {moved:?}", a + 1, to + 1))
+        }
+        3 => swap(&|w| w.starts_with(|c: char| c.is_ascii_digit()), &["0", "1", "3", "16", "0u", "65536u", "0.5"], rng),
+        _ => {
+            let types = ["uint", "int", "float", "vec3", "vec4", "mat4"];
+            swap(&|w| types.contains(&w), &types, rng)
+        }
+    }
+}
+
+/// Shader edits mutated from a fixed seed (RAYCAST_SHADER_MUTANTS=N runs N
+/// instead of 24): a line of layout.h, scene_buffers.glsl, raycast.glsl,
+/// render_main.glsl or a kernel's .comp deleted, duplicated or moved, a
+/// number or a type name swapped. `render --shaders` (the uniform and the
+/// storage kernel, without the validation layer, which can hide a driver's
+/// crash) and `shader-test --shaders` end in a picture, cases passed or
+/// failed, or an error, never on a signal, a panic or a hang: the kept form
+/// of the fuzzing that found a driver crash (a binding moved onto another,
+/// c5ee599) and a harness panic (a struct left without members, ca8111a).
+#[test]
+fn mutated_shader_edits_end_in_a_result_or_an_error_never_a_crash() {
+    let mutants: usize = std::env::var("RAYCAST_SHADER_MUTANTS")
+        .map_or(24, |n| n.parse().unwrap_or_else(|_| panic!("RAYCAST_SHADER_MUTANTS={n:?} is not a number")));
+    let mut rng = raycast::scene::mutate::Rng(0x2545_f491_4f6c_dd1d);
+    let files = ["layout.h", "scene_buffers.glsl", "raycast.glsl", "raycast.glsl", "render_main.glsl", "render.comp"];
+    let functions = ["trace", "camera_ray", "intersect_cube", "intersect_cone", "div_rn", "wrap"];
+    let png = out_dir().join("mutated-shaders.png");
+    let mut failures = Vec::new();
+    let mut statuses = std::collections::BTreeMap::new();
+    for case in 0..mutants {
+        let shaders = copy_of_shaders("mutated-shaders");
+        let file = rng.pick(&files);
+        let source = std::fs::read_to_string(shaders.join(file)).unwrap();
+        let (edited, what) = mutate_shader(&source, &mut rng);
+        std::fs::write(shaders.join(file), edited).unwrap();
+        let dir = shaders.to_str().unwrap();
+        let args: Vec<&str> = match case % 3 {
+            0 => vec!["render", "--shaders", dir, "--scene-buffers", "uniform", "-o", png.to_str().unwrap()],
+            1 => vec!["render", "--shaders", dir, "--scene-buffers", "storage", "-o", png.to_str().unwrap()],
+            _ => vec!["shader-test", "--shaders", dir, "--only", rng.pick(&functions)],
+        };
+        let o = Command::new("timeout")
+            .args(["120", env!("CARGO_BIN_EXE_raycast")])
+            .args(&args)
+            .args(if args[0] == "render" { &["--width", "24", "--height", "18", "--timeout", "30"][..] } else { &[] })
+            .env("RAYCAST_VALIDATION", "0")
+            .env("RAYCAST_CACHE_DIR", common::shader_cache())
+            .output()
+            .unwrap();
+        let (out, err) = text(&o);
+        *statuses.entry(format!("{} {:?}", args[0], o.status.code())).or_insert(0) += 1;
+        // 0 a picture or every case passed, 1 an error, 2 no case of that
+        // function left, 4 a case failed; 124 the hang's timeout.
+        let said = o.status.success() || err.contains("error") || out.contains("failed");
+        if !matches!(o.status.code(), Some(0 | 1 | 2 | 4)) || err.contains("panicked") || !said {
+            let kept = out_dir().join(format!("mutated-shaders-failed-{case}"));
+            let _ = std::fs::remove_dir_all(&kept);
+            std::fs::rename(&shaders, &kept).unwrap();
+            let tail: String =
+                err.lines().rev().take(6).collect::<Vec<_>>().into_iter().rev().collect::<Vec<_>>().join("\n");
+            failures.push(format!("case {case}: {file}, {what}: {} {}: {:?}\n{tail}", args[0], args[3], o.status));
+        }
+    }
+    println!("{mutants} mutated shader edits, by command and exit status: {statuses:?}");
+    assert!(
+        failures.is_empty(),
+        "{} of {mutants} shader edits crashed (kept in {}):\n{}",
+        failures.len(),
+        out_dir().display(),
+        failures.join("\n")
+    );
+}
+
 /// shader-test runs the C++ build in a process of its own: a case whose
 /// scene's node points past its arrays fails with what the C++ build read
 /// (its checked buffers), where the command ended on SIGSEGV (a count past
