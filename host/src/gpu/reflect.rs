@@ -53,7 +53,12 @@ pub(crate) fn reflect(
     let module = naga::front::spv::parse_u8_slice(&for_naga(spirv), &options).map_err(|e| invalid(error_chain(&e)))?;
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
-        .map_err(|e| invalid(error_chain(e.as_inner())))?;
+        .map_err(|e| {
+            // naga names a clash by its handles ("Bindings for [4] conflict"): the resources, by name.
+            let clashes = binding_clashes(&module);
+            let said = if clashes.is_empty() { String::new() } else { format!(" ({})", clashes.join("; ")) };
+            invalid(format!("{}{said}", error_chain(e.as_inner())))
+        })?;
     let entry = module
         .entry_points
         .iter()
@@ -68,6 +73,25 @@ pub(crate) fn reflect(
     } else {
         Err(GpuError::LayoutMismatch { kernel: name.to_string(), mismatches })
     }
+}
+
+/// The resources the module declares at one (set, binding), each with the
+/// others there: `binding 0 holds FrameBlock and primitive_texels`.
+fn binding_clashes(module: &naga::Module) -> Vec<String> {
+    let mut at: BTreeMap<(u32, u32), Vec<String>> = BTreeMap::new();
+    for (_, var) in module.global_variables.iter() {
+        let Some(b) = &var.binding else { continue };
+        // A block without an instance name is known by its type's (FrameBlock).
+        let name = var.name.clone().filter(|n| !n.is_empty()).or_else(|| module.types[var.ty].name.clone());
+        at.entry((b.group, b.binding)).or_default().push(name.unwrap_or_else(|| "an unnamed resource".to_string()));
+    }
+    at.into_iter()
+        .filter(|(_, names)| names.len() > 1)
+        .map(|((set, binding), names)| {
+            let set = if set == 0 { String::new() } else { format!("set {set} ") };
+            format!("{set}binding {binding} holds {}", names.join(" and "))
+        })
+        .collect()
 }
 
 /// An error and its `source()` chain on one line.
