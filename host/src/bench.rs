@@ -166,7 +166,7 @@ pub(crate) fn load_or_skip(
     let counts = count_primitives(&file);
     if counts.expanded > limits.max_primitives as u64 {
         let why = format!("skipped: expands to more than --max-primitives {}", thousands(limits.max_primitives as u64));
-        skipped(name.unwrap_or(DEFAULT_SCENE_NAME), None, counts, &why, args);
+        skipped(&crate::cli::scene_label(name), None, counts, &why, args);
         return Ok(None);
     }
     load_parsed(name, file, counts, start, limits, settings).map(Some)

@@ -515,11 +515,11 @@ fn info(args: &InfoArgs) -> Result<(), Failure> {
     let parse = ParseOptions { assets: args.assets.clone(), ..ParseOptions::default() };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
     let batch = each_named(&names, scene_label, |name| {
-        let label = name.unwrap_or(DEFAULT_SCENE_NAME);
+        let label = scene_label(name);
         // Warnings on stderr as every command prints them; the notes are in the description.
         let described = load_scene(name.map(Path::new), &parse, &limits).and_then(|scene| {
             let data = crate::info::pack(&scene)?;
-            Ok(crate::info::Info::of(label, &scene, &data))
+            Ok(crate::info::Info::of(&label, &scene, &data))
         });
         Ok(match described {
             Ok(info) if args.json => Ok(crate::emit_line(&info.json())?),
