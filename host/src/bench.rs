@@ -411,7 +411,7 @@ impl Row {
 
     fn markdown(&self) -> String {
         format!(
-            "| {} | {} | {} / {} | {} | {} | {} | {} – {} | {:.3} | {:.3} | {} | {} | {} |",
+            "| {} | {} | {} / {} | {} | {} | {} | {} – {} | {} | {:.3} | {:.3} | {} | {} | {} |",
             short_name(&self.scene),
             self.backend,
             thousands(self.counts.expanded),
@@ -421,6 +421,7 @@ impl Row {
             ms(self.median()),
             ms(self.frames[0]),
             ms(*self.frames.last().unwrap()),
+            if self.dispatch.is_empty() { "–".to_string() } else { ms(median_time(&self.dispatch)) },
             self.mrays(),
             self.all_mrays(),
             mib(self.host_peak),
@@ -436,8 +437,8 @@ impl Row {
 }
 
 const MARKDOWN_HEADER: &str = "\
-| scene | backend | primitives (expanded / unique) | load | build | frame (median) | frame (min – max) | primary Mrays/s | all Mrays/s | host peak | device | cpu ÷ gpu, pictures |
-|---|---|---|---|---|---|---|---|---|---|---|---|";
+| scene | backend | primitives (expanded / unique) | load | build | frame (median) | frame (min – max) | dispatch (median) | primary Mrays/s | all Mrays/s | host peak | device | cpu ÷ gpu, pictures |
+|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// A scene's name for a table: a file's name without its folder (the
 /// command line above the table has the whole path); gen: names as they are.
@@ -491,6 +492,9 @@ struct Growth<'a> {
     /// scene's: a property of the scene, the same on every backend.
     rays: Option<f64>,
     gpu: Option<f64>,
+    /// The device's dispatch median over the first scene's: the frame
+    /// without the upload and readback, which a GPU's frame is mostly.
+    gpu_dispatch: Option<f64>,
     cpu: Option<f64>,
 }
 
@@ -507,7 +511,7 @@ impl Growth<'_> {
     fn json(&self, against: &str) -> String {
         format!(
             "{{\"growth_against\":{},\"scene\":{},\"primitives_expanded\":{},\"log_ratio\":{},\"rays_ratio\":{},\
-             \"gpu_frame_ratio\":{},\"gpu_ray_ratio\":{},\"cpu_frame_ratio\":{},\"cpu_ray_ratio\":{}}}",
+             \"gpu_frame_ratio\":{},\"gpu_ray_ratio\":{},\"gpu_dispatch_ratio\":{},\"cpu_frame_ratio\":{},\"cpu_ray_ratio\":{}}}",
             json_str(against),
             json_str(self.scene),
             self.primitives,
@@ -515,6 +519,7 @@ impl Growth<'_> {
             json_num(self.rays),
             json_num(self.gpu),
             json_num(self.per_ray(self.gpu)),
+            json_num(self.gpu_dispatch),
             json_num(self.cpu),
             json_num(self.per_ray(self.cpu))
         )
@@ -526,7 +531,11 @@ impl Growth<'_> {
 fn growth(rows: &[Row]) -> Vec<Growth<'_>> {
     let Some(first) = rows.first() else { return Vec::new() };
     let is = |r: &Row, backend: &str| r.backend.split(' ').next() == Some(backend);
-    let median = |scene: &str, backend: &str| rows.iter().find(|r| r.scene == scene && is(r, backend)).map(Row::median);
+    let find = |scene: &str, backend: &str| rows.iter().find(|r| r.scene == scene && is(r, backend));
+    let median = |scene: &str, backend: &str| find(scene, backend).map(Row::median);
+    let dispatch = |scene: &str| {
+        find(scene, "gpu").filter(|r| !r.dispatch.is_empty()).map(|r| median_time(&r.dispatch).as_secs_f64())
+    };
     let n0 = first.counts.expanded as f64;
     let mut out: Vec<Growth> = Vec::new();
     for r in rows {
@@ -543,6 +552,7 @@ fn growth(rows: &[Row]) -> Vec<Growth<'_>> {
             log_ratio: (n0 > 1.0).then(|| (r.counts.expanded as f64).ln() / n0.ln()),
             rays: (r.all_rays > 0 && first.all_rays > 0).then(|| r.all_rays as f64 / first.all_rays as f64),
             gpu: ratio("gpu"),
+            gpu_dispatch: dispatch(&r.scene).zip(dispatch(&first.scene)).map(|(m, b)| m / b.max(1e-12)),
             cpu: ratio("cpu"),
         });
     }
@@ -557,28 +567,28 @@ fn print_growth(rows: &[Row], markdown: bool) {
     outln!(
         "Growth against {} ({} primitives): frame median over its frame median, and ln N / ln N0, the ratio logarithmic growth allows; \
          rays: every ray of the frame over its, and a ray: the frame ratio over the rays' (deeper scenes cover more of the picture, \
-         so they trace more shadow and mirror rays).",
+         so they trace more shadow and mirror rays); gpu dispatch: the device's dispatch median over its (the frame without upload and readback).",
         first.scene,
         thousands(first.counts.expanded)
     );
     if markdown {
         outln!();
-        outln!("| scene | primitives N | ln N / ln N0 | rays / first | gpu frame / first | gpu a ray / first | cpu frame / first | cpu a ray / first |");
-        outln!("|---|---|---|---|---|---|---|---|");
+        outln!("| scene | primitives N | ln N / ln N0 | rays / first | gpu frame / first | gpu a ray / first | gpu dispatch / first | cpu frame / first | cpu a ray / first |");
+        outln!("|---|---|---|---|---|---|---|---|---|");
     }
     let text = |x: Option<f64>| x.map_or("–".to_string(), |x| format!("{x:.2}"));
     for g in growth(rows) {
         let (l, rays, gpu, cpu) = (text(g.log_ratio), text(g.rays), text(g.gpu), text(g.cpu));
-        let (gpu_ray, cpu_ray) = (text(g.per_ray(g.gpu)), text(g.per_ray(g.cpu)));
+        let (gpu_ray, cpu_ray, dispatch) = (text(g.per_ray(g.gpu)), text(g.per_ray(g.cpu)), text(g.gpu_dispatch));
         if markdown {
             outln!(
-                "| {} | {} | {l} | {rays} | {gpu} | {gpu_ray} | {cpu} | {cpu_ray} |",
+                "| {} | {} | {l} | {rays} | {gpu} | {gpu_ray} | {dispatch} | {cpu} | {cpu_ray} |",
                 short_name(g.scene),
                 thousands(g.primitives)
             );
         } else {
             outln!(
-                "  {}: N = {}, ln N / ln N0 {l}, rays {rays}, gpu {gpu} ({gpu_ray} a ray), cpu {cpu} ({cpu_ray} a ray)",
+                "  {}: N = {}, ln N / ln N0 {l}, rays {rays}, gpu {gpu} ({gpu_ray} a ray, dispatch {dispatch}), cpu {cpu} ({cpu_ray} a ray)",
                 g.scene,
                 thousands(g.primitives)
             );
@@ -777,6 +787,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         outln!();
         outln!(
             "load: parse, count, flatten, textures; build: the bounding volume hierarchies and the packing of the groups (`FrameData::build_time`); frame: one whole render call (gpu: upload, dispatch, readback; cpu: every row on every thread); \
+             dispatch: the device's part of the gpu frame (recording, submission and the wait for the device; the rest of the frame is the buffers' upload and the picture's readback); \
              primary Mrays/s: {}x{}x{} camera rays over the frame median; all Mrays/s: every ray of the frame (camera, shadow, mirror; the pixels count them) over the frame median; \
              host peak: VmHWM while loading that scene and rendering it on that backend (the Vulkan driver included); \
              device: bytes on the device: uploaded (frame, scene buffers), cleared there (the samples' running sums) and read back (the pixel buffer); \
@@ -872,7 +883,8 @@ mod tests {
             load: Duration::ZERO,
             build: Duration::ZERO,
             frames: vec![Duration::from_millis(ms)],
-            dispatch: Vec::new(),
+            // The device's dispatch: a fifth of its frame (none on the CPU).
+            dispatch: if backend == "cpu" { Vec::new() } else { vec![Duration::from_millis(ms) / 5] },
             primary_rays: 1,
             // Twice the rays in the deeper scene.
             all_rays: if n > 100 { 40 } else { 20 },
@@ -894,13 +906,15 @@ mod tests {
         assert_eq!((g[1].gpu, g[1].cpu), (Some(2.5), Some(1.5)));
         assert_eq!(g[1].rays, Some(2.0));
         assert_eq!((g[1].per_ray(g[1].gpu), g[1].per_ray(g[1].cpu)), (Some(1.25), Some(0.75)));
+        assert_eq!((g[0].gpu_dispatch, g[1].gpu_dispatch), (Some(1.0), Some(2.5)));
         assert!((g[1].log_ratio.unwrap() - 2.0).abs() < 1e-12);
         // --growth --json: a line a scene, after the results' lines.
         let j = g[1].json(&rows[0].scene);
         assert!(j.starts_with("{\"growth_against\":\""), "{j}");
-        for needle in
-            ["\"gpu_frame_ratio\":2.5,\"gpu_ray_ratio\":1.25,", "\"cpu_frame_ratio\":1.5,\"cpu_ray_ratio\":0.75}"]
-        {
+        for needle in [
+            "\"gpu_frame_ratio\":2.5,\"gpu_ray_ratio\":1.25,\"gpu_dispatch_ratio\":2.5,",
+            "\"cpu_frame_ratio\":1.5,\"cpu_ray_ratio\":0.75}",
+        ] {
             assert!(j.contains(needle), "{needle} in {j}");
         }
     }
@@ -942,7 +956,9 @@ mod tests {
         assert!(!j.contains('\n'));
         let m = row.markdown();
         assert!(
-            m.contains("| 2,929,687 / 10 |") && m.contains("| 20.0 ms |") && m.contains("| 3.0 MiB | 2.0 KiB |"),
+            m.contains("| 2,929,687 / 10 |")
+                && m.contains("| 20.0 ms | 10.0 ms – 40.0 ms | 9.00 ms |")
+                && m.contains("| 3.0 MiB | 2.0 KiB |"),
             "{m}"
         );
         assert_eq!(m.matches('|').count(), MARKDOWN_HEADER.lines().next().unwrap().matches('|').count());
