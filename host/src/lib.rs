@@ -145,6 +145,7 @@ pub mod harness;
 pub mod image_io;
 pub mod info;
 pub mod layout;
+pub mod pov;
 pub mod preview;
 pub mod progress;
 pub mod render;

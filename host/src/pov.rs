@@ -1,0 +1,360 @@
+//! `raycast pov`: a scene written in POV-Ray 3.7's scene description
+//! language, so that raycast can be timed beside POV-Ray on one machine in
+//! one run (the peer issue 7 names, whose own numbers came from another
+//! machine) and a scene can be looked at in a second renderer.
+//!
+//! The geometry is the scene's exactly: the four canonical shapes at their
+//! canonical sizes, each transblock's matrix as written (POV-Ray's `matrix`
+//! takes the same affine map), and every master a `#declare`d object placed
+//! by `object { … matrix … }`, so the file stays as small as the XML while
+//! POV-Ray expands every instance as it parses (as the issue's numbers
+//! were measured). The camera is the format's: the same eye, direction and
+//! film size, one ray through each pixel's centre. Lights and materials are
+//! carried over as near as POV-Ray's model allows, and what differs is
+//! listed in the file's head (`Export::notes`): POV-Ray has no
+//! `1/(c1 + c2·d + c3·d²)` attenuation, a highlight in the light's colour,
+//! its own texture projections, and no clamping between mirror bounces, so
+//! the colours are alike, not the same, and the pictures are not compared
+//! for colour anywhere. Shadows, mirror depth and picture size follow the
+//! render's settings, so both renderers trace the same kinds of rays.
+
+use crate::frame::RenderSettings;
+use crate::scene::{Camera, Globals, Light, LightKind, Material, Node, SceneFile, Shape, TransBlock};
+use glam::{DMat4, DVec3};
+use std::fmt::Write as _;
+
+/// A scene in POV-Ray's language, and what it could not carry over.
+pub struct Export {
+    pub sdl: String,
+    /// One line each: what the POV-Ray scene draws otherwise than raycast
+    /// (also written as comments at the head of `sdl`).
+    pub notes: Vec<String>,
+}
+
+/// The command line that renders an exported scene as raycast renders it:
+/// the picture's size, no anti-aliasing (one ray through each pixel's
+/// centre), `threads` render threads, no display window.
+pub fn povray_command(pov: &str, png: &str, settings: &RenderSettings, threads: usize) -> String {
+    format!("povray +I{pov} +O{png} +W{} +H{} -A +WT{threads} -D File_Gamma=1.0", settings.width, settings.height)
+}
+
+/// `file` (its tree from the root, masters as declared objects) in POV-Ray
+/// 3.7's language, for a picture rendered with `settings` (size, shadows,
+/// mirror depth, textures). `source` names the scene in the file's head.
+pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Export {
+    let mut w = Writer { globals: file.globals, settings, notes: Vec::new(), declared: Vec::new() };
+    let mut body = String::new();
+    // Every tree the root reaches, each after the masters it places (the
+    // format declares a master before its use, so there are no cycles).
+    let mut order = Vec::new();
+    let mut seen = vec![false; file.trees.len()];
+    reached(file, file.root, &mut seen, &mut order);
+    w.declared = vec![false; file.trees.len()];
+    for &t in &order {
+        if t == file.root {
+            continue;
+        }
+        if let Some(object) = w.tree(&file.trees[t].blocks) {
+            let _ = writeln!(body, "// <object type=\"tree\" name=\"{}\">", file.trees[t].name.replace('\n', " "));
+            let _ = writeln!(body, "#declare {} = {object}\n", tree_name(t));
+            w.declared[t] = true;
+        }
+    }
+    let root = w.tree(&file.trees[file.root].blocks);
+    match root {
+        Some(object) => {
+            let _ = writeln!(body, "{object}");
+        }
+        None => w.notes.push("the root tree draws nothing POV-Ray can draw".into()),
+    }
+    let mut head = String::new();
+    let _ = writeln!(head, "// {source}, written by `raycast pov` in POV-Ray 3.7's scene language.");
+    let _ = writeln!(
+        head,
+        "// Render it as raycast renders the scene ({}x{}, one ray a pixel):",
+        settings.width, settings.height
+    );
+    let _ = writeln!(head, "//   {}", povray_command("FILE.pov", "FILE.png", settings, 2));
+    if !w.notes.is_empty() {
+        let _ = writeln!(head, "// Drawn otherwise than by raycast:");
+        for n in &w.notes {
+            let _ = writeln!(head, "//   - {n}");
+        }
+    }
+    let _ = writeln!(head, "\n#version 3.7;");
+    // POV-Ray counts the camera ray as the first level; raycast's depth
+    // counts the bounces after it.
+    let trace_level = if settings.reflections { settings.max_depth + 1 } else { 1 };
+    let _ = writeln!(
+        head,
+        "global_settings {{ assumed_gamma 1.0 ambient_light rgb 1 max_trace_level {} }}",
+        trace_level.max(1)
+    );
+    let _ = writeln!(head, "background {{ rgb 0 }}");
+    head.push_str(&camera(&file.camera, settings));
+    for light in &file.lights {
+        head.push_str(&w.light(light));
+    }
+    head.push('\n');
+    Export { sdl: head + &body, notes: w.notes }
+}
+
+/// The trees reached from `t` through master references, each after those it places.
+fn reached(file: &SceneFile, t: usize, seen: &mut [bool], order: &mut Vec<usize>) {
+    if std::mem::replace(&mut seen[t], true) {
+        return;
+    }
+    fn masters(blocks: &[TransBlock], out: &mut Vec<usize>) {
+        for b in blocks {
+            match &b.object {
+                Node::Master { tree, .. } => out.push(*tree),
+                Node::Tree { blocks, .. } => masters(blocks, out),
+                Node::Primitive { .. } => {}
+            }
+        }
+    }
+    let mut placed = Vec::new();
+    masters(&file.trees[t].blocks, &mut placed);
+    for m in placed {
+        if m < seen.len() {
+            reached(file, m, seen, order);
+        }
+    }
+    order.push(t);
+}
+
+fn tree_name(t: usize) -> String {
+    format!("Raycast_tree_{t}")
+}
+
+/// A number as POV-Ray reads it: the shortest decimal that reads back as
+/// the same double (never `inf` or `NaN`: the parser refuses those).
+fn num(x: f64) -> String {
+    format!("{}", x + 0.0)
+}
+
+fn vector(v: DVec3) -> String {
+    format!("<{}, {}, {}>", num(v.x), num(v.y), num(v.z))
+}
+
+/// An f32 of the scene (a colour, a coefficient) in its own shortest digits.
+fn num32(x: f32) -> String {
+    format!("{}", x + 0.0)
+}
+
+fn rgb(c: [f32; 3]) -> String {
+    format!("rgb <{}, {}, {}>", num32(c[0]), num32(c[1]), num32(c[2]))
+}
+
+/// POV-Ray's `matrix`: the affine map's columns in turn (it multiplies a
+/// row vector on the left; glam's columns are those rows).
+fn matrix(m: &DMat4) -> String {
+    let cols = [m.x_axis, m.y_axis, m.z_axis, m.w_axis];
+    let entries: Vec<String> = cols.iter().flat_map(|c| [c.x, c.y, c.z]).map(num).collect();
+    format!("matrix <{}>", entries.join(", "))
+}
+
+/// The format's camera: w = -look, u = up × w, v = w × u; the film spans
+/// V = 2·tan(heightangle/2) up and V·W/H across at distance 1, and POV-Ray
+/// shoots each pixel's ray through direction + x·right + y·up.
+fn camera(c: &Camera, s: &RenderSettings) -> String {
+    let w = -c.look.normalize();
+    let u = c.up.cross(w).normalize();
+    let v = w.cross(u);
+    let film_v = 2.0 * (c.height_angle_deg.to_radians() / 2.0).tan();
+    let film_u = film_v * f64::from(s.width) / f64::from(s.height);
+    format!(
+        "camera {{\n  perspective\n  location {}\n  direction {}\n  right {}\n  up {}\n}}\n",
+        vector(c.pos),
+        vector(-w),
+        vector(u * film_u),
+        vector(v * film_v)
+    )
+}
+
+struct Writer<'a> {
+    globals: Globals,
+    settings: &'a RenderSettings,
+    notes: Vec<String>,
+    /// Which trees have been declared (a tree that draws nothing is not).
+    declared: Vec<bool>,
+}
+
+impl Writer<'_> {
+    fn note(&mut self, note: String) {
+        if !self.notes.contains(&note) {
+            self.notes.push(note);
+        }
+    }
+
+    /// A tree's blocks as one object (a union of two or more), None when
+    /// none of them draws anything.
+    fn tree(&mut self, blocks: &[TransBlock]) -> Option<String> {
+        let objects: Vec<String> = blocks.iter().filter_map(|b| self.block(b)).collect();
+        match objects.len() {
+            0 => None,
+            1 => objects.into_iter().next(),
+            _ => Some(format!("union {{\n{}\n}}", objects.join("\n"))),
+        }
+    }
+
+    fn block(&mut self, b: &TransBlock) -> Option<String> {
+        let placed = |object: String| {
+            if b.matrix == DMat4::IDENTITY {
+                object
+            } else {
+                format!("object {{ {object} {} }}", matrix(&b.matrix))
+            }
+        };
+        match &b.object {
+            Node::Primitive { shape, material, loc } => {
+                let geometry = match shape {
+                    Shape::Cube => "box { <-0.5, -0.5, -0.5>, <0.5, 0.5, 0.5>",
+                    Shape::Sphere => "sphere { <0, 0, 0>, 0.5",
+                    Shape::Cylinder => "cylinder { <0, -0.5, 0>, <0, 0.5, 0>, 0.5",
+                    Shape::Cone => "cone { <0, -0.5, 0>, 0.5, <0, 0.5, 0>, 0",
+                    Shape::Torus | Shape::Mesh { .. } => {
+                        self.note(format!(
+                            "a {} is left out (at {loc} and any others), as raycast leaves it out",
+                            shape.name()
+                        ));
+                        return None;
+                    }
+                };
+                let texture = self.texture(shape, material);
+                let transform =
+                    if b.matrix == DMat4::IDENTITY { String::new() } else { format!(" {}", matrix(&b.matrix)) };
+                Some(format!("{geometry} {texture}{transform} }}"))
+            }
+            Node::Tree { blocks, .. } => self.tree(blocks).map(placed),
+            Node::Master { tree, .. } => {
+                let declared = self.declared.get(*tree).copied().unwrap_or(false);
+                declared.then(|| placed(tree_name(*tree)))
+            }
+        }
+    }
+
+    /// The course's `k_a·O_a + emissive + Σ I·(D·N·L + k_s·O_s·(R·V)^n)` and
+    /// `k_s·O_r` mirror as POV-Ray's finish: the pigment is D = k_d·O_d, so
+    /// the ambient (multiplied by the pigment there) is divided by it; the
+    /// highlight is `phong` in the light's colour.
+    fn texture(&mut self, shape: &Shape, m: &Material) -> String {
+        let g = self.globals;
+        let d = m.diffuse.map(|c| g.kd * c);
+        let ambient: [f32; 3] = std::array::from_fn(|i| {
+            let a = g.ka * m.ambient[i] + m.emissive[i];
+            if d[i] > 0.0 {
+                a / d[i]
+            } else {
+                if a > 0.0 {
+                    self.note("an ambient or emissive colour where the diffuse colour is 0 is left out (POV-Ray's ambient scales the pigment)".into());
+                }
+                0.0
+            }
+        });
+        let mut finish = format!("ambient {} diffuse 1", rgb(ambient));
+        let specular = m.specular.iter().fold(0.0f32, |a, &b| a.max(b)) * g.ks;
+        if m.shininess > 0.0 && specular > 0.0 {
+            if m.specular[0] != m.specular[1] || m.specular[1] != m.specular[2] {
+                self.note("a coloured specular colour is drawn in the light's colour at its largest channel".into());
+            }
+            let _ = write!(finish, " phong {} phong_size {}", num32(specular), num32(m.shininess));
+        }
+        let mirror = m.reflective.map(|c| g.ks * c);
+        if self.settings.reflections && mirror.iter().any(|&c| c > 0.0) {
+            let _ = write!(finish, " reflection {{ {} }}", rgb(mirror));
+        }
+        let pigment = match (&m.texture, self.settings.textures && m.blend > 0.0) {
+            (Some(t), true) => match (&t.resolved, image_kind(&t.file)) {
+                (Some(path), Some(kind)) => {
+                    self.note("textures are projected by POV-Ray's image maps (spherical, cylindrical or planar), near the format's u, v but not the same".into());
+                    let (map_type, place) = match shape {
+                        Shape::Sphere => (1, String::new()),
+                        Shape::Cylinder | Shape::Cone => (2, " translate <0, -0.5, 0>".to_string()),
+                        _ => (0, " translate <-0.5, -0.5, 0>".to_string()),
+                    };
+                    let repeat = format!(
+                        " scale <{}, {}, 1>",
+                        num32(1.0 / t.repeat_u.max(1e-6)),
+                        num32(1.0 / t.repeat_v.max(1e-6))
+                    );
+                    format!(
+                        "pigment {{ average pigment_map {{ [{} color {}] [{} image_map {{ {kind} \"{}\" gamma 1.0 map_type {map_type} }}{repeat}{place}] }} }}",
+                        num32(1.0 - m.blend),
+                        rgb(d),
+                        num32(m.blend),
+                        // Absolute: POV-Ray resolves a file against its own working folder.
+                        pov_string(&std::path::absolute(path).unwrap_or_else(|_| path.clone()).to_string_lossy())
+                    )
+                }
+                _ => {
+                    self.note(format!("a texture POV-Ray cannot read or that was not found ({}) is left out", t.file));
+                    format!("pigment {{ color {} }}", rgb(d))
+                }
+            },
+            _ => format!("pigment {{ color {} }}", rgb(d)),
+        };
+        format!("texture {{ {pigment} finish {{ {finish} }} }}")
+    }
+
+    fn light(&mut self, l: &Light) -> String {
+        let mut color = l.color;
+        let [c1, c2, c3] = l.attenuation;
+        if l.kind != LightKind::Directional && (c2 != 0.0 || c3 != 0.0) {
+            self.note(format!(
+                "light {} ({}): POV-Ray has no 1/(c1 + c2·d + c3·d²) attenuation; its light is unattenuated",
+                l.id, l.loc
+            ));
+        } else if l.kind != LightKind::Directional && c1 > 1.0 {
+            color = color.map(|c| c / c1);
+        }
+        let shadowless = if self.settings.shadows { "" } else { " shadowless" };
+        match l.kind {
+            LightKind::Directional => {
+                // A parallel light from far along -direction (POV-Ray needs
+                // a place for it; its shadows are cast by what lies before it).
+                let from = -l.direction.normalize() * 1e6;
+                format!(
+                    "light_source {{ {} color {} parallel point_at <0, 0, 0>{shadowless} }}\n",
+                    vector(from),
+                    rgb(color)
+                )
+            }
+            LightKind::Spot => format!(
+                "light_source {{ {} color {} spotlight point_at {} radius {} falloff {} tightness 0{shadowless} }}\n",
+                vector(l.position),
+                rgb(color),
+                vector(l.position + l.direction),
+                num32((l.angle_deg - l.penumbra_deg).max(0.0)),
+                num32(l.angle_deg)
+            ),
+            LightKind::Point | LightKind::Area => {
+                if l.kind == LightKind::Area {
+                    self.note(format!(
+                        "area light {} ({}) is a point light at its position, as raycast draws it",
+                        l.id, l.loc
+                    ));
+                }
+                format!("light_source {{ {} color {}{shadowless} }}\n", vector(l.position), rgb(color))
+            }
+        }
+    }
+}
+
+/// POV-Ray's image type keyword for a texture file, by its name.
+fn image_kind(file: &str) -> Option<&'static str> {
+    let ext = std::path::Path::new(file).extension()?.to_str()?.to_ascii_lowercase();
+    match ext.as_str() {
+        "png" => Some("png"),
+        "jpg" | "jpeg" => Some("jpeg"),
+        "ppm" | "pnm" => Some("ppm"),
+        "pgm" => Some("pgm"),
+        "bmp" => Some("bmp"),
+        _ => None,
+    }
+}
+
+/// A string literal's contents: backslashes and quotes escaped.
+fn pov_string(s: &str) -> String {
+    s.replace('\\', "\\\\").replace('"', "\\\"")
+}
