@@ -35,6 +35,8 @@ PKGS=(
   libx11-dev libxrandr-dev libxinerama-dev libxcursor-dev libxi-dev libxkbcommon-dev
   # headless window tests (xdotool resizes a preview's window)
   xvfb xauth xdotool
+  # the peer renderer: `raycast pov`'s scenes are drawn by it in the tests and timed beside raycast (BENCHMARKS.md)
+  povray
 )
 
 missing=()

@@ -2278,3 +2278,114 @@ fn bench_reports_a_failing_scene_and_times_the_others() {
     assert_fails(&o, 1, "malformed.xml:");
     assert!(!text(&o).1.contains("scenes failed"), "{:?}", text(&o));
 }
+
+/// `raycast pov`'s scene drawn by POV-Ray (`ci/install-deps.sh` installs
+/// it) covers the picture as raycast does: the same camera, shapes,
+/// transforms and masters. POV-Ray draws at `+Q0` (each object in its
+/// pigment's colour, no lighting) beside raycast's `--aov id` (a colour per
+/// primitive, black on a miss), and each raycast primitive's pixels must
+/// take one POV-Ray colour, black for black. Rule: at most 0.2% of the
+/// pixels outside that correspondence (a pixel centre on an edge, where
+/// the two renderers' tests round differently; none when written), and on
+/// the default scene, whose five shapes differ in colour, no two
+/// primitives mapped to one colour. Also: the notes on what POV-Ray draws
+/// otherwise, the usage errors, the file's head.
+#[test]
+fn pov_scenes_cover_the_picture_as_raycast_does() {
+    use std::collections::HashMap;
+    let dir = out_dir().join("pov");
+    emptied(&dir);
+    let (w, h) = (128u32, 96u32);
+    let size = ["--width", "128", "--height", "96"];
+    for (scene, distinct) in
+        [(None, true), (Some("gen:recursive-spheres:3"), false), (Some("gen:recursive-cones:3"), false)]
+    {
+        let name = scene.unwrap_or("default").replace(':', "-");
+        let pov = dir.join(format!("{name}.pov"));
+        let scene_arg: Vec<&str> = scene.into_iter().collect();
+        let o =
+            raycast(&[&["pov"][..], &scene_arg, &size, &["--no-textures", "-o", pov.to_str().unwrap()]].concat(), &[]);
+        let (_, err) = text(&o);
+        assert!(o.status.success(), "{name}: {err}");
+        assert!(err.contains("render it with: povray +I"), "{err}");
+        let sdl = std::fs::read_to_string(&pov).unwrap();
+        assert!(sdl.starts_with("// ") && sdl.contains("#version 3.7;") && sdl.contains("camera {"), "{sdl}");
+        if scene.is_some() {
+            // The masters are declared once and placed, not written out.
+            assert!(sdl.contains("#declare Raycast_tree_") && sdl.contains("object { Raycast_tree_"), "{sdl}");
+        }
+        let p = Command::new("povray")
+            .current_dir(&dir)
+            .args([&format!("+I{name}.pov"), &format!("+O{name}-pov.png"), "+W128", "+H96", "-A", "+WT2", "-D"])
+            .args(["+Q0", "File_Gamma=1.0", "-GA"])
+            .output()
+            .expect("run povray (ci/install-deps.sh installs it)");
+        assert!(p.status.success(), "povray on {}: {}", pov.display(), String::from_utf8_lossy(&p.stderr));
+        let ids = dir.join(format!("{name}-id.png"));
+        let o = raycast(
+            &[&["render"][..], &scene_arg, &size, &["--aov", "id", "--no-textures", "-o", ids.to_str().unwrap()]]
+                .concat(),
+            &[],
+        );
+        assert!(o.status.success(), "{:?}", text(&o));
+        let a = raycast::image_io::read_picture(&ids).unwrap();
+        let b = raycast::image_io::read_picture(&dir.join(format!("{name}-pov.png"))).unwrap();
+        assert_eq!((a.width, a.height, b.width, b.height), (w, h, w, h));
+        // Each raycast colour's most frequent POV-Ray colour.
+        let mut votes: HashMap<[u8; 3], HashMap<[u8; 3], u32>> = HashMap::new();
+        for (y, x) in (0..h).flat_map(|y| (0..w).map(move |x| (y, x))) {
+            *votes.entry(a.pixel(x, y)).or_default().entry(b.pixel(x, y)).or_default() += 1;
+        }
+        let map: HashMap<[u8; 3], [u8; 3]> =
+            votes.iter().map(|(k, v)| (*k, *v.iter().max_by_key(|(c, n)| (**n, **c)).unwrap().0)).collect();
+        let black = [0u8; 3];
+        let mut mask = raycast::image_io::Rgb8 { width: w, height: h, data: vec![0; (w * h * 3) as usize] };
+        let mut outside = Vec::new();
+        for (y, x) in (0..h).flat_map(|y| (0..w).map(move |x| (y, x))) {
+            let (ra, pb) = (a.pixel(x, y), b.pixel(x, y));
+            let want = if ra == black { black } else { map[&ra] };
+            if pb != want || (ra != black) == (want == black) {
+                outside.push((x, y, ra, pb));
+                let i = 3 * (y * w + x) as usize;
+                mask.data[i..i + 3].copy_from_slice(&[255, 0, 0]);
+            }
+        }
+        let allowed = (w * h) as usize / 500;
+        println!("{name}: {} of {} pixels outside the correspondence (at most {allowed})", outside.len(), w * h);
+        if outside.len() > allowed {
+            raycast::image_io::write_png(&dir.join(format!("{name}-diff.png")), &mask).unwrap();
+        }
+        assert!(
+            outside.len() <= allowed,
+            "{name}: {} of {} pixels outside the one-colour-a-primitive correspondence (at most {allowed}); first {:?} \
+             (x, y, raycast id colour, POV-Ray colour); pictures {}-id.png (raycast), {}-pov.png, {}-diff.png in {}",
+            outside.len(),
+            w * h,
+            outside[0],
+            name,
+            name,
+            name,
+            dir.display()
+        );
+        let hit: Vec<&[u8; 3]> = map.iter().filter(|(k, _)| **k != black).map(|(_, v)| v).collect();
+        assert!(hit.len() > 1 || !distinct, "{name}: {} primitives seen", hit.len());
+        if distinct {
+            let mut colours = hit.clone();
+            colours.sort();
+            colours.dedup();
+            assert_eq!(colours.len(), hit.len(), "{name}: two primitives drawn in one POV-Ray colour: {map:?}");
+        }
+    }
+    // What POV-Ray draws otherwise is said: the default scene's point light is attenuated.
+    let o = raycast(&["pov"], &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success() && out.contains("light_source {"), "{err}");
+    assert!(err.contains("raycast: note: POV-Ray draws this otherwise: light 1 (<default scene>:24:3)"), "{err}");
+    // Only a .pov file, and never over the scene it reads.
+    let o = raycast(&["pov", "-o", dir.join("x.png").to_str().unwrap()], &[]);
+    assert_fails(&o, 2, "a POV-Ray scene is written to a .pov file");
+    let xml = dir.join("scene.pov");
+    std::fs::write(&xml, include_str!("../scenes/default.xml")).unwrap();
+    let o = raycast(&["pov", xml.to_str().unwrap(), "-o", xml.to_str().unwrap()], &[]);
+    assert_fails(&o, 2, "which this command reads");
+}
