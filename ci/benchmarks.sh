@@ -30,6 +30,11 @@
 #                                       xvfb-run): the steering resolution and its rate;
 #                                       with --at-rest, without --moving: whole samples
 #                                       at the picture's size.
+#   ci/benchmarks.sh povray [--rounds N] SCENE...
+#                                       raycast's whole `render` (the device, then --backend cpu)
+#                                       and POV-Ray 3.7 on the scene `raycast pov` writes, in
+#                                       turn, N rounds (5): median wall times, their ratios, peak
+#                                       RSS. The peer issue 7 names, measured beside raycast.
 #   ci/benchmarks.sh passes [--all] SCENE...
 #                                       `build/raycast render SCENE --aov cost --backend cpu`:
 #                                       the passes of each camera ray's walk through the
@@ -137,6 +142,47 @@ wall() {
       n="$(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n")"
       echo "| ${s##*/} | $n | $(printf '%s\n' "${walls[@]}" | sort -n | sed -n 2p) s | $((rss / 1024)) MiB |"
     fi
+  done
+  rm -rf "$tmp"
+}
+
+# raycast and POV-Ray 3.7, the peer issue 7 names, on the same scenes in turn
+# on this machine: raycast's whole command on the Vulkan device and with
+# --backend cpu, then POV-Ray on the scene `raycast pov` writes (2 threads,
+# its bounding hierarchy, every instance expanded), N rounds.
+povray_side() {
+  local rounds=5 tmp s file pov n v out t m i
+  if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
+  command -v povray >/dev/null || { echo "benchmarks: povray is not installed (ci/install-deps.sh installs it)" >&2; exit 1; }
+  tmp="$(mktemp -d)"
+  echo "\`ci/benchmarks.sh povray --rounds $rounds $*\`: in turn, $rounds rounds: \`$RAYCAST render SCENE --assets $CORPUS\` (the Vulkan device), the same with \`--backend cpu\`, and \`$(sed "s/+I[^ ]*/+ISCENE.pov/; s/+O[^ ]*/+OOUT.png/" <<<"$("$RAYCAST" pov 2>&1 >/dev/null -o "$tmp/probe.pov" | sed -n 's/.*render it with: //p')")\` on the scene \`$RAYCAST pov SCENE --assets $CORPUS\` writes (512x384, shadows, 4 mirror bounces, textures; POV-Ray expands every instance as it parses); the median wall time of each (\`/usr/bin/time\`) and the largest peak RSS."
+  echo
+  echo "| scene | primitives | raycast, device | raycast, \`--backend cpu\` | POV-Ray 3.7 | POV-Ray ÷ raycast, device | POV-Ray ÷ raycast, cpu | peak RSS: device, cpu, POV-Ray |"
+  echo "|---|---|---|---|---|---|---|---|"
+  for s in "$@"; do
+    file="$(scene_file "$s" "$tmp")"
+    pov="$tmp/scene.pov"
+    "$RAYCAST" pov "$file" --assets "$CORPUS" -o "$pov" 2>/dev/null || { "$RAYCAST" pov "$file" --assets "$CORPUS" -o "$pov"; exit 1; }
+    local -A walls=() rss=()
+    for ((i = 0; i < rounds; i++)); do
+      for v in device cpu povray; do
+        case $v in
+          device) out="$( { /usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" -o "$tmp/out.png"; } 2>&1)" || { echo "$out" >&2; exit 1; } ;;
+          cpu) out="$( { /usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" --backend cpu -o "$tmp/out.png"; } 2>&1)" || { echo "$out" >&2; exit 1; } ;;
+          povray) out="$(cd "$tmp" && { /usr/bin/time -f 'TIME %e %M' povray +Iscene.pov +Opov.png +W512 +H384 -A +WT2 -D File_Gamma=1.0; } 2>&1)" || { echo "$out" >&2; exit 1; } ;;
+        esac
+        [ $v != device ] || n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
+        read -r _ t m <<<"$(grep '^TIME' <<<"$out" | tail -1)"
+        walls[$v]+="$t "
+        if [ "$m" -gt "${rss[$v]:-0}" ]; then rss[$v]="$m"; fi
+      done
+    done
+    local med=()
+    for v in device cpu povray; do
+      med+=("$(tr ' ' '\n' <<<"${walls[$v]}" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }')")
+    done
+    echo "| ${s##*/} | $(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n") | ${med[0]} s | ${med[1]} s | ${med[2]} s | $(awk -v a="${med[0]}" -v b="${med[2]}" 'BEGIN { printf "%.1f", b / a }') | $(awk -v a="${med[1]}" -v b="${med[2]}" 'BEGIN { printf "%.1f", b / a }') | $((rss[device] / 1024)), $((rss[cpu] / 1024)), $((rss[povray] / 1024)) MiB |"
+    unset walls rss
   done
   rm -rf "$tmp"
 }
@@ -369,6 +415,7 @@ case "${1:-}" in
   unpack-driver) shift; unpack_driver "$@"; exit ;;
   passes) shift; passes "$@"; exit ;;
   preview) shift; preview_rates "$@"; exit ;;
+  povray) shift; povray_side "$@"; exit ;;
 esac
 
 build=1 only="" skip=""
