@@ -98,6 +98,11 @@ machine() {
   echo "- load average when the run began (other work on the machine slows every number): $(cut -d' ' -f1-3 /proc/loadavg)"
 }
 
+# The median of a list of numbers separated by spaces.
+median_of() {
+  tr ' ' '\n' <<<"$1" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }'
+}
+
 # The scene file of SCENE (a file, or gen:FAMILY:DEPTH written into folder TMP by `raycast gen`).
 scene_file() {
   local s="$1" tmp="$2" family depth
@@ -179,7 +184,7 @@ povray_side() {
     done
     local med=()
     for v in device cpu povray; do
-      med+=("$(tr ' ' '\n' <<<"${walls[$v]}" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }')")
+      med+=("$(median_of "${walls[$v]}")")
     done
     echo "| ${s##*/} | $(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n") | ${med[0]} s | ${med[1]} s | ${med[2]} s | $(awk -v a="${med[0]}" -v b="${med[2]}" 'BEGIN { printf "%.1f", b / a }') | $(awk -v a="${med[1]}" -v b="${med[2]}" 'BEGIN { printf "%.1f", b / a }') | $((rss[device] / 1024)), $((rss[cpu] / 1024)), $((rss[povray] / 1024)) MiB |"
     unset walls rss
@@ -355,7 +360,7 @@ ab_rows() {
     done
     local med=() list
     for list in "${walls[A]}" "${walls[B]}" "${compiles[A]}" "${compiles[B]}" "${dispatches[A]}" "${dispatches[B]}"; do
-      med+=("$(tr ' ' '\n' <<<"$list" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }')")
+      med+=("$(median_of "$list")")
     done
     local same=no
     cmp -s "$tmp/A.png" "$tmp/B.png" && same=yes
@@ -398,7 +403,7 @@ division() {
     done
     local median=() v2
     for v2 in probe dekker none; do
-      median+=("$(tr ' ' '\n' <<<"${times[$v2]}" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }')")
+      median+=("$(median_of "${times[$v2]}")")
     done
     echo "| ${s##*/} | ${kernel:-as given (no correction)} | ${median[0]} ms | ${median[1]} ms | ${median[2]} ms | $(awk -v a="${median[0]}" -v b="${median[2]}" 'BEGIN { printf "%.2f", a / b }') | $(awk -v a="${median[1]}" -v b="${median[2]}" 'BEGIN { printf "%.2f", a / b }') |"
   done
