@@ -2381,6 +2381,12 @@ fn pov_scenes_cover_the_picture_as_raycast_does() {
     let (out, err) = text(&o);
     assert!(o.status.success() && out.contains("light_source {"), "{err}");
     assert!(err.contains("raycast: note: POV-Ray draws this otherwise: light 1 (<default scene>:24:3)"), "{err}");
+    // A scene POV-Ray must expand to millions: the head counts it, a note says what it will take.
+    let o = raycast(&["pov", "gen:recursive-spheres:10", "--no-textures"], &[]);
+    let (out, err) = text(&o);
+    assert!(out.contains("// 2,929,687 primitives when every instance is expanded, 10 written in the file."), "{out}");
+    assert!(err.contains("POV-Ray expands every instance as it parses: 2,929,687 primitives, about 6.5 GiB"), "{err}");
+    assert!(out.len() < 20_000, "{} bytes: the masters are not declared", out.len());
     // Only a .pov file, and never over the scene it reads.
     let o = raycast(&["pov", "-o", dir.join("x.png").to_str().unwrap()], &[]);
     assert_fails(&o, 2, "a POV-Ray scene is written to a .pov file");

@@ -67,8 +67,23 @@ pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Expo
         }
         None => w.notes.push("the root tree draws nothing POV-Ray can draw".into()),
     }
+    let counts = crate::gen::count_primitives(file);
+    if counts.expanded > POV_EXPANSION_NOTED {
+        w.note(format!(
+            "POV-Ray expands every instance as it parses: {} primitives, about {:.1} GiB of its memory (it took \
+             {POV_BYTES_A_PRIMITIVE} bytes a sphere at depth 8 of the recursive spheres, BENCHMARKS.md)",
+            crate::units::thousands(counts.expanded),
+            counts.expanded as f64 * POV_BYTES_A_PRIMITIVE as f64 / f64::from(1u32 << 30)
+        ));
+    }
     let mut head = String::new();
     let _ = writeln!(head, "// {source}, written by `raycast pov` in POV-Ray 3.7's scene language.");
+    let _ = writeln!(
+        head,
+        "// {} primitives when every instance is expanded, {} written in the file.",
+        crate::units::thousands(counts.expanded),
+        crate::units::thousands(counts.unique)
+    );
     let _ = writeln!(
         head,
         "// Render it as raycast renders the scene ({}x{}, one ray a pixel):",
@@ -98,6 +113,13 @@ pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Expo
     head.push('\n');
     Export { sdl: head + &body, notes: w.notes }
 }
+
+/// Past this many expanded primitives the notes say what POV-Ray's
+/// expansion will take.
+const POV_EXPANSION_NOTED: u64 = 1_000_000;
+/// POV-Ray's memory a primitive: 266 MiB for the 117,187 spheres of
+/// `gen:recursive-spheres:8` (`ci/benchmarks.sh povray`, 2026-11-28).
+const POV_BYTES_A_PRIMITIVE: u64 = 2_400;
 
 /// The trees reached from `t` through master references, each after those it places.
 fn reached(file: &SceneFile, t: usize, seen: &mut [bool], order: &mut Vec<usize>) {
