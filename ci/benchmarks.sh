@@ -160,7 +160,7 @@ povray_side() {
   if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
   command -v povray >/dev/null || { echo "benchmarks: povray is not installed (ci/install-deps.sh installs it)" >&2; exit 1; }
   tmp="$(mktemp -d)"
-  echo "\`ci/benchmarks.sh povray --rounds $rounds $*\`: in turn, $rounds rounds: \`$RAYCAST render SCENE --assets $CORPUS\` (the Vulkan device), the same with \`--backend cpu\`, and \`$(sed "s/+I[^ ]*/+ISCENE.pov/; s/+O[^ ]*/+OOUT.png/" <<<"$("$RAYCAST" pov 2>&1 >/dev/null -o "$tmp/probe.pov" | sed -n 's/.*render it with: //p')")\` on the scene \`$RAYCAST pov SCENE --assets $CORPUS\` writes (512x384, shadows, 4 mirror bounces, textures; POV-Ray expands every instance as it parses); the median wall time of each (\`/usr/bin/time\`) and the largest peak RSS."
+  echo "\`ci/benchmarks.sh povray --rounds $rounds $*\`: in turn, $rounds round$([ "$rounds" = 1 ] || echo s): \`$RAYCAST render SCENE --assets $CORPUS\` (the Vulkan device), the same with \`--backend cpu\`, and \`$(sed "s/+I[^ ]*/+ISCENE.pov/; s/+O[^ ]*/+OOUT.png/" <<<"$("$RAYCAST" pov 2>&1 >/dev/null -o "$tmp/probe.pov" | sed -n 's/.*render it with: //p')")\` on the scene \`$RAYCAST pov SCENE --assets $CORPUS\` writes (512x384, shadows, 4 mirror bounces, textures; POV-Ray expands every instance as it parses); the median wall time of each (\`/usr/bin/time\`) and the largest peak RSS."
   echo
   echo "| scene | primitives | raycast, device | raycast, \`--backend cpu\` | POV-Ray 3.7 | POV-Ray ÷ raycast, device | POV-Ray ÷ raycast, cpu | peak RSS: device, cpu, POV-Ray |"
   echo "|---|---|---|---|---|---|---|---|"
