@@ -596,6 +596,106 @@ fn print_growth(rows: &[Row], markdown: bool) {
     }
 }
 
+/// A least-squares line y = a + b·x over points (x, y), and its R².
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Fit {
+    a: f64,
+    b: f64,
+    r2: f64,
+}
+
+/// The least-squares line through `points`; None for fewer than three or
+/// where every x is the same.
+fn fit(points: &[(f64, f64)]) -> Option<Fit> {
+    if points.len() < 3 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let (mx, my) = (points.iter().map(|p| p.0).sum::<f64>() / n, points.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let syy: f64 = points.iter().map(|p| (p.1 - my).powi(2)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let b = sxy / sxx;
+    let a = my - b * mx;
+    let residual: f64 = points.iter().map(|p| (p.1 - a - b * p.0).powi(2)).sum();
+    Some(Fit { a, b, r2: if syy > 0.0 { 1.0 - residual / syy } else { 1.0 } })
+}
+
+/// The growth table's times fitted against ln N, per backend: the frame
+/// median (ms), and one ray's time (the frame over the rays' ratio to the
+/// first scene's: ms at the first scene's rays). A cost a + b·ln N grows
+/// logarithmically; it keeps within the table's ln N / ln N0 column only
+/// where a ≥ 0. Each: its key in `--json`, its words, the fit.
+fn growth_fits(rows: &[Row]) -> Vec<(&'static str, &'static str, Fit)> {
+    let Some(first) = rows.first() else { return Vec::new() };
+    let mut out = Vec::new();
+    for (backend, keys) in [
+        ("gpu", [("gpu_frame_ms", "gpu frame, ms"), ("gpu_ray_ms", "gpu a ray, ms at the first scene's rays")]),
+        ("cpu", [("cpu_frame_ms", "cpu frame, ms"), ("cpu_ray_ms", "cpu a ray, ms at the first scene's rays")]),
+    ] {
+        let (mut frame, mut ray, mut seen) = (Vec::new(), Vec::new(), Vec::new());
+        for r in rows.iter().filter(|r| r.backend.split(' ').next() == Some(backend) && r.counts.expanded > 0) {
+            if seen.contains(&&r.scene) {
+                continue;
+            }
+            seen.push(&r.scene);
+            let (x, ms) = ((r.counts.expanded as f64).ln(), r.median().as_secs_f64() * 1e3);
+            frame.push((x, ms));
+            if r.all_rays > 0 && first.all_rays > 0 {
+                ray.push((x, ms * first.all_rays as f64 / r.all_rays as f64));
+            }
+        }
+        for ((key, words), points) in keys.into_iter().zip([frame, ray]) {
+            if let Some(f) = fit(&points) {
+                out.push((key, words, f));
+            }
+        }
+    }
+    out
+}
+
+/// A fit's line as words: `-185 + 47.2 ln N`.
+fn fit_text(f: &Fit) -> String {
+    let sig = |x: f64| {
+        let digits = if x.abs() >= 100.0 {
+            0
+        } else if x.abs() >= 10.0 {
+            1
+        } else {
+            2
+        };
+        format!("{x:.digits$}")
+    };
+    format!("{} {} {} ln N", sig(f.a), if f.b < 0.0 { "−" } else { "+" }, sig(f.b.abs())).replace('-', "−")
+}
+
+fn print_growth_fits(rows: &[Row], markdown: bool) {
+    let fits = growth_fits(rows);
+    if fits.is_empty() {
+        return;
+    }
+    outln!();
+    outln!(
+        "Fitted by least squares against ln N over these scenes: a cost a + b·ln N grows logarithmically, and keeps within \
+         ln N / ln N0 only where a ≥ 0."
+    );
+    if markdown {
+        outln!();
+        outln!("| what | fit | R² |");
+        outln!("|---|---|---|");
+    }
+    for (_, words, f) in &fits {
+        if markdown {
+            outln!("| {words} | {} | {:.3} |", fit_text(f), f.r2);
+        } else {
+            outln!("  {words}: {}, R² {:.3}", fit_text(f), f.r2);
+        }
+    }
+}
+
 pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     if let Some(dir) = &args.versus {
         return crate::versus::run(args, dir);
@@ -799,8 +899,18 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         for g in growth(&all_rows) {
             crate::emit_line(&g.json(&all_rows[0].scene))?;
         }
+        for (key, _, f) in growth_fits(&all_rows) {
+            crate::emit_line(&format!(
+                "{{\"growth_fit\":{},\"against\":\"ln N\",\"a\":{},\"b\":{},\"r2\":{}}}",
+                json_str(key),
+                json_num(Some(f.a)),
+                json_num(Some(f.b)),
+                json_num(Some(f.r2))
+            ))?;
+        }
     } else if args.growth {
         print_growth(&all_rows, args.markdown);
+        print_growth_fits(&all_rows, args.markdown);
     }
     let result = batch.failure("").map_or(Ok(()), Err);
     if let Some(g) = gpu {
@@ -863,6 +973,20 @@ mod tests {
     /// One median for bench's frames and versus's ratios: unsorted input,
     /// odd and even counts, none.
     #[test]
+    fn least_squares_lines() {
+        // On a line: that line, R² 1.
+        let f = fit(&[(1.0, 5.0), (2.0, 7.0), (4.0, 11.0)]).unwrap();
+        assert!((f.a - 3.0).abs() < 1e-12 && (f.b - 2.0).abs() < 1e-12 && (f.r2 - 1.0).abs() < 1e-12, "{f:?}");
+        // Off it: y = 1, 3, 2 at x = 0, 1, 2 fits 1.5 + 0.5x, residuals −0.5, 1, −0.5: R² 1 − 1.5 / 2.
+        let f = fit(&[(0.0, 1.0), (1.0, 3.0), (2.0, 2.0)]).unwrap();
+        assert!((f.a - 1.5).abs() < 1e-12 && (f.b - 0.5).abs() < 1e-12 && (f.r2 - 0.25).abs() < 1e-12, "{f:?}");
+        assert_eq!(fit(&[(0.0, 1.0), (1.0, 2.0)]), None);
+        assert_eq!(fit(&[(1.0, 1.0), (1.0, 2.0), (1.0, 3.0)]), None);
+        assert_eq!(fit_text(&Fit { a: -185.04, b: 47.21, r2: 0.989 }), "−185 + 47.2 ln N");
+        assert_eq!(fit_text(&Fit { a: 2.5, b: -0.126, r2: 1.0 }), "2.50 − 0.13 ln N");
+    }
+
+    #[test]
     fn medians() {
         assert_eq!(median([3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median([4.0, 1.0, 3.0, 2.0]), 2.5);
@@ -908,6 +1032,22 @@ mod tests {
         assert_eq!((g[1].per_ray(g[1].gpu), g[1].per_ray(g[1].cpu)), (Some(1.25), Some(0.75)));
         assert_eq!((g[0].gpu_dispatch, g[1].gpu_dispatch), (Some(1.0), Some(2.5)));
         assert!((g[1].log_ratio.unwrap() - 2.0).abs() < 1e-12);
+        // Two scenes are too few to fit a line; a third makes one for each backend, its frame and a ray.
+        assert!(growth_fits(&rows).is_empty());
+        let three = [
+            row("a", "gpu uniform", 100, 10),
+            row("a", "cpu", 100, 4),
+            row("b", "gpu storage", 10_000, 25),
+            row("b", "cpu", 10_000, 6),
+            row("c", "gpu storage", 1_000_000, 40),
+            row("c", "cpu", 1_000_000, 8),
+        ];
+        let fits = growth_fits(&three);
+        let keys: Vec<&str> = fits.iter().map(|f| f.0).collect();
+        assert_eq!(keys, ["gpu_frame_ms", "gpu_ray_ms", "cpu_frame_ms", "cpu_ray_ms"]);
+        // gpu frames 10, 25, 40 ms at ln N = 2, 4, 6 ln 10: 10 + 7.5 (ln N / ln 10 - 2) ms, exactly.
+        let f = fits[0].2;
+        assert!((f.b * 10f64.ln() - 7.5).abs() < 1e-9 && (f.r2 - 1.0).abs() < 1e-12, "{f:?}");
         // --growth --json: a line a scene, after the results' lines.
         let j = g[1].json(&rows[0].scene);
         assert!(j.starts_with("{\"growth_against\":\""), "{j}");
