@@ -58,8 +58,9 @@ pub struct BenchArgs {
     pub versus: Option<PathBuf>,
     /// After the results, how each scene's frame median grows against the
     /// first scene's, beside ln N / ln N0 (what logarithmic growth in the
-    /// primitive count N allows); with --json a line a scene, told by its
-    /// `growth_against`.
+    /// primitive count N allows), and the times fitted against ln N (a +
+    /// b·ln N and R², from three scenes on); with --json a line a scene,
+    /// told by its `growth_against`, and a line a fit, by its `growth_fit`.
     #[arg(long)]
     pub growth: bool,
 }
