@@ -2381,6 +2381,7 @@ fn pov_scenes_cover_the_picture_as_raycast_does() {
     let (out, err) = text(&o);
     assert!(o.status.success() && out.contains("light_source {"), "{err}");
     assert!(err.contains("raycast: note: POV-Ray draws this otherwise: light 1 (<default scene>:24:3)"), "{err}");
+    assert!(out.contains("// Drawn otherwise than by raycast:\n//   - light 1 (<default scene>:24:3)"), "{out}");
     // A scene POV-Ray must expand to millions: the head counts it, a note says what it will take.
     let o = raycast(&["pov", "gen:recursive-spheres:10", "--no-textures"], &[]);
     let (out, err) = text(&o);

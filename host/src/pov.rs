@@ -67,6 +67,8 @@ pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Expo
         }
         None => w.notes.push("the root tree draws nothing POV-Ray can draw".into()),
     }
+    // The lights before the head, whose notes it lists.
+    let lights: String = file.lights.iter().map(|l| w.light(l)).collect();
     let counts = crate::gen::count_primitives(file);
     if counts.expanded > POV_EXPANSION_NOTED {
         w.note(format!(
@@ -77,7 +79,8 @@ pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Expo
         ));
     }
     let mut head = String::new();
-    let _ = writeln!(head, "// {source}, written by `raycast pov` in POV-Ray 3.7's scene language.");
+    let _ =
+        writeln!(head, "// {}, written by `raycast pov` in POV-Ray 3.7's scene language.", source.replace('\n', " "));
     let _ = writeln!(
         head,
         "// {} primitives when every instance is expanded, {} written in the file.",
@@ -107,9 +110,7 @@ pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Expo
     );
     let _ = writeln!(head, "background {{ rgb 0 }}");
     head.push_str(&camera(&file.camera, settings));
-    for light in &file.lights {
-        head.push_str(&w.light(light));
-    }
+    head.push_str(&lights);
     head.push('\n');
     Export { sdl: head + &body, notes: w.notes }
 }
