@@ -264,18 +264,25 @@ impl Writer<'_> {
     fn texture(&mut self, shape: &Shape, m: &Material) -> String {
         let g = self.globals;
         let d = m.diffuse.map(|c| g.kd * c);
-        let ambient: [f32; 3] = std::array::from_fn(|i| {
-            let a = g.ka * m.ambient[i] + m.emissive[i];
-            if d[i] > 0.0 {
-                a / d[i]
-            } else {
-                if a > 0.0 {
-                    self.note("an ambient or emissive colour where the diffuse colour is 0 is left out (POV-Ray's ambient scales the pigment)".into());
+        let a: [f32; 3] = std::array::from_fn(|i| g.ka * m.ambient[i] + m.emissive[i]);
+        let textured = m.texture.is_some() && self.settings.textures && m.blend > 0.0;
+        // The pigment's plain colour and the finish's first terms.
+        let (base, mut finish) = if d == [0.0; 3] && !textured {
+            // No diffuse term at all: the pigment is the ambient colour, drawn as it is.
+            (a, "ambient 1 diffuse 0".to_string())
+        } else {
+            let ambient: [f32; 3] = std::array::from_fn(|i| {
+                if d[i] > 0.0 {
+                    a[i] / d[i]
+                } else {
+                    if a[i] > 0.0 {
+                        self.note("an ambient or emissive channel where the diffuse colour's is 0 is left out (POV-Ray's ambient scales the pigment)".into());
+                    }
+                    0.0
                 }
-                0.0
-            }
-        });
-        let mut finish = format!("ambient {} diffuse 1", rgb(ambient));
+            });
+            (d, format!("ambient {} diffuse 1", rgb(ambient)))
+        };
         let specular = m.specular.iter().fold(0.0f32, |a, &b| a.max(b)) * g.ks;
         if m.shininess > 0.0 && specular > 0.0 {
             if m.specular[0] != m.specular[1] || m.specular[1] != m.specular[2] {
@@ -287,7 +294,7 @@ impl Writer<'_> {
         if self.settings.reflections && mirror.iter().any(|&c| c > 0.0) {
             let _ = write!(finish, " reflection {{ {} }}", rgb(mirror));
         }
-        let pigment = match (&m.texture, self.settings.textures && m.blend > 0.0) {
+        let pigment = match (&m.texture, textured) {
             (Some(t), true) => match (&t.resolved, image_kind(&t.file)) {
                 (Some(path), Some(kind)) => {
                     self.note("textures are projected by POV-Ray's image maps (spherical, cylindrical or planar), near the format's u, v but not the same".into());
@@ -315,7 +322,7 @@ impl Writer<'_> {
                     format!("pigment {{ color {} }}", rgb(d))
                 }
             },
-            _ => format!("pigment {{ color {} }}", rgb(d)),
+            _ => format!("pigment {{ color {} }}", rgb(base)),
         };
         format!("texture {{ {pigment} finish {{ {finish} }} }}")
     }
@@ -380,4 +387,71 @@ fn image_kind(file: &str) -> Option<&'static str> {
 /// A string literal's contents: backslashes and quotes escaped.
 fn pov_string(s: &str) -> String {
     s.replace('\\', "\\\\").replace('"', "\\\"")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{parse_str, ParseOptions};
+    use std::path::Path;
+
+    fn exported(xml: &str) -> Export {
+        let file = parse_str(xml, Path::new("t.xml"), &ParseOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        export(&file, &RenderSettings::default(), "t.xml")
+    }
+
+    #[test]
+    fn masters_are_declared_before_use_and_placed_by_their_matrix() {
+        let e = exported(
+            r#"<scenefile>
+              <object type="tree" name="leaf"><transblock><object type="primitive" name="cube"/></transblock></object>
+              <object type="tree" name="pair">
+                <transblock><object type="master" name="leaf"/></transblock>
+                <transblock><translate x="1" y="2" z="3"/><object type="master" name="leaf"/></transblock>
+              </object>
+              <object type="tree" name="unused"><transblock><object type="primitive" name="sphere"/></transblock></object>
+              <object type="tree" name="root"><transblock><scale x="2" y="2" z="2"/><object type="master" name="pair"/></transblock></object>
+            </scenefile>"#,
+        );
+        let (leaf, pair) =
+            (e.sdl.find("#declare Raycast_tree_0 =").unwrap(), e.sdl.find("#declare Raycast_tree_1 =").unwrap());
+        assert!(leaf < pair && e.sdl.find("object { Raycast_tree_0").unwrap() > leaf, "{}", e.sdl);
+        // A tree the root does not reach is not written.
+        assert!(!e.sdl.contains("Raycast_tree_2") && !e.sdl.contains("sphere {"), "{}", e.sdl);
+        // POV-Ray's matrix: the columns in turn, the translation last.
+        assert!(e.sdl.contains("object { Raycast_tree_0 matrix <1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 2, 3> }"), "{}", e.sdl);
+        assert!(e.sdl.contains("object { Raycast_tree_1 matrix <2, 0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0> }"), "{}", e.sdl);
+        assert!(e.notes.is_empty(), "{:?}", e.notes);
+    }
+
+    #[test]
+    fn materials_as_povray_finishes() {
+        let e = exported(
+            r#"<scenefile>
+              <globaldata><ambientcoeff v="0.5"/><diffusecoeff v="0.5"/><specularcoeff v="0.5"/></globaldata>
+              <object type="tree" name="root">
+                <transblock><object type="primitive" name="sphere">
+                  <diffuse r="0" g="0" b="0"/><ambient r="1" g="0.5" b="0"/><reflective r="1" g="1" b="1"/>
+                </object></transblock>
+                <transblock><object type="primitive" name="cube">
+                  <diffuse r="1" g="0.5" b="0"/><ambient r="0.5" g="0.5" b="0.5"/><specular r="1" g="1" b="1"/><shininess v="20"/>
+                </object></transblock>
+              </object>
+            </scenefile>"#,
+        );
+        // No diffuse term: the ambient colour is the pigment, drawn as it is; the mirror is k_s·O_r.
+        assert!(
+            e.sdl.contains("pigment { color rgb <0.5, 0.25, 0> } finish { ambient 1 diffuse 0 reflection { rgb <0.5, 0.5, 0.5> } }"),
+            "{}",
+            e.sdl
+        );
+        // Else the pigment is k_d·O_d and the ambient divided by it; a channel without diffuse loses its ambient, said.
+        assert!(
+            e.sdl.contains("pigment { color rgb <0.5, 0.25, 0> } finish { ambient rgb <0.5, 1, 0> diffuse 1 phong 0.5 phong_size 20 }"),
+            "{}",
+            e.sdl
+        );
+        assert_eq!(e.notes.len(), 1, "{:?}", e.notes);
+        assert!(e.notes[0].starts_with("an ambient or emissive channel"), "{:?}", e.notes);
+    }
 }
