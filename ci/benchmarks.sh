@@ -156,26 +156,30 @@ wall() {
 # --backend cpu, then POV-Ray on the scene `raycast pov` writes (2 threads,
 # its bounding hierarchy, every instance expanded), N rounds.
 povray_side() {
-  local rounds=5 tmp s file pov n v out t m i
+  local rounds=5 tmp s file n v out t m i said povray_cmd=()
   if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
   command -v povray >/dev/null || { echo "benchmarks: povray is not installed (ci/install-deps.sh installs it)" >&2; exit 1; }
   tmp="$(mktemp -d)"
-  echo "\`ci/benchmarks.sh povray --rounds $rounds $*\`: in turn, $rounds round$([ "$rounds" = 1 ] || echo s): \`$RAYCAST render SCENE --assets $CORPUS\` (the Vulkan device), the same with \`--backend cpu\`, and \`$(sed "s/+I[^ ]*/+ISCENE.pov/; s/+O[^ ]*/+OOUT.png/" <<<"$("$RAYCAST" pov 2>&1 >/dev/null -o "$tmp/probe.pov" | sed -n 's/.*render it with: //p')")\` on the scene \`$RAYCAST pov SCENE --assets $CORPUS\` writes (512x384, shadows, 4 mirror bounces, textures; POV-Ray expands every instance as it parses); the median wall time of each (\`/usr/bin/time\`) and the largest peak RSS."
+  # POV-Ray's command line as `raycast pov` gives it (render it with: …), run in $tmp.
+  said="$("$RAYCAST" pov -o "$tmp/scene.pov" 2>&1 >/dev/null | sed -n 's/.*render it with: //p')"
+  read -r -a povray_cmd <<<"${said//$tmp\//}"
+  echo "\`ci/benchmarks.sh povray --rounds $rounds $*\`: in turn, $rounds round$([ "$rounds" = 1 ] || echo s): \`$RAYCAST render SCENE --assets $CORPUS\` (the Vulkan device), the same with \`--backend cpu\`, and \`${povray_cmd[*]}\` on the scene \`$RAYCAST pov SCENE --assets $CORPUS -o scene.pov\` writes (512x384, shadows, 4 mirror bounces, textures; POV-Ray expands every instance as it parses); the median wall time of each (\`/usr/bin/time\`) and the largest peak RSS."
   echo
   echo "| scene | primitives | raycast, device | raycast, \`--backend cpu\` | POV-Ray 3.7 | POV-Ray ÷ raycast, device | POV-Ray ÷ raycast, cpu | peak RSS: device, cpu, POV-Ray |"
   echo "|---|---|---|---|---|---|---|---|"
   for s in "$@"; do
     file="$(scene_file "$s" "$tmp")"
-    pov="$tmp/scene.pov"
-    "$RAYCAST" pov "$file" --assets "$CORPUS" -o "$pov" 2>/dev/null || { "$RAYCAST" pov "$file" --assets "$CORPUS" -o "$pov"; exit 1; }
+    "$RAYCAST" pov "$file" --assets "$CORPUS" -o "$tmp/scene.pov" 2>/dev/null || { "$RAYCAST" pov "$file" --assets "$CORPUS" -o "$tmp/scene.pov"; exit 1; }
     local -A walls=() rss=()
+    local -A runs=([device]="" [cpu]="--backend cpu")
     for ((i = 0; i < rounds; i++)); do
       for v in device cpu povray; do
-        case $v in
-          device) out="$( { /usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" -o "$tmp/out.png"; } 2>&1)" || { echo "$out" >&2; exit 1; } ;;
-          cpu) out="$( { /usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" --backend cpu -o "$tmp/out.png"; } 2>&1)" || { echo "$out" >&2; exit 1; } ;;
-          povray) out="$(cd "$tmp" && { /usr/bin/time -f 'TIME %e %M' povray +Iscene.pov +Opov.png +W512 +H384 -A +WT2 -D File_Gamma=1.0; } 2>&1)" || { echo "$out" >&2; exit 1; } ;;
-        esac
+        if [ $v = povray ]; then
+          out="$(cd "$tmp" && { /usr/bin/time -f 'TIME %e %M' "${povray_cmd[@]}"; } 2>&1)" || { echo "$out" >&2; exit 1; }
+        else
+          # shellcheck disable=SC2086 # the backend option, two words or none
+          out="$( { /usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" ${runs[$v]} -o "$tmp/out.png"; } 2>&1)" || { echo "$out" >&2; exit 1; }
+        fi
         [ $v != device ] || n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
         read -r _ t m <<<"$(grep '^TIME' <<<"$out" | tail -1)"
         walls[$v]+="$t "
@@ -187,7 +191,7 @@ povray_side() {
       med+=("$(median_of "${walls[$v]}")")
     done
     echo "| ${s##*/} | $(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n") | ${med[0]} s | ${med[1]} s | ${med[2]} s | $(awk -v a="${med[0]}" -v b="${med[2]}" 'BEGIN { printf "%.1f", b / a }') | $(awk -v a="${med[1]}" -v b="${med[2]}" 'BEGIN { printf "%.1f", b / a }') | $((rss[device] / 1024)), $((rss[cpu] / 1024)), $((rss[povray] / 1024)) MiB |"
-    unset walls rss
+    unset walls rss runs
   done
   rm -rf "$tmp"
 }

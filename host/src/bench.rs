@@ -242,6 +242,12 @@ fn median_time(times: &[Duration]) -> Duration {
 }
 
 impl Row {
+    /// Whether this row is of `backend` ("gpu" covers "gpu uniform" and
+    /// "gpu storage"), matched by the first word.
+    fn is(&self, backend: &str) -> bool {
+        self.backend.split(' ').next() == Some(backend)
+    }
+
     fn median(&self) -> Duration {
         median_time(&self.frames)
     }
@@ -531,8 +537,7 @@ impl Growth<'_> {
 /// matched by its first word ("gpu" covers "gpu uniform" and "gpu storage").
 fn growth(rows: &[Row]) -> Vec<Growth<'_>> {
     let Some(first) = rows.first() else { return Vec::new() };
-    let is = |r: &Row, backend: &str| r.backend.split(' ').next() == Some(backend);
-    let find = |scene: &str, backend: &str| rows.iter().find(|r| r.scene == scene && is(r, backend));
+    let find = |scene: &str, backend: &str| rows.iter().find(|r| r.scene == scene && r.is(backend));
     let median = |scene: &str, backend: &str| find(scene, backend).map(Row::median);
     let dispatch = |scene: &str| {
         find(scene, "gpu").filter(|r| !r.dispatch.is_empty()).map(|r| median_time(&r.dispatch).as_secs_f64())
@@ -638,7 +643,7 @@ fn growth_fits(rows: &[Row]) -> Vec<(&'static str, &'static str, Fit)> {
         ("cpu", [("cpu_frame_ms", "cpu frame, ms"), ("cpu_ray_ms", "cpu a ray, ms at the first scene's rays")]),
     ] {
         let (mut frame, mut ray, mut seen) = (Vec::new(), Vec::new(), Vec::new());
-        for r in rows.iter().filter(|r| r.backend.split(' ').next() == Some(backend) && r.counts.expanded > 0) {
+        for r in rows.iter().filter(|r| r.is(backend) && r.counts.expanded > 0) {
             if seen.contains(&&r.scene) {
                 continue;
             }
@@ -971,8 +976,6 @@ mod tests {
         assert_eq!(device_bytes(&loaded.data, true, 4), expect - scene + images);
     }
 
-    /// One median for bench's frames and versus's ratios: unsorted input,
-    /// odd and even counts, none.
     #[test]
     fn least_squares_lines() {
         // On a line: that line, R² 1.
@@ -987,6 +990,8 @@ mod tests {
         assert_eq!(fit_text(&Fit { a: 2.5, b: -0.126, r2: 1.0 }), "2.50 − 0.13 ln N");
     }
 
+    /// One median for bench's frames and versus's ratios: unsorted input,
+    /// odd and even counts, none.
     #[test]
     fn medians() {
         assert_eq!(median([3.0, 1.0, 2.0]), 2.0);

@@ -177,21 +177,18 @@ fn matrix(m: &DMat4) -> String {
     format!("matrix <{}>", entries.join(", "))
 }
 
-/// The format's camera: w = -look, u = up × w, v = w × u; the film spans
-/// V = 2·tan(heightangle/2) up and V·W/H across at distance 1, and POV-Ray
-/// shoots each pixel's ray through direction + x·right + y·up.
+/// The renderer's camera (`frame::world_from_film`: the film at distance 1
+/// along -w spans ±tan of half each angle along u and v) in POV-Ray's terms,
+/// which shoots each pixel's ray through direction + x·right + y·up, x and
+/// y from -½ to ½.
 fn camera(c: &Camera, s: &RenderSettings) -> String {
-    let w = -c.look.normalize();
-    let u = c.up.cross(w).normalize();
-    let v = w.cross(u);
-    let film_v = 2.0 * (c.height_angle_deg.to_radians() / 2.0).tan();
-    let film_u = film_v * f64::from(s.width) / f64::from(s.height);
+    let m = crate::frame::world_from_film(c, s.width, s.height);
     format!(
         "camera {{\n  perspective\n  location {}\n  direction {}\n  right {}\n  up {}\n}}\n",
-        vector(c.pos),
-        vector(-w),
-        vector(u * film_u),
-        vector(v * film_v)
+        vector(m.w_axis.truncate()),
+        vector(-m.z_axis.truncate()),
+        vector(2.0 * m.x_axis.truncate()),
+        vector(2.0 * m.y_axis.truncate())
     )
 }
 
