@@ -35,7 +35,7 @@ fn main() -> ExitCode {
             &corpus,
             &cases,
             &out_dir,
-            |data| renderer.render(data).map(|(picture, _)| picture).map_err(|e| e.to_string()),
+            |data| renderer.render(data).map(|(picture, _)| picture).map_err(raycast::error::Error::from),
             || renderer.context().take_validation_messages(),
         )
     });

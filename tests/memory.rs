@@ -10,7 +10,7 @@
 //!   the hierarchy of commit dde480e). Flattening depth 10 would take
 //!   about 1 GB more.
 //! - device: the bytes uploaded for the frame plus the samples' sums and
-//!   the pixel buffer (`raycast::bench::device_bytes`), at most
+//!   the pixel buffer (`raycast::measure::device_bytes`), at most
 //!   DEVICE_MAX = 64 MiB.
 //!   Measured: 3.0 MiB at 256x192. A flat upload of depth 10 would be 2,929,687
 //!   80-byte primitives = 234 MB.
@@ -19,11 +19,11 @@
 //! false) the test skips, saying so: flattening 2.9 million spheres would
 //! exhaust the memory it is meant to bound. About 5 s on lavapipe, 2 cores.
 
-use raycast::bench::{device_bytes, peak_host_bytes};
 use raycast::frame::{self, RenderSettings};
 use raycast::gen::{self, count_primitives, Family, GenOptions};
 use raycast::gpu::{DeviceSelector, GpuOptions};
 use raycast::layout::NO_HIT;
+use raycast::measure::{device_bytes, peak_host_bytes};
 use raycast::render::GpuRenderer;
 use raycast::scene::{self, FlattenLimits, ParseOptions};
 use std::path::Path;

@@ -8,6 +8,7 @@
 //! ALLOWANCES with its reason. A failure writes actual / expected / diff
 //! PNGs and names them.
 
+use crate::error::Error;
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::image_io::{self, Rgb8};
 use crate::render::Picture;
@@ -103,20 +104,20 @@ impl Case {
     }
 
     /// The scene loaded from `corpus` (or generated) and packed as its reference was rendered.
-    pub fn frame(&self, corpus: &Path) -> Result<FrameData, String> {
+    pub fn frame(&self, corpus: &Path) -> Result<FrameData, Error> {
         let xml = self.scene_file(corpus);
         let parse = ParseOptions { assets: vec![corpus.to_path_buf()], ..ParseOptions::default() };
         let scene = match &self.generated {
-            Some(name) => crate::bench::parse_scene(Some(name), &parse)
-                .and_then(|file| scene::flatten(&file, &FlattenLimits::default()).map_err(|e| e.to_string()))?,
+            Some(name) => crate::source::parse_scene(Some(name), &parse)
+                .and_then(|file| scene::flatten(&file, &FlattenLimits::default()).map_err(Error::scene))?,
             None if !xml.exists() => {
-                return Err(format!(
+                return Err(Error::Failed(format!(
                     "the corpus has this case's reference, {}, and not its scene, {}",
                     self.reference.display(),
                     xml.display()
-                ))
+                )))
             }
-            None => scene::load(&xml, &parse, &FlattenLimits::default()).map_err(|e| e.to_string())?,
+            None => scene::load(&xml, &parse, &FlattenLimits::default()).map_err(Error::scene)?,
         };
         let settings = RenderSettings {
             width: self.width,
@@ -127,7 +128,7 @@ impl Case {
             textures: self.features,
             ..RenderSettings::default()
         };
-        frame::build(&scene, &settings)
+        frame::build(&scene, &settings).map_err(Error::Scene)
     }
 }
 
@@ -135,12 +136,12 @@ impl Case {
 /// references were made (corpus README; local Phong only for test_unit and
 /// test_intersect, shadows, reflections and textures on for the rest), and
 /// normals at 1024x768.
-pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
+pub fn cases(corpus: &Path) -> Result<Vec<Case>, Error> {
     if !corpus.join("bench").is_dir() {
-        return Err(format!(
+        return Err(Error::Failed(format!(
             "{} has no bench/ folder: not the cs1230 corpus (its scenes' folders and bench/ of references)",
             corpus.display()
-        ));
+        )));
     }
     let plan: [(&str, Aov, bool, u32, u32, &str); 9] = [
         ("test_unit", Aov::Color, false, 512, 384, "grading_illuminate"),
@@ -157,7 +158,7 @@ pub fn cases(corpus: &Path) -> Result<Vec<Case>, String> {
     for (group, aov, features, width, height, bench) in plan {
         // Each scene file of the group, and each reference of the group
         // whose scene file is not there (generated, or a failing case).
-        let stems = |dir: &Path, ext: &str, prefix: &str| -> Result<Vec<String>, String> {
+        let stems = |dir: &Path, ext: &str, prefix: &str| -> Result<Vec<String>, Error> {
             Ok(std::fs::read_dir(dir)
                 .map_err(|e| format!("cannot list {}: {e}", dir.display()))?
                 .filter_map(|e| {
@@ -209,7 +210,7 @@ fn generated_stand_in(group: &str, name: &str) -> Option<String> {
 /// line, the measured fraction and the fraction allowed (and the case's
 /// failure pictures of an earlier run removed from `out_dir`). Err: the
 /// same with the paths of the actual / expected / diff images written there.
-pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, f64, f64), String> {
+pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, f64, f64), Error> {
     let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
     let expected = image_io::read_picture(&case.reference)?;
     let diff = image_io::compare(&actual, &expected, TOLERANCE)?;
@@ -254,12 +255,12 @@ pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, 
         return Ok((format!("{diff} ({rule})"), diff.fraction(), allowed));
     }
     let paths = image_io::write_diff_images(out_dir, &name, &actual, &expected, &diff)?;
-    Err(format!(
+    Err(Error::Failed(format!(
         "{diff} ({rule}){interior_report}\n      actual:   {}\n      expected: {}\n      diff:     {}",
         paths[0].display(),
         paths[1].display(),
         paths[2].display()
-    ))
+    )))
 }
 
 /// What a whole run found.
@@ -278,9 +279,9 @@ pub fn run(
     corpus: &Path,
     cases: &[Case],
     out_dir: &Path,
-    mut render: impl FnMut(&FrameData) -> Result<Picture, String>,
+    mut render: impl FnMut(&FrameData) -> Result<Picture, Error>,
     mut messages: impl FnMut() -> Vec<String>,
-) -> Result<Summary, String> {
+) -> Result<Summary, Error> {
     let (mut passed, mut failed) = (0, 0);
     let mut table =
         String::from("| scene | picture | pixels off by more than 2/255 | allowed | result |\n|---|---|---|---|---|\n");
@@ -324,6 +325,6 @@ pub fn run(
     }
     let path = out_dir.join("table.md");
     std::fs::create_dir_all(out_dir).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    crate::write_whole(&path, table.as_bytes())?;
+    crate::output::write_whole(&path, table.as_bytes())?;
     Ok(Summary { passed, failed, table: path })
 }

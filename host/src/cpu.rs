@@ -430,7 +430,7 @@ mod tests {
         use crate::layout::{TRACE_CAMERA, TRACE_LIGHT, TRACE_LIGHT_SHADOW, TRACE_PIXEL, TRACE_SHADOW};
         let renderer = CpuRenderer::new().unwrap();
         let point = r#"<lightdata><id v="1"/><type v="point"/><color r="1" g="1" b="1"/><position x="0" y="-2" z="0"/></lightdata>"#;
-        let default = crate::scene::from_xml(crate::cli::DEFAULT_SCENE, "default.xml");
+        let default = crate::scene::from_xml(crate::source::DEFAULT_SCENE, "default.xml");
         for (name, scene) in [("mirrors", mirrors(point)), ("default", default)] {
             for spp in [1, 2] {
                 let settings = crate::frame::RenderSettings { width: 24, height: 18, spp, ..Default::default() };

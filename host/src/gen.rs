@@ -8,12 +8,10 @@
 //! tracer" ones) are generated here, one master level per step, so that a
 //! few kilobytes of XML expand to millions of primitives.
 
-use crate::cli::Failure;
 use crate::scene::{Material, Node, SceneFile, Shape, TransBlock};
-use clap::{Args, ValueEnum};
+use clap::ValueEnum;
 use glam::DMat4;
 use std::fmt::Write as _;
-use std::path::PathBuf;
 
 /// Depths `gen` accepts: depth 12 already expands to 73 million primitives.
 pub const MIN_DEPTH: u32 = 1;
@@ -105,32 +103,6 @@ Construction (corpus test_efficiency/recursiveSpheres1..4.xml; --depth N has N l
   has the corpus's 187 primitives with the same transforms in the same order; only the
   materials differ.";
 
-/// `raycast gen`.
-#[derive(Args, Debug)]
-#[command(after_help = CONSTRUCTION)]
-pub struct GenArgs {
-    /// Which corpus scene to extend.
-    #[arg(value_enum)]
-    pub family: Family,
-    /// Levels of the recursion: 4 is the corpus scene (187 primitives), 10 about 2.9 million.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(i64::from(MIN_DEPTH)..=i64::from(MAX_DEPTH)))]
-    pub depth: u32,
-    /// Write the scene to FILE [default: standard output].
-    #[arg(short, long, value_name = "FILE")]
-    pub output: Option<PathBuf>,
-    /// The texture file every primitive names, as written into the XML.
-    #[arg(long, value_name = "FILE", default_value = CORPUS_TEXTURE, conflicts_with = "no_texture")]
-    pub texture: String,
-    /// Write no texture (and no blend) into the materials.
-    #[arg(long)]
-    pub no_texture: bool,
-    /// Write every instance out: each primitive its own transblock under the root with the matrix the renderer
-    /// composes, no masters (as POV-Ray holds the scene), for comparing a flat file with the instanced one. Depth
-    /// at most 8.
-    #[arg(long)]
-    pub flat: bool,
-}
-
 /// What `generate` writes besides the construction itself.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GenOptions {
@@ -142,33 +114,6 @@ impl Default for GenOptions {
     fn default() -> Self {
         GenOptions { texture: Some(CORPUS_TEXTURE.to_string()) }
     }
-}
-
-pub(crate) fn run(args: &GenArgs) -> Result<(), Failure> {
-    let options = GenOptions { texture: (!args.no_texture).then(|| args.texture.clone()) };
-    let xml = if args.flat {
-        generate_flat(args.family, args.depth, &options)
-    } else {
-        generate(args.family, args.depth, &options)
-    }
-    .map_err(|e| Failure(format!("raycast: error: {e}"), 2))?;
-    match &args.output {
-        None => crate::emit(&xml).map_err(|e| format!("cannot write the scene to standard output: {e}"))?,
-        Some(path) => {
-            crate::write_whole(path, xml.as_bytes())?;
-            let expanded = args.family.expanded_count(args.depth);
-            let in_file = if args.flat { expanded } else { args.family.unique_count(args.depth) };
-            errln!(
-                "wrote {} ({} --depth {}{}: {expanded} primitives expanded, {in_file} in the file, {} bytes)",
-                path.display(),
-                args.family.name(),
-                args.depth,
-                if args.flat { " --flat" } else { "" },
-                xml.len()
-            );
-        }
-    }
-    Ok(())
 }
 
 /// A generated scene name as `bench` takes it, `gen:recursive-spheres:6`:

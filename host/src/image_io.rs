@@ -35,7 +35,7 @@ pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
         image::ExtendedColorType::Rgb8,
     )
     .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    crate::write_whole(path, &bytes)
+    crate::output::write_whole(path, &bytes).map_err(|e| e.to_string())
 }
 
 /// Whether `path` names something there that is not a file or a link to

@@ -393,7 +393,7 @@ mod tests {
         assert_eq!(t.nodes, 2 * t.leaves - 1, "a binary tree");
         assert!(t.depth >= 2 && t.leaves >= 2 && t.sah < 20.0 + f64::from(t.nodes), "{t:?}");
 
-        let scene = crate::scene::from_xml(crate::cli::DEFAULT_SCENE, "default.xml");
+        let scene = crate::scene::from_xml(crate::source::DEFAULT_SCENE, "default.xml");
         let data = pack(&scene).unwrap();
         let info = Info::of("default", &scene, &data);
         assert!(info.groups.iter().all(|g| g.tree.is_none()));

@@ -86,6 +86,19 @@ pub(crate) fn json_str(s: &str) -> String {
     out
 }
 
+/// The median of `values` (the mean of the middle two for an even count);
+/// NaN when there are none. The one median of bench's frames, versus's
+/// ratios and the preview's frame rates and pixel cost.
+pub fn median(values: impl IntoIterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.into_iter().collect();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => (v[n / 2 - 1] + v[n / 2]) / 2.0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -21,7 +21,6 @@
 //!
 //! Knows nothing of scene files: a case's scene is raw buffers.
 
-pub mod cli;
 mod codegen;
 mod cpu;
 pub mod file;

@@ -11,14 +11,16 @@ use ash::vk::{self, Handle};
 use glam::DVec3;
 use glfw::{Action, Key, MouseButton, WindowEvent};
 
-use crate::cli::{check_validation, load_scene, scene_failure, validation_wanted, Backend, Failure};
+use crate::args::Backend;
 use crate::cpu::CpuRenderer;
+use crate::error::{check_validation, validation_wanted, Error};
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gpu::{DeviceInfo, DeviceSelector, FrameStatus, GpuContext, GpuError, GpuOptions, PresentMode};
 use crate::image_io::{self, Rgb8};
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
 use crate::scene::{scene_bounds, Bounds, FlattenLimits, ParseOptions, Scene};
+use crate::source::load_scene;
 
 use super::layout::PreviewFrame;
 use super::reload::{Reload, ShaderFolder, WatchConfig, Watcher, KERNEL_FILE};
@@ -113,7 +115,7 @@ preview controls:
   K               recompile the shaders now, as an edit does (the device draws after)
   F1              this help                    Esc           quit";
 
-pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
+pub fn run(args: &PreviewArgs) -> Result<(), Error> {
     // --no-textures loads none, as `render --no-textures` (a scene whose
     // textures are missing opens); T then has nothing to turn on.
     let settings = RenderSettings {
@@ -123,26 +125,26 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         ..RenderSettings::default()
     };
     // A screenshot to stdout: the status lines go to stderr, as `render -o /dev/stdout`'s.
-    crate::cli::status_beside(&args.screenshot);
-    settings.validate().map_err(crate::cli::usage_error)?;
+    crate::output::status_beside(&args.screenshot);
+    settings.validate().map_err(Error::usage)?;
     super::check_script(args)?;
     if let Some(path) = &args.screenshot {
-        crate::cli::check_output(path)?;
+        crate::output::check_output(path)?;
     }
     let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
     let limits = FlattenLimits { max_primitives: args.max_primitives };
-    let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(scene_failure)?;
+    let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(Error::scene)?;
     // Nothing written over what the preview reads (its scene, the scene's
     // textures), as `render -o`: refused before any window opens.
     if let Some(path) = &args.screenshot {
         let textures = scene.texture_files();
-        crate::cli::refuse_overwriting(path, args.scene.iter().chain(&textures).map(PathBuf::as_path))?;
+        crate::output::refuse_overwriting(path, args.scene.iter().chain(&textures).map(PathBuf::as_path))?;
     }
-    let data = frame::build(&scene, &settings).map_err(scene_failure)?;
+    let data = frame::build(&scene, &settings).map_err(Error::scene)?;
     for note in &data.notes {
         errln!("raycast: note: {note}");
     }
-    crate::cli::cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.shaders)?;
+    crate::args::cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.shaders)?;
     let (shaders, compile_at_start) = shader_folder(args.shaders.as_deref())?;
 
     // The window. GLFW reports its errors through the callback.
@@ -154,13 +156,13 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
         sink.lock().unwrap_or_else(|p| p.into_inner()).push(description);
     })
     .map_err(|_| {
-        Failure::from(format!(
+        Error::from(format!(
             "cannot open a window: GLFW could not start ({}); run it on a desktop, or headless under `xvfb-run -a`",
             last_glfw_error()
         ))
     })?;
     if !glfw.vulkan_supported() {
-        return Err(Failure::from(format!(
+        return Err(Error::from(format!(
             "cannot open a window: GLFW finds no Vulkan loader ({}); install libvulkan1 and a driver \
              (e.g. Debian's mesa-vulkan-drivers)",
             last_glfw_error()
@@ -168,14 +170,14 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     }
     let instance_extensions = glfw.get_required_instance_extensions().unwrap_or_default();
     if instance_extensions.is_empty() {
-        return Err(Failure::from(no_surface_extension(&last_glfw_error())));
+        return Err(Error::from(no_surface_extension(&last_glfw_error())));
     }
     let fixed_size = args.screenshot.is_some() || args.frames.is_some();
     glfw.window_hint(glfw::WindowHint::ClientApi(glfw::ClientApiHint::NoApi));
     glfw.window_hint(glfw::WindowHint::Resizable(!fixed_size));
     let (mut window, events) = glfw
         .create_window(args.width, args.height, "raycast preview", glfw::WindowMode::Windowed)
-        .ok_or_else(|| Failure::from(format!("cannot open a window: {}", last_glfw_error())))?;
+        .ok_or_else(|| Error::from(format!("cannot open a window: {}", last_glfw_error())))?;
     window.set_all_polling(true);
 
     let options =
@@ -254,7 +256,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Failure> {
     let kernel = match (&shaders, compile_at_start) {
         (Some(folder), true) => match folder.compile() {
             Reload::Kernel(kernel) => kernel,
-            Reload::Failed(e) => return Err(Failure::from(format!("--shaders {}: {e}", folder.dir.display()))),
+            Reload::Failed(e) => return Err(Error::from(format!("--shaders {}: {e}", folder.dir.display()))),
             Reload::Scene(_) => unreachable!("compile gives a kernel or a failure"),
         },
         _ => PreviewKernels::embedded(draws)?,
@@ -359,13 +361,13 @@ fn choose_devices(
     args: &PreviewArgs,
     options: &GpuOptions,
     open_window: impl Fn(Option<DeviceSelector>) -> Result<GpuContext, GpuError>,
-) -> Result<(GpuContext, Option<GpuContext>), Failure> {
+) -> Result<(GpuContext, Option<GpuContext>), Error> {
     let device_draws = args.backend != Backend::Cpu;
     // With two device options, a device not found is named by its option.
     let named = |option: &'static str| {
         move |e: GpuError| match e {
-            GpuError::DeviceNotFound { .. } => Failure::from(format!("{option}: {e}")),
-            e => Failure::from(e),
+            GpuError::DeviceNotFound { .. } => Error::from(format!("{option}: {e}")),
+            e => Error::from(e),
         }
     };
     let open_apart = || GpuContext::new(options).map_err(named("--device"));
@@ -399,10 +401,10 @@ fn choose_devices(
 
 /// The shader folder to watch, and whether to compile from it at start
 /// (only when given on the command line).
-fn shader_folder(arg: Option<&Path>) -> Result<(Option<PathBuf>, bool), Failure> {
+fn shader_folder(arg: Option<&Path>) -> Result<(Option<PathBuf>, bool), Error> {
     if let Some(dir) = arg {
         if !dir.join(KERNEL_FILE).is_file() {
-            return Err(Failure::from(format!("--shaders {}: there is no {KERNEL_FILE} in it", dir.display())));
+            return Err(Error::from(format!("--shaders {}: there is no {KERNEL_FILE} in it", dir.display())));
         }
         return Ok((Some(dir.to_path_buf()), true));
     }
@@ -532,7 +534,7 @@ impl PixelCost {
     /// size, as it did in an average; a lasting change moves it within
     /// three frames.
     fn estimate(&self) -> Option<f64> {
-        Some(crate::bench::median(self.last.iter().copied())).filter(|m| !m.is_nan())
+        Some(crate::units::median(self.last.iter().copied())).filter(|m| !m.is_nan())
     }
 }
 
@@ -581,7 +583,7 @@ fn frames_at(times: &[(Duration, [u32; 2])]) -> String {
 
 /// "median 150.4 ms a frame, 6.6 frames a second" of frame times (at least one).
 fn rate(times: &[(Duration, [u32; 2])]) -> String {
-    let median = crate::bench::median(times.iter().map(|t| t.0.as_secs_f64()));
+    let median = crate::units::median(times.iter().map(|t| t.0.as_secs_f64()));
     format!("median {:.1} ms a frame, {:.1} frames a second", median * 1e3, 1.0 / median.max(1e-9))
 }
 
@@ -650,7 +652,7 @@ impl Preview {
         watcher: &Watcher,
         frames: Option<u32>,
         screenshot: Option<&Path>,
-    ) -> Result<(), Failure> {
+    ) -> Result<(), Error> {
         let mut last_title = Instant::now() - TITLE_INTERVAL;
         let mut last_tick = Instant::now();
         let mut recreate = false;
@@ -967,7 +969,7 @@ impl Preview {
         frame_budget_ms(self.renderer.cpu_threads().is_some() || self.device_on_cpu)
     }
 
-    fn on_event(&mut self, event: WindowEvent, window: &mut glfw::PWindow) -> Result<(), Failure> {
+    fn on_event(&mut self, event: WindowEvent, window: &mut glfw::PWindow) -> Result<(), Error> {
         match event {
             WindowEvent::Close => window.set_should_close(true),
             WindowEvent::Key(key, _, Action::Press, mods) => self.on_key(key, mods, window),
@@ -1085,7 +1087,7 @@ impl Preview {
         self.moved();
     }
 
-    fn on_reload(&mut self, reload: Reload) -> Result<(), Failure> {
+    fn on_reload(&mut self, reload: Reload) -> Result<(), Error> {
         match reload {
             Reload::Scene(loaded) => {
                 let (scene, data) = *loaded;
@@ -1155,7 +1157,7 @@ impl Preview {
     /// (`on_reload`: the device draws from then on), whether or not a file
     /// changed: after an edit the watcher has not seen, or to hand the
     /// drawing to the device's kernel of the folder's code.
-    fn recompile_shaders(&mut self) -> Result<(), Failure> {
+    fn recompile_shaders(&mut self) -> Result<(), Error> {
         let Some(folder) = self.shaders.clone() else {
             errln!("raycast: preview: K: no shader folder to recompile (the source tree's shaders/ is not here; use --shaders DIR)");
             return Ok(());
@@ -1175,7 +1177,7 @@ impl Preview {
     }
 
     /// Prints what the pixel under the cursor sees (the ray through its centre).
-    fn pick(&mut self, cursor: (f64, f64), window: &glfw::PWindow) -> Result<(), Failure> {
+    fn pick(&mut self, cursor: (f64, f64), window: &glfw::PWindow) -> Result<(), Error> {
         let (ww, wh) = window.get_size();
         let [w, h] = self.renderer.frame_size();
         if ww <= 0 || wh <= 0 || self.sample == 0 {
@@ -1192,7 +1194,7 @@ impl Preview {
     /// Prints what pixel (j, i) of the picture sees, and in the colour view
     /// its sample 0's rays as `raycast trace` follows them (the CPU build,
     /// which gives the device's bits).
-    fn pick_pixel(&mut self, j: u32, i: u32) -> Result<(), Failure> {
+    fn pick_pixel(&mut self, j: u32, i: u32) -> Result<(), Error> {
         let [w, h] = self.renderer.frame_size();
         if j >= w || i >= h {
             errln!("raycast: preview: pixel ({j}, {i}) is outside the {w}x{h} picture");
@@ -1234,7 +1236,7 @@ impl Preview {
     }
 
     /// The colour view's trace of pixel (j, i) (its sample 0, the centre ray).
-    fn print_trace(&self, j: u32, i: u32) -> Result<(), Failure> {
+    fn print_trace(&self, j: u32, i: u32) -> Result<(), Error> {
         if self.aov != Aov::Color {
             return Ok(());
         }
@@ -1253,7 +1255,7 @@ impl Preview {
     }
 
     /// Writes the last frame's picture (the quantised bytes the kernel wrote) as RGB PNG.
-    fn save(&mut self, path: &Path) -> Result<(), Failure> {
+    fn save(&mut self, path: &Path) -> Result<(), Error> {
         let [width, height] = self.renderer.frame_size();
         let pixels = self.renderer.pixels()?;
         crate::render::refuse_cut_short(

@@ -24,7 +24,8 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use crate::cli::{usage_error, Backend, Failure};
+use crate::args::Backend;
+use crate::error::Error;
 use crate::frame::Aov;
 use crate::gpu::DeviceSelector;
 use crate::scene::FlattenLimits;
@@ -86,7 +87,7 @@ pub struct PreviewArgs {
     /// With --frames: after the last frame, click pixel (X, Y) of the
     /// picture, as a left click does (what it sees, then its rays as
     /// `raycast trace` follows them).
-    #[arg(long, value_name = "X,Y", value_parser = crate::cli::parse_pixel, requires = "frames")]
+    #[arg(long, value_name = "X,Y", value_parser = crate::args::parse_pixel, requires = "frames")]
     pub click: Option<(u32, u32)>,
     /// With --frames: press keys as in the window, each just before frame N
     /// (counted from 1): N:KEY,… with KEY one of 1 to 6, H, M, T, R, F, C,
@@ -113,7 +114,7 @@ pub struct PreviewArgs {
     /// preview gives up with an error (a shader edit's endless loop on a
     /// GPU would otherwise hold the window; lavapipe cuts such a loop short
     /// itself). A frame at rest aims at 33 to 125 ms.
-    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::cli::parse_timeout)]
+    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::args::parse_timeout)]
     pub timeout: std::time::Duration,
 }
 
@@ -171,21 +172,21 @@ pub(crate) use app::window_refuses;
 pub(crate) use reload::{shader_stamps, stamps, POLL};
 
 /// Runs `raycast preview`.
-pub(crate) fn run(args: &PreviewArgs) -> Result<(), Failure> {
+pub(crate) fn run(args: &PreviewArgs) -> Result<(), Error> {
     app::run(args)
 }
 
 /// What a scripted run asks of the frames it draws (`--click`, `--keys`,
 /// `--moving`), checked before any work: a pixel outside the picture, or a
 /// frame past `--frames`, is a usage error (it would be ignored in silence).
-fn check_script(args: &PreviewArgs) -> Result<(), Failure> {
+fn check_script(args: &PreviewArgs) -> Result<(), Error> {
     let (w, h) = (args.width, args.height);
     if let Some((x, y)) = args.click.filter(|&(x, y)| x >= w || y >= h) {
-        return Err(usage_error(format!("--click {x},{y} is outside the {w}x{h} picture")));
+        return Err(Error::usage(format!("--click {x},{y} is outside the {w}x{h} picture")));
     }
     // --keys and --moving require --frames.
     let Some(frames) = args.frames else { return Ok(()) };
-    let past = |what: String, n: u32| usage_error(format!("{what} before frame {n}, past --frames {frames}"));
+    let past = |what: String, n: u32| Error::usage(format!("{what} before frame {n}, past --frames {frames}"));
     let keys = args.keys.as_ref().map_or(&[][..], |k| &k.0[..]);
     if let Some(&(n, key)) = keys.iter().find(|(n, _)| *n > frames) {
         let name = SCRIPTED_KEYS.iter().find(|k| k.1 == key).map_or('?', |k| k.0);

@@ -9,8 +9,9 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use super::{file, source_root, summary, Harness, HarnessOptions};
+use crate::error::{check_validation, Error};
 use crate::gpu::DeviceSelector;
+use crate::harness::{file, source_root, summary, Harness, HarnessOptions};
 
 #[derive(Args, Debug)]
 pub struct ShaderTestArgs {
@@ -34,13 +35,13 @@ pub struct ShaderTestArgs {
     /// The longest a function's run of cases may take, on the device or in
     /// the C++ build (each in a process of its own), before its cases fail
     /// with the timeout's error (a tested function's endless loop).
-    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::cli::parse_timeout)]
+    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::args::parse_timeout)]
     timeout: std::time::Duration,
 }
 
 /// Runs the command; Err is (message for stderr, exit status).
-pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
-    let fail = |e: String| (format!("raycast: error: {e}"), 1u8);
+pub fn run(args: &ShaderTestArgs) -> Result<(), Error> {
+    let fail = Error::Failed;
     let root = source_root();
     let files = if args.files.is_empty() { default_files(&root).map_err(fail)? } else { args.files.clone() };
 
@@ -54,8 +55,8 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
     for path in &files {
         let shown = shown_path(path, &root);
         // File errors already read `file:line: error: …`.
-        let cases = file::load(path, &shown, harness.shaders()).map_err(|e| (e, 1u8))?;
-        let wanted = |c: &super::Case| {
+        let cases = file::load(path, &shown, harness.shaders()).map_err(Error::Scene)?;
+        let wanted = |c: &crate::harness::Case| {
             args.only.iter().any(|t| c.function.contains(t.as_str()) || c.display_name().contains(t.as_str()))
         };
         let cases: Vec<_> = cases.into_iter().filter(|c| args.only.is_empty() || wanted(c)).collect();
@@ -65,14 +66,11 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
     }
     let total: usize = per_file.iter().map(|(_, c)| c.len()).sum();
     if total == 0 {
-        return Err((
-            format!(
-                "raycast: error: no case of {} file(s) matches --only {}",
-                files.len(),
-                args.only.join(", --only ")
-            ),
-            2,
-        ));
+        return Err(Error::Usage(format!(
+            "no case of {} file(s) matches --only {}",
+            files.len(),
+            args.only.join(", --only ")
+        )));
     }
     let d = harness.device();
     // On a GPU the kernels correct division (raycast.glsl div_rn): say how.
@@ -111,14 +109,12 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), (String, u8)> {
 
     let messages = harness.take_validation_messages();
     drop(harness);
-    if !messages.is_empty() {
-        for m in &messages {
-            errln!("raycast: validation: {m}");
-        }
-        return Err((format!("raycast: error: the Vulkan validation layer reported {} message(s)", messages.len()), 3));
-    }
+    check_validation(messages)?;
     if failed > 0 {
-        return Err((format!("raycast: shader-test failed: {failed} of {} cases", results.len()), 4));
+        return Err(Error::Mismatch {
+            command: "shader-test",
+            message: format!("{failed} of {} cases", results.len()),
+        });
     }
     Ok(())
 }

@@ -11,14 +11,18 @@
 //! median, min and max of their wall times. Every backend runs on the same
 //! FrameData in the same process, so ratios compare like with like.
 
-use crate::cli::{check_validation, each_named, scene_failure, Failure, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
+use crate::cli::batch::each_named;
 use crate::cpu::CpuRenderer;
+use crate::error::{check_validation, Error};
 use crate::frame::{self, Aov, FrameData, RenderSettings};
-use crate::gen::{self, count_primitives, GenOptions, PrimitiveCounts};
+use crate::gen::{count_primitives, PrimitiveCounts};
 use crate::gpu::GpuError;
-use crate::layout::{Frame, PixelOut, SampleSum};
+use crate::layout::PixelOut;
+use crate::measure::{device_bytes, peak_host_bytes, reset_peak_host};
 use crate::render::Picture;
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
+use crate::source::{parse_scene, scene_label};
+use crate::units::median;
 use crate::units::{json_str, thousands};
 use clap::{Args, ValueEnum};
 use std::fmt::Write as _;
@@ -42,7 +46,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=10_000))]
     pub warmup: u32,
     #[command(flatten)]
-    pub render: crate::cli::RenderOptions,
+    pub render: crate::cli::options::RenderOptions,
     /// One JSON object per scene and backend, one per line.
     #[arg(long, conflicts_with = "markdown")]
     pub json: bool,
@@ -72,43 +76,6 @@ pub enum BenchBackend {
     Both,
 }
 
-/// The process's peak resident set so far (VmHWM of /proc/self/status), in
-/// bytes; None where there is no /proc.
-pub fn peak_host_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.trim_start_matches("VmHWM:").trim().trim_end_matches("kB").trim().parse().ok()?;
-    Some(kb * 1024)
-}
-
-/// Starts a new peak: VmHWM drops to the current resident set (Linux 4.0+,
-/// `echo 5 > /proc/self/clear_refs`). False where that is not possible;
-/// the peak is then the whole process's so far.
-pub fn reset_peak_host() -> bool {
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
-}
-
-/// Bytes a GPU frame of `data` puts on the device: the frame block, every
-/// scene buffer (`FrameData::scene_buffers`: primitives, materials, lights,
-/// textures, texels, and whatever else the frame binds), the samples'
-/// running sums (render.comp's, cleared by the device) and the pixel buffer
-/// read back. With `uniform` (render_uniform.comp), the arrays it reads as
-/// uniform blocks count at their declared size, as they are uploaded
-/// (`layout::padded_for_uniform`). The driver's rounding of each
-/// allocation is not counted, nor the kernel itself. A picture drawn in
-/// bands (`GpuRenderer::band_rows`) holds the running sums and pixels of
-/// one band of `band_rows` rows at a time.
-pub fn device_bytes(data: &FrameData, uniform: bool, band_rows: u32) -> u64 {
-    let scene: u64 = data
-        .scene_buffers()
-        .iter()
-        .map(|&(binding, _, bytes)| if uniform { crate::layout::padded_for_uniform(binding, bytes).len() } else { bytes.len() } as u64)
-        .sum();
-    let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
-    let pixels = u64::from(data.frame.width) * u64::from(data.frame.height.min(band_rows)) * per_pixel as u64;
-    std::mem::size_of::<Frame>() as u64 + scene + pixels
-}
-
 /// A scene loaded for benchmarking, with what it took.
 pub struct LoadedScene {
     pub name: String,
@@ -122,22 +89,7 @@ pub struct LoadedScene {
     pub data: FrameData,
 }
 
-/// The scene file `name` (a path, `gen:FAMILY:DEPTH`, or None for the
-/// embedded default scene), parsed. Errors read `file:line:col: error: …`.
-pub fn parse_scene(name: Option<&str>, opts: &ParseOptions) -> Result<SceneFile, String> {
-    match name {
-        None => scene::parse_str(DEFAULT_SCENE, Path::new(DEFAULT_SCENE_NAME), opts).map_err(|e| e.to_string()),
-        Some(n) => match gen::parse_scene_name(n) {
-            Some(Ok((family, depth))) => {
-                let xml = gen::generate(family, depth, &GenOptions::default())?;
-                scene::parse_str(&xml, Path::new(n), opts).map_err(|e| e.to_string())
-            }
-            Some(Err(e)) => Err(format!("raycast: error: {e}")),
-            None => scene::parse_file(Path::new(n), opts).map_err(|e| e.to_string()),
-        },
-    }
-}
-
+#[cfg(test)]
 /// Loads, counts, flattens and builds one scene, timing each part. Prints
 /// the scene's warnings and notes to stderr.
 pub fn load_scene(
@@ -145,7 +97,7 @@ pub fn load_scene(
     opts: &ParseOptions,
     limits: &FlattenLimits,
     settings: &RenderSettings,
-) -> Result<LoadedScene, String> {
+) -> Result<LoadedScene, Error> {
     let start = Instant::now();
     let file = parse_scene(name, opts)?;
     let counts = count_primitives(&file);
@@ -161,13 +113,13 @@ pub(crate) fn load_or_skip(
     limits: &FlattenLimits,
     settings: &RenderSettings,
     args: &BenchArgs,
-) -> Result<Option<LoadedScene>, String> {
+) -> Result<Option<LoadedScene>, Error> {
     let start = Instant::now();
     let file = parse_scene(name, opts)?;
     let counts = count_primitives(&file);
     if counts.expanded > limits.max_primitives as u64 {
         let why = format!("skipped: expands to more than --max-primitives {}", thousands(limits.max_primitives as u64));
-        skipped(&crate::cli::scene_label(name), None, counts, &why, args);
+        skipped(&scene_label(name), None, counts, &why, args);
         return Ok(None);
     }
     load_parsed(name, file, counts, start, limits, settings).map(Some)
@@ -181,19 +133,19 @@ fn load_parsed(
     start: Instant,
     limits: &FlattenLimits,
     settings: &RenderSettings,
-) -> Result<LoadedScene, String> {
-    let scene = scene::flatten(&file, limits).map_err(|e| e.to_string())?;
+) -> Result<LoadedScene, Error> {
+    let scene = scene::flatten(&file, limits).map_err(Error::scene)?;
     drop(file);
     for w in &scene.warnings {
         errln!("{w}");
     }
-    let data = frame::build(&scene, settings)?;
+    let data = frame::build(&scene, settings).map_err(Error::Scene)?;
     let build = data.build_time;
     let load = start.elapsed().saturating_sub(build);
     for note in &data.notes {
         errln!("raycast: note: {note}");
     }
-    Ok(LoadedScene { name: crate::cli::scene_label(name), counts, lights: data.lights.len(), load, build, data })
+    Ok(LoadedScene { name: scene_label(name), counts, lights: data.lights.len(), load, build, data })
 }
 
 /// One scene on one backend.
@@ -221,19 +173,6 @@ struct Row {
     /// object; zero where an earlier scene's is the same) and how it was
     /// built (`Kernel::how_built`).
     kernel_build: Option<(Duration, Option<String>)>,
-}
-
-/// The median of `values` (the mean of the middle two for an even count);
-/// NaN when there are none. The one median of bench's frames, versus's
-/// ratios and the preview's frame rates and pixel cost.
-pub(crate) fn median(values: impl IntoIterator<Item = f64>) -> f64 {
-    let mut v: Vec<f64> = values.into_iter().collect();
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => (v[n / 2 - 1] + v[n / 2]) / 2.0,
-    }
 }
 
 /// `median` of durations (none: zero).
@@ -702,13 +641,13 @@ fn print_growth_fits(rows: &[Row], markdown: bool) {
     }
 }
 
-pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
+pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
     if let Some(dir) = &args.versus {
-        return crate::versus::run(args, dir);
+        return super::versus::run(args, dir);
     }
-    crate::cli::cpu_takes_no_device_options(args.backend == BenchBackend::Cpu, &args.render.kernel)?;
+    crate::cli::options::cpu_takes_no_device_options(args.backend == BenchBackend::Cpu, &args.render.kernel)?;
     let settings = args.render.settings();
-    settings.validate().map_err(crate::cli::usage_error)?;
+    settings.validate().map_err(Error::usage)?;
     let r = &args.render;
     let (want_gpu, want_cpu) = match args.backend {
         BenchBackend::Gpu => (true, false),
@@ -751,13 +690,13 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
 
     let opts = r.parse_options();
     let limits = FlattenLimits { max_primitives: r.max_primitives };
-    let names = crate::cli::scene_names(&args.scenes);
+    let names = crate::cli::batch::scene_names(&args.scenes);
     let primary_rays = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
     let mut all_rows: Vec<Row> = Vec::new();
     // A scene loaded and timed on each backend: its rows (None: skipped, and listed so).
-    let time = |name: Option<&str>| -> Result<Option<(LoadedScene, Vec<Row>)>, Failure> {
+    let time = |name: Option<&str>| -> Result<Option<(LoadedScene, Vec<Row>)>, Error> {
         reset_peak_host();
-        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(Error::scene)? else {
             return Ok(None);
         };
         let load_peak = peak_host_bytes();
@@ -854,7 +793,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     // Of several scenes, one that fails is reported as it happens and the
     // others go on (as `render`, `check` and `info`); the command fails at
     // the end, naming it. One scene's failure ends the command.
-    let batch = each_named(&names, crate::cli::scene_label, |name| {
+    let batch = each_named(&names, scene_label, |name| {
         let (loaded, mut rows) = match time(name) {
             Ok(Some(timed)) => timed,
             Ok(None) => return Ok(Ok(())),
@@ -866,7 +805,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
         }
         if args.json {
             for row in &rows {
-                crate::emit_line(&row.json(&settings, args.warmup))?;
+                crate::output::emit_line(&row.json(&settings, args.warmup))?;
             }
         } else if args.markdown {
             for row in &rows {
@@ -903,10 +842,10 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
     }
     if args.growth && args.json {
         for g in growth(&all_rows) {
-            crate::emit_line(&g.json(&all_rows[0].scene))?;
+            crate::output::emit_line(&g.json(&all_rows[0].scene))?;
         }
         for (key, _, f) in growth_fits(&all_rows) {
-            crate::emit_line(&format!(
+            crate::output::emit_line(&format!(
                 "{{\"growth_fit\":{},\"against\":\"ln N\",\"a\":{},\"b\":{},\"r2\":{}}}",
                 json_str(key),
                 json_num(Some(f.a)),
@@ -930,6 +869,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Failure> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::layout::{Frame, SampleSum};
 
     #[test]
     fn peak_host_memory_is_read_and_reset() {

@@ -14,13 +14,16 @@
 //!   chance of a split at least that uneven if the kernels were alike);
 //! - whether the two pictures have the same bits (`check::compare`).
 
-use crate::bench::{load_or_skip, median, skipped, BenchArgs, BenchBackend};
+use super::batch::each_named;
+use super::bench::{load_or_skip, skipped, BenchArgs, BenchBackend};
+use super::options::open_renderer;
 use crate::check;
-use crate::cli::{check_validation, each_named, open_renderer, scene_failure, Failure};
+use crate::error::{check_validation, Error};
 use crate::gpu::GpuError;
 use crate::render::Picture;
 use crate::scene::FlattenLimits;
 use crate::units::json_str;
+use crate::units::median;
 use std::path::Path;
 use std::time::Duration;
 
@@ -79,15 +82,12 @@ impl Pairs {
 }
 
 /// `bench --versus DIR`.
-pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
+pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
     if args.backend != BenchBackend::Gpu {
-        return Err(Failure(
-            "raycast: error: --versus compares two device kernels: use it without --backend cpu or both".into(),
-            2,
-        ));
+        return Err(Error::Usage("--versus compares two device kernels: use it without --backend cpu or both".into()));
     }
     let settings = args.render.settings();
-    settings.validate().map_err(crate::cli::usage_error)?;
+    settings.validate().map_err(Error::usage)?;
     let a_name = args
         .render
         .kernel
@@ -111,11 +111,11 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
     }
     let opts = args.render.parse_options();
     let limits = FlattenLimits { max_primitives: args.render.max_primitives };
-    let names = crate::cli::scene_names(&args.scenes);
+    let names = super::batch::scene_names(&args.scenes);
     // One scene compared (or listed as skipped).
-    let compare_one = |name: Option<&str>| -> Result<(), Failure> {
+    let compare_one = |name: Option<&str>| -> Result<(), Error> {
         // Over --max-primitives: listed as skipped, as `bench` does.
-        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(scene_failure)? else {
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(Error::scene)? else {
             return Ok(());
         };
         // Which kernel each runs: a folder without render_uniform.comp has only the storage one.
@@ -153,7 +153,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
             Err(e) => return Err(e.into()),
         };
         let (Some(pa), Some(pb)) = (pa, pb) else { return Ok(()) };
-        let report = check::compare(&pa, "A", &pb, "B").map_err(|e| Failure(format!("raycast: error: {e}"), 1))?;
+        let report = check::compare(&pa, "A", &pb, "B").map_err(|e| Error::Failed(format!("{e}")))?;
         let v = pairs.verdict();
         let pictures = if report.identical() {
             "identical (every buffer, bit for bit)".to_string()
@@ -199,7 +199,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Failure> {
         }
         Ok(())
     };
-    let batch = each_named(&names, crate::cli::scene_label, |name| Ok(compare_one(name)))?;
+    let batch = each_named(&names, crate::source::scene_label, |name| Ok(compare_one(name)))?;
     let result = batch.failure("").map_or(Ok(()), Err);
     let messages = [a.context().take_validation_messages(), b.context().take_validation_messages()].concat();
     drop(a);

@@ -1,0 +1,51 @@
+//! Values the command line and the library's option structs share: the
+//! backend choice and the parsers of `X,Y` and seconds.
+
+use crate::error::Error;
+use clap::ValueEnum;
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Where the shared code runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    /// A Vulkan device (--device, or the best one).
+    Gpu,
+    /// The C++ build of the shared GLSL on every core.
+    Cpu,
+    /// The device, unless it runs on the CPU (lavapipe) and nothing asks for the device (--device, --shaders; and
+    /// for render, check, bench and conformance --scene-buffers, --validate, --timeout), or none opens and no
+    /// --device is given (not the preview, which needs Vulkan for its window): then the CPU build.
+    Auto,
+}
+
+/// `X,Y`: two whole numbers (`--pixel`, `--click`).
+pub fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    let parse =
+        |t: &str| t.trim().parse::<u32>().map_err(|_| format!("{s:?} is not X,Y (two whole numbers, say 29,4)"));
+    match s.split_once(',') {
+        Some((x, y)) => Ok((parse(x)?, parse(y)?)),
+        None => Err(format!("{s:?} is not X,Y (two whole numbers, say 29,4)")),
+    }
+}
+
+/// `--timeout`: seconds, more than none, at most a week.
+pub fn parse_timeout(s: &str) -> Result<Duration, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x > 0.0 && x <= 604_800.0 => Ok(Duration::from_secs_f64(x)),
+        _ => Err(format!("{s:?} is not a number of seconds above 0 and at most 604800 (a week)")),
+    }
+}
+
+/// `--shaders DIR` with `--backend cpu`: a usage error, since the CPU build
+/// is the code raycast was built with and would silently ignore DIR.
+pub fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) -> Result<(), Error> {
+    match (cpu_only, shaders) {
+        (true, Some(dir)) => Err(Error::Usage(format!(
+            "--shaders {} compiles the device's kernel, but --backend cpu runs the CPU build raycast was built with: \
+             drop one (rebuild raycast to put a shader change into the CPU build)",
+            dir.display()
+        ))),
+        _ => Ok(()),
+    }
+}

@@ -1,0 +1,245 @@
+//! `raycast check`: the device against the CPU build, every buffer bit for bit.
+
+use crate::args::*;
+use crate::check;
+use crate::cli::batch::*;
+use crate::cli::options::*;
+use crate::cli::output::*;
+use crate::cli::status::*;
+use crate::cpu::CpuRenderer;
+use crate::error::{check_validation, validation_wanted, Error};
+use crate::frame::FrameData;
+use crate::image_io::{self};
+use crate::output::*;
+use crate::progress;
+use crate::render::{GpuRenderer, Picture};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// Scene files (XML), checked one after the other on one device and one
+    /// CPU build (their start-up and each kernel paid once), or generated
+    /// scenes (gen:recursive-spheres:6). Without any, the embedded default
+    /// scene.
+    #[arg(value_name = "SCENE")]
+    scenes: Vec<PathBuf>,
+    #[command(flatten)]
+    render: RenderOptions,
+    /// Where to write the diff image, for one scene [default:
+    /// <scene name>-check.png, and only when something differs]: red where
+    /// any buffer differs, a dim copy of the device's render elsewhere.
+    #[arg(short, long, value_name = "DIFF.png", conflicts_with = "out_dir")]
+    output: Option<PathBuf>,
+    /// Folder for the diff images, each <scene name>-check.png (made if
+    /// missing) [default: the current folder]
+    #[arg(long, value_name = "DIR")]
+    out_dir: Option<PathBuf>,
+    /// Succeed when at most K pixels differ (in each scene). For a GPU whose
+    /// driver breaks the kernels' exactness (lavapipe and an NVIDIA H100
+    /// keep it: README, "On a GPU too"); the output says the check was not
+    /// exact.
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    allow_pixels: usize,
+    /// Also run pixel (X, Y) alone through the shader-test harness:
+    /// render_pixel(X, Y) in a one-invocation kernel on the device and in a
+    /// C++ build compiled at run time, both from --shaders DIR (or the source
+    /// tree's shaders/), compared bit for bit. Tells a difference that
+    /// follows the code from one that follows the whole-frame kernel, and
+    /// lets instrumentation of DIR run on both sides. Repeatable; one scene.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true)]
+    pixel: Vec<(u32, u32)>,
+}
+
+/// How one scene's check came out.
+enum Checked {
+    Identical,
+    /// Some pixels differ, within --allow-pixels.
+    Accepted,
+    /// This many pixels differ, beyond --allow-pixels.
+    Differ(usize),
+}
+
+/// The device and the CPU build `check` compares, opened once, for the first scene that loads.
+struct CheckBackends {
+    gpu: GpuRenderer,
+    cpu: CpuRenderer,
+}
+
+pub fn run(args: &CheckArgs) -> Result<(), Error> {
+    status_beside(&args.output);
+    let scenes = scene_list(&args.scenes);
+    if !args.pixel.is_empty() && scenes.len() > 1 {
+        return Err(Error::Usage(format!(
+            "--pixel looks at one scene's pixel, but {} scenes were given: check that scene alone",
+            scenes.len()
+        )));
+    }
+    // Bad --pixel input fails before any work (the frame's size is the options').
+    args.render.settings().validate().map_err(Error::usage)?;
+    let (width, height) = (args.render.width, args.render.height);
+    if let Some(&(x, y)) = args.pixel.iter().find(|&&(x, y)| x >= width || y >= height) {
+        return Err(Error::usage(format!("--pixel {x},{y} is outside the {width}x{height} frame")));
+    }
+    let diffs = output_paths(&args.output, &args.out_dir, "-check", &scenes)?;
+    let mut backends: Option<CheckBackends> = None;
+    // The one scene's frame and pictures, for --pixel.
+    let mut last = None;
+    let batch = each_scene(
+        &scenes,
+        &diffs,
+        &args.render,
+        &mut backends,
+        || Ok(CheckBackends { gpu: args.render.kernel.renderer()?, cpu: CpuRenderer::new()? }),
+        |backends, p, diff| {
+            let (checked, gpu, cpu) = check_scene(args, backends, &p, diff)?;
+            if !args.pixel.is_empty() {
+                last = Some((p.data, gpu, cpu));
+            }
+            Ok(checked)
+        },
+    )?;
+    let accepted = batch.done.iter().filter(|(_, c)| matches!(c, Checked::Accepted)).count();
+    let differ: Vec<(&str, usize)> = batch
+        .done
+        .iter()
+        .filter_map(|(name, c)| if let Checked::Differ(n) = c { Some((name.as_str(), *n)) } else { None })
+        .collect();
+    if let Some(b) = backends {
+        let messages = b.gpu.context().take_validation_messages();
+        drop(b);
+        check_validation(messages)?;
+    }
+    if let Some((data, gpu_picture, cpu_picture)) = &last {
+        isolated_pixels(args, data, gpu_picture, cpu_picture)?;
+    }
+    let n = scenes.len();
+    if n > 1 {
+        outln!(
+            "check: {} of {n} scenes identical, {} within --allow-pixels, {} differ, {} failed",
+            n - accepted - differ.len() - batch.failed.len(),
+            accepted,
+            differ.len(),
+            batch.failed.len()
+        );
+    }
+    let differ_text = || match &differ[..] {
+        [(_, pixels)] if n == 1 => format!("{pixels} pixels differ between the device and the CPU build"),
+        _ => {
+            let list: Vec<String> = differ.iter().map(|(name, pixels)| format!("{name} ({pixels} pixels)")).collect();
+            format!("{} of {n} scenes differ between the device and the CPU build: {}", differ.len(), list.join(", "))
+        }
+    };
+    let also = if differ.is_empty() { String::new() } else { format!("; and {}", differ_text()) };
+    match batch.failure(&also) {
+        Some(failure) => Err(failure),
+        None if differ.is_empty() => Ok(()),
+        None => Err(Error::Mismatch { command: "check", message: format!("{}", differ_text()) }),
+    }
+}
+
+/// One scene on the device and on the CPU build, compared and reported; the
+/// diff image written to `diff` where asked (-o) or where something differs.
+fn check_scene(
+    args: &CheckArgs,
+    b: &CheckBackends,
+    p: &Prepared,
+    diff: &Path,
+) -> Result<(Checked, Picture, Picture), Error> {
+    let device = b.gpu.context().info().name.clone();
+    print_scene(p);
+    outln!(
+        "check: {} on {device} against the CPU build ({} threads), {}x{}, every buffer bit for bit",
+        args.render.kernel.kernel_text(),
+        b.cpu.threads,
+        p.data.frame.width,
+        p.data.frame.height
+    );
+    let scene = p.scene.path.display();
+    let (gpu_picture, _) = progress::told(format!("{scene} on {device}"), |told| b.gpu.render_told(&p.data, told))?;
+    print_kernel(&b.gpu, &p.data)?;
+    let cpu_picture = progress::told(format!("{scene} on the CPU build"), |told| b.cpu.render_told(&p.data, told))?;
+    let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
+    outln!("{report}");
+    if args.output.is_some() || !report.identical() {
+        image_io::write_png(diff, &report.diff_image)?;
+        outln!("wrote {} (red: pixels that differ)", diff.display());
+    } else {
+        // The scene's diff image of an earlier run would say it still differs.
+        for stale in image_io::remove_stale(&[diff.to_path_buf()])? {
+            outln!("removed {}, the diff image of an earlier run", stale.display());
+        }
+    }
+    let checked = match report.differing_pixels {
+        _ if report.identical() => Checked::Identical,
+        n if n <= args.allow_pixels => {
+            outln!(
+                "NOT EXACT: {n} pixels differ, accepted by --allow-pixels {} (lavapipe and an NVIDIA H100 measured exact; \
+                 a driver that does not fuse `fma` or honour `precise` may not be: README, \"On a GPU too\")",
+                args.allow_pixels
+            );
+            Checked::Accepted
+        }
+        n => Checked::Differ(n),
+    };
+    Ok((checked, gpu_picture, cpu_picture))
+}
+
+/// `check --pixel`: each pixel's render_pixel alone, through the harness.
+fn isolated_pixels(
+    args: &CheckArgs,
+    data: &FrameData,
+    gpu_picture: &Picture,
+    cpu_picture: &Picture,
+) -> Result<(), Error> {
+    use crate::harness::{Case, Harness, HarnessOptions, SceneBuffers};
+    let width = data.frame.width;
+    let mut harness = Harness::new(&HarnessOptions {
+        shaders: args.render.kernel.shaders.clone(),
+        device: args.render.kernel.device.clone(),
+        validation: validation_wanted(args.render.kernel.validate),
+        timeout: args.render.kernel.timeout(),
+    })
+    .map_err(|e| Error::Failed(format!("--pixel: {e}")))?;
+    // The frame's buffers under the names scene_buffers.glsl gives them.
+    let mut scene = SceneBuffers::new().frame(&data.frame);
+    for (binding, what, bytes) in data.scene_buffers() {
+        let Some(b) = harness.shaders().scene_buffers.iter().find(|b| b.binding == binding) else {
+            return Err(Error::Failed(format!("--pixel: scene_buffers.glsl declares no binding {binding} ({what})")));
+        };
+        let words = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        scene = scene.with_words(&b.name, words);
+    }
+    let scene = std::sync::Arc::new(scene);
+    let cases: Vec<Case> = args
+        .pixel
+        .iter()
+        .map(|&(x, y)| {
+            Case::new("render_pixel")
+                .named(format!("pixel ({x}, {y}) alone"))
+                .input("j", x)
+                .input("i", y)
+                .scene(scene.clone())
+        })
+        .collect();
+    let results = harness.run(&cases);
+    for (&(x, y), r) in args.pixel.iter().zip(&results) {
+        let index = (y * width + x) as usize;
+        outln!("pixel ({x}, {y}) in the frame:  device {}", pixel_text(&gpu_picture.pixels[index]));
+        outln!("                              cpu    {}", pixel_text(&cpu_picture.pixels[index]));
+        let alone = |v: &Option<crate::harness::Value>| v.as_ref().map_or("did not run".to_string(), |v| v.text());
+        outln!("  alone (harness, {}): device {}", if r.passed { "identical" } else { "DIFFER" }, alone(&r.device));
+        outln!("                              cpu    {}", alone(&r.cpu));
+        if r.device.is_none() || r.cpu.is_none() {
+            outln!("{}", r.report);
+        }
+    }
+    check_validation(harness.take_validation_messages())
+}
+
+fn pixel_text(p: &crate::layout::PixelOut) -> String {
+    format!(
+        "{{ t = {:?}, id = {}, normal = [{:?}, {:?}, {:?}], rgba = 0x{:08x}, rays = {} }}",
+        p.t, p.id, p.normal[0], p.normal[1], p.normal[2], p.rgba, p.rays
+    )
+}

@@ -1,0 +1,97 @@
+//! `raycast conformance`: the course corpus rendered and judged under its rule.
+
+use crate::args::*;
+use crate::cli::options::*;
+use crate::error::Error;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct ConformanceArgs {
+    /// The cs1230 corpus: its scene folders (test_unit, test_intersect, …)
+    /// and bench/ of official renders [default: $RAYCAST_CORPUS]
+    #[arg(value_name = "CORPUS")]
+    corpus: Option<PathBuf>,
+    /// Folder for each failing case's actual / expected / diff pictures and
+    /// for table.md, the measured fractions (made if missing).
+    #[arg(long, value_name = "DIR", default_value = "conformance")]
+    out_dir: PathBuf,
+    /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+    /// The device and its kernel (`--shaders DIR`: does a shader change still match the course's renders?).
+    #[command(flatten)]
+    kernel: KernelOptions,
+    /// Only the cases whose name holds TEXT (`test_light/`, `Normal`,
+    /// `recursiveSpheres4 Color`); repeatable, a case runs if any matches.
+    #[arg(long, value_name = "TEXT")]
+    only: Vec<String>,
+}
+
+pub fn run(args: &ConformanceArgs) -> Result<(), Error> {
+    cpu_takes_no_device_options(args.backend == Backend::Cpu, &args.kernel)?;
+    let from_env = std::env::var_os("RAYCAST_CORPUS").filter(|v| !v.is_empty()).map(PathBuf::from);
+    let Some(corpus) = args.corpus.clone().or(from_env) else {
+        return Err(Error::Usage(
+            "conformance needs the cs1230 corpus: give its folder (say ../shared/corpus/cs1230), or set RAYCAST_CORPUS"
+                .into(),
+        ));
+    };
+    // Not a corpus, or one that cannot be read, fails before the device starts.
+    let all = crate::conformance::cases(&corpus)?;
+    let total = all.len();
+    let cases: Vec<_> = all
+        .into_iter()
+        .filter(|c| args.only.is_empty() || args.only.iter().any(|t| c.label().contains(t.as_str())))
+        .collect();
+    if cases.is_empty() {
+        return Err(Error::Usage(format!(
+            "no case of the {total} in {} matches --only {}",
+            corpus.display(),
+            args.only.join(", --only ")
+        )));
+    }
+    let count = cases.len();
+    std::fs::create_dir_all(&args.out_dir)
+        .map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
+    let summary = match open_backend(args.backend, &args.kernel)? {
+        (RenderBackend::Cpu(cpu), why) => {
+            outln!("conformance: the {} against {}, {count} cases", cpu.summary(&why), corpus.display());
+            crate::conformance::run(
+                &corpus,
+                &cases,
+                &args.out_dir,
+                |data| cpu.render(data).map_err(Error::Failed),
+                Vec::new,
+            )?
+        }
+        (RenderBackend::Gpu(renderer), _) => {
+            outln!(
+                "conformance: {} on {} against {}, {count} cases",
+                args.kernel.kernel_text(),
+                renderer.context().info().name,
+                corpus.display()
+            );
+            crate::conformance::run(
+                &corpus,
+                &cases,
+                &args.out_dir,
+                |data| renderer.render(data).map(|(picture, _)| picture).map_err(Error::from),
+                || renderer.context().take_validation_messages(),
+            )?
+        }
+    };
+    outln!("{} passed, {} failed; the measured fractions: {}", summary.passed, summary.failed, summary.table.display());
+    if summary.failed > 0 {
+        return Err(Error::Mismatch {
+            command: "conformance",
+            message: format!(
+                "{} of {count} cases (each FAILED line above says why; the actual, expected \
+                 and diff pictures of those beyond the rule are in {})",
+                summary.failed,
+                args.out_dir.display()
+            ),
+        });
+    }
+    Ok(())
+}

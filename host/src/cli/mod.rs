@@ -1,0 +1,97 @@
+//! The command line: one module per command, each a leaf that nothing
+//! outside this folder names, plus what several commands share: the
+//! rendering options (`options`), several scenes in one command (`batch`),
+//! where pictures go (`output`) and the status lines (`status`).
+//! `main.rs` parses, calls [`run`], and is the one place that prints an
+//! error and chooses the exit code (`crate::error::EXIT_CODES`).
+
+mod batch;
+mod bench;
+mod check;
+mod compare;
+mod conformance;
+mod devices;
+mod gen;
+mod info;
+mod options;
+mod output;
+mod pov;
+mod render;
+mod shader_test;
+mod status;
+mod trace;
+mod versus;
+
+use clap::{Parser, Subcommand};
+
+/// `raycast`: the global flags and the command.
+#[derive(Parser, Debug)]
+#[command(
+    name = "raycast",
+    version,
+    about = "A ray caster in a Vulkan compute shader for CS1230/CS123/Comp175 XML scenes",
+    after_help = crate::error::exit_codes_help()
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render scenes to PNGs, one after the other on one device (the embedded default scene when none is given).
+    Render(render::RenderArgs),
+    /// Render on the device and on the CPU build and compare every buffer bit for bit.
+    Check(check::CheckArgs),
+    /// Show a scene in a window, refined while still, reloaded when its file or the shaders change.
+    Preview(crate::preview::PreviewArgs),
+    /// Compare two pictures (say, your render and a course reference): how many
+    /// pixels differ by more than a tolerance, the first and the worst.
+    Compare(compare::CompareArgs),
+    /// Run shader unit tests (tests/shaders/*.toml by default) on the device and the CPU build.
+    ShaderTest(shader_test::ShaderTestArgs),
+    /// Follow one sample of one pixel through the shared code (its CPU build), step by step: each ray and what it meets, each light's term and shadow ray, each level's colour and mirror weight.
+    // Hidden from its help: the options of the renders it shares that
+    // trace refuses (a device's, the AOVs'), which it would list otherwise.
+    #[command(
+        mut_arg("device", |a| a.hide(true)),
+        mut_arg("shaders", |a| a.hide(true)),
+        mut_arg("scene_buffers", |a| a.hide(true)),
+        mut_arg("validate", |a| a.hide(true)),
+        mut_arg("timeout", |a| a.hide(true)),
+        mut_arg("aov", |a| a.hide(true)),
+        mut_arg("depth_range", |a| a.hide(true)),
+        mut_arg("cost_max", |a| a.hide(true))
+    )]
+    Trace(trace::TraceArgs),
+    /// Describe scenes without rendering them: camera, primitives, lights, materials, the world box, each group's hierarchy (nodes, leaves, depth, SAH cost) and buffer sizes
+    Info(info::InfoArgs),
+    /// List the Vulkan devices.
+    Devices,
+    /// Write a scale-test scene: the corpus's recursive spheres, cones or cubes, N levels deep.
+    Gen(gen::GenArgs),
+    /// Time scenes per backend: median frame time, ray rates, primitives, memory.
+    Bench(bench::BenchArgs),
+    /// Render every scene of the course's corpus as its official reference was made, and compare under a stated rule.
+    Conformance(conformance::ConformanceArgs),
+    /// Write a scene in POV-Ray 3.7's scene language (masters as declared objects), to time or view it beside POV-Ray.
+    Pov(pov::PovArgs),
+}
+
+/// Runs the command `cli` names.
+pub fn run(cli: Cli) -> Result<(), crate::error::Error> {
+    match cli.command {
+        Command::Render(args) => render::run(&args),
+        Command::Check(args) => check::run(&args),
+        Command::Compare(args) => compare::run(&args),
+        Command::Preview(args) => crate::preview::run(&args),
+        Command::Info(args) => info::run(&args),
+        Command::Trace(args) => trace::run(&args),
+        Command::Devices => devices::run(),
+        Command::ShaderTest(args) => shader_test::run(&args),
+        Command::Gen(args) => gen::run(&args),
+        Command::Bench(args) => bench::run(&args),
+        Command::Conformance(args) => conformance::run(&args),
+        Command::Pov(args) => pov::run(&args),
+    }
+}

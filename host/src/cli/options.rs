@@ -1,0 +1,283 @@
+//! The options every rendering command shares (`render`, `check`, `bench`,
+//! `trace`, `conformance`): the picture, the quality, the device.
+
+use crate::args::*;
+use crate::cpu::CpuRenderer;
+use crate::error::{check_validation, validation_wanted, Error};
+use crate::frame::{Aov, RenderSettings, TextureFilter};
+use crate::gpu::{DeviceSelector, GpuOptions};
+use crate::render::{GpuRenderer, SceneBuffers};
+use crate::scene::{FlattenLimits, ParseOptions};
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// The options of every command that renders frames (`render`, `check`,
+/// `bench`), the scene aside.
+#[derive(Args, Debug)]
+pub struct RenderOptions {
+    #[arg(long, default_value_t = 512, value_name = "W")]
+    pub width: u32,
+    #[arg(long, default_value_t = 384, value_name = "H")]
+    pub height: u32,
+    /// What the picture shows
+    #[arg(long, value_enum, default_value_t = Aov::Color)]
+    pub aov: Aov,
+    /// With `--aov depth`: the distances from the eye drawn white and black
+    /// [default: the scene's bounding sphere, nearest to farthest]
+    #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range, allow_hyphen_values = true)]
+    pub depth_range: Option<[f32; 2]>,
+    /// With `--aov cost` or `cost-all`: the passes drawn dark red (and beyond) [default: 64, cost-all 256]
+    #[arg(long, value_name = "N")]
+    pub cost_max: Option<u32>,
+    /// Turn shadow rays off.
+    #[arg(long)]
+    pub no_shadows: bool,
+    /// Turn mirror reflections off.
+    #[arg(long)]
+    pub no_reflections: bool,
+    /// Turn texture mapping off.
+    #[arg(long)]
+    pub no_textures: bool,
+    /// Mirror bounces (at most 16).
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    pub depth: u32,
+    /// Test every primitive for every ray: no bounding volume hierarchy. The
+    /// picture is identical; only slower.
+    #[arg(long)]
+    pub no_bvh: bool,
+    /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub spp: u32,
+    /// How textures are sampled
+    #[arg(long, value_enum, default_value_t = TextureFilter::Nearest)]
+    pub texture_filter: TextureFilter,
+    /// Extra folder to find textures in, after the scene file's folder
+    /// (repeatable). Generated scenes (`raycast gen`) name the corpus's
+    /// texture: pass the corpus root.
+    #[arg(long, value_name = "DIR")]
+    pub assets: Vec<PathBuf>,
+    /// Refuse scenes that expand to more primitives than this (`bench` lists
+    /// them as skipped and goes on).
+    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
+    pub max_primitives: usize,
+    #[command(flatten)]
+    pub kernel: KernelOptions,
+}
+
+/// The device and the kernel of the commands that render on a device
+/// (`render`, `check`, `bench`, `conformance`).
+#[derive(Args, Debug)]
+pub struct KernelOptions {
+    /// Vulkan device: an index from `raycast devices` or part of its name.
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub device: Option<DeviceSelector>,
+    /// Compile the device's kernel from DIR/render.comp at start-up instead of
+    /// the one built in (the CPU build is always the built-in code).
+    #[arg(long, value_name = "DIR")]
+    pub shaders: Option<PathBuf>,
+    /// Where the device kernel keeps the scene's arrays: storage images and
+    /// uniform blocks (render_uniform.comp, several times faster on
+    /// lavapipe) when the scene fits them, storage buffers (render.comp, any
+    /// size) otherwise; or either one.
+    #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
+    pub scene_buffers: SceneBuffers,
+    /// Enable the Khronos validation layer (slow: not for timing); any
+    /// message fails the command (exit 3; `conformance`: its case).
+    /// Also on when RAYCAST_VALIDATION=1.
+    #[arg(long)]
+    pub validate: bool,
+    /// The longest the device may take over one submission of its work
+    /// before the command gives up with an error (a kernel that never ends,
+    /// say a shader edit's endless loop). The samples go in submissions of
+    /// about a quarter of a second each, so this bounds one sample of the
+    /// picture, or of a band of its rows: raise it for a huge or very slow
+    /// picture (`--no-bvh` on millions of primitives).
+    /// [default: 600]
+    #[arg(long, value_name = "SECONDS", value_parser = parse_timeout)]
+    pub timeout: Option<Duration>,
+}
+
+impl KernelOptions {
+    /// `--timeout`, or its default.
+    pub fn timeout(&self) -> Duration {
+        self.timeout.unwrap_or(crate::gpu::GpuOptions::default().timeout)
+    }
+
+    /// The options given that only a Vulkan device uses (by flag), which
+    /// the CPU build would ignore: `trace` and `--backend cpu` refuse them.
+    pub(crate) fn device_only_given(&self) -> Vec<&'static str> {
+        [
+            ("--device", self.device.is_some()),
+            ("--shaders", self.shaders.is_some()),
+            ("--scene-buffers", self.scene_buffers != SceneBuffers::Auto),
+            ("--validate", self.validate),
+            ("--timeout", self.timeout.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(flag, given)| given.then_some(flag))
+        .collect()
+    }
+
+    /// The render kernel on the device these options name (`open_renderer`).
+    pub(crate) fn renderer(&self) -> Result<GpuRenderer, Error> {
+        open_renderer(self, self.shaders.as_deref())
+    }
+
+    /// Which kernel, for the commands' first line.
+    pub(crate) fn kernel_text(&self) -> &'static str {
+        if self.shaders.is_some() {
+            "the kernel from --shaders"
+        } else {
+            "the built-in kernel"
+        }
+    }
+}
+
+impl RenderOptions {
+    /// The settings these options ask for (checked later: `RenderSettings::validate`).
+    pub fn settings(&self) -> RenderSettings {
+        RenderSettings {
+            width: self.width,
+            height: self.height,
+            aov: self.aov,
+            shadows: !self.no_shadows,
+            reflections: !self.no_reflections,
+            textures: !self.no_textures,
+            max_depth: self.depth,
+            bvh: !self.no_bvh,
+            spp: self.spp,
+            texture_filter: self.texture_filter,
+            depth_range: self.depth_range,
+            cost_max: self.cost_max,
+        }
+    }
+
+    /// How the scene files are read: textures looked for in `--assets`,
+    /// and not at all under `--no-textures`.
+    pub fn parse_options(&self) -> ParseOptions {
+        ParseOptions { assets: self.assets.clone(), skip_textures: self.no_textures }
+    }
+}
+
+/// `--depth-range NEAR,FAR` (checked by `RenderSettings::validate`).
+/// `--timeout`: seconds, more than none, at most a week.
+pub(crate) fn parse_timeout(s: &str) -> Result<Duration, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x > 0.0 && x <= 604_800.0 => Ok(Duration::from_secs_f64(x)),
+        _ => Err(format!("{s:?} is not a number of seconds above 0 and at most 604800 (a week)")),
+    }
+}
+
+pub(crate) fn parse_depth_range(s: &str) -> Result<[f32; 2], String> {
+    let wrong = || format!("{s:?} is not NEAR,FAR (two distances, say 2,12)");
+    let (near, far) = s.split_once(',').ok_or_else(wrong)?;
+    let parse = |t: &str| {
+        let x = t.trim().parse::<f64>().map_err(|_| wrong())?;
+        // A distance the picture's 32-bit floats cannot hold is told as written, not as "inf".
+        if x.is_finite() && !crate::units::f32_holds(x) {
+            return Err(format!("{s:?}: {} is beyond what the renderer's 32-bit floats hold (about 3.4e38)", t.trim()));
+        }
+        Ok(x as f32)
+    };
+    Ok([parse(near)?, parse(far)?])
+}
+
+/// The render kernel on the device `--device` names (validated where
+/// asked, with `--timeout`), built in or compiled from `shaders`, reading
+/// the scene as `--scene-buffers` says: for `render`, `check` and `bench`.
+pub(crate) fn open_renderer(k: &KernelOptions, shaders: Option<&Path>) -> Result<GpuRenderer, Error> {
+    let options =
+        GpuOptions { device: k.device.clone(), validation: validation_wanted(k.validate), timeout: k.timeout() };
+    let mut renderer = match shaders {
+        Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
+        None => GpuRenderer::new(&options)?,
+    };
+    renderer.set_scene_buffers(k.scene_buffers);
+    Ok(renderer)
+}
+
+/// Where `render` runs its scenes: opened once, for the first scene that loads.
+pub(crate) enum RenderBackend {
+    Cpu(CpuRenderer),
+    Gpu(GpuRenderer),
+}
+
+/// `--backend cpu` with options only a Vulkan device uses (`--device`,
+/// `--scene-buffers`, `--validate`, `--timeout`; `--shaders` with its own
+/// message): a usage error, as the CPU build would silently ignore them.
+pub(crate) fn cpu_takes_no_device_options(cpu_only: bool, k: &KernelOptions) -> Result<(), Error> {
+    cpu_takes_no_shaders(cpu_only, &k.shaders)?;
+    let given = k.device_only_given();
+    if !cpu_only || given.is_empty() {
+        return Ok(());
+    }
+    Err(Error::Usage(format!(
+        "{} {} for a Vulkan device, and --backend cpu runs the CPU build without one: drop {}, or \
+             the --backend cpu",
+        crate::units::listed(&given, "and"),
+        if given.len() == 1 { "is" } else { "are" },
+        if given.len() == 1 { "it" } else { "them" }
+    )))
+}
+
+/// `--shaders DIR` with `--backend cpu`: a usage error, since the CPU build
+/// is the code raycast was built with and would silently ignore DIR.
+pub(crate) fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) -> Result<(), Error> {
+    match (cpu_only, shaders) {
+        (true, Some(dir)) => Err(Error::Usage(format!(
+            "--shaders {} compiles the device's kernel, but --backend cpu runs the CPU build raycast was \
+                 built with: drop one (rebuild raycast to put a shader change into the CPU build)",
+            dir.display()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// Where `render` and `conformance` run. `--backend auto` takes the device
+/// unless it runs on the CPU (a Vulkan device of type CPU, as lavapipe: the
+/// CPU build of the same code is about twice as fast there, without
+/// Vulkan's start-up or a pipeline to build, and on lavapipe gives the same
+/// bits) or, without `--device`, none opens (no driver, no device): then
+/// the CPU build, and a line says why. With `--shaders` it is the device
+/// (the folder's kernel runs only there), as with any option only a device
+/// uses (`KernelOptions::device_only_given`). The second value says why the
+/// CPU build was chosen (`; --backend auto: …`, or empty), to follow its
+/// thread count on the command's first line.
+pub(crate) fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, String), Error> {
+    let cpu = |why: Option<String>| {
+        Ok((RenderBackend::Cpu(CpuRenderer::new()?), why.map_or(String::new(), |w| format!("; {w}"))))
+    };
+    match backend {
+        Backend::Cpu => cpu(None),
+        Backend::Gpu => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
+        // Options only a device uses (a shader folder, a device named,
+        // validation, a buffer kind, a timeout) ask for the device.
+        Backend::Auto if !k.device_only_given().is_empty() => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
+        Backend::Auto => match k.renderer() {
+            Ok(renderer) if renderer.context().info().runs_on_cpu() => {
+                let why = format!("--backend auto: {} runs on the CPU", renderer.context().info().name);
+                check_validation(renderer.context().take_validation_messages())?;
+                drop(renderer);
+                cpu(Some(why))
+            }
+            Ok(renderer) => Ok((RenderBackend::Gpu(renderer), String::new())),
+            Err(e) if k.device.is_none() => {
+                let message = e.to_string();
+                errln!("raycast: note: {message}; --backend auto renders with the CPU build instead");
+                cpu(Some("--backend auto: no Vulkan device opened".to_string()))
+            }
+            Err(e) => Err(e),
+        },
+    }
+}
+
+/// The backend `render` runs on, announced.
+pub(crate) fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBackend, Error> {
+    let (opened, why) = open_backend(backend, &o.kernel)?;
+    match &opened {
+        RenderBackend::Cpu(cpu) => outln!("device: {}", cpu.summary(&why)),
+        RenderBackend::Gpu(renderer) => outln!("device: {}", renderer.context().info().summary()),
+    }
+    Ok(opened)
+}

@@ -1,0 +1,89 @@
+//! `raycast pov`: a scene written in POV-Ray 3.7's language.
+
+use crate::error::Error;
+use crate::frame::RenderSettings;
+use crate::output::*;
+use crate::scene::{FlattenLimits, ParseOptions};
+use crate::source::*;
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+#[derive(Args, Debug)]
+pub struct PovArgs {
+    /// A scene file (XML) or a generated scene (gen:FAMILY:DEPTH) [default: the embedded default scene].
+    #[arg(value_name = "SCENE")]
+    scene: Option<String>,
+    /// Write the POV-Ray scene to FILE [default: standard output].
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    /// Extra folder to find textures in, after the scene file's folder (repeatable).
+    #[arg(long, value_name = "DIR")]
+    assets: Vec<PathBuf>,
+    /// The picture's width, for the camera's film and the command line in the file's head.
+    #[arg(long, default_value_t = 512, value_name = "W")]
+    width: u32,
+    /// The picture's height.
+    #[arg(long, default_value_t = 384, value_name = "H")]
+    height: u32,
+    /// Lights that cast no shadows (`shadowless`), as `render --no-shadows`.
+    #[arg(long)]
+    no_shadows: bool,
+    /// No mirror reflections, as `render --no-reflections`.
+    #[arg(long)]
+    no_reflections: bool,
+    /// No textures, as `render --no-textures`.
+    #[arg(long)]
+    no_textures: bool,
+    /// Mirror bounces (POV-Ray's max_trace_level is one more: it counts the camera ray).
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    depth: u32,
+}
+
+/// `raycast pov`: the scene, checked as `render` checks it (its warnings on
+/// stderr, its errors located), written in POV-Ray's language (crate::pov);
+/// what POV-Ray draws otherwise said as notes.
+pub fn run(args: &PovArgs) -> Result<(), Error> {
+    let settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        shadows: !args.no_shadows,
+        reflections: !args.no_reflections,
+        textures: !args.no_textures,
+        max_depth: args.depth,
+        ..RenderSettings::default()
+    };
+    settings.validate().map_err(Error::usage)?;
+    let name = args.scene.as_deref();
+    if let Some(out) = &args.output {
+        if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("pov")) {
+            return Err(Error::usage(format!("{}: a POV-Ray scene is written to a .pov file", out.display())));
+        }
+        refuse_overwriting(out, name.map(Path::new))?;
+    }
+    let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
+    let (file, _) = load_scene_file(name.map(Path::new), &parse, &FlattenLimits::default()).map_err(Error::scene)?;
+    let export = crate::pov::export(&file, &settings, &scene_label(name));
+    for note in &export.notes {
+        errln!("raycast: note: POV-Ray draws this otherwise: {note}");
+    }
+    match &args.output {
+        None => {
+            crate::output::emit(&export.sdl).map_err(|e| format!("cannot write the scene to standard output: {e}"))?
+        }
+        Some(path) => {
+            crate::output::write_whole(path, export.sdl.as_bytes())?;
+            errln!(
+                "wrote {} ({} bytes); render it with: {}",
+                path.display(),
+                export.sdl.len(),
+                crate::pov::povray_command(
+                    &path.display().to_string(),
+                    &path.with_extension("png").display().to_string(),
+                    &settings,
+                    crate::cpu::host_threads()
+                )
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,302 @@
+//! `raycast render`: scenes to PNGs, one after the other on one backend.
+
+use crate::args::*;
+use crate::cli::batch::*;
+use crate::cli::options::*;
+use crate::cli::output::*;
+use crate::cli::status::*;
+use crate::cpu::CpuRenderer;
+use crate::error::{check_validation, Error};
+use crate::frame::{self};
+use crate::image_io::{self};
+use crate::output::*;
+use crate::progress;
+use crate::render::GpuRenderer;
+use crate::scene::{self};
+use crate::source::*;
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene files (XML), rendered one after the other on one device (its
+    /// start-up and each kernel paid once), or generated scenes
+    /// (gen:recursive-spheres:6; cones, cubes). Without any, the embedded
+    /// default scene.
+    #[arg(value_name = "SCENE")]
+    scenes: Vec<PathBuf>,
+    #[command(flatten)]
+    render: RenderOptions,
+    /// Output PNG, for one scene [default: <scene name>.png in the current folder]
+    #[arg(short, long, value_name = "OUT.png", conflicts_with = "out_dir")]
+    output: Option<PathBuf>,
+    /// Folder for the pictures, each <scene name>.png (made if missing) [default: the current folder]
+    #[arg(long, value_name = "DIR")]
+    out_dir: Option<PathBuf>,
+    /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
+    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    backend: Backend,
+    /// A turntable: N pictures of each scene, the camera turned 360/N degrees
+    /// further each time about the scene's up through the point it looks at
+    /// (as the preview's orbit), the first the scene's own camera; each
+    /// named as without --orbit with -000, -001, … before `.png`
+    #[arg(long, value_name = "N")]
+    orbit: Option<u32>,
+    /// Keep going: render again whenever a scene file, one of its textures
+    /// or the --shaders folder changes (for a picture viewer that reloads
+    /// the PNG, say over SSH, where no preview window can open); a failure
+    /// is reported and the watch goes on. Ctrl-C stops it.
+    #[arg(long)]
+    watch: bool,
+}
+
+/// Most pictures `render --orbit` takes.
+const MAX_ORBIT: u32 = 10_000;
+
+/// `path` with `-NNN` (`index`, as many digits as `count - 1` needs, at
+/// least 3) before its extension: `spin.png` → `spin-007.png`.
+fn numbered(path: &Path, index: u32, count: u32) -> PathBuf {
+    let digits = (count.saturating_sub(1)).to_string().len().max(3);
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}-{index:0digits$}.{}", ext.to_string_lossy()),
+        None => format!("{stem}-{index:0digits$}"),
+    };
+    path.with_file_name(name)
+}
+
+pub fn run(args: &RenderArgs) -> Result<(), Error> {
+    cpu_takes_no_device_options(args.backend == Backend::Cpu, &args.render.kernel)?;
+    if let Some(n) = args.orbit.filter(|n| !(1..=MAX_ORBIT).contains(n)) {
+        return Err(Error::Usage(format!("--orbit {n} is out of range: 1 to {MAX_ORBIT} pictures")));
+    }
+    let scenes = scene_list(&args.scenes);
+    let outputs = output_paths(&args.output, &args.out_dir, "", &scenes)?;
+    if let (Some(n), Some(device)) = (args.orbit, args.output.as_ref().filter(|o| image_io::not_a_file(o))) {
+        // Numbered names beside a device would be new files in its folder (/dev/stdout-000.png).
+        return Err(Error::Usage(format!(
+            "--orbit {n} writes {n} pictures, each named as -o's file with -000, -001, … before \
+                 .png, and {} is not a file: name a file, or use --out-dir DIR",
+            device.display()
+        )));
+    }
+    status_beside(&args.output);
+    let mut backend: Option<RenderBackend> = None;
+    // The textures the scenes loaded use (what --watch follows beside them).
+    let textures: std::cell::RefCell<Vec<PathBuf>> = Default::default();
+    let round = |backend: &mut Option<RenderBackend>| {
+        textures.borrow_mut().clear();
+        let batch = render_scenes(args, &scenes, &outputs, backend, &textures);
+        batch.and_then(|batch| batch.failure("").map_or(Ok(()), Err))
+    };
+    if !args.watch {
+        let result = round(&mut backend);
+        return finish_render(backend, result);
+    }
+    // Followed: the scene files, their textures, the shader folder's sources.
+    let files: Vec<PathBuf> = scenes.iter().flatten().filter(|p| is_file(p)).map(|p| p.to_path_buf()).collect();
+    if files.is_empty() && args.render.kernel.shaders.is_none() {
+        return Err(Error::Usage(
+            "--watch follows scene files and a --shaders folder, and this render has neither (the \
+             embedded default scene or generated ones only)"
+                .into(),
+        ));
+    }
+    watch_renders(args, &files, &mut backend, &textures, round)
+}
+
+/// `render --watch`: a round of renders (`round`), then, each time one of
+/// the files followed changes (`files`, the textures the last round used,
+/// the --shaders folder's sources), says which and renders again; a
+/// round's failure is reported and the watch goes on. Ends only with the
+/// process (Ctrl-C).
+fn watch_renders(
+    args: &RenderArgs,
+    files: &[PathBuf],
+    backend: &mut Option<RenderBackend>,
+    textures: &std::cell::RefCell<Vec<PathBuf>>,
+    round: impl Fn(&mut Option<RenderBackend>) -> Result<(), Error>,
+) -> Result<(), Error> {
+    let shaders = args.render.kernel.shaders.as_deref();
+    let watched = || {
+        let mut stamps = shaders.map(crate::preview::shader_stamps).unwrap_or_default();
+        stamps.extend(crate::preview::stamps(files));
+        stamps.extend(crate::preview::stamps(textures.borrow().iter()));
+        stamps
+    };
+    let mut before = watched();
+    loop {
+        let result = round(backend);
+        // The files the round used: one newly named (a texture) with its stamp
+        // as it is now, one no longer named dropped; the others as before the round.
+        let after = watched();
+        before.retain(|path, _| after.contains_key(path));
+        for (path, stamp) in after {
+            before.entry(path).or_insert(stamp);
+        }
+        if let Err(e) = result {
+            errln!("{}", e.line());
+        }
+        if let Some(RenderBackend::Gpu(renderer)) = backend.as_ref() {
+            for m in renderer.context().take_validation_messages() {
+                errln!("raycast: validation: {m}");
+            }
+        }
+        let n = before.len();
+        outln!("watching {n} file{} for changes (Ctrl-C stops)", if n == 1 { "" } else { "s" });
+        let changed = next_change(&mut before, watched);
+        let names: Vec<String> = changed.iter().map(|p| p.display().to_string()).collect();
+        outln!("changed: {}", names.join(", "));
+        if shaders.is_some_and(|dir| changed.iter().any(|c| c.starts_with(dir))) {
+            // The kernel from --shaders DIR is compiled as the device opens.
+            *backend = None;
+        }
+    }
+}
+
+/// Polls `watched` until its stamps differ from `before` and hold still for
+/// one more poll (an editor's save can be several writes); returns the paths
+/// whose stamps changed, `before` updated to the new stamps.
+fn next_change<S: PartialEq + Clone>(
+    before: &mut std::collections::BTreeMap<PathBuf, S>,
+    watched: impl Fn() -> std::collections::BTreeMap<PathBuf, S>,
+) -> Vec<PathBuf> {
+    loop {
+        std::thread::sleep(crate::preview::POLL);
+        if watched() == *before {
+            continue;
+        }
+        std::thread::sleep(crate::preview::POLL);
+        let now = watched();
+        let paths: Vec<PathBuf> =
+            now.iter().filter(|(path, stamp)| before.get(*path) != Some(stamp)).map(|(path, _)| path.clone()).collect();
+        *before = now;
+        if !paths.is_empty() {
+            return paths;
+        }
+    }
+}
+
+/// One round of `render`: every scene, on `backend` (opened for the first
+/// that loads), each scene's textures noted in `textures`.
+fn render_scenes(
+    args: &RenderArgs,
+    scenes: &[Option<&Path>],
+    outputs: &[PathBuf],
+    backend: &mut Option<RenderBackend>,
+    textures: &std::cell::RefCell<Vec<PathBuf>>,
+) -> Result<Batch<()>, Error> {
+    let render_one = |backend: &RenderBackend, p: &Prepared, output: &Path| match backend {
+        RenderBackend::Cpu(cpu) => render_on_cpu(cpu, p, output),
+        RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, p, output),
+    };
+    each_scene(
+        scenes,
+        outputs,
+        &args.render,
+        backend,
+        || open_render_backend(args.backend, &args.render),
+        |backend, mut p, output| {
+            textures.borrow_mut().extend(p.scene.texture_files());
+            let Some(n) = args.orbit else { return render_one(backend, &p, output) };
+            // Each picture turned from the scene's camera (not from the one
+            // before, which would drift); the first is that camera itself.
+            let home = scene::CameraControl::new(&p.scene.camera, scene::scene_bounds(&p.scene));
+            for k in 0..n {
+                let degrees = 360.0 * f64::from(k) / f64::from(n);
+                let mut turned = home.clone();
+                if k > 0 {
+                    turned.orbit(degrees, 0.0);
+                }
+                frame::set_camera(&mut p.data.frame, &turned.camera);
+                let c = &turned.camera;
+                outln!(
+                    "orbit: picture {} of {n}, turned {degrees:.1}° about the point looked at: eye ({:.4}, {:.4}, {:.4})",
+                    k + 1,
+                    c.pos.x,
+                    c.pos.y,
+                    c.pos.z
+                );
+                render_one(backend, &p, &numbered(output, k, n))?;
+            }
+            Ok(())
+        },
+    )
+}
+
+fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<(), Error> {
+    print_scene(p);
+    let start = Instant::now();
+    let picture = progress::told(output.display().to_string(), |told| cpu.render_told(&p.data, told))?;
+    let time = start.elapsed();
+    outln!("time: load {}, render {}", ms(p.load), ms(time));
+    print_rates(&p.data, &picture, time);
+    write_picture(output, &picture)
+}
+
+fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output: &Path) -> Result<(), Error> {
+    let info = renderer.context().info();
+    print_scene(p);
+    let compiled_before = renderer.compile_time();
+    let (mut picture, t) = progress::told(output.display().to_string(), |told| {
+        if o.kernel.shaders.is_some() {
+            // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
+            renderer.render_told(&p.data, told)
+        } else {
+            renderer.render_marked_told(&p.data, told)
+        }
+    })?;
+    if picture.pixels.iter().any(crate::layout::PixelOut::is_cut_short) {
+        let cpu = CpuRenderer::new()?;
+        let label = format!("{}, the pixels cut short", output.display());
+        let finished = progress::told(label, |told| crate::render::finish_cut_short(&mut picture, &p.data, &cpu, told));
+        errln!(
+            "raycast: note: {} cut {finished} of {} pixels short (Mesa's lavapipe gives each shader invocation 65535 loop \
+             iterations in all); the CPU build of the same code computed those pixels, which on lavapipe gives the \
+             same bits (`raycast check` compares the two builds)",
+            info.name,
+            picture.pixels.len()
+        );
+    }
+    outln!(
+        "time: load {}, upload {}, compile {}, dispatch {}, readback {}",
+        ms(p.load),
+        ms(t.upload),
+        ms(renderer.compile_time() - compiled_before),
+        ms(t.dispatch),
+        ms(t.readback)
+    );
+    if t.bands > 1 {
+        outln!(
+            "bands: {} dispatches of up to {} rows each: the picture's pixel records ({}) do not fit one storage buffer \
+             of this device ({})",
+            t.bands,
+            t.band_rows,
+            crate::units::fmt_bytes(picture.pixels.len() as u64 * std::mem::size_of::<crate::layout::PixelOut>() as u64),
+            crate::units::fmt_bytes(renderer.context().max_storage_bytes())
+        );
+    }
+    print_rates(&p.data, &picture, t.dispatch);
+    print_kernel(renderer, &p.data)?;
+    write_picture(output, &picture)
+}
+
+/// After `render`'s scenes: the hint for a device that is a CPU, then what
+/// the validation layer said (which fails the command), then `result`.
+fn finish_render(backend: Option<RenderBackend>, result: Result<(), Error>) -> Result<(), Error> {
+    let Some(RenderBackend::Gpu(renderer)) = backend else { return result };
+    let info = renderer.context().info();
+    if info.runs_on_cpu() && result.is_ok() {
+        outln!(
+            "hint: {} runs on the CPU; `--backend cpu` runs the same code natively, without Vulkan's start-up or a \
+             pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md); \
+             `--backend auto` does so wherever the device is a CPU",
+            info.name
+        );
+    }
+    let messages = renderer.context().take_validation_messages();
+    drop(renderer);
+    let validation = check_validation(messages);
+    result.and(validation)
+}

@@ -1,0 +1,76 @@
+//! The status lines of the rendering commands (stderr).
+
+use crate::cli::batch::*;
+use crate::error::Error;
+use crate::frame::FrameData;
+use crate::image_io::{self, Rgb8};
+use crate::layout;
+use crate::render::{GpuRenderer, Picture};
+use std::path::Path;
+use std::time::Duration;
+
+pub(crate) fn ms(d: Duration) -> String {
+    format!("{:.1} ms", d.as_secs_f64() * 1e3)
+}
+
+pub(crate) fn print_scene(p: &Prepared) {
+    outln!(
+        "scene: {} ({} primitives, {} unique in {} groups, {} lights; hierarchy built in {})",
+        p.scene.path.display(),
+        p.data.expanded,
+        p.data.primitives.len(),
+        p.data.groups,
+        p.data.lights.len(),
+        ms(p.data.build_time)
+    );
+}
+
+/// Which kernel drew `data`, and what its specialization kept of the shaders.
+pub(crate) fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Error> {
+    let kernel = renderer.kernel_for(data)?;
+    let spec = crate::render::Specialization::of(data, &data.frame);
+    // The device's division and square root corrected (raycast.glsl div_rn).
+    let corrected = renderer.context().division().describe();
+    // A shader object (compiled, or from the binary a run before kept), or a pipeline specialised ahead.
+    let how = kernel.how_built().map(|h| format!(" ({h})")).unwrap_or_default();
+    outln!("kernel: {}{corrected}{how}, specialised for the scene: {}", kernel.name(), spec.describe());
+    Ok(())
+}
+
+/// The rate line, and with the cost AOV what the walks took.
+pub(crate) fn print_rates(data: &FrameData, picture: &Picture, time: Duration) {
+    outln!("{}", rate_line(data, picture, time));
+    let what = match data.frame.aov {
+        layout::AOV_COST => "a camera ray's walk takes",
+        layout::AOV_COST_ALL => "a pixel's rays walk",
+        _ => return,
+    };
+    outln!("{}", picture.passes_text(what));
+    // A scale far above the picture's passes leaves it all dark blue: say what would spread it.
+    let scale = data.frame.aov_scale[2];
+    let most = picture.most_passes().map_or(0, |(_, n)| n) as f32;
+    if most > 0.0 && most * 2.0 <= scale {
+        outln!("cost: drawn dark red at {scale} passes (--cost-max), twice the most here or more: --cost-max {most} spreads the colours over this picture");
+    }
+}
+
+/// Camera rays (width x height x spp) and every ray the pixels counted, per second of `time`.
+pub(crate) fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> String {
+    let f = &data.frame;
+    let primary = u64::from(f.width) * u64::from(f.height) * u64::from(f.spp.max(1));
+    let all = picture.rays();
+    let per_s = |n: u64| n as f64 / time.as_secs_f64().max(1e-9) / 1e6;
+    format!(
+        "rate: {:.2} M primary rays/s, {:.2} M rays/s in all ({primary} camera rays, {all} in all, in {})",
+        per_s(primary),
+        per_s(all),
+        ms(time)
+    )
+}
+
+pub(crate) fn write_picture(path: &Path, picture: &Picture) -> Result<(), Error> {
+    let image = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
+    image_io::write_png(path, &image)?;
+    outln!("wrote {} ({}x{})", path.display(), picture.width, picture.height);
+    Ok(())
+}

@@ -1,0 +1,119 @@
+//! Writing a command's products: a picture or a scene in a file (whole or
+//! not at all), a report on standard output, and the checks made before
+//! any work (a name of the wrong kind, a file the command reads).
+
+use crate::error::Error;
+use crate::image_io;
+use std::path::{Path, PathBuf};
+
+/// Whether standard output was closed as the process started (`raycast gen
+/// >&-`): Rust's runtime then opens /dev/null in its place before `main`,
+/// and every write would "succeed", so `emit` refuses instead. Noted by a
+/// constructor (`.init_array`), which runs before the runtime's set-up.
+static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+#[cfg(target_os = "linux")]
+#[used]
+#[link_section = ".init_array"]
+static NOTE_CLOSED_STDOUT: extern "C" fn() = {
+    extern "C" fn note() {
+        extern "C" {
+            fn fcntl(fd: i32, cmd: i32, ...) -> i32;
+        }
+        const F_GETFD: i32 = 1;
+        // SAFETY: fcntl(F_GETFD) only asks whether the descriptor is open.
+        if unsafe { fcntl(1, F_GETFD) } == -1 {
+            STDOUT_CLOSED.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+    note
+};
+
+/// A command's product on stdout (`gen`'s scene, a `--json` report):
+/// written and flushed here, its error returned, where `outln!` lets
+/// status lines go (and the flush at exit would lose it): what a program
+/// reads is not lost while the command says it succeeded.
+pub fn emit(text: &str) -> std::io::Result<()> {
+    use std::io::Write as _;
+    if STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err(std::io::Error::other("it was closed when raycast started"));
+    }
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())?;
+    out.flush()
+}
+
+/// [`emit`] of one line (`--json`), its error as `cannot write to standard output: …`.
+pub fn emit_line(text: &str) -> Result<(), Error> {
+    emit(&format!("{text}\n")).map_err(|e| Error::Failed(format!("cannot write to standard output: {e}")))
+}
+
+/// A command's product in a file (a PNG, a generated scene, a table):
+/// whole or not at all. A regular file (or a new one) is written beside
+/// itself under a temporary name, then renamed over the old one, so a
+/// picture viewer watching it never reads half a PNG, and a full disk or an
+/// interrupted command leaves the last one as it was and no partial file; a
+/// device or a pipe (`-o /dev/stdout`, `/dev/full`) is written as it is.
+/// Errors read `cannot write PATH: …`.
+pub fn write_whole(path: &std::path::Path, bytes: &[u8]) -> Result<(), Error> {
+    let cannot = |e: std::io::Error| Error::Failed(format!("cannot write {}: {e}", path.display()));
+    if path == std::path::Path::new("/dev/stdout") && STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err(cannot(std::io::Error::other("standard output was closed when raycast started")));
+    }
+    // A link is written through, as it was: renaming over it would replace the link.
+    let regular = std::fs::symlink_metadata(path).map_or(true, |m| m.is_file());
+    let name = path.file_name().filter(|_| regular);
+    let Some(name) = name else { return std::fs::write(path, bytes).map_err(cannot) };
+    let temporary = path.with_file_name(format!(".{}.{}.part", name.to_string_lossy(), std::process::id()));
+    let written = std::fs::write(&temporary, bytes).and_then(|()| std::fs::rename(&temporary, path));
+    match written {
+        Ok(()) => Ok(()),
+        // A folder that takes no new file, holding a file that may be
+        // written: written in place, as before there was a temporary file.
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied && path.exists() => {
+            let _ = std::fs::remove_file(&temporary);
+            std::fs::write(path, bytes).map_err(cannot)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_file(&temporary);
+            Err(cannot(e))
+        }
+    }
+}
+
+/// A usage error where `output` is one of the files the command reads
+/// (`inputs`: the same file, by device and inode, whatever the names say):
+/// writing it would replace what it was made from (`render -o` a texture
+/// of its scene, `compare -o` one of the pictures compared).
+pub fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Result<(), Error> {
+    use std::os::unix::fs::MetadataExt;
+    let Ok(out) = std::fs::metadata(output) else { return Ok(()) };
+    let same = |input: &Path| std::fs::metadata(input).is_ok_and(|m| (m.dev(), m.ino()) == (out.dev(), out.ino()));
+    if !out.is_file() {
+        return Ok(()); // a device (/dev/stdout) is no file the command reads
+    }
+    match inputs.into_iter().find(|input| same(input)) {
+        Some(input) => Err(Error::Usage(format!(
+            "{} would be written over {}, which this command reads: name another file",
+            output.display(),
+            input.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Whether a picture can be written to `path` (`image_io`'s checks): a
+/// name of another format is a usage error (exit 2), a folder that is not
+/// there or takes no file an error (exit 1).
+pub fn check_output(path: &Path) -> Result<(), Error> {
+    image_io::check_output_name(path).map_err(Error::usage)?;
+    Ok(image_io::check_output_path(path)?)
+}
+
+/// Status lines to stderr where `-o` sends the picture to stdout
+/// (`render`, `check`'s and `compare`'s diff images): they would corrupt it.
+pub fn status_beside(output: &Option<PathBuf>) {
+    if output.as_deref() == Some(Path::new("/dev/stdout")) {
+        crate::status_to_stderr();
+    }
+}
