@@ -9,6 +9,21 @@ for d in "${CARGO_HOME:-$HOME/.cargo}/bin" /usr/local/cargo/bin; do
 done
 export PATH
 
+# RAYCAST_CORPUS made absolute, from the folder the script was started in,
+# before anything changes folder: cargo runs the tests from host/ and ctest
+# from the repository, where a relative path points elsewhere. Unset or
+# empty, it stays so (what needs the corpus skips, and says so); set to
+# something that is not a folder, this fails.
+absolute_corpus() {
+  [ -n "${RAYCAST_CORPUS:-}" ] || return 0
+  if [ ! -d "$RAYCAST_CORPUS" ]; then
+    echo "raycast: RAYCAST_CORPUS=$RAYCAST_CORPUS is not a folder (from $PWD); point it at the cs1230 corpus, e.g. ../shared/corpus/cs1230" >&2
+    exit 1
+  fi
+  RAYCAST_CORPUS="$(cd "$RAYCAST_CORPUS" && pwd)"
+  export RAYCAST_CORPUS
+}
+
 # Installs missing Debian packages, configures and builds build/raycast.
 build_raycast() {
   if ! command -v cargo >/dev/null 2>&1; then

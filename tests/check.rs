@@ -42,6 +42,8 @@ use raycast::scene::{self, FlattenLimits, ParseOptions};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod common;
+
 fn xml_files(dir: &Path) -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
@@ -131,18 +133,15 @@ fn main() -> ExitCode {
     for f in xml_files(&repo.join("tests/scenes/stress")) {
         scenes.push((f, &[(512, 384), (511, 383)]));
     }
-    let corpus = std::env::var_os("RAYCAST_CORPUS").map(PathBuf::from);
+    let corpus = common::corpus("the corpus scenes");
     let mut assets = Vec::new();
-    match &corpus {
-        Some(c) => {
-            assets.push(c.clone());
-            for group in ["test_unit", "test_intersect", "test_light", "test_efficiency", "test_feature"] {
-                for f in xml_files(&c.join(group)) {
-                    scenes.push((f, &[(512, 384)]));
-                }
+    if let Some(c) = &corpus {
+        assets.push(c.clone());
+        for group in ["test_unit", "test_intersect", "test_light", "test_efficiency", "test_feature"] {
+            for f in xml_files(&c.join(group)) {
+                scenes.push((f, &[(512, 384)]));
             }
         }
-        None => println!("SKIPPED: the corpus scenes: RAYCAST_CORPUS is not set"),
     }
 
     let mut gpu = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {

@@ -1433,8 +1433,7 @@ fn conformance_command() {
     assert_fails(&o, 2, "conformance needs the cs1230 corpus");
     let o = raycast(&["conformance", repo().join("scenes").to_str().unwrap()], &[]);
     assert_fails(&o, 1, "has no bench/ folder");
-    let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").filter(|c| !c.is_empty()) else {
-        println!("skipped: conformance against the corpus: RAYCAST_CORPUS is not set");
+    let Some(corpus) = common::corpus("conformance_command against the corpus") else {
         return;
     };
     let corpus = corpus.to_str().unwrap().to_string();

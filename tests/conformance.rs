@@ -3,20 +3,21 @@
 //! conformance` runs too).
 //!
 //! Reads the corpus from RAYCAST_CORPUS (../shared/corpus/cs1230 in CI) and
-//! skips, saying so, without it. Every case renders on the Vulkan device
-//! with the validation layer on (any message fails the case). A failure
-//! writes actual / expected / diff PNGs and prints their paths. Ends with
-//! `N passed, M failed`.
+//! skips, saying so (`common::skip`: ctest counts it as Skipped), without
+//! it. Every case renders on the Vulkan device with the validation layer on
+//! (any message fails the case). A failure writes actual / expected / diff
+//! PNGs and prints their paths. Ends with `N passed, M failed`.
 
 use raycast::conformance;
 use raycast::gpu::GpuOptions;
 use raycast::render::GpuRenderer;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 
+mod common;
+
 fn main() -> ExitCode {
-    let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").map(PathBuf::from) else {
-        println!("SKIPPED: conformance: RAYCAST_CORPUS is not set (point it at the cs1230 corpus, e.g. ../shared/corpus/cs1230)");
+    let Some(corpus) = common::corpus("the conformance cases") else {
         println!("0 passed, 0 failed, 1 skipped");
         return ExitCode::SUCCESS;
     };

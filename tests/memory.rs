@@ -29,6 +29,8 @@ use raycast::scene::{self, FlattenLimits, ParseOptions};
 use std::path::Path;
 use std::time::Instant;
 
+mod common;
+
 const DEPTH: u32 = 10;
 const HOST_PEAK_MAX: u64 = 512 << 20;
 const DEVICE_MAX: u64 = 64 << 20;
@@ -45,11 +47,11 @@ fn main() {
 /// False when skipped.
 fn deep_recursive_spheres_fit_in_bounded_memory() -> bool {
     if !raycast::frame::INSTANCING {
-        println!(
-            "SKIPPED: memory: raycast::frame::INSTANCING is false; flattening gen recursive-spheres --depth {DEPTH} \
+        common::skip(&format!(
+            "raycast::frame::INSTANCING is false; flattening gen recursive-spheres --depth {DEPTH} \
              ({} spheres) would exhaust memory. This test runs once instances land.",
             Family::RecursiveSpheres.expanded_count(DEPTH)
-        );
+        ));
         return false;
     }
     let start = Instant::now();

@@ -201,8 +201,7 @@ fn first_frame_at_an_odd_size_is_the_render() {
 
 #[test]
 fn first_frame_of_corpus_scenes_is_the_render() {
-    let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").map(PathBuf::from) else {
-        println!("SKIPPED: preview corpus scenes: RAYCAST_CORPUS is not set (e.g. ../shared/corpus/cs1230)");
+    let Some(corpus) = common::corpus("first_frame_of_corpus_scenes_is_the_render") else {
         return;
     };
     for rel in ["test_unit/unit_cone.xml", "test_unit/unit_cylinder.xml"] {
