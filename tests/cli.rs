@@ -1595,7 +1595,7 @@ fn textures_beyond_one_storage_buffer_are_told_by_name() {
 #[test]
 fn render_settings_out_of_range() {
     assert_fails(&raycast(&["render", "--spp", "0"], &[]), 2, "--spp 0 is out of range");
-    assert_fails(&raycast(&["render", "--depth", "17"], &[]), 2, "--depth 17 is out of range");
+    assert_fails(&raycast(&["render", "--depth", "17"], &[]), 2, "--bounces 17 is out of range");
     assert_fails(&raycast(&["render", "--texture-filter", "cubic"], &[]), 2, "invalid value 'cubic'");
     // Values beyond f32 are told as written (not "inf"); a negative NEAR reaches raycast's own check.
     for (range, says) in [

@@ -183,7 +183,7 @@ impl RenderSettings {
         }
         if self.max_depth > layout::MAX_DEPTH {
             return Err(SettingsError(format!(
-                "--depth {} is out of range: at most {} mirror bounces",
+                "--bounces {} is out of range: at most {} mirror bounces",
                 self.max_depth,
                 layout::MAX_DEPTH
             )));

@@ -48,6 +48,47 @@ pub(crate) fn status_on_stderr() -> bool {
     STATUS_ON_STDERR.load(std::sync::atomic::Ordering::Relaxed)
 }
 
+/// How much a command says on stderr about its work: nothing (`-q`), one
+/// summary line (the default), or the device, times, rates and kernel
+/// (`-v`). Data (a report, a table, `--json`) goes to stdout whatever it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Verbosity {
+    Quiet = 0,
+    Summary = 1,
+    Verbose = 2,
+}
+
+static VERBOSITY: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(Verbosity::Summary as u8);
+
+/// Sets how much the status lines say from now on (`-q`, `-v`).
+pub fn set_verbosity(v: Verbosity) {
+    VERBOSITY.store(v as u8, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether status lines of `level` are printed.
+pub fn says(level: Verbosity) -> bool {
+    VERBOSITY.load(std::sync::atomic::Ordering::Relaxed) >= level as u8
+}
+
+/// A detail of the work on stderr, with `-v` only: the device, the scene,
+/// times, rates, the kernel.
+macro_rules! detail {
+    ($($arg:tt)*) => {{
+        if $crate::says($crate::Verbosity::Verbose) {
+            errln!($($arg)*);
+        }
+    }};
+}
+
+/// A command's summary line on stderr (what it wrote, in how long), unless `-q`.
+macro_rules! summary {
+    ($($arg:tt)*) => {{
+        if $crate::says($crate::Verbosity::Summary) {
+            errln!($($arg)*);
+        }
+    }};
+}
+
 /// `eprintln!`, going on when stderr is closed (`outln!`).
 macro_rules! errln {
     ($($arg:tt)*) => {{

@@ -113,7 +113,29 @@ pub fn check_output(path: &Path) -> Result<(), Error> {
 /// Status lines to stderr where `-o` sends the picture to stdout
 /// (`render`, `check`'s and `compare`'s diff images): they would corrupt it.
 pub fn status_beside(output: &Option<PathBuf>) {
-    if output.as_deref() == Some(Path::new("/dev/stdout")) {
+    if output.as_deref().is_some_and(is_stdout) {
         crate::status_to_stderr();
     }
+}
+
+/// The name `-o` takes for standard output.
+pub const STDOUT: &str = "-";
+
+/// Whether `path` names standard output: `-`, or /dev/stdout.
+pub fn is_stdout(path: &Path) -> bool {
+    path == Path::new(STDOUT) || path == Path::new("/dev/stdout")
+}
+
+/// `-o`'s path as it is written to: `-` is /dev/stdout.
+pub fn output_path(path: &Path) -> PathBuf {
+    if path == Path::new(STDOUT) {
+        PathBuf::from("/dev/stdout")
+    } else {
+        path.to_path_buf()
+    }
+}
+
+/// `-o`'s value as clap takes it: `-` is standard output (/dev/stdout).
+pub fn parse_output(s: &str) -> Result<PathBuf, String> {
+    Ok(output_path(Path::new(s)))
 }

@@ -29,7 +29,7 @@ pub struct CheckArgs {
     /// Where to write the diff image, for one scene [default:
     /// <scene name>-check.png, and only when something differs]: red where
     /// any buffer differs, a dim copy of the device's render elsewhere.
-    #[arg(short, long, value_name = "DIFF.png", conflicts_with = "out_dir")]
+    #[arg(short, long, value_name = "DIFF.png", conflicts_with = "out_dir", value_parser = crate::output::parse_output)]
     output: Option<PathBuf>,
     /// Folder for the diff images, each <scene name>-check.png (made if
     /// missing) [default: the current folder]
@@ -163,11 +163,11 @@ fn check_scene(
     outln!("{report}");
     if args.output.is_some() || !report.identical() {
         image_io::write_png(diff, &report.diff_image)?;
-        outln!("wrote {} (red: pixels that differ)", diff.display());
+        summary!("wrote {} (red: pixels that differ)", diff.display());
     } else {
         // The scene's diff image of an earlier run would say it still differs.
         for stale in image_io::remove_stale(&[diff.to_path_buf()])? {
-            outln!("removed {}, the diff image of an earlier run", stale.display());
+            summary!("removed {}, the diff image of an earlier run", stale.display());
         }
     }
     let checked = match report.differing_pixels {

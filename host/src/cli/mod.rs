@@ -35,10 +35,18 @@ use clap::{Parser, Subcommand};
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Say more on stderr: device, scene, times, rates, kernel.
+    #[arg(short, long, global = true, conflicts_with = "quiet", help_heading = "Diagnostics")]
+    verbose: bool,
+    /// Say nothing on stderr but warnings and errors.
+    #[arg(short, long, global = true, help_heading = "Diagnostics")]
+    quiet: bool,
 }
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Render scenes to PNGs (the embedded default scene when none is given).
+    ///
     /// Render scenes to PNGs, one after the other on one device (the embedded default scene when none is given).
     Render(render::RenderArgs),
     /// Render on the device and on the CPU build and compare every buffer bit for bit.
@@ -80,6 +88,11 @@ pub enum Command {
 
 /// Runs the command `cli` names.
 pub fn run(cli: Cli) -> Result<(), crate::error::Error> {
+    crate::set_verbosity(match (cli.quiet, cli.verbose) {
+        (true, _) => crate::Verbosity::Quiet,
+        (_, true) => crate::Verbosity::Verbose,
+        _ => crate::Verbosity::Summary,
+    });
     match cli.command {
         Command::Render(args) => render::run(&args),
         Command::Check(args) => check::run(&args),

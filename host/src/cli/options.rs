@@ -16,50 +16,67 @@ use std::time::Duration;
 /// `bench`), the scene aside.
 #[derive(Args, Debug)]
 pub struct RenderOptions {
-    #[arg(long, default_value_t = 512, value_name = "W")]
+    /// Picture width in pixels (1 to 16384)
+    #[arg(long, default_value_t = 512, value_name = "W", help_heading = "Picture")]
     pub width: u32,
-    #[arg(long, default_value_t = 384, value_name = "H")]
+    /// Picture height in pixels (1 to 16384)
+    #[arg(long, default_value_t = 384, value_name = "H", help_heading = "Picture")]
     pub height: u32,
-    /// What the picture shows
-    #[arg(long, value_enum, default_value_t = Aov::Color)]
+    /// color, normal, depth, id, cost or cost-all
+    #[arg(long, value_enum, default_value_t = Aov::Color, help_heading = "Picture", hide_possible_values = true)]
     pub aov: Aov,
+    /// With --aov depth: the distances drawn white and black
+    ///
     /// With `--aov depth`: the distances from the eye drawn white and black
     /// [default: the scene's bounding sphere, nearest to farthest]
-    #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range, allow_hyphen_values = true)]
+    #[arg(long, value_name = "NEAR,FAR", value_parser = parse_depth_range, allow_hyphen_values = true,
+          help_heading = "Picture", hide_short_help = true)]
     pub depth_range: Option<[f32; 2]>,
+    /// With --aov cost or cost-all: the passes drawn dark red
+    ///
     /// With `--aov cost` or `cost-all`: the passes drawn dark red (and beyond) [default: 64, cost-all 256]
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", help_heading = "Picture", hide_short_help = true)]
     pub cost_max: Option<u32>,
-    /// Turn shadow rays off.
-    #[arg(long)]
+    /// Turn shadow rays off
+    #[arg(long, help_heading = "Picture")]
     pub no_shadows: bool,
-    /// Turn mirror reflections off.
-    #[arg(long)]
+    /// Turn mirror reflections off
+    #[arg(long, help_heading = "Picture")]
     pub no_reflections: bool,
-    /// Turn texture mapping off.
-    #[arg(long)]
+    /// Turn texture mapping off
+    #[arg(long, help_heading = "Picture")]
     pub no_textures: bool,
-    /// Mirror bounces (at most 16).
-    #[arg(long, default_value_t = 4, value_name = "N")]
-    pub depth: u32,
-    /// Test every primitive for every ray: no bounding volume hierarchy. The
-    /// picture is identical; only slower.
-    #[arg(long)]
-    pub no_bvh: bool,
-    /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    pub spp: u32,
-    /// How textures are sampled
-    #[arg(long, value_enum, default_value_t = TextureFilter::Nearest)]
-    pub texture_filter: TextureFilter,
+    /// Mirror bounces (0 to 16; old spelling --depth)
+    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", help_heading = "Picture")]
+    pub bounces: u32,
+    /// Extra folder to find textures in (repeatable)
+    ///
     /// Extra folder to find textures in, after the scene file's folder
     /// (repeatable). Generated scenes (`raycast gen`) name the corpus's
     /// texture: pass the corpus root.
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", help_heading = "Picture")]
     pub assets: Vec<PathBuf>,
+    /// Samples per pixel, in a fixed pattern
+    ///
+    /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
+    #[arg(long, default_value_t = 1, value_name = "N", help_heading = "Quality")]
+    pub spp: u32,
+    /// How textures are sampled: nearest, bilinear
+    #[arg(long, value_enum, default_value_t = TextureFilter::Nearest, value_name = "FILTER", help_heading = "Quality",
+          hide_possible_values = true)]
+    pub texture_filter: TextureFilter,
+    /// Test every primitive for every ray (no hierarchy; same picture)
+    ///
+    /// Test every primitive for every ray: no bounding volume hierarchy. The
+    /// picture is identical; only slower.
+    #[arg(long, help_heading = "Quality", hide_short_help = true)]
+    pub no_bvh: bool,
+    /// Refuse scenes that expand to more primitives than this
+    ///
     /// Refuse scenes that expand to more primitives than this (`bench` lists
     /// them as skipped and goes on).
-    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
+    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N",
+          help_heading = "Quality", hide_short_help = true)]
     pub max_primitives: usize,
     #[command(flatten)]
     pub kernel: KernelOptions,
@@ -69,24 +86,32 @@ pub struct RenderOptions {
 /// (`render`, `check`, `bench`, `conformance`).
 #[derive(Args, Debug)]
 pub struct KernelOptions {
-    /// Vulkan device: an index from `raycast devices` or part of its name.
-    #[arg(long, value_name = "NAME|INDEX")]
+    /// Vulkan device: an index or part of a name (raycast devices)
+    #[arg(long, value_name = "NAME|INDEX", help_heading = "Device")]
     pub device: Option<DeviceSelector>,
+    /// Compile the device's kernel from DIR/render.comp
+    ///
     /// Compile the device's kernel from DIR/render.comp at start-up instead of
     /// the one built in (the CPU build is always the built-in code).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", help_heading = "Device")]
     pub shaders: Option<PathBuf>,
+    /// Scene arrays in storage buffers or uniform blocks
+    ///
     /// Where the device kernel keeps the scene's arrays: storage images and
     /// uniform blocks (render_uniform.comp, several times faster on
     /// lavapipe) when the scene fits them, storage buffers (render.comp, any
     /// size) otherwise; or either one.
-    #[arg(long, value_enum, default_value_t = SceneBuffers::Auto)]
+    #[arg(long, value_enum, default_value_t = SceneBuffers::Auto, help_heading = "Device", hide_short_help = true)]
     pub scene_buffers: SceneBuffers,
+    /// Enable the Khronos validation layer (exit 3 on any message)
+    ///
     /// Enable the Khronos validation layer (slow: not for timing); any
     /// message fails the command (exit 3; `conformance`: its case).
     /// Also on when RAYCAST_VALIDATION=1.
-    #[arg(long)]
+    #[arg(long, help_heading = "Diagnostics")]
     pub validate: bool,
+    /// Longest one submission may take on the device [default: 600]
+    ///
     /// The longest the device may take over one submission of its work
     /// before the command gives up with an error (a kernel that never ends,
     /// say a shader edit's endless loop). The samples go in submissions of
@@ -94,7 +119,7 @@ pub struct KernelOptions {
     /// picture, or of a band of its rows: raise it for a huge or very slow
     /// picture (`--no-bvh` on millions of primitives).
     /// [default: 600]
-    #[arg(long, value_name = "SECONDS", value_parser = parse_timeout)]
+    #[arg(long, value_name = "SECONDS", value_parser = parse_timeout, help_heading = "Device", hide_short_help = true)]
     pub timeout: Option<Duration>,
 }
 
@@ -144,7 +169,7 @@ impl RenderOptions {
             shadows: !self.no_shadows,
             reflections: !self.no_reflections,
             textures: !self.no_textures,
-            max_depth: self.depth,
+            max_depth: self.bounces,
             bvh: !self.no_bvh,
             spp: self.spp,
             texture_filter: self.texture_filter,
@@ -276,8 +301,8 @@ pub(crate) fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(Rende
 pub(crate) fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBackend, Error> {
     let (opened, why) = open_backend(backend, &o.kernel)?;
     match &opened {
-        RenderBackend::Cpu(cpu) => outln!("device: {}", cpu.summary(&why)),
-        RenderBackend::Gpu(renderer) => outln!("device: {}", renderer.context().info().summary()),
+        RenderBackend::Cpu(cpu) => detail!("device: {}", cpu.summary(&why)),
+        RenderBackend::Gpu(renderer) => detail!("device: {}", renderer.context().info().summary()),
     }
     Ok(opened)
 }

@@ -35,8 +35,8 @@ pub struct PovArgs {
     #[arg(long)]
     no_textures: bool,
     /// Mirror bounces (POV-Ray's max_trace_level is one more: it counts the camera ray).
-    #[arg(long, default_value_t = 4, value_name = "N")]
-    depth: u32,
+    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N")]
+    bounces: u32,
 }
 
 /// `raycast pov`: the scene, checked as `render` checks it (its warnings on
@@ -49,7 +49,7 @@ pub fn run(args: &PovArgs) -> Result<(), Error> {
         shadows: !args.no_shadows,
         reflections: !args.no_reflections,
         textures: !args.no_textures,
-        max_depth: args.depth,
+        max_depth: args.bounces,
         ..RenderSettings::default()
     };
     settings.validate().map_err(Error::usage)?;

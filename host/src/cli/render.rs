@@ -11,44 +11,56 @@ use crate::frame::{self};
 use crate::image_io::{self};
 use crate::output::*;
 use crate::progress;
-use crate::render::GpuRenderer;
+use crate::render::{GpuRenderer, Picture};
 use crate::scene::{self};
 use crate::source::*;
 use clap::Args;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
+    /// Scene files (XML), `-` for stdin, or gen:FAMILY:LEVELS [default: the default scene]
+    ///
     /// Scene files (XML), rendered one after the other on one device (its
-    /// start-up and each kernel paid once), or generated scenes
-    /// (gen:recursive-spheres:6; cones, cubes). Without any, the embedded
-    /// default scene.
+    /// start-up and each kernel paid once), `-` for XML on standard input,
+    /// or generated scenes (gen:recursive-spheres:6; cones, cubes). Without
+    /// any, the embedded default scene.
     #[arg(value_name = "SCENE")]
     scenes: Vec<PathBuf>,
     #[command(flatten)]
     render: RenderOptions,
-    /// Output PNG, for one scene [default: <scene name>.png in the current folder]
-    #[arg(short, long, value_name = "OUT.png", conflicts_with = "out_dir")]
+    /// Output PNG for one scene, `-` for stdout [default: SCENE.png]
+    #[arg(short, long, value_name = "OUT.png", conflicts_with = "out_dir", value_parser = crate::output::parse_output,
+          help_heading = "Output")]
     output: Option<PathBuf>,
-    /// Folder for the pictures, each <scene name>.png (made if missing) [default: the current folder]
-    #[arg(long, value_name = "DIR")]
+    /// Folder for the pictures, each SCENE.png [default: .]
+    #[arg(long, value_name = "DIR", help_heading = "Output")]
     out_dir: Option<PathBuf>,
+    /// gpu (Vulkan), cpu (the C++ build) or auto
+    ///
     /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
-    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    #[arg(long, value_enum, default_value_t = Backend::Gpu, help_heading = "Device", hide_possible_values = true)]
     backend: Backend,
+    /// A turntable of N pictures, turned 360/N degrees each
+    ///
     /// A turntable: N pictures of each scene, the camera turned 360/N degrees
     /// further each time about the scene's up through the point it looks at
     /// (as the preview's orbit), the first the scene's own camera; each
     /// named as without --orbit with -000, -001, … before `.png`
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", help_heading = "Output")]
     orbit: Option<u32>,
+    /// Render again when the scene, a texture or a shader changes
+    ///
     /// Keep going: render again whenever a scene file, one of its textures
     /// or the --shaders folder changes (for a picture viewer that reloads
     /// the PNG, say over SSH, where no preview window can open); a failure
     /// is reported and the watch goes on. Ctrl-C stops it.
-    #[arg(long)]
+    #[arg(long, help_heading = "Output")]
     watch: bool,
+    /// One JSON object per picture on stdout
+    #[arg(long, help_heading = "Output")]
+    json: bool,
 }
 
 /// Most pictures `render --orbit` takes.
@@ -80,6 +92,11 @@ pub fn run(args: &RenderArgs) -> Result<(), Error> {
                  .png, and {} is not a file: name a file, or use --out-dir DIR",
             device.display()
         )));
+    }
+    if args.json && args.output.as_deref().is_some_and(crate::output::is_stdout) {
+        return Err(Error::Usage(
+            "--json writes to standard output, and so does -o -: write the picture to a file".into(),
+        ));
     }
     status_beside(&args.output);
     let mut backend: Option<RenderBackend> = None;
@@ -144,10 +161,10 @@ fn watch_renders(
             }
         }
         let n = before.len();
-        outln!("watching {n} file{} for changes (Ctrl-C stops)", if n == 1 { "" } else { "s" });
+        summary!("watching {n} file{} for changes (Ctrl-C stops)", if n == 1 { "" } else { "s" });
         let changed = next_change(&mut before, watched);
         let names: Vec<String> = changed.iter().map(|p| p.display().to_string()).collect();
-        outln!("changed: {}", names.join(", "));
+        summary!("changed: {}", names.join(", "));
         if shaders.is_some_and(|dir| changed.iter().any(|c| c.starts_with(dir))) {
             // The kernel from --shaders DIR is compiled as the device opens.
             *backend = None;
@@ -187,9 +204,15 @@ fn render_scenes(
     backend: &mut Option<RenderBackend>,
     textures: &std::cell::RefCell<Vec<PathBuf>>,
 ) -> Result<Batch<()>, Error> {
-    let render_one = |backend: &RenderBackend, p: &Prepared, output: &Path| match backend {
-        RenderBackend::Cpu(cpu) => render_on_cpu(cpu, p, output),
-        RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, p, output),
+    let render_one = |backend: &RenderBackend, p: &Prepared, output: &Path| {
+        let rendered = match backend {
+            RenderBackend::Cpu(cpu) => render_on_cpu(cpu, p, output)?,
+            RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, p, output)?,
+        };
+        if args.json {
+            crate::output::emit_line(&serde_json::to_string(&rendered).map_err(|e| Error::Failed(e.to_string()))?)?;
+        }
+        Ok(())
     };
     each_scene(
         scenes,
@@ -211,7 +234,7 @@ fn render_scenes(
                 }
                 frame::set_camera(&mut p.data.frame, &turned.camera);
                 let c = &turned.camera;
-                outln!(
+                detail!(
                     "orbit: picture {} of {n}, turned {degrees:.1}° about the point looked at: eye ({:.4}, {:.4}, {:.4})",
                     k + 1,
                     c.pos.x,
@@ -225,17 +248,46 @@ fn render_scenes(
     )
 }
 
-fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<(), Error> {
+/// What `render --json` says of one picture.
+#[derive(serde::Serialize)]
+struct Rendered {
+    scene: String,
+    output: String,
+    width: u32,
+    height: u32,
+    /// Load, upload, dispatch and readback (or the CPU build's render), in seconds.
+    seconds: f64,
+    camera_rays: u64,
+    rays: u64,
+}
+
+impl Rendered {
+    fn of(p: &Prepared, output: &Path, picture: &Picture, time: Duration) -> Rendered {
+        let f = &p.data.frame;
+        Rendered {
+            scene: p.scene.path.display().to_string(),
+            output: output.display().to_string(),
+            width: picture.width,
+            height: picture.height,
+            seconds: time.as_secs_f64(),
+            camera_rays: u64::from(f.width) * u64::from(f.height) * u64::from(f.spp.max(1)),
+            rays: picture.rays(),
+        }
+    }
+}
+
+fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<Rendered, Error> {
     print_scene(p);
     let start = Instant::now();
     let picture = progress::told(output.display().to_string(), |told| cpu.render_told(&p.data, told))?;
     let time = start.elapsed();
-    outln!("time: load {}, render {}", ms(p.load), ms(time));
+    detail!("time: load {}, render {}", ms(p.load), ms(time));
     print_rates(&p.data, &picture, time);
-    write_picture(output, &picture)
+    write_picture(output, &picture, p.load + time)?;
+    Ok(Rendered::of(p, output, &picture, p.load + time))
 }
 
-fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output: &Path) -> Result<(), Error> {
+fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output: &Path) -> Result<Rendered, Error> {
     let info = renderer.context().info();
     print_scene(p);
     let compiled_before = renderer.compile_time();
@@ -259,7 +311,7 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
             picture.pixels.len()
         );
     }
-    outln!(
+    detail!(
         "time: load {}, upload {}, compile {}, dispatch {}, readback {}",
         ms(p.load),
         ms(t.upload),
@@ -268,7 +320,7 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
         ms(t.readback)
     );
     if t.bands > 1 {
-        outln!(
+        detail!(
             "bands: {} dispatches of up to {} rows each: the picture's pixel records ({}) do not fit one storage buffer \
              of this device ({})",
             t.bands,
@@ -279,7 +331,9 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
     }
     print_rates(&p.data, &picture, t.dispatch);
     print_kernel(renderer, &p.data)?;
-    write_picture(output, &picture)
+    let time = p.load + t.upload + t.dispatch + t.readback;
+    write_picture(output, &picture, time)?;
+    Ok(Rendered::of(p, output, &picture, time))
 }
 
 /// After `render`'s scenes: the hint for a device that is a CPU, then what
@@ -288,7 +342,7 @@ fn finish_render(backend: Option<RenderBackend>, result: Result<(), Error>) -> R
     let Some(RenderBackend::Gpu(renderer)) = backend else { return result };
     let info = renderer.context().info();
     if info.runs_on_cpu() && result.is_ok() {
-        outln!(
+        detail!(
             "hint: {} runs on the CPU; `--backend cpu` runs the same code natively, without Vulkan's start-up or a \
              pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md); \
              `--backend auto` does so wherever the device is a CPU",

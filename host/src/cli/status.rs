@@ -13,8 +13,9 @@ pub(crate) fn ms(d: Duration) -> String {
     format!("{:.1} ms", d.as_secs_f64() * 1e3)
 }
 
-pub(crate) fn print_scene(p: &Prepared) {
-    outln!(
+/// The scene line: what was loaded and what it expanded to.
+pub(crate) fn scene_line(p: &Prepared) -> String {
+    format!(
         "scene: {} ({} primitives, {} unique in {} groups, {} lights; hierarchy built in {})",
         p.scene.path.display(),
         p.data.expanded,
@@ -22,7 +23,12 @@ pub(crate) fn print_scene(p: &Prepared) {
         p.data.groups,
         p.data.lights.len(),
         ms(p.data.build_time)
-    );
+    )
+}
+
+/// [`scene_line`] with `-v`.
+pub(crate) fn print_scene(p: &Prepared) {
+    detail!("{}", scene_line(p));
 }
 
 /// Which kernel drew `data`, and what its specialization kept of the shaders.
@@ -33,24 +39,24 @@ pub(crate) fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(
     let corrected = renderer.context().division().describe();
     // A shader object (compiled, or from the binary a run before kept), or a pipeline specialised ahead.
     let how = kernel.how_built().map(|h| format!(" ({h})")).unwrap_or_default();
-    outln!("kernel: {}{corrected}{how}, specialised for the scene: {}", kernel.name(), spec.describe());
+    detail!("kernel: {}{corrected}{how}, specialised for the scene: {}", kernel.name(), spec.describe());
     Ok(())
 }
 
 /// The rate line, and with the cost AOV what the walks took.
 pub(crate) fn print_rates(data: &FrameData, picture: &Picture, time: Duration) {
-    outln!("{}", rate_line(data, picture, time));
+    detail!("{}", rate_line(data, picture, time));
     let what = match data.frame.aov {
         layout::AOV_COST => "a camera ray's walk takes",
         layout::AOV_COST_ALL => "a pixel's rays walk",
         _ => return,
     };
-    outln!("{}", picture.passes_text(what));
+    detail!("{}", picture.passes_text(what));
     // A scale far above the picture's passes leaves it all dark blue: say what would spread it.
     let scale = data.frame.aov_scale[2];
     let most = picture.most_passes().map_or(0, |(_, n)| n) as f32;
     if most > 0.0 && most * 2.0 <= scale {
-        outln!("cost: drawn dark red at {scale} passes (--cost-max), twice the most here or more: --cost-max {most} spreads the colours over this picture");
+        detail!("cost: drawn dark red at {scale} passes (--cost-max), twice the most here or more: --cost-max {most} spreads the colours over this picture");
     }
 }
 
@@ -68,9 +74,11 @@ pub(crate) fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> 
     )
 }
 
-pub(crate) fn write_picture(path: &Path, picture: &Picture) -> Result<(), Error> {
+/// Writes `picture` as a PNG to `path`, and says so with the time it took
+/// to render (the one summary line).
+pub(crate) fn write_picture(path: &Path, picture: &Picture, time: Duration) -> Result<(), Error> {
     let image = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
     image_io::write_png(path, &image)?;
-    outln!("wrote {} ({}x{})", path.display(), picture.width, picture.height);
+    summary!("wrote {} ({}x{}) in {:.2} s", path.display(), picture.width, picture.height, time.as_secs_f64());
     Ok(())
 }

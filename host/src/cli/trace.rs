@@ -66,7 +66,7 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
     }
     let p = prepare(args.scene.as_deref(), o)?;
     if !args.json {
-        print_scene(&p);
+        outln!("{}", scene_line(&p));
     }
     let cpu = CpuRenderer::new()?;
     let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Error::Failed(format!("{e}")))?;
