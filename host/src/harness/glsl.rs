@@ -196,7 +196,9 @@ impl ShaderInfo {
                     .join("; ");
                 match fitting[..] {
                     [one] => Ok(one),
-                    [] => Err(format!("{name} is overloaded and no overload takes these inputs (by name and type): {list}")),
+                    [] => Err(format!(
+                        "{name} is overloaded and no overload takes these inputs (by name and type): {list}"
+                    )),
                     _ => Err(format!("{name} is overloaded and the inputs fit more than one: {list}")),
                 }
             }
@@ -626,9 +628,16 @@ mod tests {
              Pair last(float x) { Pair p; p.a = x; p.b = x; return p; }\n  #  include \"a.glsl\"\n#endif\n",
         )
         .unwrap();
-        std::fs::write(dir.join("a.glsl"), "// a\nconst float A = 2.0f;\n#include \"b.glsl\"\nfloat in_a(Pair p) { return p.a; }\n")
-            .unwrap();
-        std::fs::write(dir.join("b.glsl"), "struct Pair {\n  float a;\n  float b;\n};\n\nfloat in_b(float x) { return x; }\n").unwrap();
+        std::fs::write(
+            dir.join("a.glsl"),
+            "// a\nconst float A = 2.0f;\n#include \"b.glsl\"\nfloat in_a(Pair p) { return p.a; }\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("b.glsl"),
+            "struct Pair {\n  float a;\n  float b;\n};\n\nfloat in_b(float x) { return x; }\n",
+        )
+        .unwrap();
         let info = ShaderInfo::load(&dir).unwrap();
         let at: Vec<(&str, String, usize)> = info
             .functions
