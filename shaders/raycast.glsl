@@ -24,7 +24,7 @@
 #include "exact.glsl"
 #include "rays.glsl"
 #include "camera.glsl"
-#include "shapes.glsl"
+#include "shapes.glsl" // and shape_cube, shape_sphere, shape_cylinder, shape_cone
 #include "traversal.glsl"
 #include "textures.glsl"
 #include "lighting.glsl"
