@@ -1,7 +1,7 @@
 // fma_probe.comp: fma(a, b, c) for each case, as this device computes it.
 // The host compares the results with a once-rounded fma (f32::mul_add) and
 // where every one agrees runs kernels whose division correction takes its
-// residuals from fma() (raycast.glsl FUSED_FMA; host/src/gpu/fma_probe.rs).
+// residuals from fma() (exact.glsl FUSED_FMA; host/src/gpu/fma_probe.rs).
 // The cases come from a buffer, so no compiler can fold them.
 #version 460
 #extension GL_GOOGLE_include_directive : require

@@ -94,7 +94,7 @@
 // which lavapipe reads and writes lane by lane (a scalar loop over the 8
 // lanes for every word), or in registers: each access a select over the
 // scene's REGISTER_LEVELS levels, constant indices once the loops over them
-// unroll (raycast.glsl, walk). A kernel specialised for a scene has them in
+// unroll (traversal.glsl, walk). A kernel specialised for a scene has them in
 // registers, as many as the scene nests (render::Specialization; 0.78 to
 // 0.90 of the dispatch at every depth of the recursive spheres, BENCHMARKS.md
 // "The walk's levels in registers"); the C++ build and a kernel not
@@ -114,7 +114,7 @@
 #define LIGHT_DIRECTIONAL 1u
 #define LIGHT_SPOT 2u
 
-// Frame.aov: what PixelOut.rgba holds (raycast.glsl aov_color). The
+// Frame.aov: what PixelOut.rgba holds (aov.glsl aov_color). The
 // others than colour see the first hit only: no shadow or mirror ray.
 #define AOV_COLOR 0u
 #define AOV_NORMAL 1u // the world normal, (n + 1) / 2; black on a miss
@@ -136,7 +136,7 @@
 // PixelOut.id of a pixel whose ray hit nothing.
 #define NO_HIT 0xffffffffu
 
-// Frame.loop_canary: what the host sets (raycast.glsl loop_budget_ok).
+// Frame.loop_canary: what the host sets (sampling.glsl loop_budget_ok).
 #define LOOP_CANARY 2u
 // PixelOut.rays bit: the device cut this pixel's loops short (Mesa's
 // llvmpipe gives an invocation 65535 loop iterations in all); every value of
@@ -161,11 +161,11 @@ struct Frame {
     uint aov;
     uint flags;
     uint max_depth; // mirror bounces, at most MAX_DEPTH
-    uint spp;       // samples per pixel (fixed pattern: raycast.glsl sample_offset)
+    uint spp;       // samples per pixel (fixed pattern: sampling.glsl sample_offset)
     uint texture_filter;
     uint root_node;  // the root group's hierarchy
     uint node_count; // 0: no hierarchy; primitives are tested in order
-    uint loop_canary; // LOOP_CANARY: the trip count of raycast.glsl's loop_budget_ok
+    uint loop_canary; // LOOP_CANARY: the trip count of sampling.glsl's loop_budget_ok
     // render.comp: the first row of the band this dispatch draws; its
     // buffers hold that band alone (a picture larger than one storage
     // buffer renders in bands). 0 elsewhere.
@@ -275,7 +275,7 @@ struct Light {
 struct PixelOut {
     vec4 normal; // xyz: world-space unit normal, 0 on a miss; w: the camera
                  // ray's walk passes in an AOV other than colour (kernels
-                 // with HAS_AOVS: raycast.glsl SceneHit.passes), 0 in colour
+                 // with HAS_AOVS: rays.glsl SceneHit.passes), 0 in colour
     float t;     // ray parameter of the nearest hit (ray direction not unit); 0 on a miss
     uint id;     // index of the primitive hit, NO_HIT on a miss
     uint rgba;   // 8-bit RGBA, R in the low byte
@@ -284,7 +284,7 @@ struct PixelOut {
 };
 
 // One step of a pixel's sample as the CPU build's trace records it
-// (`raycast trace`; raycast.glsl TRACE, which is nothing in a kernel).
+// (`raycast trace`; trace.glsl TRACE, which is nothing in a kernel).
 #define TRACE_CAMERA 0u  // the camera ray: origin, direction (w: t_max), hit
 #define TRACE_MIRROR 1u  // a mirror ray of bounce `level`: the same
 #define TRACE_SHADOW 2u  // light `light`'s shadow ray: the same (id: what blocks it)
@@ -322,7 +322,7 @@ struct SampleSum {
 
 // shaders/fma_probe.comp: fma(a, b, c) as the device computes it, case by
 // case, so that the host can see whether its fma() rounds once
-// (host/src/gpu/fma_probe.rs; raycast.glsl FUSED_FMA).
+// (host/src/gpu/fma_probe.rs; exact.glsl FUSED_FMA).
 #define BINDING_FMA_CASES 0   // FmaCase[], read
 #define BINDING_FMA_RESULTS 1 // FmaCase[], written: each case with r = fma(a, b, c)
 struct FmaCase {

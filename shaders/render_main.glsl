@@ -14,7 +14,7 @@
 // Computed this way, the pixel is bit for bit render_pixel's (sample 0
 // starts the sum, later samples add to it in order, the sum over spp is
 // stored), and each invocation does one sample's work: Mesa's lavapipe
-// gives an invocation 65535 loop iterations in all (raycast.glsl
+// gives an invocation 65535 loop iterations in all (sampling.glsl
 // loop_budget_ok), which several samples of a deep scene exceed.
 #include "layout.h"
 

@@ -64,7 +64,7 @@ fn short_name(path: &Path, corpus: Option<&Path>, repo: &Path) -> String {
 }
 
 /// Mutated scenes per run (RAYCAST_MUTANTS sets another number), and their
-/// seed. Against the kernel before `first_kept` (raycast.glsl), 1000 found
+/// seed. Against the kernel before `first_kept` (trace.glsl), 1000 found
 /// that bug 7 times, the first at case 313 (600: 5 times; 300: none).
 const MUTANTS: usize = 600;
 const MUTANT_SEED: u64 = 0x2545_f491_4f6c_dd1d;

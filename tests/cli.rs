@@ -1009,20 +1009,41 @@ fn mutate_shader(source: &str, rng: &mut raycast::scene::mutate::Rng) -> (String
 }
 
 /// Shader edits mutated from a fixed seed (RAYCAST_SHADER_MUTANTS=N runs N
-/// instead of 24): a line of layout.h, scene_buffers.glsl, raycast.glsl,
-/// render_main.glsl or a kernel's .comp deleted, duplicated or moved, a
-/// number or a type name swapped. `render --shaders` (the uniform and the
-/// storage kernel, without the validation layer, which can hide a driver's
-/// crash) and `shader-test --shaders` end in a picture, cases passed or
-/// failed, or an error, never on a signal, a panic or a hang: the kept form
-/// of the fuzzing that found a driver crash (a binding moved onto another,
-/// c5ee599) and a harness panic (a struct left without members, ca8111a).
+/// instead of 24): a line of layout.h, scene_buffers.glsl, raycast.glsl or
+/// a file it includes, render_main.glsl or a kernel's .comp deleted,
+/// duplicated or moved, a number or a type name swapped. `render --shaders`
+/// (the uniform and the storage kernel, without the validation layer, which
+/// can hide a driver's crash) and `shader-test --shaders` end in a picture,
+/// cases passed or failed, or an error, never on a signal, a panic or a
+/// hang: the kept form of the fuzzing that found a driver crash (a binding
+/// moved onto another, c5ee599) and a harness panic (a struct left without
+/// members, ca8111a).
 #[test]
 fn mutated_shader_edits_end_in_a_result_or_an_error_never_a_crash() {
     let mutants: usize = std::env::var("RAYCAST_SHADER_MUTANTS")
         .map_or(24, |n| n.parse().unwrap_or_else(|_| panic!("RAYCAST_SHADER_MUTANTS={n:?} is not a number")));
     let mut rng = raycast::scene::mutate::Rng(0x2545_f491_4f6c_dd1d);
-    let files = ["layout.h", "scene_buffers.glsl", "raycast.glsl", "raycast.glsl", "render_main.glsl", "render.comp"];
+    let files = [
+        "layout.h",
+        "scene_buffers.glsl",
+        "raycast.glsl",
+        "exact.glsl",
+        "rays.glsl",
+        "camera.glsl",
+        "shapes.glsl",
+        "shape_cube.glsl",
+        "shape_sphere.glsl",
+        "shape_cylinder.glsl",
+        "shape_cone.glsl",
+        "traversal.glsl",
+        "textures.glsl",
+        "lighting.glsl",
+        "aov.glsl",
+        "trace.glsl",
+        "sampling.glsl",
+        "render_main.glsl",
+        "render.comp",
+    ];
     let functions = ["trace", "camera_ray", "intersect_cube", "intersect_cone", "div_rn", "wrap"];
     let png = out_dir().join("mutated-shaders.png");
     let mut failures = Vec::new();
@@ -1456,7 +1477,7 @@ fn conformance_command() {
 
     let planted = copy_of_shaders("conformance-planted-shaders");
     let diffuse = "frame.k.y * xyz(m.diffuse)";
-    common::plant(&planted, "raycast.glsl", diffuse, "0.5f * frame.k.y * xyz(m.diffuse)");
+    common::plant(&planted, "lighting.glsl", diffuse, "0.5f * frame.k.y * xyz(m.diffuse)");
     let shaders = ["--shaders", planted.to_str().unwrap()];
     let o = raycast(&[&["conformance", &corpus, "--only", "test_unit/"][..], &dir_arg, &shaders].concat(), &[]);
     assert_fails(&o, 4, "raycast: conformance failed: ");
@@ -1501,7 +1522,7 @@ fn copy_of_shaders(name: &str) -> PathBuf {
 fn planted_shaders(name: &str) -> PathBuf {
     let planted = copy_of_shaders(name);
     let sum = "precise float r = (a.x * b.x + a.y * b.y) + a.z * b.z;";
-    common::plant(&planted, "raycast.glsl", sum, "precise float r = a.x * b.x + (a.y * b.y + a.z * b.z);");
+    common::plant(&planted, "exact.glsl", sum, "precise float r = a.x * b.x + (a.y * b.y + a.z * b.z);");
     planted
 }
 

@@ -41,7 +41,7 @@
 //! LEAVING: from p, offset along a direction d_out leaving the surface (the
 //! mirror direction, or a random one where the mirror is within 6 degrees
 //! of the tangent plane: n . d_out >= 0.1) by the renderer's own rule for
-//! shadow and mirror rays (raycast.glsl ray_offset: 0.001, or 2^-14 of the
+//! shadow and mirror rays (traversal.glsl ray_offset: 0.001, or 2^-14 of the
 //! largest coordinate of the point and the eye when larger), no hit: a hit means a ray the
 //! renderer would cast re-enters the convex primitive it leaves.
 
@@ -58,7 +58,7 @@ const CASES_PER_SHAPE: usize = 128;
 /// The SURFACE bound in ULP(R), every shape (see the top of the file).
 const SURFACE_ULPS: f64 = 16.0;
 const NORMAL_BOUND: f64 = 1.0 / (1u64 << 22) as f64;
-/// raycast.glsl ray_offset: max(0.001, 2^-14 max(|p_i|, |eye_i|)).
+/// traversal.glsl ray_offset: max(0.001, 2^-14 max(|p_i|, |eye_i|)).
 fn leave_offset(p: DVec3, eye: DVec3) -> f64 {
     (p.abs().max_element().max(eye.abs().max_element()) * (1.0 / 16384.0)).max(1e-3)
 }
@@ -607,7 +607,7 @@ fn only_picks_cases_by_function_or_name() {
 #[test]
 fn a_planted_cone_bug_is_caught_readably() {
     let planted = common::copy_of_shaders(&Path::new(env!("CARGO_TARGET_TMPDIR")).join("planted-cone-slope"));
-    let glsl = planted.join("raycast.glsl");
+    let glsl = planted.join("shape_cone.glsl");
     let source = std::fs::read_to_string(&glsl).unwrap();
     let right = "0.25f * (r.direction.y * r.direction.y)";
     assert_eq!(

@@ -163,7 +163,7 @@ TEST(PortableMath, AcosWithin3Ulp) {
     EXPECT_LE(worst, 3.0) << "worst at acos(" << worst_x << ")";
 }
 
-// The corrections that div_rn and sqrt_rn apply on a GPU (raycast.glsl),
+// The corrections that div_rn and sqrt_rn apply on a GPU (exact.glsl),
 // which use no fma: from a start up to 3 ULP off either way
 // correct_quotient and correct_root, and from 1 ULP off nearest_quotient
 // and nearest_root (their last step, which the Newton step before it

@@ -168,7 +168,7 @@ pub fn kernel_name(stdout: &str) -> Option<&str> {
 
 /// How many loop passes a shader invocation on the default device gets in
 /// all, if it has such a budget: Mesa 22's lavapipe ends every loop after
-/// 65535 passes (LP_MAX_TGSI_LOOP_ITERATIONS, raycast.glsl
+/// 65535 passes (LP_MAX_TGSI_LOOP_ITERATIONS, sampling.glsl
 /// loop_budget_ok); later lavapipes (Mesa 25) and GPUs have none. Found by
 /// running it, not by the driver's version: a loop of 70,000 passes,
 /// planted in a copy of the shaders under `dir`, through `raycast

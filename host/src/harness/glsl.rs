@@ -1,8 +1,11 @@
 //! Reading what the harness needs from the shared GLSL, so that adding a
-//! function to `raycast.glsl` needs no registry: the top-level functions
-//! (`[precise] TYPE name(TYPE a, TYPE b) {`), the structs of `layout.h` and
-//! `raycast.glsl`, their constants (`const float T_FAR = …;`, `#define NO_HIT
-//! 0xffffffffu`) and the scene buffers of `scene_buffers.glsl`.
+//! function to `raycast.glsl` or a file it includes needs no registry: the
+//! top-level functions (`[precise] TYPE name(TYPE a, TYPE b) {`), the
+//! structs of `layout.h` and the shared files, their constants (`const float
+//! T_FAR = …;`, `#define NO_HIT 0xffffffffu`) and the scene buffers of
+//! `scene_buffers.glsl`. `raycast.glsl` is read with the files it includes
+//! (`#include "exact.glsl"`, from the same folder), each where its include
+//! stands, so declarations come in the order the compiler sees them.
 //!
 //! This is not a GLSL parser: it reads the shapes the shared code is written
 //! in (top-level declarations, brace-delimited bodies) and says so when it
@@ -14,13 +17,15 @@ use std::sync::Arc;
 
 use super::value::{Scalar, StructDef, Type, Value};
 
-/// A top-level function of `raycast.glsl`.
+/// A top-level function of `raycast.glsl` or a file it includes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Function {
     pub name: String,
     pub ret: Type,
     pub params: Vec<(String, Type)>,
-    /// Line of its header in raycast.glsl.
+    /// The file it is written in (a path, as in messages).
+    pub file: String,
+    /// Line of its header in `file`.
     pub line: usize,
 }
 
@@ -67,27 +72,72 @@ pub struct ShaderInfo {
     pub dir: PathBuf,
     pub functions: Vec<Function>,
     pub structs: BTreeMap<String, Arc<StructDef>>,
-    /// `const` values of raycast.glsl and numeric `#define`s of layout.h, by name.
+    /// `const` values of the shared files and numeric `#define`s of layout.h, by name.
     pub constants: BTreeMap<String, Value>,
     pub scene_buffers: Vec<SceneBuffer>,
-    /// Functions that could not be read (name, why); an error only when
-    /// used and no readable overload of the name fits.
+    /// Functions that could not be read (name, why, with the file and line
+    /// of the function); an error only when used and no readable overload
+    /// of the name fits.
     pub unsupported: BTreeMap<String, String>,
+    /// The shared files read, by name, in include order: raycast.glsl first.
+    pub shared_files: Vec<String>,
 }
 
-/// The files a harness kernel includes, in order.
+/// The files a harness kernel includes, in order (SHARED includes the rest
+/// of the shared GLSL).
 pub const LAYOUT: &str = "layout.h";
 pub const SCENE_BUFFERS: &str = "scene_buffers.glsl";
 pub const SHARED: &str = "raycast.glsl";
 
+/// Reads `name` of `dir`.
+fn read_in(dir: &Path, name: &str) -> Result<String, String> {
+    let path = dir.join(name);
+    crate::bounded::read_text(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+}
+
+/// The file an `#include "FILE"` line names (`<FILE>` is not followed).
+fn included(line: &str) -> Option<&str> {
+    let rest = line.trim_start().strip_prefix('#')?.trim_start().strip_prefix("include")?;
+    let name = rest.trim().strip_prefix('"')?;
+    name.split_once('"').map(|(name, _)| name)
+}
+
+/// A stretch of one shared file between includes: the file's name and its
+/// text with every line outside the stretch blank (so line numbers hold).
+struct Piece {
+    file: String,
+    text: String,
+}
+
+/// `name` of `dir` cut at its `#include "FILE"` lines into pieces, each
+/// included file's pieces in its place (recursively), appended to `out`.
+/// A file already read is not read again (as an include guard would).
+fn pieces(dir: &Path, name: &str, seen: &mut Vec<String>, out: &mut Vec<Piece>) -> Result<(), String> {
+    seen.push(name.to_string());
+    let text = read_in(dir, name)?;
+    let lines: Vec<&str> = text.split('\n').collect();
+    let mut start = 0;
+    for (i, line) in lines.iter().enumerate() {
+        let Some(child) = included(line) else { continue };
+        out.push(Piece { file: name.to_string(), text: "\n".repeat(start) + &lines[start..i].join("\n") });
+        start = i + 1;
+        if !seen.iter().any(|s| s == child) {
+            pieces(dir, child, seen, out)
+                .map_err(|e| format!("{e} (included at {}:{})", dir.join(name).display(), i + 1))?;
+        }
+    }
+    out.push(Piece { file: name.to_string(), text: "\n".repeat(start) + &lines[start..].join("\n") });
+    Ok(())
+}
+
 impl ShaderInfo {
-    /// Reads layout.h, scene_buffers.glsl and raycast.glsl of `dir`.
+    /// Reads layout.h, scene_buffers.glsl and raycast.glsl of `dir`, with
+    /// the files raycast.glsl includes.
     pub fn load(dir: &Path) -> Result<ShaderInfo, String> {
-        let read = |name: &str| {
-            let path = dir.join(name);
-            crate::bounded::read_text(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
-        };
-        let (layout, buffers, shared) = (read(LAYOUT)?, read(SCENE_BUFFERS)?, read(SHARED)?);
+        let (layout, buffers) = (read_in(dir, LAYOUT)?, read_in(dir, SCENE_BUFFERS)?);
+        let mut shared_files = Vec::new();
+        let mut shared = Vec::new();
+        pieces(dir, SHARED, &mut shared_files, &mut shared)?;
         let mut info = ShaderInfo {
             dir: dir.to_path_buf(),
             functions: Vec::new(),
@@ -95,12 +145,15 @@ impl ShaderInfo {
             constants: BTreeMap::new(),
             scene_buffers: Vec::new(),
             unsupported: BTreeMap::new(),
+            shared_files,
         };
         info.read_defines(&layout);
         let at = |file: &str| dir.join(file).display().to_string();
         info.read_file(&layout, &at(LAYOUT))?;
         info.read_file(&buffers, &at(SCENE_BUFFERS))?;
-        info.read_file(&shared, &at(SHARED))?;
+        for piece in &shared {
+            info.read_file(&piece.text, &at(&piece.file))?;
+        }
         if info.scene_buffers.is_empty() {
             return Err(format!("{}: no storage buffers found", at(SCENE_BUFFERS)));
         }
@@ -119,7 +172,7 @@ impl ShaderInfo {
         let overloads: Vec<&Function> = self.functions.iter().filter(|f| f.name == name).collect();
         match overloads[..] {
             [] => Err(match self.unsupported.get(name) {
-                Some(why) => format!("function {name} of {shared} cannot be tested: {why}"),
+                Some(why) => format!("function {name} cannot be tested: {why}"),
                 None => {
                     let mut near: Vec<&str> = self
                         .functions
@@ -130,17 +183,23 @@ impl ShaderInfo {
                     near.dedup();
                     let hint =
                         if near.is_empty() { String::new() } else { format!(" (did you mean {}?)", near.join(", ")) };
-                    format!("{shared} has no top-level function {name:?}{hint}")
+                    format!("{shared} (with the files it includes) has no top-level function {name:?}{hint}")
                 }
             }),
             [only] => Ok(only),
             _ => {
                 let fitting: Vec<&Function> = overloads.iter().copied().filter(|f| fits(f)).collect();
-                let list = overloads.iter().map(|f| f.signature()).collect::<Vec<_>>().join("; ");
+                let list = overloads
+                    .iter()
+                    .map(|f| format!("{} ({}:{})", f.signature(), f.file, f.line))
+                    .collect::<Vec<_>>()
+                    .join("; ");
                 match fitting[..] {
                     [one] => Ok(one),
-                    [] => Err(format!("{name} of {shared} is overloaded and no overload takes these inputs (by name and type): {list}")),
-                    _ => Err(format!("{name} of {shared} is overloaded and the inputs fit more than one: {list}")),
+                    [] => Err(format!(
+                        "{name} is overloaded and no overload takes these inputs (by name and type): {list}"
+                    )),
+                    _ => Err(format!("{name} is overloaded and the inputs fit more than one: {list}")),
                 }
             }
         }
@@ -172,7 +231,7 @@ impl ShaderInfo {
                 Some(body) if header.split(' ').any(|w| w == "buffer") => {
                     self.read_buffer(&header, body).map_err(|e| format!("{at}: {e}"))?;
                 }
-                Some(_) if header.contains('(') => self.read_function(&header, decl.line),
+                Some(_) if header.contains('(') => self.read_function(&header, file, decl.line),
                 Some(_) => {}
                 None => self.read_const(&header),
             }
@@ -233,7 +292,7 @@ impl ShaderInfo {
         Ok(())
     }
 
-    fn read_function(&mut self, header: &str, line: usize) {
+    fn read_function(&mut self, header: &str, file: &str, line: usize) {
         let Some((head, rest)) = header.split_once('(') else { return };
         let Some(params_text) = rest.strip_suffix(')') else { return };
         let words: Vec<&str> = head.split_whitespace().filter(|w| !is_qualifier(w)).collect();
@@ -242,15 +301,17 @@ impl ShaderInfo {
         if name == "main" {
             return;
         }
+        // Why it cannot be tested, and where it is written.
+        let at = |why: String| format!("{why} ({file}:{line})");
         let ret = match ret_name {
             "void" => {
-                self.unsupported.insert(name, "it returns void: the harness tests return values".into());
+                self.unsupported.insert(name, at("it returns void: the harness tests return values".into()));
                 return;
             }
             n => match self.resolve(n) {
                 Some(t) => t,
                 None => {
-                    self.unsupported.insert(name, format!("return type {n} is not supported"));
+                    self.unsupported.insert(name, at(format!("return type {n} is not supported")));
                     return;
                 }
             },
@@ -261,24 +322,24 @@ impl ShaderInfo {
             for p in text.split(',') {
                 let words: Vec<&str> = p.split_whitespace().collect();
                 if words.iter().any(|w| *w == "out" || *w == "inout") {
-                    self.unsupported.insert(name, format!("parameter {:?} is out/inout", p.trim()));
+                    self.unsupported.insert(name, at(format!("parameter {:?} is out/inout", p.trim())));
                     return;
                 }
                 let words: Vec<&str> = words.into_iter().filter(|w| !is_qualifier(w) && *w != "in").collect();
                 let [ty_name, pname] = words[..] else {
-                    self.unsupported.insert(name, format!("cannot read parameter {:?}", p.trim()));
+                    self.unsupported.insert(name, at(format!("cannot read parameter {:?}", p.trim())));
                     return;
                 };
                 match self.resolve(ty_name) {
                     Some(t) if !pname.contains('[') => params.push((pname.to_string(), t)),
                     _ => {
-                        self.unsupported.insert(name, format!("parameter type of {:?} is not supported", p.trim()));
+                        self.unsupported.insert(name, at(format!("parameter type of {:?} is not supported", p.trim())));
                         return;
                     }
                 }
             }
         }
-        self.functions.push(Function { name, ret, params, line });
+        self.functions.push(Function { name, ret, params, file: file.to_string(), line });
     }
 
     /// `const float T_FAR = 3.40282347e38f;`
@@ -512,6 +573,13 @@ mod tests {
         for name in ["dot3", "intersect_cube", "cone_quadratic", "trace", "camera_ray"] {
             info.function(name).unwrap();
         }
+        // Each from the file that holds it, raycast.glsl's includes followed.
+        let file_of = |name: &str| Path::new(&info.function(name).unwrap().file).file_name().unwrap().to_owned();
+        assert_eq!(file_of("dot3"), "exact.glsl");
+        assert_eq!(file_of("intersect_cube"), "shape_cube.glsl");
+        assert_eq!(file_of("walk"), "traversal.glsl");
+        assert_eq!(info.shared_files[0], SHARED);
+        assert!(info.constants.contains_key("T_FAR") && info.structs.contains_key("SceneHit"));
         assert!(info.scene_buffers.iter().any(|b| b.name == "frame" && !b.array));
         assert!(info.scene_buffers.iter().any(|b| b.name == "primitives" && b.array));
     }
@@ -524,8 +592,12 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("raycast-glsl-empty-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
-        for f in [SCENE_BUFFERS, SHARED] {
-            std::fs::copy(real.join(f), dir.join(f)).unwrap();
+        // scene_buffers.glsl, raycast.glsl and the files it includes.
+        for entry in std::fs::read_dir(&real).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "glsl") {
+                std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
+            }
         }
         let layout = std::fs::read_to_string(real.join(LAYOUT)).unwrap();
         let member = "struct LeafItem {\n    uint item;";
@@ -534,5 +606,52 @@ mod tests {
         let e = ShaderInfo::load(&dir).err().unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert!(e.contains("layout.h:") && e.ends_with("struct LeafItem: has no members"), "{e}");
+    }
+
+    /// raycast.glsl's `#include "FILE"`s are read where they stand, nested
+    /// ones too, each function with its own file and line; a file already
+    /// read is not read again; a missing one is an error that says where it
+    /// was included.
+    #[test]
+    fn follows_includes_in_order() {
+        let dir = std::env::temp_dir().join(format!("raycast-glsl-includes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(LAYOUT), "#define BINDING_THING 3\nstruct Thing {\n  uint b;\n};\n").unwrap();
+        std::fs::write(
+            dir.join(SCENE_BUFFERS),
+            "layout(std430, binding = BINDING_THING) readonly buffer ThingBlock { Thing things[]; };\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join(SHARED),
+            "// umbrella\n#ifndef G\n#define G\nfloat first(float x) { return x; }\n#include \"a.glsl\"\n\
+             Pair last(float x) { Pair p; p.a = x; p.b = x; return p; }\n  #  include \"a.glsl\"\n#endif\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("a.glsl"),
+            "// a\nconst float A = 2.0f;\n#include \"b.glsl\"\nfloat in_a(Pair p) { return p.a; }\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("b.glsl"),
+            "struct Pair {\n  float a;\n  float b;\n};\n\nfloat in_b(float x) { return x; }\n",
+        )
+        .unwrap();
+        let info = ShaderInfo::load(&dir).unwrap();
+        let at: Vec<(&str, String, usize)> = info
+            .functions
+            .iter()
+            .map(|f| (f.name.as_str(), Path::new(&f.file).file_name().unwrap().to_string_lossy().into_owned(), f.line))
+            .collect();
+        let want = [("first", SHARED, 4), ("in_b", "b.glsl", 6), ("in_a", "a.glsl", 4), ("last", SHARED, 6)];
+        assert_eq!(at, want.map(|(n, f, l)| (n, f.to_string(), l)));
+        assert_eq!(info.shared_files, [SHARED, "a.glsl", "b.glsl"]);
+        assert_eq!(info.constants.get("A"), Some(&Value::Float(2.0)));
+        assert_eq!(info.function("last").unwrap().ret, Type::Struct(info.structs["Pair"].clone()));
+        std::fs::remove_file(dir.join("b.glsl")).unwrap();
+        let e = ShaderInfo::load(&dir).err().unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(e.contains("b.glsl") && e.contains("included at") && e.contains("a.glsl:3"), "{e}");
     }
 }

@@ -1,18 +1,19 @@
-//! The shader-test harness: runs one function of `shaders/raycast.glsl` on
-//! the Vulkan device over a buffer of inputs, reads the results back, and
-//! checks each case by its rule, by default also against the C++ build of
-//! the same function (`host/cpu`).
+//! The shader-test harness: runs one function of the shared GLSL
+//! (`shaders/raycast.glsl` and the files it includes) on the Vulkan device
+//! over a buffer of inputs, reads the results back, and checks each case by
+//! its rule, by default also against the C++ build of the same function
+//! (`host/cpu`).
 //!
-//! - Any top-level function of raycast.glsl is testable: signatures and
+//! - Any top-level function of those files is testable: signatures and
 //!   structs are read from the source (`glsl`), the kernel and the C++
 //!   wrapper are generated (`codegen`), nothing is registered by hand.
 //! - The device kernel includes layout.h, scene_buffers.glsl and
-//!   raycast.glsl of the folder under test, is compiled with glslang
-//!   (`gpu::compile_kernel`), validated and its layout reflected with naga
-//!   (`gpu::Kernel::new`), and run with `GpuContext::run`. Its output is
-//!   pre-filled with a sentinel and every case has a "written" word, so a
-//!   case the kernel never wrote fails even when its values equal the
-//!   sentinel.
+//!   raycast.glsl (with its includes) of the folder under test, is compiled
+//!   with glslang (`gpu::compile_kernel`), validated and its layout
+//!   reflected with naga (`gpu::Kernel::new`), and run with
+//!   `GpuContext::run`. Its output is pre-filled with a sentinel and every
+//!   case has a "written" word, so a case the kernel never wrote fails even
+//!   when its values equal the sentinel.
 //! - Functions that read the scene buffers (`camera_ray` reads `frame`,
 //!   `trace` reads `primitives`) get them from the case's [`SceneBuffers`].
 //! - Cases come from TOML files (`file`, `raycast shader-test`, see
@@ -634,8 +635,11 @@ fn compile_in(work: &Path, real_dir: &Path, f: &Function, division: gpu::Divisio
     std::fs::write(&src, codegen::kernel_source(f)).map_err(|e| format!("cannot write {}: {e}", src.display()))?;
     gpu::compile_kernel(&src, division).map_err(|e| {
         let mut msg = e;
-        for file in [glsl::LAYOUT, glsl::SCENE_BUFFERS, glsl::SHARED] {
-            msg = msg.replace(&work.join(file).display().to_string(), &real_dir.join(file).display().to_string());
+        // Every file copy_shaders copied: layout.h, scene_buffers.glsl,
+        // raycast.glsl and the files it includes.
+        let copied = std::fs::read_dir(real_dir).into_iter().flatten().filter_map(|e| e.ok().map(|e| e.file_name()));
+        for file in copied.filter(|f| matches!(Path::new(f).extension().and_then(|e| e.to_str()), Some("h" | "glsl"))) {
+            msg = msg.replace(&work.join(&file).display().to_string(), &real_dir.join(&file).display().to_string());
         }
         format!("the kernel for {} did not compile:\n{msg}", f.signature())
     })

@@ -1,0 +1,85 @@
+// shapes.glsl: the canonical shapes, object space (see docs/SCENE_FORMAT.md):
+//   cube [-0.5, 0.5]^3, sphere r 0.5, cylinder r 0.5 with y in [-0.5, 0.5]
+//   and both caps, cone with base r 0.5 at y = -0.5, apex at y = 0.5 and a
+//   base cap.
+// What the shapes share (a plane's t, the nearer of two hits, the roots of
+// a quadratic, a ray's closest approach), one file per shape included where
+// its turn comes, and intersect_shape, the test of any of them.
+
+// The ray parameter where the ray meets the plane {p[axis] = s}. A ray
+// parallel to the plane gives +-inf or NaN, which every caller's `t > 0 &&
+// t < best` rejects.
+precise float plane_t(Ray r, int axis, float s) {
+    precise float t = div_rn(s - r.origin[axis], r.direction[axis]);
+    return t;
+}
+
+// Keeps `best` unless (t, normal) is a nearer hit with t > 0.
+ShapeHit nearer(ShapeHit best, float t, vec3 normal) {
+    if (t > 0.0f && t < best.t) {
+        ShapeHit h;
+        h.t = t;
+        h.normal = normal;
+        return h;
+    }
+    return best;
+}
+
+#include "shape_cube.glsl"
+
+// The smaller and larger roots of a t^2 + b t + c = 0 as (t0, t1), or
+// (T_FAR, T_FAR) when there is none. a == 0 gives the one root of the line.
+precise vec2 quadratic_roots(float a, float b, float c) {
+    if (a == 0.0f) {
+        if (b == 0.0f) {
+            return vec2(T_FAR, T_FAR);
+        }
+        precise float t = div_rn(-c, b);
+        return vec2(t, t);
+    }
+    precise float disc = b * b - 4.0f * a * c;
+    if (disc < 0.0f) {
+        return vec2(T_FAR, T_FAR);
+    }
+    // q = -(b + sign(b) root) / 2 adds like signs, so neither root loses
+    // digits to -b + root when a is small (a cone's a = dx^2 + dz^2 -
+    // dy^2/4 for rays along its side): the roots are q / a and c / q.
+    precise float root = sqrt_rn(disc);
+    precise float q = -0.5f * (b + ((b < 0.0f) ? -root : root));
+    if (q == 0.0f) {
+        return vec2(0.0f, 0.0f); // b = disc = 0, so c = 0: a double root at 0
+    }
+    precise float q0 = div_rn(q, a);
+    precise float q1 = div_rn(c, q);
+    return (q1 < q0) ? vec2(q1, q0) : vec2(q0, q1);
+}
+
+// The t at which ray r passes closest to the point c. The quadrics and
+// the bounding spheres solve from there rather than from the ray's origin,
+// so that a ray from far off keeps their size (intersect_sphere).
+precise float closest_t(Ray r, vec3 c) {
+    precise float t = div_rn(dot3(c - r.origin, r.direction), dot3(r.direction, r.direction));
+    return t;
+}
+
+#include "shape_sphere.glsl"
+#include "shape_cylinder.glsl"
+#include "shape_cone.glsl"
+
+// The test of shape `shape`; the HAS_* constants leave out the shapes a
+// specialised kernel's scene does not have.
+ShapeHit intersect_shape(uint shape, Ray r) {
+    if (HAS_CUBES && shape == SHAPE_CUBE) {
+        return intersect_cube(r);
+    }
+    if (HAS_CONES && shape == SHAPE_CONE) {
+        return intersect_cone(r);
+    }
+    if (HAS_CYLINDERS && shape == SHAPE_CYLINDER) {
+        return intersect_cylinder(r);
+    }
+    if (HAS_SPHERES) {
+        return intersect_sphere(r);
+    }
+    return no_hit();
+}

@@ -1,0 +1,388 @@
+// traversal.glsl: the nearest hit of a ray over the scene: the walk through
+// the hierarchy (BVH nodes, instances of groups, nested), its box and
+// sphere bounds, the primitive test it keeps the nearest of, and how far
+// a shadow or mirror ray starts from the surface it leaves.
+
+precise float max_abs3(vec3 v) {
+    return max_f(max_f(abs(v.x), abs(v.y)), abs(v.z));
+}
+
+// How far a shadow or mirror ray starts from the surface point p, hit by a
+// ray from `origin`: the course's 0.001, or 2^-14 of the largest coordinate
+// of p and origin when that is larger. p = origin + t d is rounded at the
+// scale of both; beyond 16 units a fixed 0.001 is only a few float steps,
+// less than that rounding, and the ray would hit the surface it leaves.
+// Scenes within 16 units of the origin are unaffected.
+precise float ray_offset(vec3 p, vec3 origin) {
+    precise float scaled = max_f(max_abs3(p), max_abs3(origin)) * 6.10351562e-5f;
+    return max_f(0.001f, scaled);
+}
+
+// The ray in the object space of a primitive whose matrix is m.
+Ray ray_through(mat4 m, Ray r) {
+    Ray local;
+    local.origin = transform_point(m, r.origin);
+    local.direction = transform_vector(m, r.direction);
+    return local;
+}
+
+// One axis of box_hit: the t interval `span` narrowed to where the ray is
+// between that axis's planes lo and hi. A ray parallel to them is between
+// them everywhere or nowhere (decided by the origin alone, so no 0/0 or inf
+// arises); nowhere gives the empty (1, -1), which every later axis keeps
+// empty. min/max are the NaN-safe ternaries.
+precise vec2 slab(float o, float d, float lo, float hi, vec2 span) {
+    if (d == 0.0f) {
+        return (o < lo || o > hi) ? vec2(1.0f, -1.0f) : span;
+    }
+    precise float t0 = div_rn(lo - o, d);
+    precise float t1 = div_rn(hi - o, d);
+    return vec2(max_f(span.x, min_f(t0, t1)), min_f(span.y, max_f(t0, t1)));
+}
+
+// Whether ray r meets the box [lo, hi] at some t in [0, t_max]. The three
+// axes one after the other, not a loop: lavapipe runs a loop with early
+// exits pass by pass, and this test runs for every child and instance box
+// (12% off recursiveSpheres4's dispatch). The interval only ever narrows,
+// so testing it once at the end says what a test after each axis would.
+bool box_hit(Ray r, vec4 lo, vec4 hi, float t_max) {
+    precise vec2 span = vec2(0.0f, t_max);
+    span = slab(r.origin.x, r.direction.x, lo.x, hi.x, span);
+    span = slab(r.origin.y, r.direction.y, lo.y, hi.y, span);
+    span = slab(r.origin.z, r.direction.z, lo.z, hi.z, span);
+    return !(span.x > span.y);
+}
+
+// Whether ray r may meet the sphere (c, radius) at some t in [0, t_max]:
+// the line passes within the radius of c, and the sphere reaches past
+// t = 0 and back before t_max. An instance record's bound (layout.h,
+// BvhNode) where frame.rs chose it over a box (its surface under twice the
+// box's): one division where the box test has six, and around a round
+// master it culls what the corners of a box would let through.
+// Conservative: the radius grows by 2^-16 of c's offset from the origin,
+// far more than the rounding of the closest approach here or of any
+// shape's hit (each errs by a few f32 steps of the ray's offset).
+bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
+    precise vec3 oc = c - r.origin;
+    precise float dd = dot3(r.direction, r.direction);
+    precise float tc = closest_t(r, c);
+    precise vec3 perp = oc - tc * r.direction;
+    precise float reach = radius + max_abs3(oc) * 1.52587891e-5f;
+    precise float rr = reach * reach;
+    precise float past = tc - t_max;
+    return dot3(perp, perp) <= rr && (tc >= 0.0f || tc * tc * dd <= rr) && (past <= 0.0f || past * past * dd <= rr);
+}
+
+// best, or the hit of ray lr (in the space of the primitive's group) with
+// primitive `item` when it is nearer (on equal t, when its id, first_id
+// plus its offset, is lower): its t, id, item and object-space point and
+// normal. The walk finishes the hit it keeps after its loop (the world
+// normal, material and shape).
+SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id) {
+    Ray local = ray_through(primitive_at(item).object_from_world, lr);
+    ShapeHit h = intersect_shape(primitive_at(item).shape, local);
+    uint id = first_id + primitive_at(item).id_offset;
+    if (h.t < best.t || (h.t == best.t && best.id != NO_HIT && id < best.id)) {
+        precise vec3 p_object = local.origin + h.t * local.direction;
+        best.t = h.t;
+        best.id = id;
+        best.item = item;
+        best.n_object = h.normal;
+        best.p_object = p_object;
+    }
+    return best;
+}
+
+// A traversal stack entry: the instance flag and index (or a node index) in
+// the low bits, the level whose ray it uses above them.
+uint stack_word(uint entry, uint level) {
+    return entry | (level << STACK_LEVEL_SHIFT);
+}
+
+// The nearest hit of ray r with 0 < t < t_max (or, with any_hit, the first
+// one found, its t and id only): on equal t the lowest primitive id, so the
+// answer does not depend on the order things are tested in.
+//
+// The scene is a two-level (in general, nested) hierarchy: each group (the
+// root tree, each master tree) has a BVH over its primitives and its
+// instances of other groups; entering an instance maps the ray into the
+// placed group's space, one matrix per level. Ids number primitives depth
+// first in file order (as the host flattens them). Stack entries pair a
+// node or an instance with the level whose ray it uses; deeper levels only
+// ever sit above shallower ones, so each level keeps one ray. With
+// FLAG_NO_BVH the boxes are ignored: every primitive is tested, through the
+// same matrices, so the answer is bit for bit the same. frame.node_count 0
+// means no hierarchy: primitives in order, each in world space.
+//
+// Shaped for lavapipe, which runs every branch of the loop body on every
+// pass (masked, not skipped) and only ends the loop when every lane of its
+// 8-wide vector is done: a pass costs the whole body, so each pass does as
+// much as it can. Entering an instance goes straight on to its root node in
+// the same pass; an inner node tests both children's boxes and pushes only
+// those the ray meets, so a missed box costs no pass of its own; when the
+// child left on top is a leaf, its items are tested in the same pass too.
+// A leaf pushes an instance only when the ray meets the instance's box
+// (so roots need no test of their own: the scene's root is entered whole,
+// an instance's root lies inside the instance's box), and holds up to 8
+// items when at most 4 are primitives (host/src/bvh.rs). On recursiveSpheres4 a camera
+// ray takes 3 passes on average where it took 24 (BENCHMARKS.md, "What
+// made lavapipe faster"). A loop inside a pass runs its body at least once
+// even when no lane enters it, so a kernel keeps only the steps its scene
+// has: the inner-node step (HAS_INNER_NODES), the loop over a leaf's
+// primitives or a single test (HAS_SEVERAL_PRIMITIVE_LEAVES), the
+// hierarchy or the flat list (HAS_HIERARCHY, HAS_FLAT_LIST).
+SceneHit walk(Ray r, float t_max, bool any_hit) {
+    SceneHit best;
+    best.t = t_max;
+    best.id = NO_HIT;
+    best.normal = vec3(0.0f, 0.0f, 0.0f);
+    best.p_object = vec3(0.0f, 0.0f, 0.0f);
+    best.n_object = vec3(0.0f, 0.0f, 0.0f);
+    best.material = 0u;
+    best.shape = 0u;
+    best.item = 0u;
+    best.passes = 0u;
+    bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
+    vec3 level_origin[MAX_LEVELS];
+    vec3 level_direction[MAX_LEVELS];
+    uint level_first_id[MAX_LEVELS];
+    uint level_instance[MAX_LEVELS];
+    // The level of the nearest hit so far and the instances it lies in:
+    // level_instance[l] while bit l of `unsaved` is set, else
+    // best_instance[l] (kept there before the walk overwrote it).
+    uint best_level = 0u;
+    uint unsaved = 0u;
+    uint best_instance[MAX_LEVELS];
+    level_origin[0] = r.origin;
+    level_direction[0] = r.direction;
+    level_first_id[0] = 0u;
+    level_instance[0] = 0u;
+    uint stack[STACK_SIZE];
+    int top = 0;
+    if (frame.node_count > 0u) {
+        stack[0] = frame.root_node;
+        top = 1;
+    }
+    // Without a hierarchy: primitive `next` of primitive_count, in order.
+    uint next = (frame.node_count > 0u) ? frame.primitive_count : 0u;
+    while (top > 0 || next < frame.primitive_count) {
+        if (HAS_AOVS) {
+            best.passes = best.passes + 1u;
+        }
+        uint first_item = 0u;
+        uint item_count = 0u;
+        uint prim_count = 0u; // the leaf's primitives come first
+        uint first_primitive = 0u; // the leaf's first primitive (BvhNode.axis)
+        vec4 leaf_lo = vec4(0.0f); // the leaf's box: its instances' boxes are in steps of it
+        vec4 leaf_hi = vec4(0.0f);
+        uint level = 0u;
+        uint level_first = 0u; // level_first_id[level]
+        Ray lr = r;
+        // A primitive index, not a leaf's item range. A scene has one kind
+        // of walk or the other (frame.node_count), and its kernel keeps
+        // only that one's code.
+        bool direct = HAS_FLAT_LIST && (HAS_HIERARCHY ? top == 0 : true);
+        if (direct) {
+            first_item = next;
+            item_count = 1u;
+            prim_count = 1u;
+            next = next + 1u;
+        } else {
+            top = top - 1;
+            uint entry = stack[top] & STACK_ENTRY_MASK;
+            level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
+            if (LEVELS_IN_REGISTERS) {
+                // A select over the scene's levels: once the loop unrolls,
+                // every index is a constant and the arrays are registers
+                // (layout.h, SPEC_LEVELS_IN_REGISTERS). The two forms are
+                // written apart on purpose: one loop for both, its bounds
+                // a select on the constant, did not unroll on lavapipe and
+                // ran 1.17 to 1.26 times as long.
+                lr.origin = level_origin[0];
+                lr.direction = level_direction[0];
+                level_first = level_first_id[0];
+                for (uint l = 1u; l < REGISTER_LEVELS; l++) {
+                    if (level == l) {
+                        lr.origin = level_origin[l];
+                        lr.direction = level_direction[l];
+                        level_first = level_first_id[l];
+                    }
+                }
+            } else {
+                lr.origin = level_origin[level];
+                lr.direction = level_direction[level];
+                level_first = level_first_id[level];
+            }
+            if (HAS_INSTANCES && (entry & ITEM_INSTANCE) != 0u) {
+                // Enter the instance: its group's ray one level down.
+                uint k = entry & (ITEM_INSTANCE - 1u);
+                Ray inner = ray_through(instance_at(k).object_from_parent, lr);
+                uint child = level + 1u;
+                uint child_first = level_first + instance_at(k).id_offset;
+                if (LEVELS_IN_REGISTERS) {
+                    for (uint l = 1u; l < REGISTER_LEVELS; l++) {
+                        if (child == l) {
+                            if (((unsaved >> l) & 1u) != 0u) {
+                                best_instance[l] = level_instance[l];
+                            }
+                            level_origin[l] = inner.origin;
+                            level_direction[l] = inner.direction;
+                            level_first_id[l] = child_first;
+                            level_instance[l] = k;
+                        }
+                    }
+                } else {
+                    if (((unsaved >> child) & 1u) != 0u) {
+                        best_instance[child] = level_instance[child];
+                    }
+                    level_origin[child] = inner.origin;
+                    level_direction[child] = inner.direction;
+                    level_first_id[child] = child_first;
+                    level_instance[child] = k;
+                }
+                unsaved = unsaved & ~(1u << child);
+                level = child;
+                level_first = child_first;
+                lr = inner;
+                entry = instance_at(k).root;
+            }
+            BvhNode node = node_at(entry);
+            // Scenes whose every group fits one leaf (the recursive
+            // spheres: a sphere and its child instances) have no inner
+            // node, and their kernel leaves this block out (17% of
+            // recursiveSpheres4's dispatch: lavapipe runs it on every pass).
+            if (HAS_INNER_NODES && node.count == 0u) {
+                // Children whose boxes the ray meets; the nearer (by the ray's sign on the split axis) on top.
+                bool left_first = lr.direction[node.axis] >= 0.0f;
+                uint c0 = left_first ? node.first + 1u : node.first;
+                uint c1 = left_first ? node.first : node.first + 1u;
+                uint pushed = NO_HIT;
+                vec4 lo0 = node_at(c0).lo;
+                vec4 hi0 = node_at(c0).hi;
+                vec4 lo1 = node_at(c1).lo;
+                vec4 hi1 = node_at(c1).hi;
+                if (!use_boxes || box_hit(lr, lo0, hi0, best.t)) {
+                    stack[top] = stack_word(c0, level);
+                    top = top + 1;
+                    pushed = c0;
+                }
+                if (!use_boxes || box_hit(lr, lo1, hi1, best.t)) {
+                    stack[top] = stack_word(c1, level);
+                    top = top + 1;
+                    pushed = c1;
+                }
+                if (pushed == NO_HIT) {
+                    continue;
+                }
+                // Its box is one of the two just read (its instances' boxes are relative to it).
+                node = node_at(pushed);
+                node.lo = (pushed == c1) ? lo1 : lo0;
+                node.hi = (pushed == c1) ? hi1 : hi0;
+                if (node.count == 0u) {
+                    continue;
+                }
+                top = top - 1;
+            }
+            first_item = node.first;
+            item_count = node.count;
+            prim_count = HAS_INSTANCES ? node.primitives : node.count;
+            first_primitive = node.axis;
+            leaf_lo = node.lo;
+            leaf_hi = node.hi;
+        }
+        uint first_id = level_first;
+        uint best_before = best.id;
+        if (HAS_SEVERAL_PRIMITIVE_LEAVES) {
+            for (uint n = 0u; n < prim_count; n++) {
+                best = primitive_hit(best, direct ? first_item : leaf_item(first_item + n), lr, first_id);
+            }
+        } else if (prim_count > 0u) {
+            // At most one: an `if`, not a loop (12% of recursiveSpheres4's
+            // dispatch: a lavapipe loop costs far more than its body).
+            best = primitive_hit(best, direct ? first_item : first_primitive, lr, first_id);
+        }
+        if (best.id != best_before) {
+            // A nearer hit in this leaf (ids are unique, so it has another
+            // one): its normal is mapped to the world after the walk,
+            // through the instances of levels 1 to `level`, which are
+            // kept as the walk moves on (entering an instance above).
+            // Mapping it here took a loop over the levels, and lavapipe
+            // runs a loop's body at least once on every pass (15% of the
+            // camera rays' time at recursive-spheres depth 8).
+            if (HAS_INSTANCES) {
+                best_level = level;
+                unsaved = (2u << level) - 2u;
+            }
+            if (any_hit) {
+                return best;
+            }
+        }
+        // Then the leaf's instances (after its primitives, whose hits cull
+        // their boxes). Each kind has a loop of its own: lavapipe runs the
+        // whole body of a loop on every pass, so one loop over both would
+        // run the primitive test for every instance and the box test for
+        // every primitive.
+        if (HAS_INSTANCES) {
+            // Their records follow the primitives from the next multiple
+            // of 4, each box in steps of the leaf's (layout.h, BvhNode).
+            precise vec3 step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
+            uint records = (first_item + prim_count + 3u) >> 2u;
+            for (uint n = prim_count; n < item_count; n++) {
+                // Pushed only when the ray meets the instance's bound: a
+                // missed instance costs no pass. The bound is a box or a
+                // sphere (RECORD_SPHERE; a scene's kernel keeps the tests
+                // its records need), whose centre is where a box's lo is.
+                uvec4 record = leaf_record(records + (n - prim_count));
+                precise vec3 q_lo = vec3(float(record.x & 0xffffu), float(record.x >> 16u), float(record.y & 0xffffu));
+                precise vec3 lo = xyz(leaf_lo) + q_lo * step;
+                bool sphere = HAS_SPHERE_RECORDS && (HAS_BOX_RECORDS ? (record.w & RECORD_SPHERE) != 0u : true);
+                bool meets = !use_boxes;
+                if (sphere) {
+                    meets = meets || sphere_hit(lr, lo, uintBitsToFloat(record.z), best.t);
+                } else if (HAS_BOX_RECORDS) {
+                    precise vec3 q_hi = vec3(float(record.y >> 16u), float(record.z & 0xffffu), float(record.z >> 16u));
+                    precise vec3 hi = xyz(leaf_hi) - q_hi * step;
+                    meets = meets || box_hit(lr, vec4(lo, 0.0f), vec4(hi, 0.0f), best.t);
+                }
+                if (meets) {
+                    stack[top] = stack_word(record.w & ~RECORD_SPHERE, level);
+                    top = top + 1;
+                }
+            }
+        }
+    }
+    if (best.id != NO_HIT) {
+        // The normal in the world: in the primitive's group, then by the
+        // normal rule level by level back up (unit at the end).
+        Primitive hit_primitive = primitive_at(best.item);
+        precise vec3 n_world = transform_normal(hit_primitive.object_from_world, best.n_object);
+        if (HAS_INSTANCES) {
+            if (LEVELS_IN_REGISTERS) {
+                // The same order, deepest first, over the scene's levels.
+                for (uint i = 1u; i < REGISTER_LEVELS; i++) {
+                    uint l = REGISTER_LEVELS - i;
+                    if (l <= best_level) {
+                        uint placed = (((unsaved >> l) & 1u) != 0u) ? level_instance[l] : best_instance[l];
+                        n_world = transform_normal(instance_at(placed).object_from_parent, n_world);
+                    }
+                }
+            } else {
+                for (uint l = best_level; l > 0u; l--) {
+                    uint placed = (((unsaved >> l) & 1u) != 0u) ? level_instance[l] : best_instance[l];
+                    n_world = transform_normal(instance_at(placed).object_from_parent, n_world);
+                }
+            }
+        }
+        best.normal = unit(n_world);
+        best.material = hit_primitive.material;
+        best.shape = hit_primitive.shape;
+    } else {
+        best.t = T_FAR;
+    }
+    return best;
+}
+
+// The nearest hit of ray r with t > 0 (T_FAR and NO_HIT on a miss).
+SceneHit trace(Ray r) {
+    return walk(r, T_FAR, false);
+}
