@@ -99,6 +99,12 @@ machine() {
 }
 
 # The median of a list of numbers separated by spaces.
+# -v where binary $1 takes it (its render then prints the time and kernel
+# lines); nothing for a build from before it, which printed them anyway.
+verbose_flag() {
+  if "$1" -v devices >/dev/null 2>&1; then echo -v; fi
+}
+
 median_of() {
   tr ' ' '\n' <<<"$1" | grep . | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2 ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2) }'
 }
@@ -235,7 +241,7 @@ passes() {
   first="" n0=""
   for s in "$@"; do
     # render takes gen:FAMILY:DEPTH names itself.
-    out="$("$RAYCAST" render "$s" --assets "$CORPUS" --aov "$aov" --backend cpu -o "$tmp/cost.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+    out="$("$RAYCAST" render -v "$s" --assets "$CORPUS" --aov "$aov" --backend cpu -o "$tmp/cost.png" 2>&1)" || { echo "$out" >&2; exit 1; }
     n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
     read -r mean median p90 p99 most <<<"$(sed -n 's/^cost: .* \([0-9.]*\) passes on average: median \([0-9]*\), 90% at most \([0-9]*\), 99% at most \([0-9]*\), most \([0-9]*\).*/\1 \2 \3 \4 \5/p' <<<"$out")"
     [ -n "$first" ] || { first="$mean"; n0="$n"; }
@@ -350,7 +356,8 @@ ab_rows() {
         if [ $v = A ]; then read -r -a env <<<"$a_env"; bin="$a_bin"; else read -r -a env <<<"$b_env"; bin="$b_bin"; fi
         local t0 t1
         t0="$(date +%s%N)"
-        out="$(env "${env[@]}" "$bin" render "$file" --assets "$CORPUS" -o "$tmp/$v.png" 2>&1)" || { echo "$out" >&2; exit 1; }
+        # -v: the time and kernel lines (a build from before -v existed printed them without).
+        out="$(env "${env[@]}" "$bin" render $(verbose_flag "$bin") "$file" --assets "$CORPUS" -o "$tmp/$v.png" 2>&1)" || { echo "$out" >&2; exit 1; }
         t1="$(date +%s%N)"
         [ "$r" -ge 0 ] || continue
         t="$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", (b - a) / 1e9 }')"
@@ -396,7 +403,7 @@ division() {
           dekker) setting=(RAYCAST_FMA_RESIDUALS=0) ;;
           none) setting=(RAYCAST_INEXACT_DIVISION=0) ;;
         esac
-        out="$(env "${setting[@]}" "$RAYCAST" render "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" || { echo "$out" >&2; exit 1; }
+        out="$(env "${setting[@]}" "$RAYCAST" render -v "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" || { echo "$out" >&2; exit 1; }
         line="$(sed -n 's/^time: .*dispatch \([0-9.]*\) ms.*/\1/p' <<<"$out")"
         [ "$r" -lt 0 ] || times[$v]+="$line "
         if [ $v = probe ] && [ -z "$kernel" ]; then

@@ -61,17 +61,19 @@ fn assert_fails(o: &Output, code: i32, needle: &str) {
 fn default_scene_renders_to_png() {
     let png = out_dir().join("default.png");
     let _ = std::fs::remove_file(&png);
-    let o = raycast(&["render", "-o", png.to_str().unwrap()], &[]);
+    // -v: the status lines, on stderr (stdout carries data only).
+    let o = raycast(&["render", "-v", "-o", png.to_str().unwrap()], &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "stdout:\n{out}\nstderr:\n{err}");
+    assert!(out.is_empty(), "stdout is for data:\n{out}");
     for needle in
         ["device: ", "time: load ", "upload ", "compile ", "dispatch ", "readback ", "M primary rays/s", "wrote "]
     {
-        assert!(out.contains(needle), "stdout lacks {needle:?}:\n{out}");
+        assert!(err.contains(needle), "stderr lacks {needle:?}:\n{err}");
     }
     // On a CPU device (the tests run on lavapipe) it points to the CPU backend.
-    if out.contains("(cpu, Vulkan") {
-        assert!(out.contains("hint: ") && out.contains("`--backend cpu`"), "no hint of the CPU backend:\n{out}");
+    if err.contains("(cpu, Vulkan") {
+        assert!(err.contains("hint: ") && err.contains("`--backend cpu`"), "no hint of the CPU backend:\n{err}");
     }
     let img = raycast::image_io::read_picture(&png).unwrap();
     assert_eq!((img.width, img.height), (512, 384));
@@ -139,12 +141,12 @@ fn devices_lists_lavapipe() {
 #[test]
 fn the_gpu_division_correction_is_exact_on_lavapipe() {
     let o = raycast(
-        &["check", "--width", "128", "--height", "96", "--out-dir", out_dir().to_str().unwrap(), "--validate"],
+        &["check", "-v", "--width", "128", "--height", "96", "--out-dir", out_dir().to_str().unwrap(), "--validate"],
         &[("RAYCAST_INEXACT_DIVISION", "1")],
     );
     let (stdout, err) = text(&o);
     assert!(o.status.success(), "{stdout}{err}");
-    assert_eq!(kernel_name(&stdout), Some("render_uniform with CORRECT_DIVISION"), "{stdout}");
+    assert_eq!(kernel_name(&err), Some("render_uniform with CORRECT_DIVISION"), "{err}");
     assert!(stdout.contains("identical: every pixel of every buffer has the same bits"), "{stdout}");
     assert!(!err.contains("validation"), "{err}");
 }
@@ -158,11 +160,11 @@ fn the_gpu_division_correction_is_exact_on_lavapipe() {
 #[test]
 fn fma_residuals_where_fma_is_not_fused_change_the_picture() {
     let o = raycast(
-        &["check", "--width", "128", "--height", "96", "--out-dir", out_dir().to_str().unwrap()],
+        &["check", "-v", "--width", "128", "--height", "96", "--out-dir", out_dir().to_str().unwrap()],
         &[("RAYCAST_INEXACT_DIVISION", "1"), ("RAYCAST_FMA_RESIDUALS", "1")],
     );
     let (stdout, err) = text(&o);
-    assert_eq!(kernel_name(&stdout), Some("render_uniform with CORRECT_DIVISION and FUSED_FMA"), "{stdout}");
+    assert_eq!(kernel_name(&err), Some("render_uniform with CORRECT_DIVISION and FUSED_FMA"), "{err}");
     assert!(!o.status.success() && err.contains("pixels differ between the device and the CPU build"), "{stdout}{err}");
 }
 
@@ -248,24 +250,24 @@ fn cpu_picture_beyond_memory_is_an_error() {
 
 #[test]
 fn unwritable_output() {
-    let o = raycast(&["render", "-o", "/nonexistent-dir/x.png"], &[]);
+    let o = raycast(&["render", "-v", "-o", "/nonexistent-dir/x.png"], &[]);
     assert_fails(&o, 1, "cannot write /nonexistent-dir/x.png: no folder /nonexistent-dir");
     // Said before the work, not after it: no device was opened, nothing rendered.
-    assert!(!text(&o).0.contains("device:"), "{:?}", text(&o));
+    assert!(!text(&o).1.contains("device:"), "{:?}", text(&o));
     let folder = out_dir();
-    let o = raycast(&["render", "-o", folder.to_str().unwrap()], &[]);
+    let o = raycast(&["render", "-v", "-o", folder.to_str().unwrap()], &[]);
     assert_fails(&o, 1, "it is a folder");
     // Another image format's name: refused before the work, not a PNG under a .jpg name.
     let jpg = folder.join("x.jpg");
-    let o = raycast(&["render", "-o", jpg.to_str().unwrap()], &[]);
+    let o = raycast(&["render", "-v", "-o", jpg.to_str().unwrap()], &[]);
     assert_fails(&o, 2, "raycast writes PNG pictures; name the file .png, not .jpg");
-    assert!(!text(&o).0.contains("device:") && !jpg.exists(), "{:?}", text(&o));
+    assert!(!text(&o).1.contains("device:") && !jpg.exists(), "{:?}", text(&o));
     // A folder that takes no new file (/proc): refused before the work,
     // not after the render as "No such file or directory".
     if Path::new("/proc/self").exists() {
-        let o = raycast(&["render", "-o", "/proc/raycast-test.png"], &[]);
+        let o = raycast(&["render", "-v", "-o", "/proc/raycast-test.png"], &[]);
         assert_fails(&o, 1, "cannot write /proc/raycast-test.png: its folder /proc takes no new file");
-        assert!(!text(&o).0.contains("device:"), "{:?}", text(&o));
+        assert!(!text(&o).1.contains("device:"), "{:?}", text(&o));
     }
     // No extension (a device, a pipe's name): PNG all the same.
     let bare = folder.join("no-extension");
@@ -276,9 +278,10 @@ fn unwritable_output() {
     assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG: {:?}", &bytes[..bytes.len().min(8)]);
     // A write that fails as it happens (a full disk: /dev/full), not said to have been written.
     if Path::new("/dev/full").exists() {
-        let o = raycast(&["render", "--backend", "cpu", "--width", "16", "--height", "12", "-o", "/dev/full"], &[]);
+        let o =
+            raycast(&["render", "-v", "--backend", "cpu", "--width", "16", "--height", "12", "-o", "/dev/full"], &[]);
         assert_fails(&o, 1, "cannot write /dev/full: No space left on device");
-        assert!(!text(&o).0.contains("wrote"), "{:?}", text(&o));
+        assert!(text(&o).1.contains("device:") && !text(&o).1.contains("wrote"), "{:?}", text(&o));
         // raycast with its standard output on /dev/full.
         let on_full_stdout = |args: &[&str]| {
             let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
@@ -371,13 +374,13 @@ fn shader_objects_keep_their_binaries_and_give_the_pipelines_bits() {
         let png = out_dir().join(format!("shader-object-{name}.png"));
         let mut all = vec![("RAYCAST_VALIDATION", "0"), ("RAYCAST_CACHE_DIR", cache_text)];
         all.extend_from_slice(env);
-        let mut args = vec!["render", scene.to_str().unwrap(), "--width", "64", "--height", "48"];
+        let mut args = vec!["render", "-v", scene.to_str().unwrap(), "--width", "64", "--height", "48"];
         args.extend_from_slice(flags);
         args.extend_from_slice(&["-o", png.to_str().unwrap()]);
         let o = raycast(&args, &all);
         let (out, err) = text(&o);
         assert!(o.status.success(), "{name}: {out}{err}");
-        let kernel = out.lines().find(|l| l.starts_with("kernel: ")).unwrap_or_else(|| panic!("{out}")).to_string();
+        let kernel = err.lines().find(|l| l.starts_with("kernel: ")).unwrap_or_else(|| panic!("{err}")).to_string();
         (raycast::image_io::read_picture(&png).unwrap(), kernel)
     };
     let render = |name: &str, env: &[(&str, &str)]| render_with(name, &[], env);
@@ -452,11 +455,12 @@ fn specialised_kernels_give_the_drivers_bits() {
         let mut env =
             vec![("RAYCAST_SPECIALIZE", specialize), ("RAYCAST_SHADER_OBJECTS", "0"), ("RAYCAST_CACHE_DIR", cache)];
         env.extend(path.map(|p| ("PATH", p)));
-        let o = raycast(args, &env);
+        // -v: the kernel line, on stderr; returned after the data on stdout.
+        let o = raycast(&[&["-v"], args].concat(), &env);
         let (out, err) = text(&o);
         assert!(o.status.success(), "{args:?}: {out}{err}");
-        let kernel = out.lines().find(|l| l.starts_with("kernel: ")).unwrap_or_else(|| panic!("{out}")).to_string();
-        (out, kernel)
+        let kernel = err.lines().find(|l| l.starts_with("kernel: ")).unwrap_or_else(|| panic!("{err}")).to_string();
+        (format!("{out}{err}"), kernel)
     };
     let render = |name: &str, specialize: &str, cache: &str, path: Option<&str>| {
         let png = out_dir().join(format!("specialised-{name}.png"));
@@ -499,12 +503,12 @@ fn specialised_kernels_give_the_drivers_bits() {
     let env = [("RAYCAST_SPECIALIZE", "1"), ("RAYCAST_SHADER_OBJECTS", "0"), ("RAYCAST_CACHE_DIR", cache_text)];
     let png = out_dir().join("specialised-refused.png");
     let o = raycast(
-        &["render", scene, "--width", "64", "--height", "48", "-o", png.to_str().unwrap()],
+        &["render", "-v", scene, "--width", "64", "--height", "48", "-o", png.to_str().unwrap()],
         &[env.as_slice(), &[("RAYCAST_VALIDATION", "0")]].concat(),
     );
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
-    assert!(out.contains("(specialised by the driver: it refused the specialised SPIR-V: "), "{out}");
+    assert!(err.contains("(specialised by the driver: it refused the specialised SPIR-V: "), "{err}");
     same(&std::fs::read(&png).unwrap(), "refused");
     assert!(common::cache_files(&cache, "spv").is_empty(), "the refused file removed");
     let (_, kernel) = render("after-refused", "1", cache_text, None);
@@ -615,10 +619,10 @@ fn several_scenes_render_on_one_device() {
     let _ = std::fs::remove_dir_all(&dir);
     let batch: Vec<&str> = scenes.iter().map(|s| s.to_str().unwrap()).collect();
     // --out-dir is made when missing.
-    let o = raycast(&[&["render"], &batch[..], &["--out-dir", dir.to_str().unwrap()]].concat(), &[]);
+    let o = raycast(&[&["render", "-v"], &batch[..], &["--out-dir", dir.to_str().unwrap()]].concat(), &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
-    assert_eq!(out.matches("device: ").count(), 1, "one device for both scenes:\n{out}");
+    assert_eq!(err.matches("device: ").count(), 1, "one device for both scenes:\n{err}");
     // Rule: bit-exact, each picture against the same scene rendered alone.
     for (scene, name) in scenes.iter().zip(names) {
         let alone = out_dir().join(format!("alone-{name}"));
@@ -653,12 +657,13 @@ fn several_scenes_render_on_one_device() {
     assert!(!text(&o).1.contains("scenes failed"), "{:?}", text(&o));
 
     // Mistakes in the outputs fail before any work: -o for several pictures, two pictures of one name.
-    let o = raycast(&[&["render"], &batch[..], &["-o", out_dir().join("one.png").to_str().unwrap()]].concat(), &[]);
+    let o =
+        raycast(&[&["render", "-v"], &batch[..], &["-o", out_dir().join("one.png").to_str().unwrap()]].concat(), &[]);
     assert_fails(&o, 2, "-o names one picture, but 2 scenes were given: use --out-dir");
-    assert!(!text(&o).0.contains("device: "), "{:?}", text(&o));
-    let o = raycast(&["render", batch[0], batch[0], "--out-dir", dir.to_str().unwrap()], &[]);
+    assert!(!text(&o).1.contains("device: "), "{:?}", text(&o));
+    let o = raycast(&["render", "-v", batch[0], batch[0], "--out-dir", dir.to_str().unwrap()], &[]);
     assert_fails(&o, 2, "would both be written to");
-    assert!(!text(&o).0.contains("device: "), "{:?}", text(&o));
+    assert!(!text(&o).1.contains("device: "), "{:?}", text(&o));
 }
 
 /// A picture whose pixel records exceed one storage buffer of the device
@@ -688,10 +693,10 @@ fn cpu_backend_writes_the_same_png_as_the_device() {
     let (gpu, cpu) = (out_dir().join("backend-gpu.png"), out_dir().join("backend-cpu.png"));
     let o = raycast(&["render", "-o", gpu.to_str().unwrap()], &[]);
     assert!(o.status.success(), "{:?}", text(&o));
-    let o = raycast(&["render", "--backend", "cpu", "-o", cpu.to_str().unwrap()], &[]);
+    let o = raycast(&["render", "-v", "--backend", "cpu", "-o", cpu.to_str().unwrap()], &[]);
     let (out, err) = text(&o);
     assert!(o.status.success(), "{out}{err}");
-    assert!(out.contains("device: CPU build of the shared GLSL"), "{out}");
+    assert!(err.contains("device: CPU build of the shared GLSL"), "{err}");
     // Rule: bit-exact.
     let (a, b) = (raycast::image_io::read_picture(&gpu).unwrap(), raycast::image_io::read_picture(&cpu).unwrap());
     let diff = raycast::image_io::compare(&a, &b, 0).unwrap();
@@ -708,13 +713,17 @@ fn cpu_backend_writes_the_same_png_as_the_device() {
 fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
     let (gpu, auto, none) =
         (out_dir().join("auto-gpu.png"), out_dir().join("auto-auto.png"), out_dir().join("auto-none.png"));
-    let o = raycast(&["render", "--width", "96", "--height", "72", "-o", gpu.to_str().unwrap()], &[]);
-    let (out, err) = text(&o);
+    let o = raycast(&["render", "-v", "--width", "96", "--height", "72", "-o", gpu.to_str().unwrap()], &[]);
+    // -v: the device line, on stderr.
+    let (out, err) = (text(&o).1, text(&o).1);
     assert!(o.status.success(), "{out}{err}");
     let on_lavapipe = out.contains("llvmpipe");
-    let o =
-        raycast(&["render", "--width", "96", "--height", "72", "--backend", "auto", "-o", auto.to_str().unwrap()], &[]);
-    let (out, err) = text(&o);
+    let o = raycast(
+        &["render", "-v", "--width", "96", "--height", "72", "--backend", "auto", "-o", auto.to_str().unwrap()],
+        &[],
+    );
+    // -v: the device line, on stderr.
+    let (out, err) = (text(&o).1, text(&o).1);
     assert!(o.status.success(), "{out}{err}");
     if on_lavapipe {
         assert!(
@@ -726,6 +735,7 @@ fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
         let o = raycast(
             &[
                 "render",
+                "-v",
                 "--width",
                 "8",
                 "--height",
@@ -739,7 +749,7 @@ fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
             ],
             &[],
         );
-        assert!(o.status.success() && text(&o).0.contains("device: llvmpipe"), "{:?}", text(&o));
+        assert!(o.status.success() && text(&o).1.contains("device: llvmpipe"), "{:?}", text(&o));
         // Rule: bit-exact.
         let diff = raycast::image_io::compare(
             &raycast::image_io::read_picture(&auto).unwrap(),
@@ -754,10 +764,11 @@ fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
     }
     let no_driver = [("VK_DRIVER_FILES", "/nonexistent/icd.json"), ("RAYCAST_VALIDATION", "0")];
     let o = raycast(
-        &["render", "--width", "96", "--height", "72", "--backend", "auto", "-o", none.to_str().unwrap()],
+        &["render", "-v", "--width", "96", "--height", "72", "--backend", "auto", "-o", none.to_str().unwrap()],
         &no_driver,
     );
-    let (out, err) = text(&o);
+    // -v: the device line, on stderr.
+    let (out, err) = (text(&o).1, text(&o).1);
     assert!(o.status.success(), "{out}{err}");
     assert!(
         err.contains("raycast: note: no Vulkan device found")
@@ -778,7 +789,7 @@ fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
     .unwrap();
     assert_eq!(diff.differing, 0, "{diff}");
     assert_fails(
-        &raycast(&["render", "--backend", "auto", "--device", "0", "-o", none.to_str().unwrap()], &no_driver),
+        &raycast(&["render", "-v", "--backend", "auto", "--device", "0", "-o", none.to_str().unwrap()], &no_driver),
         1,
         "no Vulkan device found",
     );
@@ -795,10 +806,12 @@ fn auto_backend_takes_the_cpu_build_where_the_device_is_a_cpu() {
             repo().join("shaders").to_str().unwrap(),
             "-o",
             none.to_str().unwrap(),
+            "-v",
         ],
         &[],
     );
-    assert!(o.status.success() && !text(&o).0.contains("device: CPU build"), "{:?}", text(&o));
+    let said = text(&o).1;
+    assert!(o.status.success() && said.contains("device: ") && !said.contains("device: CPU build"), "{:?}", text(&o));
 }
 
 #[test]
@@ -1310,9 +1323,10 @@ fn render_watch_renders_again_on_changes() {
         .spawn()
         .unwrap();
     let (tx, rx) = std::sync::mpsc::channel();
-    let stdout = child.stdout.take().unwrap();
+    // The watch's lines are status: on stderr, with each round's errors.
+    let stderr = child.stderr.take().unwrap();
     std::thread::spawn(move || {
-        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+        for line in std::io::BufReader::new(stderr).lines().map_while(Result::ok) {
             let _ = tx.send(line);
         }
     });
@@ -1339,8 +1353,8 @@ fn render_watch_renders_again_on_changes() {
     round();
     assert_eq!(png(), blue, "the mended scene with the blue texture");
     child.kill().unwrap();
-    let o = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
+    child.wait().unwrap();
+    let err = said.join("\n");
     assert!(err.contains("s.xml:1:") && err.contains("error: malformed XML"), "{err}");
     let changed: Vec<&String> = said.iter().filter(|l| l.starts_with("changed: ")).collect();
     assert!(changed.len() == 3 && changed[0].ends_with("tex.png"), "{said:#?}");
@@ -1550,7 +1564,7 @@ fn check_reports_a_planted_difference() {
     // Checked again and identical, the diff image of that run goes.
     let o = raycast_at(&cwd, &["check", "--width", "64", "--height", "48"]);
     assert!(o.status.success(), "{:?}", text(&o));
-    assert!(text(&o).0.contains("removed default-check.png, the diff image of an earlier run"), "{:?}", text(&o));
+    assert!(text(&o).1.contains("removed default-check.png, the diff image of an earlier run"), "{:?}", text(&o));
     assert!(files_in(&cwd).is_empty(), "{:?}", files_in(&cwd));
     // --allow-pixels accepts it, and says the check was not exact.
     let o = raycast(
@@ -1638,22 +1652,23 @@ fn render_settings_out_of_range() {
     // A small cost picture of the default scene, with `extra` options.
     let cost_render = |extra: &[&str]| {
         let out = out_dir().join("cost.png");
-        let mut args = vec!["render", "--aov", "cost", "--width", "32", "--height", "24", "-o", out.to_str().unwrap()];
+        let mut args =
+            vec!["render", "-v", "--aov", "cost", "--width", "32", "--height", "24", "-o", out.to_str().unwrap()];
         args.extend_from_slice(extra);
         raycast(&args, &[])
     };
     let o = cost_render(&[]);
-    assert!(text(&o).0.contains("cost: a camera ray's walk takes "), "{:?}", text(&o));
+    assert!(text(&o).1.contains("cost: a camera ray's walk takes "), "{:?}", text(&o));
     // The default scene's walks (5 passes: no hierarchy) are far under the default scale, 64: a hint.
     assert!(
-        text(&o).0.contains(
+        text(&o).1.contains(
             "cost: drawn dark red at 64 passes (--cost-max), twice the most here or more: --cost-max 5 spreads"
         ),
         "{:?}",
         text(&o)
     );
     let o = cost_render(&["--cost-max", "5"]);
-    assert!(o.status.success() && !text(&o).0.contains("spreads"), "{:?}", text(&o));
+    assert!(o.status.success() && text(&o).1.contains("cost: ") && !text(&o).1.contains("spreads"), "{:?}", text(&o));
     assert_fails(&raycast(&["render", "--aov", "depth", "--cost-max", "9"], &[]), 2, "--cost-max is for --aov cost");
     assert_fails(&raycast(&["render", "--aov", "cost", "--cost-max", "many"], &[]), 2, "invalid value 'many'");
 }
@@ -1902,6 +1917,7 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
         let o = raycast(
             &[
                 "render",
+                "-v",
                 "--width",
                 "96",
                 "--height",
@@ -1915,7 +1931,7 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
         );
         assert!(o.status.success(), "{:?}", text(&o));
         let kernel = if choice == "storage" { "render" } else { "render_uniform" };
-        assert_eq!(kernel_name(&text(&o).0), Some(kernel), "--scene-buffers {choice}: {:?}", text(&o));
+        assert_eq!(kernel_name(&text(&o).1), Some(kernel), "--scene-buffers {choice}: {:?}", text(&o));
     }
     // Rule: bit-exact.
     let uniform = raycast::image_io::read_picture(&png("uniform")).unwrap();
@@ -1941,6 +1957,7 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
         let o = raycast(
             &[
                 "render",
+                "-v",
                 scene.to_str().unwrap(),
                 "--width",
                 "64",
@@ -1955,7 +1972,7 @@ fn scene_buffers_uniform_and_storage_give_the_same_picture() {
         );
         assert!(o.status.success(), "{:?}", text(&o));
         let kernel = if choice == "uniform" { "render_uniform" } else { "render" };
-        assert_eq!(kernel_name(&text(&o).0), Some(kernel), "{:?}", text(&o));
+        assert_eq!(kernel_name(&text(&o).1), Some(kernel), "{:?}", text(&o));
     }
     let (a, b) = (
         raycast::image_io::read_picture(&png("flat-uniform")).unwrap(),
@@ -2122,7 +2139,7 @@ fn gen_flat_writes_every_instance_out() {
         &[],
     );
     let (_, err) = text(&o);
-    assert!(o.status.success() && err.contains("--depth 3 --flat: 37 primitives expanded, 37 in the file"), "{err}");
+    assert!(o.status.success() && err.contains("--levels 3 --flat: 37 primitives expanded, 37 in the file"), "{err}");
     let xml = std::fs::read_to_string(&flat).unwrap();
     assert_eq!(xml.matches("<matrix>").count(), 37);
     assert!(!xml.contains("master"));
@@ -2415,4 +2432,142 @@ fn pov_scenes_cover_the_picture_as_raycast_does() {
     std::fs::write(&xml, include_str!("../scenes/default.xml")).unwrap();
     let o = raycast(&["pov", xml.to_str().unwrap(), "-o", xml.to_str().unwrap()], &[]);
     assert_fails(&o, 2, "which this command reads");
+}
+
+/// Status goes to stderr: one summary line by default, none with -q, the
+/// details with -v; stdout carries only data (here nothing).
+#[test]
+fn status_is_one_line_on_stderr_unless_asked() {
+    let png = out_dir().join("status-lines.png");
+    let small = ["--width", "16", "--height", "12", "-o", png.to_str().unwrap()];
+    let o = raycast(&[&["render"][..], &small].concat(), &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.is_empty(), "stdout: {out}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "one summary line: {err}");
+    assert!(lines[0].starts_with(&format!("wrote {} (16x12) in ", png.display())), "{err}");
+    let o = raycast(&[&["-q", "render"][..], &small].concat(), &[]);
+    assert!(o.status.success() && o.stdout.is_empty() && o.stderr.is_empty(), "-q: {:?}", text(&o));
+    let o = raycast(&[&["render", "-v"][..], &small].concat(), &[]);
+    let err = text(&o).1;
+    for needle in ["device: ", "scene: ", "time: ", "rate: ", "wrote "] {
+        assert!(err.contains(needle), "-v lacks {needle:?}: {err}");
+    }
+    let o = raycast(&["render", "-q", "-v"], &[]);
+    assert_fails(&o, 2, "cannot be used with");
+}
+
+/// `-o -` is standard output and a scene named `-` is standard input:
+/// `raycast render - -o - < scene.xml | viewer` gets the same PNG bytes as
+/// the file rendered to a file.
+#[test]
+fn dash_is_stdin_for_the_scene_and_stdout_for_the_picture() {
+    let scene = repo().join("tests/scenes/stress/scales.xml");
+    let file = out_dir().join("dash-file.png");
+    let small = ["--width", "32", "--height", "24"];
+    let o = raycast(&[&["render", scene.to_str().unwrap(), "-o", file.to_str().unwrap()][..], &small].concat(), &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args([&["render", "-", "-o", "-"][..], &small].concat())
+        .env("RAYCAST_CACHE_DIR", common::shader_cache())
+        .stdin(std::fs::File::open(&scene).unwrap())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(o.stdout == std::fs::read(&file).unwrap(), "stdout is not the file's PNG: {:?}", text(&o).1);
+    assert!(text(&o).1.contains("wrote /dev/stdout (32x24)"), "{:?}", text(&o));
+    // A scene on stdin that does not parse is located as <stdin>.
+    let o = Command::new(env!("CARGO_BIN_EXE_raycast"))
+        .args(["render", "-", "-o", "/dev/null"])
+        .stdin(std::fs::File::open(repo().join("tests/scenes/bad/malformed.xml")).unwrap())
+        .output()
+        .unwrap();
+    assert_fails(&o, 1, "<stdin>:");
+}
+
+/// `--bounces` and the old `--depth` are one flag (the same picture);
+/// `gen --levels` and its old `--depth` write the same scene.
+#[test]
+fn old_flag_spellings_are_still_accepted() {
+    let (a, b) = (out_dir().join("bounces-new.png"), out_dir().join("bounces-old.png"));
+    let scene = repo().join("tests/scenes/stress/mirrors_beside_matte.xml");
+    for (flag, png) in [("--bounces", &a), ("--depth", &b)] {
+        let o = raycast(
+            &[
+                "render",
+                scene.to_str().unwrap(),
+                flag,
+                "1",
+                "--width",
+                "32",
+                "--height",
+                "24",
+                "-o",
+                png.to_str().unwrap(),
+            ],
+            &[],
+        );
+        assert!(o.status.success(), "{flag}: {:?}", text(&o));
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "--bounces 1 and --depth 1 differ");
+    let new = raycast(&["gen", "recursive-cubes", "--levels", "2", "--no-textures"], &[]);
+    let old = raycast(&["gen", "recursive-cubes", "--depth", "2", "--no-texture"], &[]);
+    assert!(new.status.success() && !new.stdout.is_empty(), "{:?}", text(&new));
+    assert_eq!(new.stdout, old.stdout, "gen --levels and --depth differ");
+}
+
+/// `render --json`: one object per picture, parsed by serde_json, its
+/// numbers those of the picture written.
+#[test]
+fn render_json_describes_each_picture() {
+    let dir = out_dir().join("render-json");
+    let _ = std::fs::remove_dir_all(&dir);
+    let scenes = [repo().join("scenes/default.xml"), repo().join("tests/scenes/stress/scales.xml")];
+    let o = raycast(
+        &[
+            "render",
+            "--json",
+            scenes[0].to_str().unwrap(),
+            scenes[1].to_str().unwrap(),
+            "--width",
+            "20",
+            "--height",
+            "10",
+            "--out-dir",
+            dir.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    let objects: Vec<serde_json::Value> =
+        text(&o).0.lines().map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}"))).collect();
+    assert_eq!(objects.len(), 2, "{:?}", text(&o));
+    for (v, name) in objects.iter().zip(["default.png", "scales.png"]) {
+        assert_eq!(v["output"], dir.join(name).display().to_string(), "{v}");
+        assert_eq!((v["width"].as_u64(), v["height"].as_u64()), (Some(20), Some(10)), "{v}");
+        assert_eq!(v["camera_rays"].as_u64(), Some(200), "{v}");
+        assert!(v["rays"].as_u64().unwrap() >= 200 && v["seconds"].as_f64().unwrap() > 0.0, "{v}");
+        assert!(dir.join(name).is_file());
+    }
+    assert_fails(&raycast(&["render", "--json", "-o", "-"], &[]), 2, "--json writes to standard output");
+}
+
+/// `raycast --help` ends with the exit codes' table; `render -h` is one
+/// line a flag under headings, 40 lines at most at 100 columns.
+#[test]
+fn help_is_short_and_lists_the_exit_codes() {
+    let o = raycast(&["--help"], &[]);
+    let out = text(&o).0;
+    for code in raycast::error::EXIT_CODES {
+        assert!(out.contains(&format!("  {}  {}", code.0, code.1)), "--help lacks exit code {}: {out}", code.0);
+    }
+    let o = raycast(&["render", "-h"], &[("COLUMNS", "100")]);
+    let out = text(&o).0;
+    assert!(o.status.success(), "{out}");
+    assert!(out.lines().count() <= 40, "render -h is {} lines:\n{out}", out.lines().count());
+    for heading in ["Picture:", "Quality:", "Device:", "Diagnostics:", "Output:"] {
+        assert!(out.contains(heading), "render -h lacks {heading}\n{out}");
+    }
+    assert!(out.lines().all(|l| l.chars().count() <= 100), "a line over 100 columns:\n{out}");
 }

@@ -101,7 +101,45 @@ pub struct Progress {
 /// Told the progress of a render, from whichever thread does the work.
 pub type Told<'a> = &'a (dyn Fn(Progress) + Sync);
 
-/// Where the time of one GPU render went.
+/// Renders frames: the one interface of the Vulkan device
+/// ([`GpuRenderer`]) and of the CPU build of the same GLSL
+/// ([`crate::cpu::CpuRenderer`]). `render`, `check`, `bench` and
+/// `conformance` draw through it; what is only a device's (its kernel, its
+/// validation layer) they ask of [`GpuRenderer`] itself.
+pub trait Renderer {
+    /// The backend as status lines name it: the device, or the CPU build with its threads.
+    fn describe(&self) -> String;
+
+    /// One frame of `data`, telling its progress as it goes, with where the
+    /// time went (the CPU build's frame is all `dispatch`).
+    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), crate::error::Error>;
+}
+
+impl Renderer for GpuRenderer {
+    fn describe(&self) -> String {
+        self.context.info().summary()
+    }
+
+    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), crate::error::Error> {
+        Ok(self.render_told(data, told)?)
+    }
+}
+
+impl Renderer for CpuRenderer {
+    fn describe(&self) -> String {
+        self.summary("")
+    }
+
+    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), crate::error::Error> {
+        let start = std::time::Instant::now();
+        let picture = self.render_told(data, told).map_err(crate::error::Error::Failed)?;
+        let timings =
+            GpuTimings { dispatch: start.elapsed(), bands: 1, band_rows: data.frame.height, ..GpuTimings::default() };
+        Ok((picture, timings))
+    }
+}
+
+/// Where the time of one frame went (on a device: its upload, dispatch and readback).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GpuTimings {
     pub upload: Duration,

@@ -19,7 +19,7 @@ use crate::gen::{count_primitives, PrimitiveCounts};
 use crate::gpu::GpuError;
 use crate::layout::PixelOut;
 use crate::measure::{device_bytes, peak_host_bytes, reset_peak_host};
-use crate::render::Picture;
+use crate::render::{Picture, Renderer};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use crate::source::{parse_scene, scene_label};
 use crate::units::median;
@@ -768,12 +768,12 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             let mut row = row("cpu", device);
             reset_peak_host();
             for _ in 0..args.warmup {
-                c.render(&loaded.data)?;
+                c.render_frame(&loaded.data, &|_| {})?;
             }
             let mut last = None;
             for _ in 0..args.frames {
                 let start = Instant::now();
-                let picture = c.render(&loaded.data)?;
+                let (picture, _) = c.render_frame(&loaded.data, &|_| {})?;
                 row.frames.push(start.elapsed());
                 row.all_rays = picture.rays();
                 last = Some(picture);

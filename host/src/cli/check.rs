@@ -12,7 +12,7 @@ use crate::frame::FrameData;
 use crate::image_io::{self};
 use crate::output::*;
 use crate::progress;
-use crate::render::{GpuRenderer, Picture};
+use crate::render::{GpuRenderer, Picture, Renderer};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -156,9 +156,10 @@ fn check_scene(
         p.data.frame.height
     );
     let scene = p.scene.path.display();
-    let (gpu_picture, _) = progress::told(format!("{scene} on {device}"), |told| b.gpu.render_told(&p.data, told))?;
+    let (gpu_picture, _) = progress::told(format!("{scene} on {device}"), |told| b.gpu.render_frame(&p.data, told))?;
     print_kernel(&b.gpu, &p.data)?;
-    let cpu_picture = progress::told(format!("{scene} on the CPU build"), |told| b.cpu.render_told(&p.data, told))?;
+    let (cpu_picture, _) =
+        progress::told(format!("{scene} on the CPU build"), |told| b.cpu.render_frame(&p.data, told))?;
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
     outln!("{report}");
     if args.output.is_some() || !report.identical() {

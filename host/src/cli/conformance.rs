@@ -54,33 +54,30 @@ pub fn run(args: &ConformanceArgs) -> Result<(), Error> {
     let count = cases.len();
     std::fs::create_dir_all(&args.out_dir)
         .map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
-    let summary = match open_backend(args.backend, &args.kernel)? {
-        (RenderBackend::Cpu(cpu), why) => {
-            outln!("conformance: the {} against {}, {count} cases", cpu.summary(&why), corpus.display());
-            crate::conformance::run(
-                &corpus,
-                &cases,
-                &args.out_dir,
-                |data| cpu.render(data).map_err(Error::Failed),
-                Vec::new,
-            )?
+    let (backend, why) = open_backend(args.backend, &args.kernel)?;
+    match &backend {
+        RenderBackend::Cpu(cpu) => {
+            outln!("conformance: the {} against {}, {count} cases", cpu.summary(&why), corpus.display())
         }
-        (RenderBackend::Gpu(renderer), _) => {
-            outln!(
-                "conformance: {} on {} against {}, {count} cases",
-                args.kernel.kernel_text(),
-                renderer.context().info().name,
-                corpus.display()
-            );
-            crate::conformance::run(
-                &corpus,
-                &cases,
-                &args.out_dir,
-                |data| renderer.render(data).map(|(picture, _)| picture).map_err(Error::from),
-                || renderer.context().take_validation_messages(),
-            )?
-        }
+        RenderBackend::Gpu(renderer) => outln!(
+            "conformance: {} on {} against {}, {count} cases",
+            args.kernel.kernel_text(),
+            renderer.context().info().name,
+            corpus.display()
+        ),
+    }
+    let renderer = backend.renderer();
+    let validation = || match &backend {
+        RenderBackend::Gpu(gpu) => gpu.context().take_validation_messages(),
+        RenderBackend::Cpu(_) => Vec::new(),
     };
+    let summary = crate::conformance::run(
+        &corpus,
+        &cases,
+        &args.out_dir,
+        |data| renderer.render_frame(data, &|_| {}).map(|(picture, _)| picture),
+        validation,
+    )?;
     outln!("{} passed, {} failed; the measured fractions: {}", summary.passed, summary.failed, summary.table.display());
     if summary.failed > 0 {
         return Err(Error::Mismatch {

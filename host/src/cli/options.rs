@@ -6,7 +6,7 @@ use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, validation_wanted, Error};
 use crate::frame::{Aov, RenderSettings, TextureFilter};
 use crate::gpu::{DeviceSelector, GpuOptions};
-use crate::render::{GpuRenderer, SceneBuffers};
+use crate::render::{GpuRenderer, Renderer, SceneBuffers};
 use crate::scene::{FlattenLimits, ParseOptions};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -226,6 +226,16 @@ pub(crate) fn open_renderer(k: &KernelOptions, shaders: Option<&Path>) -> Result
 pub(crate) enum RenderBackend {
     Cpu(CpuRenderer),
     Gpu(GpuRenderer),
+}
+
+impl RenderBackend {
+    /// The backend as the one interface both implement.
+    pub(crate) fn renderer(&self) -> &dyn Renderer {
+        match self {
+            RenderBackend::Cpu(cpu) => cpu,
+            RenderBackend::Gpu(gpu) => gpu,
+        }
+    }
 }
 
 /// `--backend cpu` with options only a Vulkan device uses (`--device`,

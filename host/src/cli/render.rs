@@ -11,7 +11,7 @@ use crate::frame::{self};
 use crate::image_io::{self};
 use crate::output::*;
 use crate::progress;
-use crate::render::{GpuRenderer, Picture};
+use crate::render::{GpuRenderer, Picture, Renderer};
 use crate::scene::{self};
 use crate::source::*;
 use clap::Args;
@@ -279,7 +279,7 @@ impl Rendered {
 fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<Rendered, Error> {
     print_scene(p);
     let start = Instant::now();
-    let picture = progress::told(output.display().to_string(), |told| cpu.render_told(&p.data, told))?;
+    let (picture, _) = progress::told(output.display().to_string(), |told| cpu.render_frame(&p.data, told))?;
     let time = start.elapsed();
     detail!("time: load {}, render {}", ms(p.load), ms(time));
     print_rates(&p.data, &picture, time);
