@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::context::Inner;
+use super::device::Inner;
 use super::{float_controls, reflect, specialize, GpuContext, GpuError, ImageBinding, ShaderSource, Specialised};
 use crate::layout::BindingLayout;
 

@@ -5,20 +5,8 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::context::Inner;
+use super::device::Inner;
 use super::{GpuContext, GpuError};
-
-/// A window surface and the loader that destroys it (before the instance).
-pub(crate) struct Surface {
-    pub(crate) loader: ash::khr::surface::Instance,
-    pub(crate) handle: vk::SurfaceKHR,
-}
-
-impl Drop for Surface {
-    fn drop(&mut self) {
-        unsafe { self.loader.destroy_surface(self.handle, None) };
-    }
-}
 
 /// When a presented image replaces the one on screen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
