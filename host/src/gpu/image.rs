@@ -1,7 +1,9 @@
 //! `StorageImage`: a 2D RGBA8 image a kernel writes with `imageStore` and a
 //! `FrameLoop` copies to the swapchain; `DataImage`: an rgba32ui image of
 //! data (rows of IMAGE_WIDTH texels) a kernel reads with `imageLoad`;
-//! `ImageBinding`: how a kernel declares either.
+//! `ImageBinding`: how a kernel declares either. Also the layout barriers
+//! and a data image's checks and upload, which one-shot runs use too
+//! (dispatch.rs); memory for images comes from memory.rs.
 
 use std::sync::Arc;
 

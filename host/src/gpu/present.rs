@@ -1,5 +1,6 @@
-//! Presenting to a window: the surface of `GpuContext::with_surface` and a
-//! `Swapchain` over it, recreated when the window's size changes.
+//! Presenting to a window: a `Swapchain` over the surface of
+//! `GpuContext::with_surface` (instance.rs `Surface`), recreated when the
+//! window's size changes.
 
 use std::sync::Arc;
 
