@@ -7,7 +7,8 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::context::{buffer_size, Inner};
+use super::device::Inner;
+use super::memory::{buffer_size, create_buffer, Place, RunResources};
 use super::{DataImage, GpuContext, GpuError, ImageFormat, Kernel, StorageImage};
 
 /// A storage buffer in host-visible, host-coherent memory, mapped for its
@@ -247,5 +248,30 @@ impl Drop for DescriptorSet {
         }
         // Destroying the pool frees its set.
         unsafe { self.inner.device.destroy_descriptor_pool(self.pool, None) };
+    }
+}
+
+impl Inner {
+    /// One storage buffer as `create_buffer` makes it, owned by the caller
+    /// (destroy and free it); `size` is checked against the device limits.
+    pub(crate) fn create_owned_buffer(
+        &self,
+        size: u64,
+        readback: bool,
+        what: &str,
+    ) -> Result<(vk::Buffer, vk::DeviceMemory), GpuError> {
+        self.check_storage_size(size, || what.to_string())?;
+        let mut res = RunResources::new(self.device.clone());
+        let made = create_buffer(
+            &self.device,
+            &self.memory,
+            &mut res,
+            size,
+            if readback { Place::Readback } else { Place::Upload },
+            what,
+        )?;
+        // Hand it over: `res` must not destroy it.
+        res.buffers.clear();
+        Ok(made)
     }
 }

@@ -18,7 +18,7 @@ use std::time::Duration;
 
 use ash::vk;
 
-use super::context::Inner;
+use super::device::Inner;
 use super::image::layout_barrier;
 use super::{DescriptorSet, GpuContext, GpuError, Kernel, StorageImage, Swapchain};
 
@@ -85,7 +85,7 @@ impl FrameLoop {
             return Ok(None);
         }
         let d = &self.inner.device;
-        let timeout_ns = super::context::nanos(self.inner.timeout);
+        let timeout_ns = super::dispatch::nanos(self.inner.timeout);
         match unsafe { d.wait_for_fences(&[self.fence], true, timeout_ns) } {
             Ok(()) => {}
             Err(vk::Result::TIMEOUT) => return Err(GpuError::Timeout { after: self.inner.timeout }),
@@ -146,7 +146,7 @@ impl FrameLoop {
                 if !Arc::ptr_eq(sc.inner(), &self.inner) {
                     return Err(bad("the swapchain was created on another GpuContext".into()));
                 }
-                let timeout_ns = super::context::nanos(self.inner.timeout);
+                let timeout_ns = super::dispatch::nanos(self.inner.timeout);
                 match unsafe { sc.loader.acquire_next_image(sc.handle, timeout_ns, self.acquired, vk::Fence::null()) } {
                     Ok((index, _suboptimal)) => Some((sc, index)),
                     Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => return Ok(FrameStatus::OutOfDate),

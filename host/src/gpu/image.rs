@@ -1,14 +1,18 @@
 //! `StorageImage`: a 2D RGBA8 image a kernel writes with `imageStore` and a
 //! `FrameLoop` copies to the swapchain; `DataImage`: an rgba32ui image of
 //! data (rows of IMAGE_WIDTH texels) a kernel reads with `imageLoad`;
-//! `ImageBinding`: how a kernel declares either.
+//! `ImageBinding`: how a kernel declares either. Also the layout barriers
+//! and a data image's checks and upload, which one-shot runs use too
+//! (dispatch.rs); memory for images comes from memory.rs.
 
 use std::sync::Arc;
 
 use ash::vk;
 
-use super::context::Inner;
+use super::device::Inner;
+use super::memory::{color_range, create_image, data_image_size, destroy_image, RunResources, DATA_FORMAT};
 use super::{GpuContext, GpuError, LESS_DATA};
+use crate::layout::IMAGE_WIDTH;
 
 /// The one storage-image format: `layout(rgba8) uniform image2D` in GLSL.
 pub(crate) const FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -89,7 +93,8 @@ impl StorageImage {
             });
         }
         let (image, memory, view) = create_image(
-            inner,
+            &inner.device,
+            &inner.memory,
             FORMAT,
             [width, height],
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
@@ -140,97 +145,45 @@ pub(crate) fn layout_barrier(
         .subresource_range(color_range())
 }
 
-/// The one mip level and layer of a colour image.
-pub(crate) fn color_range() -> vk::ImageSubresourceRange {
-    vk::ImageSubresourceRange::default()
-        .aspect_mask(vk::ImageAspectFlags::COLOR)
-        .base_mip_level(0)
-        .level_count(1)
-        .base_array_layer(0)
-        .layer_count(1)
-}
-
-/// A 2D `format` image of `size`, optimal tiling, in memory of its own
-/// (device-local first), and a view of it; on an error, whatever was made
-/// is destroyed. `what` names it in errors.
-pub(crate) fn create_image(
-    inner: &Inner,
-    format: vk::Format,
-    size: [u32; 2],
-    usage: vk::ImageUsageFlags,
-    what: String,
-) -> Result<(vk::Image, vk::DeviceMemory, vk::ImageView), GpuError> {
-    let d = &inner.device;
-    let mut made = (vk::Image::null(), vk::DeviceMemory::null(), vk::ImageView::null());
-    let result = (|| {
-        let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(format)
-            .extent(vk::Extent3D { width: size[0], height: size[1], depth: 1 })
-            .mip_levels(1)
-            .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .initial_layout(vk::ImageLayout::UNDEFINED);
-        made.0 = unsafe { d.create_image(&info, None) }.map_err(GpuError::vk("vkCreateImage"))?;
-        let req = unsafe { d.get_image_memory_requirements(made.0) };
-        let types = &inner.memory.memory_types[..inner.memory.memory_type_count as usize];
-        let mut candidates: Vec<u32> =
-            (0..types.len() as u32).filter(|i| req.memory_type_bits & (1 << i) != 0).collect();
-        candidates.sort_by_key(|&i| !types[i as usize].property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL));
-        let mut last = vk::Result::ERROR_OUT_OF_DEVICE_MEMORY;
-        for type_index in candidates {
-            let alloc = vk::MemoryAllocateInfo::default().allocation_size(req.size).memory_type_index(type_index);
-            match unsafe { d.allocate_memory(&alloc, None) } {
-                Ok(m) => {
-                    made.1 = m;
-                    break;
-                }
-                Err(e @ (vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY)) => last = e,
-                Err(e) => return Err(GpuError::vk("vkAllocateMemory")(e)),
-            }
-        }
-        if made.1 == vk::DeviceMemory::null() {
-            return Err(GpuError::OutOfMemory {
-                what: what.clone(),
-                bytes: req.size,
-                detail: format!("vkAllocateMemory failed with {last:?} for every memory type"),
-            });
-        }
-        unsafe { d.bind_image_memory(made.0, made.1, 0) }.map_err(GpuError::vk("vkBindImageMemory"))?;
-        let view = vk::ImageViewCreateInfo::default()
-            .image(made.0)
-            .view_type(vk::ImageViewType::TYPE_2D)
-            .format(format)
-            .subresource_range(color_range());
-        made.2 = unsafe { d.create_image_view(&view, None) }.map_err(GpuError::vk("vkCreateImageView"))?;
-        Ok(())
-    })();
-    match result {
-        Ok(()) => Ok(made),
-        Err(e) => {
-            // SAFETY: nothing uses them yet.
-            unsafe { destroy_image(d, made) };
-            Err(e)
-        }
-    }
-}
-
-/// Destroys what `create_image` made (null handles are no-ops).
+/// Records the copy of `image`'s input buffer into it, between the layout
+/// changes it needs: UNDEFINED -> TRANSFER_DST_OPTIMAL -> GENERAL, read by
+/// the compute shader.
 ///
 /// # Safety
-/// The device no longer uses them.
-pub(crate) unsafe fn destroy_image(
+/// `cmd` is a command buffer of `d` in the recording state.
+pub(crate) unsafe fn record_image_upload(
     d: &ash::Device,
-    (image, memory, view): (vk::Image, vk::DeviceMemory, vk::ImageView),
+    cmd: vk::CommandBuffer,
+    source: vk::Buffer,
+    image: vk::Image,
+    texels: u32,
 ) {
-    // SAFETY: the caller's.
+    let [width, height] = data_image_size(u64::from(texels)).map(|n| n as u32);
+    let barrier = |old, new, src, dst| [layout_barrier(image, old, new, src, dst)];
+    let region = [vk::BufferImageCopy::default()
+        .image_subresource(
+            vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),
+        )
+        .image_extent(vk::Extent3D { width, height, depth: 1 })];
+    let to_copy = barrier(
+        vk::ImageLayout::UNDEFINED,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::AccessFlags::empty(),
+        vk::AccessFlags::TRANSFER_WRITE,
+    );
+    let to_read = barrier(
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::ImageLayout::GENERAL,
+        vk::AccessFlags::TRANSFER_WRITE,
+        vk::AccessFlags::SHADER_READ,
+    );
+    let (top, transfer, compute) =
+        (vk::PipelineStageFlags::TOP_OF_PIPE, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER);
+    // SAFETY: the caller's; the buffer (filled and unmapped before recording) and the image live as long as the run.
     unsafe {
-        d.destroy_image_view(view, None);
-        d.destroy_image(image, None);
-        d.free_memory(memory, None);
+        d.cmd_pipeline_barrier(cmd, top, transfer, vk::DependencyFlags::empty(), &[], &[], &to_copy);
+        d.cmd_copy_buffer_to_image(cmd, source, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &region);
+        d.cmd_pipeline_barrier(cmd, transfer, compute, vk::DependencyFlags::empty(), &[], &[], &to_read);
     }
 }
 
@@ -263,19 +216,19 @@ impl DataImage {
         inner.check_data_image("(data image)", what, bytes.len())?;
         let texels = (bytes.len() / 16) as u32;
         let (image, memory, view) = create_image(
-            inner,
-            super::context::DATA_FORMAT,
-            super::context::data_image_size(u64::from(texels)).map(|n| n as u32),
+            &inner.device,
+            &inner.memory,
+            DATA_FORMAT,
+            data_image_size(u64::from(texels)).map(|n| n as u32),
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
             format!("{what} (a data image of {texels} texels)"),
         )?;
         let made = DataImage { view, image, memory, inner: inner.clone() };
         let staging = super::Buffer::with_data(ctx, bytes, what)?;
         // SAFETY: the staging buffer and the image outlive the wait in submit_once.
-        let res = super::context::RunResources::new(inner.device.clone());
-        let done = inner.submit_once(res, |d, cmd, _| unsafe {
-            super::context::record_image_upload(d, cmd, staging.buffer, made.image, texels)
-        });
+        let res = RunResources::new(inner.device.clone());
+        let done = inner
+            .submit_once(res, |d, cmd, _| unsafe { record_image_upload(d, cmd, staging.buffer, made.image, texels) });
         if let Err(e @ GpuError::Timeout { .. }) = done {
             // The device may still copy: neither may go before the context does.
             std::mem::forget(staging);
@@ -298,5 +251,45 @@ impl Drop for DataImage {
         }
         // SAFETY: dropped when no frame in flight uses it (FrameLoop waits).
         unsafe { destroy_image(&self.inner.device, (self.image, self.memory, self.view)) };
+    }
+}
+
+impl Inner {
+    /// A data image of `len` bytes (a run's rgba32ui input, a
+    /// `DataImage`): whole texels, one row of up to IMAGE_WIDTH or whole
+    /// rows of IMAGE_WIDTH (layout.h; the shaders address texel t at
+    /// (t % IMAGE_WIDTH, t / IMAGE_WIDTH)), within maxImageDimension2D, a
+    /// format the device can store. `kernel` and `what` name it in errors.
+    pub(crate) fn check_data_image(&self, kernel: &str, what: &str, len: usize) -> Result<(), GpuError> {
+        let bad =
+            |message: String| GpuError::BadRun { kernel: kernel.to_string(), message: format!("{what}: {message}") };
+        let max = u64::from(self.limits.max_image_dimension2_d);
+        if len == 0 || !len.is_multiple_of(16) {
+            return Err(bad(format!("{len} bytes are not whole 16-byte texels")));
+        }
+        let texels = (len / 16) as u64;
+        let width = u64::from(IMAGE_WIDTH);
+        if texels > width && !texels.is_multiple_of(width) {
+            return Err(bad(format!("{texels} texels are more than one row and not whole rows of {width}")));
+        }
+        let [w, rows] = data_image_size(texels);
+        if w > max || rows > max {
+            return Err(GpuError::TooLarge {
+                what: format!("{what} ({rows} rows of {w} texels)"),
+                bytes: w.max(rows),
+                limit: max,
+                limit_name: "maxImageDimension2D (texels)",
+                advice: LESS_DATA,
+            });
+        }
+        let features = unsafe { self.parts.instance.get_physical_device_format_properties(self.physical, DATA_FORMAT) }
+            .optimal_tiling_features;
+        let needed = vk::FormatFeatureFlags::STORAGE_IMAGE | vk::FormatFeatureFlags::TRANSFER_DST;
+        if !features.contains(needed) {
+            return Err(bad(format!(
+                "the device cannot use {DATA_FORMAT:?} as a storage image and copy target ({features:?})"
+            )));
+        }
+        Ok(())
     }
 }

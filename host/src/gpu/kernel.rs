@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::context::Inner;
+use super::device::Inner;
 use super::{float_controls, reflect, specialize, GpuContext, GpuError, ImageBinding, ShaderSource, Specialised};
 use crate::layout::BindingLayout;
 
@@ -198,7 +198,7 @@ impl Kernel {
                 .module(module)
                 .name(c"main")
                 .specialization_info(&specialization);
-            // DISPATCH_BASE: a run splits a pass by rows of work groups (context.rs record_run).
+            // DISPATCH_BASE: a run splits a pass by rows of work groups (dispatch.rs record_run).
             let info = [vk::ComputePipelineCreateInfo::default()
                 .flags(vk::PipelineCreateFlags::DISPATCH_BASE)
                 .stage(stage)

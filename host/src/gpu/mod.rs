@@ -1,5 +1,8 @@
-//! Vulkan: instance and device selection, validation, buffers, compute
-//! pipelines, dispatch and readback; naga validation and layout reflection.
+//! Vulkan, a file per object: the instance and its validation messenger
+//! (`instance`), device choice and the open device (`device`), memory and
+//! buffers (`memory`), dispatch and readback (`dispatch`), owned by a
+//! `GpuContext` (`context`); compute pipelines (`kernel`); naga validation
+//! and layout reflection (`reflect`).
 //! For a window: persistent buffers and storage images bound in a
 //! descriptor set (`buffer`, `image`), a swapchain (`present`) and a frame
 //! loop that dispatches, copies the image to the swapchain and presents
@@ -21,13 +24,17 @@ mod buffer;
 mod cache;
 mod compile;
 mod context;
+mod device;
+mod dispatch;
 mod environment;
 mod error;
 mod float_controls;
 mod fma_probe;
 mod frames;
 mod image;
+mod instance;
 mod kernel;
+mod memory;
 mod present;
 pub mod reflect;
 mod shader_object;
@@ -39,10 +46,9 @@ mod tests;
 pub use buffer::{Buffer, DescriptorSet, Resource};
 pub use cache::cache_dir;
 pub use compile::{compile_kernel, compile_kernel_pair};
-pub use context::{
-    device_left_running, forced_residuals, list_devices, list_devices_with_default, DeviceInfo, DeviceSelector,
-    GpuContext, GpuOptions, RunBuffers, RunTimings,
-};
+pub use context::{forced_residuals, GpuContext};
+pub use device::{list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuOptions};
+pub use dispatch::{device_left_running, RunBuffers, RunTimings};
 pub(crate) use environment::switch;
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
 pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};

@@ -1,24 +1,13 @@
-//! Presenting to a window: the surface of `GpuContext::with_surface` and a
-//! `Swapchain` over it, recreated when the window's size changes.
+//! Presenting to a window: a `Swapchain` over the surface of
+//! `GpuContext::with_surface` (instance.rs `Surface`), recreated when the
+//! window's size changes.
 
 use std::sync::Arc;
 
 use ash::vk;
 
-use super::context::Inner;
+use super::device::Inner;
 use super::{GpuContext, GpuError};
-
-/// A window surface and the loader that destroys it (before the instance).
-pub(crate) struct Surface {
-    pub(crate) loader: ash::khr::surface::Instance,
-    pub(crate) handle: vk::SurfaceKHR,
-}
-
-impl Drop for Surface {
-    fn drop(&mut self) {
-        unsafe { self.loader.destroy_surface(self.handle, None) };
-    }
-}
 
 /// When a presented image replaces the one on screen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -144,7 +144,7 @@ impl ShaderObjects {
         ]);
         let file = self.dir.as_ref().map(|d| cache::file_for(d, CACHE, name, &key));
         let make = |code_type: vk::ShaderCodeTypeEXT, code: &[u8]| {
-            // DISPATCH_BASE: a run splits a pass by rows of work groups (context.rs record_run).
+            // DISPATCH_BASE: a run splits a pass by rows of work groups (dispatch.rs record_run).
             let info = [vk::ShaderCreateInfoEXT::default()
                 .flags(vk::ShaderCreateFlagsEXT::DISPATCH_BASE)
                 .stage(vk::ShaderStageFlags::COMPUTE)

@@ -574,7 +574,7 @@ fn list_devices_finds_lavapipe_and_selectors_work() {
 
 #[test]
 fn missing_loader_is_explained() {
-    let e = super::context::load_entry_from("/nonexistent/libvulkan.so.1").err().unwrap().to_string();
+    let e = super::instance::load_entry_from("/nonexistent/libvulkan.so.1").err().unwrap().to_string();
     assert!(e.starts_with("cannot load the Vulkan loader libvulkan.so.1 ("), "{e}");
     assert!(e.contains("install libvulkan1") && e.contains("mesa-vulkan-drivers"), "{e}");
 }
@@ -671,7 +671,7 @@ fn validation_messages_are_captured_and_taken() {
 
 #[test]
 fn zero_physical_devices_is_no_device() {
-    let e = super::context::usable_devices(Ok(Vec::new())).unwrap_err();
+    let e = super::device::usable_devices(Ok(Vec::new())).unwrap_err();
     assert!(matches!(e, GpuError::NoDevice { .. }), "{e:?}");
     assert!(e.to_string().starts_with("no Vulkan device found: the Vulkan loader reports zero devices; "), "{e}");
 }

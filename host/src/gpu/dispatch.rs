@@ -1,0 +1,557 @@
+//! Dispatch: a run's buffers bound and its passes recorded, submitted in
+//! chunks and waited for (`Inner::run_passes_read`); command buffers,
+//! one-off submissions and their fences; timeouts, and work left running
+//! past them (`device_left_running`).
+
+use std::time::{Duration, Instant};
+
+use ash::vk;
+
+use super::device::Inner;
+use super::image::record_image_upload;
+use super::memory::{
+    buffer_size, create_buffer, create_image, data_image_size, Place, RunImage, RunResources, DATA_FORMAT,
+};
+use super::{GpuError, ImageFormat, Kernel, LESS_DATA};
+
+/// How long one submission of a run's passes aims to take (`run_passes`):
+/// long enough that a GPU's thousands of short passes go in few
+/// submissions, short enough that a pass on a slow device is told as it
+/// finishes and the timeout bounds a pass or so, not a whole picture's
+/// samples (4096 of them at most: 37 minutes at recursive-spheres depth 10
+/// on lavapipe). A pass is split between submissions by rows of work
+/// groups (vkCmdDispatchBase), so one sample of a large picture is told as
+/// it goes too.
+const CHUNK_AIM: Duration = Duration::from_millis(250);
+/// The first submission of a run: this part of its first pass's rows of
+/// work groups (the time it takes sizes the next) where the pass has more
+/// than SPLIT_GROUPS work groups; else the whole pass. A split costs: on
+/// lavapipe recursiveSpheres4's dispatch at 512x384 (3,072 groups) took
+/// 80.75 ms split in eighths against 75.75 whole (medians of 12 rounds in
+/// turn, `ci/benchmarks.sh builds`), where pictures of the course's size
+/// gain nothing from it (a progress line shows after a second).
+const FIRST_CHUNK_PARTS: u64 = 8;
+/// Passes of more work groups than this are split from the first: the
+/// course's 512x384 (3,072 groups of 8x8) is not, 1024x768 (12,288) is;
+/// nor is a smaller one unless its caller expects it to be slow
+/// (`run_passes_read`'s `slow`).
+const SPLIT_GROUPS: u64 = 4096;
+/// How many times the work of the submission before the next may take on,
+/// where the one before was quick: its rows may have been cheap ones (the
+/// sky above a scene).
+const CHUNK_GROWTH: u64 = 8;
+
+/// Wall-clock times of the phases of one `GpuContext::run`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunTimings {
+    /// Buffer creation and host writes, descriptor set.
+    pub upload: Duration,
+    /// Recording, submit and fence wait.
+    pub dispatch: Duration,
+    /// Copying the output to host memory.
+    pub readback: Duration,
+}
+
+/// What a run binds: every binding of its kernel exactly once.
+pub struct RunBuffers<'a> {
+    /// Bindings uploaded from the host: (binding, bytes).
+    pub inputs: &'a [(u32, &'a [u8])],
+    /// Storage buffers the device clears to zero before the first pass,
+    /// which the host neither writes nor reads (device-local where the
+    /// device has such memory): (binding, bytes).
+    pub cleared: &'a [(u32, usize)],
+    /// The buffer read back: (binding, bytes); every u32 word of it is
+    /// `fill` until the kernel writes it (on the device, before the first pass).
+    pub output: (u32, usize),
+    pub fill: u32,
+}
+
+impl RunBuffers<'_> {
+    /// Every binding with its length: the inputs, the cleared buffers, the output.
+    fn lengths(&self) -> impl Iterator<Item = (u32, usize)> + '_ {
+        self.inputs.iter().map(|(b, d)| (*b, d.len())).chain(self.cleared.iter().copied()).chain([self.output])
+    }
+}
+
+/// How long a context's teardown waits for work that timed out before it
+/// leaves it running (`Inner::may_destroy`).
+const TEARDOWN_WAIT: Duration = Duration::from_secs(5);
+
+/// `d` in nanoseconds, as Vulkan's waits take it (u64::MAX: beyond ~584 years).
+pub(crate) fn nanos(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
+
+/// Set when a context left timed-out work running: the process should end
+/// without the drivers' own clean-up at exit (`device_left_running`).
+static LEFT_RUNNING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether a device was left running work that outlived its timeout (a
+/// kernel that never ends on a GPU; Mesa 25's lavapipe, which has no loop
+/// budget): the process then ends at once after its message
+/// (`cli::main`), since a driver's clean-up at exit (Mesa joins its worker
+/// threads) would wait for that work for ever.
+pub fn device_left_running() -> bool {
+    LEFT_RUNNING.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+impl Inner {
+    /// The work of `GpuContext::run_passes_read` (which says what it
+    /// takes), its kernel made on this device: the run checked, its buffers
+    /// made and bound, its passes submitted in chunks of about `CHUNK_AIM`,
+    /// and the output handed to `read` where the device left it.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn run_passes_read<R>(
+        &self,
+        kernel: &Kernel,
+        buffers: &RunBuffers,
+        groups: [u32; 3],
+        passes: u32,
+        slow: bool,
+        read: impl FnOnce(&[u8]) -> R,
+        mut done: impl FnMut(f64),
+    ) -> Result<(R, RunTimings), GpuError> {
+        self.check_run(kernel, buffers, groups)?;
+        self.refuse_if_still_running()?;
+
+        let start = Instant::now();
+        let (res, set) = self.prepare_run(kernel, buffers)?;
+        let upload = start.elapsed();
+
+        // Clear, fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
+        let start = Instant::now();
+        // The work in units of one row of work groups of one pass; the
+        // first submission the first pass, or an eighth of it where large or slow.
+        let rows = u64::from(groups[1].max(1));
+        let total = u64::from(passes) * rows;
+        let split = slow || groups.iter().map(|&g| u64::from(g)).product::<u64>() > SPLIT_GROUPS;
+        let first = if split { rows.div_ceil(FIRST_CHUNK_PARTS) } else { rows };
+        let (mut res, mut finished, mut chunk) = (res, 0u64, first);
+        while finished < total {
+            let units = finished..(finished + chunk).min(total);
+            let began = Instant::now();
+            res = self.submit_once(res, |d, cmd, res| unsafe {
+                record_run(d, cmd, res, kernel, set, groups, units.clone())
+            })?;
+            let (n, took) = (units.end - units.start, began.elapsed().as_nanos().max(1));
+            finished = units.end;
+            done(finished as f64 / rows as f64);
+            // The next submission about CHUNK_AIM long, at most CHUNK_GROWTH
+            // times this one; whole passes where a pass is not split.
+            let fit = u64::try_from(CHUNK_AIM.as_nanos() * u128::from(n) / took).unwrap_or(u64::MAX);
+            chunk = fit.clamp(1, n.saturating_mul(CHUNK_GROWTH));
+            if !split {
+                chunk = (chunk / rows).max(1) * rows;
+            }
+        }
+        let dispatch = start.elapsed();
+
+        let start = Instant::now();
+        let d = &self.device;
+        let memory = res.output;
+        let ptr = unsafe { d.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+            .map_err(GpuError::vk("vkMapMemory"))?;
+        // SAFETY: the mapping covers at least the output's bytes; the fence and barrier made the writes visible.
+        let out = read(unsafe { std::slice::from_raw_parts(ptr as *const u8, buffers.output.1) });
+        unsafe { d.unmap_memory(memory) };
+        let readback = start.elapsed();
+        drop(res);
+        Ok((out, RunTimings { upload, dispatch, readback }))
+    }
+
+    /// Checks a run against the kernel and the device limits before anything is allocated.
+    fn check_run(&self, kernel: &Kernel, buffers: &RunBuffers, groups: [u32; 3]) -> Result<(), GpuError> {
+        let bad = |message: String| GpuError::BadRun { kernel: kernel.name().to_string(), message };
+        if let Some(i) = kernel.images().iter().find(|i| i.writable || i.format != ImageFormat::Rgba32Uint) {
+            return Err(bad(format!(
+                "run() binds storage buffers and read-only rgba32ui data images; binding {} is a picture: \
+                 it needs a DescriptorSet and a FrameLoop",
+                i.binding
+            )));
+        }
+        if let Some((given, wanted)) = kernel.binding_mismatch(buffers.lengths().map(|(b, _)| b)) {
+            return Err(bad(format!(
+                "run() was given bindings {given:?} (inputs, cleared and output), the kernel declares {wanted:?}; \
+                 pass each binding exactly once"
+            )));
+        }
+        let limit = self.limits.max_compute_work_group_count;
+        if groups.iter().zip(limit).any(|(g, l)| *g > l) {
+            return Err(GpuError::TooManyGroups { groups, limit });
+        }
+        let out_binding = buffers.output.0;
+        if let Some(&(binding, _)) =
+            buffers.cleared.iter().chain([&buffers.output]).find(|(b, _)| kernel.binds_image(*b))
+        {
+            let what = if binding == out_binding { "the output" } else { "cleared" };
+            return Err(bad(format!("binding {binding} is a read-only image; it cannot be {what}")));
+        }
+        for (binding, len) in buffers.lengths() {
+            if kernel.binds_image(binding) {
+                self.check_data_image(kernel.name(), &kernel.binding_label(binding), len)?;
+                continue;
+            }
+            self.check_storage_size(buffer_size(len), || kernel.binding_label(binding))?;
+            let uniform_range = u64::from(self.limits.max_uniform_buffer_range);
+            if kernel.descriptor_type(binding) == vk::DescriptorType::UNIFORM_BUFFER && buffer_size(len) > uniform_range
+            {
+                return Err(GpuError::TooLarge {
+                    what: kernel.binding_label(binding),
+                    bytes: buffer_size(len),
+                    limit: uniform_range,
+                    limit_name: "maxUniformBufferRange",
+                    advice: LESS_DATA,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The buffers and data images of a checked run, the inputs written,
+    /// and a descriptor set binding them.
+    fn prepare_run(
+        &self,
+        kernel: &Kernel,
+        buffers: &RunBuffers,
+    ) -> Result<(RunResources, vk::DescriptorSet), GpuError> {
+        let mut res = RunResources::new(self.device.clone());
+        // Inputs: one host-visible buffer per binding, written in place.
+        for &(binding, data) in buffers.inputs {
+            let (buffer, memory) = create_buffer(
+                &self.device,
+                &self.memory,
+                &mut res,
+                buffer_size(data.len()),
+                Place::Upload,
+                &kernel.binding_label(binding),
+            )?;
+            let ptr = unsafe { self.device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+                .map_err(GpuError::vk("vkMapMemory"))?;
+            // SAFETY: the mapping covers the whole allocation, at least `data.len()` bytes.
+            unsafe {
+                std::ptr::copy_nonoverlapping(data.as_ptr(), ptr as *mut u8, data.len());
+                self.device.unmap_memory(memory);
+            }
+            res.bindings.push((binding, buffer));
+            if kernel.binds_image(binding) {
+                // A device image, copied from this buffer when the command buffer starts.
+                let texels = (data.len() / 16) as u32;
+                self.create_data_image(&mut res, binding, buffer, texels, &kernel.binding_label(binding))?;
+            }
+        }
+        // Cleared buffers and the output: filled by the device, before the first pass.
+        for &(binding, len) in buffers.cleared {
+            let (buffer, _) = create_buffer(
+                &self.device,
+                &self.memory,
+                &mut res,
+                buffer_size(len),
+                Place::Device,
+                &kernel.binding_label(binding),
+            )?;
+            res.bindings.push((binding, buffer));
+            res.fills.push((buffer, 0));
+        }
+        let (out_binding, out_len) = buffers.output;
+        let (buffer, memory) = create_buffer(
+            &self.device,
+            &self.memory,
+            &mut res,
+            buffer_size(out_len),
+            Place::Readback,
+            &kernel.binding_label(out_binding),
+        )?;
+        res.bindings.push((out_binding, buffer));
+        res.fills.push((buffer, buffers.fill));
+        res.output = memory;
+        let set = self.run_descriptor_set(&mut res, kernel)?;
+        Ok((res, set))
+    }
+
+    /// A descriptor set (from a pool in `res`) with `res`'s buffers and data images at their bindings.
+    fn run_descriptor_set(&self, res: &mut RunResources, kernel: &Kernel) -> Result<vk::DescriptorSet, GpuError> {
+        let images = res.images.len() as u32;
+        let uniform = res
+            .bindings
+            .iter()
+            .filter(|(b, _)| kernel.descriptor_type(*b) == vk::DescriptorType::UNIFORM_BUFFER)
+            .count() as u32;
+        let sizes: Vec<vk::DescriptorPoolSize> = [
+            (vk::DescriptorType::STORAGE_BUFFER, res.bindings.len() as u32 - uniform - images),
+            (vk::DescriptorType::UNIFORM_BUFFER, uniform),
+            (vk::DescriptorType::STORAGE_IMAGE, images),
+        ]
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(ty, n)| vk::DescriptorPoolSize::default().ty(ty).descriptor_count(n))
+        .collect();
+        let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
+        res.descriptor_pool = unsafe { self.device.create_descriptor_pool(&pool_info, None) }
+            .map_err(GpuError::vk("vkCreateDescriptorPool"))?;
+        let set_layouts = [kernel.set_layout];
+        let alloc =
+            vk::DescriptorSetAllocateInfo::default().descriptor_pool(res.descriptor_pool).set_layouts(&set_layouts);
+        let set = unsafe { self.device.allocate_descriptor_sets(&alloc) }
+            .map_err(GpuError::vk("vkAllocateDescriptorSets"))?[0];
+        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = res
+            .bindings
+            .iter()
+            .map(|(_, b)| [vk::DescriptorBufferInfo::default().buffer(*b).offset(0).range(vk::WHOLE_SIZE)])
+            .collect();
+        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = res
+            .images
+            .iter()
+            .map(|i| [vk::DescriptorImageInfo::default().image_view(i.view).image_layout(vk::ImageLayout::GENERAL)])
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = res
+            .bindings
+            .iter()
+            .zip(&buffer_infos)
+            .filter(|((binding, _), _)| !kernel.binds_image(*binding))
+            .map(|((binding, _), info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(*binding)
+                    .descriptor_type(kernel.descriptor_type(*binding))
+                    .buffer_info(info)
+            })
+            .chain(res.images.iter().zip(&image_infos).map(|(i, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i.binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                    .image_info(info)
+            }))
+            .collect();
+        unsafe { self.device.update_descriptor_sets(&writes, &[]) };
+        Ok(set)
+    }
+
+    /// A device-local rgba32ui image of `texels` (`data_image_size`) for
+    /// `binding`, filled from `source` when the run's command buffer starts
+    /// (`record_image_upload`); `what` names it in errors.
+    fn create_data_image(
+        &self,
+        res: &mut RunResources,
+        binding: u32,
+        source: vk::Buffer,
+        texels: u32,
+        what: &str,
+    ) -> Result<(), GpuError> {
+        let (image, memory, view) = create_image(
+            &self.device,
+            &self.memory,
+            DATA_FORMAT,
+            data_image_size(u64::from(texels)).map(|n| n as u32),
+            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
+            format!("{what} (a data image of {texels} texels)"),
+        )?;
+        res.images.push(RunImage { binding, source, texels, image, view, memory });
+        Ok(())
+    }
+
+    /// Records commands with `record` into a command buffer of its own
+    /// (in `res`, with what they use), submits it and waits for it (the
+    /// context's timeout). On a timeout the device may still use `res`: it
+    /// is kept until the context is dropped. Else it comes back.
+    pub(crate) fn submit_once(
+        &self,
+        mut res: RunResources,
+        record: impl FnOnce(&ash::Device, vk::CommandBuffer, &RunResources),
+    ) -> Result<RunResources, GpuError> {
+        let d = &self.device;
+        // A submission before with `res` has finished (its fence waited on):
+        // its pool and fence go (destroying a null handle does nothing).
+        unsafe {
+            d.destroy_fence(std::mem::take(&mut res.fence), None);
+            d.destroy_command_pool(std::mem::take(&mut res.command_pool), None);
+        }
+        let cmd;
+        (res.command_pool, cmd) = self.command_buffer(vk::CommandPoolCreateFlags::TRANSIENT)?;
+        let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        unsafe { d.begin_command_buffer(cmd, &begin) }.map_err(GpuError::vk("vkBeginCommandBuffer"))?;
+        record(d, cmd, &res);
+        unsafe { d.end_command_buffer(cmd) }.map_err(GpuError::vk("vkEndCommandBuffer"))?;
+        res.fence =
+            unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(GpuError::vk("vkCreateFence"))?;
+        let queue = self.queue.lock().unwrap_or_else(|p| p.into_inner());
+        let cmds = [cmd];
+        let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+        unsafe { d.queue_submit(*queue, &submit, res.fence) }.map_err(GpuError::vk("vkQueueSubmit"))?;
+        let timeout_ns = nanos(self.timeout);
+        match unsafe { d.wait_for_fences(&[res.fence], true, timeout_ns) } {
+            Ok(()) => Ok(res),
+            Err(vk::Result::TIMEOUT) => {
+                self.abandoned.lock().unwrap_or_else(|p| p.into_inner()).push(res);
+                Err(GpuError::Timeout { after: self.timeout })
+            }
+            Err(e) => Err(GpuError::vk("vkWaitForFences")(e)),
+        }
+    }
+
+    /// A command pool of the queue's family (`flags`) and one primary
+    /// command buffer from it; the caller destroys the pool. On an error
+    /// nothing is left behind.
+    pub(crate) fn command_buffer(
+        &self,
+        flags: vk::CommandPoolCreateFlags,
+    ) -> Result<(vk::CommandPool, vk::CommandBuffer), GpuError> {
+        let d = &self.device;
+        let info = vk::CommandPoolCreateInfo::default().flags(flags).queue_family_index(self.queue_family);
+        let pool = unsafe { d.create_command_pool(&info, None) }.map_err(GpuError::vk("vkCreateCommandPool"))?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        match unsafe { d.allocate_command_buffers(&alloc) } {
+            Ok(cmds) => Ok((pool, cmds[0])),
+            Err(e) => {
+                unsafe { d.destroy_command_pool(pool, None) };
+                Err(GpuError::vk("vkAllocateCommandBuffers")(e))
+            }
+        }
+    }
+}
+
+/// Records a run: the device's fills (`RunResources::fills`) and the data
+/// images' copies, then `passes` dispatches of `groups`, each seeing the
+/// writes of the one before, then a barrier that makes the writes visible
+/// to the host.
+///
+/// # Safety
+/// `cmd` is a command buffer of `d` in the recording state; `res` and
+/// `set` were made for `kernel` (`Inner::prepare_run`).
+unsafe fn record_run(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    res: &RunResources,
+    kernel: &Kernel,
+    set: vk::DescriptorSet,
+    groups: [u32; 3],
+    units: std::ops::Range<u64>,
+) {
+    let rows = u64::from(groups[1].max(1));
+    // SAFETY: the caller's; every handle lives as long as the run.
+    unsafe {
+        if units.start == 0 {
+            record_run_start(d, cmd, res);
+        }
+        kernel.bind(cmd);
+        d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
+        // Unit u: row u % rows of work groups of pass u / rows; each pass's
+        // rows of the range in one dispatch.
+        let mut u = units.start;
+        while u < units.end {
+            let (pass, row) = (u / rows, u % rows);
+            let end = units.end.min((pass + 1) * rows);
+            if row == 0 && pass > 0 {
+                // The pass before's writes (in this submission or an earlier
+                // one on the queue), visible to this one's reads and writes.
+                let access = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+                shader_writes_barrier(d, cmd, vk::PipelineStageFlags::COMPUTE_SHADER, access);
+            }
+            // Rows of one pass write pixels of their own: no barrier between them.
+            d.cmd_dispatch_base(cmd, 0, row as u32, 0, groups[0], (end - u) as u32, groups[2]);
+            u = end;
+        }
+        shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
+    }
+}
+
+/// Records what a run does before its first pass: the buffers filled,
+/// the data images uploaded.
+///
+/// # Safety
+/// As `record_run`.
+unsafe fn record_run_start(d: &ash::Device, cmd: vk::CommandBuffer, res: &RunResources) {
+    // SAFETY: the caller's.
+    unsafe {
+        for &(buffer, value) in &res.fills {
+            d.cmd_fill_buffer(cmd, buffer, 0, vk::WHOLE_SIZE, value);
+        }
+        let filled = [vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::DependencyFlags::empty(),
+            &filled,
+            &[],
+            &[],
+        );
+        for image in &res.images {
+            record_image_upload(d, cmd, image.source, image.image, image.texels);
+        }
+    }
+}
+
+/// Records a barrier that makes the compute shader's writes visible to
+/// `dst_access` at `dst_stage` (all memory; no image layout changes).
+///
+/// # Safety
+/// `cmd` is a command buffer of `d` in the recording state.
+unsafe fn shader_writes_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    dst_stage: vk::PipelineStageFlags,
+    dst_access: vk::AccessFlags,
+) {
+    let barrier =
+        [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(dst_access)];
+    // SAFETY: the caller's.
+    unsafe {
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            dst_stage,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
+}
+
+impl Inner {
+    /// Whether the device's objects may be destroyed: no run that timed out
+    /// is still executing (waited for up to TEARDOWN_WAIT). Else, and from
+    /// then on, nothing is destroyed (the work would run on into freed
+    /// memory, or the wait would last for ever): see `device_left_running`.
+    pub(crate) fn may_destroy(&self) -> bool {
+        let abandoned = self.abandoned.lock().unwrap_or_else(|p| p.into_inner());
+        if !abandoned.is_empty() && !self.left_running() {
+            self.wait_or_leave_running(&abandoned.iter().map(|r| r.fence).collect::<Vec<_>>());
+        }
+        !self.left_running()
+    }
+
+    /// Waits up to TEARDOWN_WAIT for `fences` (work that outlived the
+    /// timeout, at teardown); work still running then is left running.
+    pub(crate) fn wait_or_leave_running(&self, fences: &[vk::Fence]) {
+        if unsafe { self.device.wait_for_fences(fences, true, nanos(TEARDOWN_WAIT)) }.is_err() {
+            self.leave_running();
+        }
+    }
+
+    /// GpuError::StillRunning where a run before timed out and may still
+    /// be running: a run or a kernel's build would wait behind it.
+    pub(crate) fn refuse_if_still_running(&self) -> Result<(), GpuError> {
+        if self.abandoned.lock().unwrap_or_else(|p| p.into_inner()).is_empty() {
+            Ok(())
+        } else {
+            Err(GpuError::StillRunning)
+        }
+    }
+
+    /// Work that timed out is left running: nothing of this device is destroyed.
+    pub(crate) fn leave_running(&self) {
+        self.left_running.store(true, std::sync::atomic::Ordering::Relaxed);
+        LEFT_RUNNING.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    pub(crate) fn left_running(&self) -> bool {
+        self.left_running.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
