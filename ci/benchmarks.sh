@@ -234,7 +234,7 @@ passes() {
   local tmp s out n first ratio aov=cost what="each camera ray's walk" all=""
   if [ "${1:-}" = --all ]; then aov=cost-all what="all the rays of each pixel (camera, shadow and mirror rays, traced as in colour), their walks summed" all="--all "; shift; fi
   tmp="$(mktemp -d)"
-  echo "\`ci/benchmarks.sh passes $all$*\`: \`$RAYCAST render SCENE --assets $CORPUS --aov $aov --backend cpu\` (512x384, one sample a pixel): the passes of $what (a pass: an inner node's two boxes, an instance entered, or a leaf's tests; README, \"--aov cost\"), the same counts on any device."
+  echo "\`ci/benchmarks.sh passes $all$*\`: \`$RAYCAST render SCENE --assets $CORPUS --aov $aov --backend cpu\` (512x384, one sample a pixel): the passes of $what (a pass: an inner node's two boxes, an instance entered, or a leaf's tests; docs/cli.md, \"Views\"), the same counts on any device."
   echo
   echo "| scene | primitives N | ln N / ln N0 | mean passes | mean / first | median | 90% at most | 99% at most | most |"
   echo "|---|---|---|---|---|---|---|---|---|"
@@ -388,7 +388,7 @@ division() {
     if [ "$1" = --rounds ]; then rounds="$2"; else opts+=("$1" "$2"); fi
     shift 2
   done
-  echo "\`ci/benchmarks.sh division ${opts[*]}${opts:+ }--rounds $rounds SCENE...\`: \`$RAYCAST render SCENE --assets $CORPUS${opts:+ }${opts[*]}\` under three settings in turn, $rounds rounds after one untimed: the GPU kernels' division correction with the residuals the fma probe chose (by \`fma\` where the device's rounds once, README \"On a GPU too\"), with Dekker's residuals (\`RAYCAST_FMA_RESIDUALS=0\`), and without the correction (\`RAYCAST_INEXACT_DIVISION=0\`, which gives up the CPU build's bits); the median of \`render\`'s dispatch time, and each against the last."
+  echo "\`ci/benchmarks.sh division ${opts[*]}${opts:+ }--rounds $rounds SCENE...\`: \`$RAYCAST render SCENE --assets $CORPUS${opts:+ }${opts[*]}\` under three settings in turn, $rounds rounds after one untimed: the GPU kernels' division correction with the residuals the fma probe chose (by \`fma\` where the device's rounds once, docs/exactness.md, \"Division\"), with Dekker's residuals (\`RAYCAST_FMA_RESIDUALS=0\`), and without the correction (\`RAYCAST_INEXACT_DIVISION=0\`, which gives up the CPU build's bits); the median of \`render\`'s dispatch time, and each against the last."
   echo
   echo "| scene | the probe's kernel | dispatch: the probe's | Dekker's | no correction | the probe's ÷ none | Dekker's ÷ none |"
   echo "|---|---|---|---|---|---|---|"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Packs what a lent GPU machine lacks into one folder, to run raycast there
-# (BENCHMARKS-GPU.md, "Running it on a lent machine"):
+# (docs/platforms.md#lent-gpu-machines):
 #
 #   ci/lent-gpu.sh checks|preview [DIR]          (DIR: .lent, which .gitignore leaves out)
 #

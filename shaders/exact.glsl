@@ -1,5 +1,5 @@
 // exact.glsl: the portable arithmetic every other file computes with, the
-// same bits in every build (EXACTNESS.md): fixed-order dot products and
+// same bits in every build (docs/exactness.md#the-recipe): fixed-order dot products and
 // transforms, NaN-safe min / max / clamp, division and square root rounded
 // to nearest (div_rn, sqrt_rn, corrected on GPUs), and log2, exp2, pow,
 // acos, asin, atan and atan2 built from + - * / and sqrt.

@@ -96,8 +96,7 @@
 // scene's REGISTER_LEVELS levels, constant indices once the loops over them
 // unroll (traversal.glsl, walk). A kernel specialised for a scene has them in
 // registers, as many as the scene nests (render::Specialization; 0.78 to
-// 0.90 of the dispatch at every depth of the recursive spheres, BENCHMARKS.md
-// "The walk's levels in registers"); the C++ build and a kernel not
+// 0.90 of the dispatch at every depth of the recursive spheres, docs/scale.md#shaped-for-lavapipe); the C++ build and a kernel not
 // specialised, in arrays.
 #define SPEC_LEVELS_IN_REGISTERS 19 // a bool
 #define SPEC_REGISTER_LEVELS 20     // a count: the levels the walk keeps, 1 to MAX_LEVELS

@@ -1,4 +1,4 @@
-// lighting.glsl: local lighting (docs/SCENE_FORMAT.md, "Lighting model of
+// lighting.glsl: local lighting (docs/scene-format.md#lighting-model: "Lighting model of
 // the official renders"): a light's intensity (attenuation, spot falloff),
 // the surface a hit shows, one light's Phong term, and what is too small
 // to trace a ray for.

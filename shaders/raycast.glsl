@@ -5,7 +5,7 @@
 // This file is the one that kernels and the CPU build include: it includes
 // the files below, one per concern, in the order each needs the others.
 //
-// Exactness rules (../shared/docs/EXACTNESS.md), which every line obeys so
+// Exactness rules (docs/exactness.md#the-recipe), which every line obeys so
 // that lavapipe and the CPU build agree bit for bit:
 //   - no normalize(), no mat*vec, no built-in dot: fixed-order sums instead;
 //   - `precise` on every float temporary and float-returning function;

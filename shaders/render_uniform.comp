@@ -5,7 +5,7 @@
 // (render_main.glsl), same pixels; several times faster on lavapipe, whose
 // storage-buffer loads go lane by lane with a bounds check each, uniform
 // loads a 32-bit word per lane and image loads a 128-bit texel per lane
-// (BENCHMARKS.md, "Why lavapipe is slow here", "What made lavapipe faster").
+// (docs/scale.md#shaped-for-lavapipe).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define SCENE_UNIFORM 1

@@ -1,4 +1,4 @@
-// shapes.glsl: the canonical shapes, object space (see docs/SCENE_FORMAT.md):
+// shapes.glsl: the canonical shapes, object space (see docs/scene-format.md#primitives):
 //   cube [-0.5, 0.5]^3, sphere r 0.5, cylinder r 0.5 with y in [-0.5, 0.5]
 //   and both caps, cone with base r 0.5 at y = -0.5, apex at y = 0.5 and a
 //   base cap.

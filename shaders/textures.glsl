@@ -1,4 +1,4 @@
-// textures.glsl: texture mapping (docs/SCENE_FORMAT.md: UV per shape, v = 0
+// textures.glsl: texture mapping (docs/scene-format.md#texture-coordinates: UV per shape, v = 0
 // at the top row): a hit's (u, v) and the texel, nearest or bilinear.
 
 // u in [0, 1) around the y axis: (-atan2(z, x) / 2 pi) mod 1.

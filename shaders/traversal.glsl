@@ -125,8 +125,7 @@ uint stack_word(uint entry, uint level) {
 // (so roots need no test of their own: the scene's root is entered whole,
 // an instance's root lies inside the instance's box), and holds up to 8
 // items when at most 4 are primitives (host/src/bvh.rs). On recursiveSpheres4 a camera
-// ray takes 3 passes on average where it took 24 (BENCHMARKS.md, "What
-// made lavapipe faster"). A loop inside a pass runs its body at least once
+// ray takes 3 passes on average where it took 24 (docs/scale.md#shaped-for-lavapipe). A loop inside a pass runs its body at least once
 // even when no lane enters it, so a kernel keeps only the steps its scene
 // has: the inner-node step (HAS_INNER_NODES), the loop over a leaf's
 // primitives or a single test (HAS_SEVERAL_PRIMITIVE_LEAVES), the

@@ -970,7 +970,8 @@ fn no_vulkan_driver_is_named_as_the_reason() {
 fn the_help_names_only_the_previews_own_options() {
     let o = raycast(&["preview", "--help"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let help = String::from_utf8_lossy(&o.stdout);
+    // Words as they read, whatever the terminal's width wraps.
+    let help = String::from_utf8_lossy(&o.stdout).split_whitespace().collect::<Vec<_>>().join(" ");
     let mentions = |flag: &str| help.matches(flag).count();
     let as_theirs = |flag: &str| help.matches(&format!("(render and check: {flag}")).count();
     for flag in ["--depth-range", "--cost-max"] {

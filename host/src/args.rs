@@ -49,3 +49,33 @@ pub fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) -> Result
         _ => Ok(()),
     }
 }
+
+/// A whole number as the range parsers below take it.
+fn whole(s: &str) -> Result<u32, String> {
+    s.trim().parse::<u32>().map_err(|_| format!("{s:?} is not a whole number"))
+}
+
+/// `--width`: the range [`crate::frame::RenderSettings::validate`] applies, checked as clap parses.
+pub fn parse_width(s: &str) -> Result<u32, String> {
+    crate::frame::side_in_range("--width", whole(s)?)
+}
+
+/// `--height`, as `--width`.
+pub fn parse_height(s: &str) -> Result<u32, String> {
+    crate::frame::side_in_range("--height", whole(s)?)
+}
+
+/// `--spp`: 1 to `frame::MAX_SPP`.
+pub fn parse_spp(s: &str) -> Result<u32, String> {
+    crate::frame::spp_in_range(whole(s)?)
+}
+
+/// `--bounces`: at most the kernels' mirror depth.
+pub fn parse_bounces(s: &str) -> Result<u32, String> {
+    crate::frame::bounces_in_range(whole(s)?)
+}
+
+/// `--cost-max`: 1 to `frame::MAX_COST`.
+pub fn parse_cost_max(s: &str) -> Result<u32, String> {
+    crate::frame::cost_max_in_range(whole(s)?)
+}

@@ -14,8 +14,7 @@ pub const MAX_INPUT_BYTES: u64 = 1 << 30;
 /// text, roxmltree's tree of it and the parsed model together. Measured
 /// (peak RSS over file size) 10.7 on 200,000 primitives each with a
 /// translate, a scale and a diffuse colour (37 MB, 406 MB), 8.9 on `gen
-/// recursive-spheres --depth 8 --flat` (82 MB, 729 MB; BENCHMARKS.md,
-/// "Instanced against written out flat"); about the larger, so that only
+/// recursive-spheres --depth 8 --flat` (82 MB, 729 MB; docs/scale.md#instancing); about the larger, so that only
 /// a load that would very likely fail is refused.
 pub const LOAD_BYTES_PER_XML_BYTE: u64 = 10;
 

@@ -166,28 +166,45 @@ impl std::fmt::Display for SettingsError {
 
 impl std::error::Error for SettingsError {}
 
+/// A picture side (`--width`, `--height`) within 1 to MAX_IMAGE_SIDE: the
+/// one range the command line's parser and [`RenderSettings::validate`] apply.
+pub fn side_in_range(name: &str, v: u32) -> Result<u32, String> {
+    if v == 0 || v > MAX_IMAGE_SIDE {
+        return Err(format!("{name} {v} is out of range: an image side must be between 1 and {MAX_IMAGE_SIDE} pixels"));
+    }
+    Ok(v)
+}
+
+/// `--spp` within 1 to MAX_SPP.
+pub fn spp_in_range(v: u32) -> Result<u32, String> {
+    if v == 0 || v > MAX_SPP {
+        return Err(format!("--spp {v} is out of range: between 1 and {MAX_SPP} samples per pixel"));
+    }
+    Ok(v)
+}
+
+/// `--bounces` at most layout::MAX_DEPTH.
+pub fn bounces_in_range(v: u32) -> Result<u32, String> {
+    if v > layout::MAX_DEPTH {
+        return Err(format!("--bounces {v} is out of range: at most {} mirror bounces", layout::MAX_DEPTH));
+    }
+    Ok(v)
+}
+
+/// `--cost-max` within 1 to MAX_COST.
+pub fn cost_max_in_range(v: u32) -> Result<u32, String> {
+    if v == 0 || v > MAX_COST {
+        return Err(format!("--cost-max {v} is out of range: between 1 and {MAX_COST} passes"));
+    }
+    Ok(v)
+}
+
 impl RenderSettings {
     pub fn validate(&self) -> Result<(), SettingsError> {
-        for (name, v) in [("--width", self.width), ("--height", self.height)] {
-            if v == 0 || v > MAX_IMAGE_SIDE {
-                return Err(SettingsError(format!(
-                    "{name} {v} is out of range: an image side must be between 1 and {MAX_IMAGE_SIDE} pixels"
-                )));
-            }
-        }
-        if self.spp == 0 || self.spp > MAX_SPP {
-            return Err(SettingsError(format!(
-                "--spp {} is out of range: between 1 and {MAX_SPP} samples per pixel",
-                self.spp
-            )));
-        }
-        if self.max_depth > layout::MAX_DEPTH {
-            return Err(SettingsError(format!(
-                "--bounces {} is out of range: at most {} mirror bounces",
-                self.max_depth,
-                layout::MAX_DEPTH
-            )));
-        }
+        side_in_range("--width", self.width).map_err(SettingsError)?;
+        side_in_range("--height", self.height).map_err(SettingsError)?;
+        spp_in_range(self.spp).map_err(SettingsError)?;
+        bounces_in_range(self.max_depth).map_err(SettingsError)?;
         if self.depth_range.is_some() && self.aov != Aov::Depth {
             return Err(SettingsError("--depth-range is for --aov depth; this render is not one".to_string()));
         }
@@ -197,8 +214,8 @@ impl RenderSettings {
                     "--cost-max is for --aov cost or cost-all; this render is neither".to_string(),
                 ))
             }
-            Some(n) if n == 0 || n > MAX_COST => {
-                return Err(SettingsError(format!("--cost-max {n} is out of range: between 1 and {MAX_COST} passes")))
+            Some(n) => {
+                cost_max_in_range(n).map_err(SettingsError)?;
             }
             _ => {}
         }
@@ -1164,7 +1181,7 @@ mod tests {
     }
 
     /// The film corner (1, 1, -1) must map to the direction of the top-right
-    /// pixel edge given by SCENE_FORMAT.md: U/2·u + V/2·v - w.
+    /// pixel edge given by docs/scene-format.md#camera: U/2·u + V/2·v - w.
     #[test]
     fn world_from_film_matches_the_documented_camera() {
         let cam = Camera {

@@ -1,7 +1,7 @@
 //! raycast: a ray caster that runs as a Vulkan compute shader over
 //! CS1230/CS123/Comp175 XML scenes.
 //!
-//! Parts (see README "Architecture"): `scene` reads scene files, `frame`
+//! Parts (see docs/architecture.md): `scene` reads scene files, `frame`
 //! turns a scene into the buffers of `layout`, `gpu` runs kernels on a
 //! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
 //! and compares pictures, `bounded` reads text inputs up to a size,

@@ -169,7 +169,7 @@ pub enum SceneBuffers {
     /// Storage buffers (render.comp): any size.
     Storage,
     /// Images and uniform blocks (render_uniform.comp): an error naming what
-    /// does not fit when the scene does not (README, "Shaped for lavapipe").
+    /// does not fit when the scene does not (docs/scale.md#shaped-for-lavapipe).
     /// Also spelled `images`: the scene's arrays are storage images, only
     /// the frame is a uniform block.
     #[value(alias = "images")]

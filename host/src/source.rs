@@ -32,7 +32,7 @@ pub fn generated_name(name: &str) -> Option<&str> {
 
 /// Whether `name` is a file to follow for changes (not stdin, not generated).
 pub fn is_file(name: &Path) -> bool {
-    name != Path::new(STDIN) && name.to_str().map_or(true, |n| generated_name(n).is_none())
+    name != Path::new(STDIN) && name.to_str().is_none_or(|n| generated_name(n).is_none())
 }
 
 /// The scene `name` names (None: the embedded default scene), parsed, its

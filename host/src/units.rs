@@ -57,7 +57,6 @@ pub(crate) fn thousands(n: u64) -> String {
     out
 }
 
-/// `s` as a JSON string, quoted and escaped.
 /// Items in a sentence: "a", "a and b", "a, b and c" (`word`: "and", "or").
 pub(crate) fn listed(items: &[impl AsRef<str>], word: &str) -> String {
     match items {
@@ -70,6 +69,7 @@ pub(crate) fn listed(items: &[impl AsRef<str>], word: &str) -> String {
     }
 }
 
+/// `s` as a JSON string, quoted and escaped.
 pub(crate) fn json_str(s: &str) -> String {
     let mut out = String::from("\"");
     for c in s.chars() {

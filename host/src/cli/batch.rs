@@ -45,11 +45,6 @@ pub(crate) fn scene_name(scene: Option<&Path>) -> String {
     scene.map_or("the default scene".to_string(), |s| s.display().to_string())
 }
 
-/// Where each scene's picture goes (`render`: `<scene name>.png`; `check`:
-/// `<scene name>-check.png`, its diff image): `-o` for one scene, else in
-/// `--out-dir` (made here) or the current folder. Checked before any work:
-/// -o with several scenes, a path that cannot be written, two scenes
-
 /// What came of the scenes of a command that takes several (`each_scene`).
 pub(crate) struct Batch<T> {
     /// Each scene that went through, by name, with what it gave.

@@ -37,7 +37,7 @@ pub struct CheckArgs {
     out_dir: Option<PathBuf>,
     /// Succeed when at most K pixels differ (in each scene). For a GPU whose
     /// driver breaks the kernels' exactness (lavapipe and an NVIDIA H100
-    /// keep it: README, "On a GPU too"); the output says the check was not
+    /// keep it: docs/exactness.md#on-a-gpu); the output says the check was not
     /// exact.
     #[arg(long, default_value_t = 0, value_name = "K")]
     allow_pixels: usize,
@@ -176,7 +176,7 @@ fn check_scene(
         n if n <= args.allow_pixels => {
             outln!(
                 "NOT EXACT: {n} pixels differ, accepted by --allow-pixels {} (lavapipe and an NVIDIA H100 measured exact; \
-                 a driver that does not fuse `fma` or honour `precise` may not be: README, \"On a GPU too\")",
+                 a driver that does not fuse `fma` or honour `precise` may not be: docs/exactness.md#on-a-gpu)",
                 args.allow_pixels
             );
             Checked::Accepted

@@ -17,10 +17,10 @@ use std::time::Duration;
 #[derive(Args, Debug)]
 pub struct RenderOptions {
     /// Picture width in pixels (1 to 16384)
-    #[arg(long, default_value_t = 512, value_name = "W", help_heading = "Picture")]
+    #[arg(long, default_value_t = 512, value_name = "W", value_parser = parse_width, help_heading = "Picture")]
     pub width: u32,
     /// Picture height in pixels (1 to 16384)
-    #[arg(long, default_value_t = 384, value_name = "H", help_heading = "Picture")]
+    #[arg(long, default_value_t = 384, value_name = "H", value_parser = parse_height, help_heading = "Picture")]
     pub height: u32,
     /// color, normal, depth, id, cost or cost-all
     #[arg(long, value_enum, default_value_t = Aov::Color, help_heading = "Picture", hide_possible_values = true)]
@@ -35,7 +35,7 @@ pub struct RenderOptions {
     /// With --aov cost or cost-all: the passes drawn dark red
     ///
     /// With `--aov cost` or `cost-all`: the passes drawn dark red (and beyond) [default: 64, cost-all 256]
-    #[arg(long, value_name = "N", help_heading = "Picture", hide_short_help = true)]
+    #[arg(long, value_name = "N", value_parser = parse_cost_max, help_heading = "Picture", hide_short_help = true)]
     pub cost_max: Option<u32>,
     /// Turn shadow rays off
     #[arg(long, help_heading = "Picture")]
@@ -47,7 +47,7 @@ pub struct RenderOptions {
     #[arg(long, help_heading = "Picture")]
     pub no_textures: bool,
     /// Mirror bounces (0 to 16; old spelling --depth)
-    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", help_heading = "Picture")]
+    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = parse_bounces, help_heading = "Picture")]
     pub bounces: u32,
     /// Extra folder to find textures in (repeatable)
     ///
@@ -59,7 +59,7 @@ pub struct RenderOptions {
     /// Samples per pixel, in a fixed pattern
     ///
     /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
-    #[arg(long, default_value_t = 1, value_name = "N", help_heading = "Quality")]
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = parse_spp, help_heading = "Quality")]
     pub spp: u32,
     /// How textures are sampled: nearest, bilinear
     #[arg(long, value_enum, default_value_t = TextureFilter::Nearest, value_name = "FILTER", help_heading = "Quality",

@@ -15,6 +15,10 @@ pub(crate) fn default_output(scene: Option<&Path>, suffix: &str, dir: Option<&Pa
     dir.map_or_else(|| PathBuf::from(&name), |d| d.join(&name))
 }
 
+/// Where each scene's picture goes (`render`: `<scene name>.png`; `check`:
+/// `<scene name>-check.png`, its diff image): `-o` for one scene, else in
+/// `--out-dir` (made here) or the current folder. Checked before any work:
+/// -o with several scenes, a path that cannot be written, two scenes
 /// writing one file.
 pub(crate) fn output_paths(
     output: &Option<PathBuf>,

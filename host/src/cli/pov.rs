@@ -20,10 +20,10 @@ pub struct PovArgs {
     #[arg(long, value_name = "DIR")]
     assets: Vec<PathBuf>,
     /// The picture's width, for the camera's film and the command line in the file's head.
-    #[arg(long, default_value_t = 512, value_name = "W")]
+    #[arg(long, default_value_t = 512, value_name = "W", value_parser = crate::args::parse_width)]
     width: u32,
     /// The picture's height.
-    #[arg(long, default_value_t = 384, value_name = "H")]
+    #[arg(long, default_value_t = 384, value_name = "H", value_parser = crate::args::parse_height)]
     height: u32,
     /// Lights that cast no shadows (`shadowless`), as `render --no-shadows`.
     #[arg(long)]
@@ -35,7 +35,7 @@ pub struct PovArgs {
     #[arg(long)]
     no_textures: bool,
     /// Mirror bounces (POV-Ray's max_trace_level is one more: it counts the camera ray).
-    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N")]
+    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = crate::args::parse_bounces)]
     bounces: u32,
 }
 

@@ -20,9 +20,8 @@ pub fn prepare_process() {
 /// dispatch ends while the other threads wait. More threads than cores make
 /// smaller blocks that the system interleaves: on 2 cores, 8 threads took
 /// recursiveSpheres4's dispatch from 310 to 279 ms and the depth-10 scene's
-/// from 2790 to 2350 ms, the same pixels (BENCHMARKS.md, "What made
-/// lavapipe faster"); on 16 cores, 32 threads beat 16 and 8 (BENCHMARKS-GPU.md,
-/// "Lavapipe beside the GPU"). Sets LP_NUM_THREADS to 4 a core (at most Mesa's 32)
+/// from 2790 to 2350 ms, the same pixels (docs/platforms.md#lavapipe);
+/// on 16 cores, 32 threads beat 16 and 8. Sets LP_NUM_THREADS to 4 a core (at most Mesa's 32)
 /// unless it is set already; other drivers ignore it. Call first thing in
 /// the process (`prepare_process`).
 fn spread_lavapipe_work() {

@@ -6,7 +6,7 @@
 //! operation. The shared GLSL relies on them: `min_f`/`max_f` are ternaries
 //! in GLM's operand order so that a slab test on an axis-parallel ray
 //! (0 · inf = NaN) takes the same branch on every backend
-//! (../shared/docs/EXACTNESS.md). NVIDIA's driver (580, H100) turned
+//! (docs/exactness.md#nan-and-infinities). NVIDIA's driver (580, H100) turned
 //! `min_f(NaN, 1)` into a hardware min that returns 1 where lavapipe and the
 //! CPU build return the NaN; with the mode it returns the NaN. Likewise,
 //! without `DenormPreserve` a driver may flush subnormal results to zero

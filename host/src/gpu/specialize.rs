@@ -9,8 +9,7 @@
 //! Here the constants are written into the SPIR-V as ordinary constants
 //! first (`freeze`) and spirv-opt removes the code they rule out
 //! (`SPECIALISE_PASSES`); the driver then gets a module 60% of the size and
-//! builds its pipeline in 32-47 ms (median 43; BENCHMARKS.md, "Specialised
-//! ahead"). spirv-opt takes about 0.1 s for that, so its result is kept in
+//! builds its pipeline in 32-47 ms (median 43; docs/platforms.md#kernels-built-once-and-kept). spirv-opt takes about 0.1 s for that, so its result is kept in
 //! the cache folder (cache.rs) and made once per kernel, constants and
 //! SPIR-V.
 //!
@@ -30,7 +29,7 @@
 //! folds no floating-point instruction at all (`IsFloatingPointFoldingAllowed`
 //! in SPIRV-Tools); elsewhere it folds none that carries NoContraction,
 //! which the shared code puts on its float arithmetic (`precise`,
-//! EXACTNESS.md). What it folds are the constants' booleans and the
+//! docs/exactness.md#the-recipe). What it folds are the constants' booleans and the
 //! branches on them. The pictures are the driver's specialisation's bit
 //! for bit and every buffer the CPU build's
 //! (tests/cli.rs `specialised_kernels_give_the_drivers_bits`).

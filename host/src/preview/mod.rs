@@ -37,10 +37,10 @@ pub struct PreviewArgs {
     /// Without one, the embedded default scene.
     pub scene: Option<PathBuf>,
     /// Window (and picture) width.
-    #[arg(long, default_value_t = 512, value_name = "W")]
+    #[arg(long, default_value_t = 512, value_name = "W", value_parser = crate::args::parse_width)]
     pub width: u32,
     /// Window (and picture) height.
-    #[arg(long, default_value_t = 384, value_name = "H")]
+    #[arg(long, default_value_t = 384, value_name = "H", value_parser = crate::args::parse_height)]
     pub height: u32,
     /// Vulkan device that draws: an index from `raycast devices` or part of its name.
     /// Where it cannot present to this window (NVIDIA's driver under Xvfb or VNC),

@@ -2393,7 +2393,7 @@ mod tests {
 
     #[test]
     fn wild_file_problems() {
-        // Each problem of SCENE_FORMAT.md "What wild files get wrong".
+        // Each problem of docs/scene-format.md#files-in-the-wild.
         // Misspelled attribute: see misspelled_type_warns_then_errors.
         // Unknown top-level element: a warning, the rest is read.
         let f = ok(&with_top("<include file=\"x.xml\"/>"));
