@@ -229,14 +229,17 @@ pub fn run(args: &CheckArgs) -> Result<(), Error> {
                 failed: batch.failed.len(),
             }))?;
         }
-        report_line(
-            args,
-            format_args!(
-                "check: {identical} of {n} scenes identical, {accepted} within --allow-pixels, {} differ, {} failed",
-                differ.len(),
-                batch.failed.len()
-            ),
+        let line = format!(
+            "check: {identical} of {n} scenes identical, {accepted} within --allow-pixels, {} differ, {} failed",
+            differ.len(),
+            batch.failed.len()
         );
+        // With --json, the summary object's line on stderr, as a status line.
+        if args.json {
+            summary!("{line}");
+        } else {
+            outln!("{line}");
+        }
     }
     let differ_text = || match &differ[..] {
         [(_, pixels)] if n == 1 => format!("{pixels} pixels differ between the device and the CPU build"),
