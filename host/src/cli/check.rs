@@ -252,7 +252,7 @@ pub fn run(args: &CheckArgs) -> Result<(), Error> {
     match batch.failure(&also) {
         Some(failure) => Err(failure),
         None if differ.is_empty() => Ok(()),
-        None => Err(Error::Mismatch { command: "check", message: format!("{}", differ_text()) }),
+        None => Err(Error::Mismatch { command: "check", message: differ_text() }),
     }
 }
 
