@@ -2571,3 +2571,84 @@ fn help_is_short_and_lists_the_exit_codes() {
     }
     assert!(out.lines().all(|l| l.chars().count() <= 100), "a line over 100 columns:\n{out}");
 }
+
+/// `check --json`: one object a scene on stdout, parsed by serde_json, and
+/// no text report there: an identical default scene at 32x24 (every
+/// buffer listed, none differing, no diff image); a planted difference
+/// (identical false, a buffer's first and worst pixels, the diff image
+/// written, exit 4 as without --json); several scenes end with a summary
+/// object; `-o -` beside it is a usage error.
+#[test]
+fn check_json_describes_each_scene() {
+    let objects = |o: &Output| -> Vec<serde_json::Value> {
+        text(o).0.lines().map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}"))).collect()
+    };
+    let dir = out_dir().join("check-json");
+    let o = raycast_in(&dir, &["check", "--json", "--width", "32", "--height", "24"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let j = objects(&o);
+    assert_eq!(j.len(), 1, "{:?}", text(&o));
+    let j = &j[0];
+    assert_eq!(j["scene"], "<default scene>", "{j}");
+    assert_eq!((j["width"].as_u64(), j["height"].as_u64()), (Some(32), Some(24)), "{j}");
+    assert_eq!((&j["identical"], &j["accepted"], &j["differing_pixels"]), (&true.into(), &false.into(), &0.into()));
+    let buffers: Vec<&str> = j["buffers"].as_array().unwrap().iter().map(|b| b["buffer"].as_str().unwrap()).collect();
+    assert_eq!(buffers, ["t", "id", "normal", "rgba", "rays"], "{j}");
+    for b in j["buffers"].as_array().unwrap() {
+        assert!(b["differing"] == 0 && b["first"].is_null() && b["worst"].is_null(), "{b}");
+    }
+    assert!(j["diff_image"].is_null(), "{j}");
+    assert_eq!(files_in(&dir), Vec::<String>::new());
+
+    // A planted difference: the same exit status and error as without --json.
+    let planted = planted_shaders("check-json-planted");
+    let o = raycast_in(
+        &dir,
+        &["check", "--json", "--width", "32", "--height", "24", "--shaders", planted.to_str().unwrap()],
+    );
+    assert_fails(&o, 4, "check failed");
+    let j = objects(&o);
+    assert_eq!(j.len(), 1, "{:?}", text(&o));
+    let j = &j[0];
+    assert_eq!(j["identical"], false, "{j}");
+    let differing = j["differing_pixels"].as_u64().unwrap();
+    assert!(differing > 0 && differing <= 32 * 24, "{j}");
+    let first = j["buffers"].as_array().unwrap().iter().find(|b| b["differing"] != 0).expect("a buffer differs");
+    let (x, y) = (first["first"]["x"].as_u64().unwrap(), first["first"]["y"].as_u64().unwrap());
+    assert!(x < 32 && y < 24, "{first}");
+    assert!(first["first"]["device"].as_str().unwrap().contains("(0x"), "{first}");
+    assert!(first["first"]["cpu"].is_string() && first["worst"].is_object(), "{first}");
+    assert_eq!(j["diff_image"], "default-check.png", "{j}");
+    assert_eq!(files_in(&dir), ["default-check.png"]);
+    assert!(!text(&o).0.contains("pixels differ"), "the text report is not on stdout: {:?}", text(&o));
+
+    // Several scenes: an object each, then the summary.
+    let scenes = [repo().join("scenes/default.xml"), repo().join("tests/scenes/stress/scales.xml")];
+    let o = raycast_in(
+        &dir,
+        &[
+            "check",
+            "--json",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            scenes[0].to_str().unwrap(),
+            scenes[1].to_str().unwrap(),
+        ],
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    let j = objects(&o);
+    assert_eq!(j.len(), 3, "{:?}", text(&o));
+    assert_eq!(j[0]["scene"], scenes[0].to_str().unwrap());
+    assert_eq!(j[1]["scene"], scenes[1].to_str().unwrap());
+    assert_eq!(
+        j[2],
+        serde_json::json!({"scenes": 2, "identical": 2, "accepted": 0, "differ": 0, "failed": 0}),
+        "{:?}",
+        text(&o)
+    );
+    assert!(text(&o).1.contains("check: 2 of 2 scenes identical"), "{:?}", text(&o));
+
+    assert_fails(&raycast(&["check", "--json", "-o", "-"], &[]), 2, "--json writes to standard output");
+}

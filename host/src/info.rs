@@ -9,8 +9,10 @@ use crate::frame::{FrameData, RenderSettings};
 use crate::layout::BvhNode;
 use crate::render::Specialization;
 use crate::scene::{scene_bounds, Bounds, Camera, Scene};
-use crate::units::{fmt_bytes, json_str, thousands};
+use crate::units::{fmt_bytes, thousands};
 use glam::DVec3;
+use serde::ser::SerializeMap;
+use serde::Serialize;
 
 /// The surface-area heuristic's cost of a pass through an inner node and
 /// of testing one leaf item (a primitive, or an instance's bound), the
@@ -21,7 +23,7 @@ pub const SAH_TRAVERSAL: f64 = 1.0;
 pub const SAH_ITEM: f64 = 1.0;
 
 /// One group's hierarchy, from its root node.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct TreeStats {
     pub nodes: u32,
     pub leaves: u32,
@@ -31,6 +33,7 @@ pub struct TreeStats {
     pub items: u64,
     pub most_items: u32,
     /// The surface-area cost (SAH_TRAVERSAL, SAH_ITEM), relative to the root box.
+    #[serde(serialize_with = "six_decimals")]
     pub sah: f64,
 }
 
@@ -66,7 +69,7 @@ pub fn tree_stats(nodes: &[BvhNode], root: u32) -> TreeStats {
 }
 
 /// One group (the root tree, or a master placed through instances).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct GroupInfo {
     pub name: String,
     pub primitives: usize,
@@ -253,63 +256,78 @@ impl Info {
 
     /// For machines: one JSON object.
     pub fn json(&self) -> String {
-        let counts = |v: &[(&str, usize)]| {
-            format!("{{{}}}", v.iter().map(|(k, n)| format!("{}:{n}", json_str(k))).collect::<Vec<_>>().join(","))
-        };
-        let groups: Vec<String> = self
-            .groups
-            .iter()
-            .map(|g| {
-                let tree = match &g.tree {
-                    Some(t) => format!(
-                        "{{\"nodes\":{},\"leaves\":{},\"depth\":{},\"items\":{},\"most_items\":{},\"sah\":{:.6}}}",
-                        t.nodes, t.leaves, t.depth, t.items, t.most_items, t.sah
-                    ),
-                    None => "null".to_string(),
-                };
-                format!(
-                    "{{\"name\":{},\"primitives\":{},\"instances\":{},\"expanded\":{},\"tree\":{tree}}}",
-                    json_str(&g.name),
-                    g.primitives,
-                    g.instances,
-                    g.expanded
-                )
-            })
-            .collect();
-        let xyz = |d: DVec3| format!("[{},{},{}]", d.x, d.y, d.z);
-        let bounds = match &self.bounds {
-            Some(b) => format!("[{},{}]", xyz(b.min), xyz(b.max)),
-            None => "null".to_string(),
-        };
         let c = &self.camera;
-        let camera = format!(
-            "{{\"eye\":{},\"look\":{},\"up\":{},\"height_angle_deg\":{}}}",
-            xyz(c.pos),
-            xyz(c.look),
-            xyz(c.up),
-            c.height_angle_deg
-        );
-        let buffers: Vec<String> = self.buffers.iter().map(|(what, b)| format!("{}:{b}", json_str(what))).collect();
-        format!(
-            "{{\"scene\":{},\"camera\":{},\"expanded\":{},\"unique\":{},\"shapes\":{},\"groups\":[{}],\"lights\":{},\
-             \"materials\":{},\"textured\":{},\"mirrors\":{},\"bounds\":{bounds},\"build_ms\":{:.3},\"buffers\":{{{}}},\
-             \"kernel\":{},\"notes\":[{}]}}",
-            json_str(&self.scene),
-            camera,
-            self.expanded,
-            self.unique,
-            counts(&self.shapes),
-            groups.join(","),
-            counts(&self.lights),
-            self.materials,
-            self.textured,
-            self.mirrors,
-            self.build_ms,
-            buffers.join(","),
-            json_str(&self.kernel),
-            self.notes.iter().map(|n| json_str(n)).collect::<Vec<_>>().join(",")
-        )
+        crate::units::to_json(&InfoJson {
+            scene: &self.scene,
+            camera: CameraJson {
+                eye: c.pos.to_array(),
+                look: c.look.to_array(),
+                up: c.up.to_array(),
+                height_angle_deg: c.height_angle_deg,
+            },
+            expanded: self.expanded,
+            unique: self.unique,
+            shapes: Pairs(&self.shapes),
+            groups: &self.groups,
+            lights: Pairs(&self.lights),
+            materials: self.materials,
+            textured: self.textured,
+            mirrors: self.mirrors,
+            bounds: self.bounds.as_ref().map(|b| [b.min.to_array(), b.max.to_array()]),
+            build_ms: crate::units::rounded(self.build_ms, 3),
+            buffers: Pairs(&self.buffers),
+            kernel: &self.kernel,
+            notes: &self.notes,
+        })
     }
+}
+
+/// What `info --json` says of a scene: [`Info`] with the camera's vectors
+/// and the world box as arrays ([min, max]), counts as objects in their
+/// order.
+#[derive(Serialize)]
+struct InfoJson<'a> {
+    scene: &'a str,
+    camera: CameraJson,
+    expanded: u64,
+    unique: usize,
+    shapes: Pairs<'a, usize>,
+    groups: &'a [GroupInfo],
+    lights: Pairs<'a, usize>,
+    materials: usize,
+    textured: usize,
+    mirrors: usize,
+    bounds: Option<[[f64; 3]; 2]>,
+    build_ms: f64,
+    buffers: Pairs<'a, u64>,
+    kernel: &'a str,
+    notes: &'a [String],
+}
+
+#[derive(Serialize)]
+struct CameraJson {
+    eye: [f64; 3],
+    look: [f64; 3],
+    up: [f64; 3],
+    height_angle_deg: f64,
+}
+
+/// Named counts as one JSON object, its keys in their order.
+struct Pairs<'a, T>(&'a [(&'static str, T)]);
+
+impl<T: Serialize> Serialize for Pairs<'_, T> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut map = serializer.serialize_map(Some(self.0.len()))?;
+        for (k, v) in self.0 {
+            map.serialize_entry(k, v)?;
+        }
+        map.end()
+    }
+}
+
+/// A surface-area cost in JSON: to 6 decimals.
+fn six_decimals<S: serde::Serializer>(x: &f64, serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.serialize_f64(crate::units::rounded(*x, 6))
 }
 
 /// The settings `info` packs a scene with: a default render's.

@@ -6,7 +6,7 @@
 
 use crate::layout::{self, TraceStep, NO_HIT};
 use crate::scene::{LightKind, Scene};
-use crate::units::json_str;
+use serde::Serialize;
 
 fn v3(v: [f32; 4]) -> String {
     format!("({}, {}, {})", v[0], v[1], v[2])
@@ -127,109 +127,160 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
     lines
 }
 
-/// A float in JSON: Rust's shortest digits that read back as the same f32,
-/// or null where it is not finite (JSON has no NaN or infinity).
-fn num(x: f32) -> String {
-    if x.is_finite() {
-        format!("{x}")
-    } else {
-        "null".to_string()
-    }
+/// A step's vector as JSON's array of its x, y and z. Floats are written
+/// in the shortest digits that read back as the same f32, and as null where
+/// they are not finite (JSON has no NaN or infinity): serde_json's way.
+fn xyz(v: [f32; 4]) -> [f32; 3] {
+    [v[0], v[1], v[2]]
 }
 
-fn vec3_json(v: [f32; 4]) -> String {
-    format!("[{},{},{}]", num(v[0]), num(v[1]), num(v[2]))
+/// What a ray met: the primitive (its id, shape and file:line:col), t and,
+/// for a camera or mirror ray, the surface's normal.
+#[derive(Serialize)]
+pub struct Hit {
+    primitive: u32,
+    shape: Option<&'static str>,
+    at: Option<String>,
+    t: f32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    normal: Option<[f32; 3]>,
 }
 
-/// What a ray met, as JSON: null, or the primitive (its id, shape and
-/// file:line:col), t and `more` fields.
-fn hit_json(scene: &Scene, s: &TraceStep, more: &str) -> String {
+/// A camera or mirror ray.
+#[derive(Serialize)]
+pub struct Ray {
+    level: u32,
+    origin: [f32; 3],
+    direction: [f32; 3],
+    hit: Option<Hit>,
+    passes: u32,
+}
+
+/// One step as JSON: an object whose `kind` is camera, mirror, shadow,
+/// surface, light, level or pixel (unknown, with its code, for a kind this
+/// build does not know).
+#[derive(Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Step {
+    Camera(Ray),
+    Mirror(Ray),
+    Shadow {
+        level: u32,
+        light: u32,
+        origin: [f32; 3],
+        direction: [f32; 3],
+        /// None: any distance (a directional light's).
+        t_max: Option<f32>,
+        blocked_by: Option<Hit>,
+        passes: u32,
+    },
+    Surface {
+        level: u32,
+        primitive: u32,
+        point: [f32; 3],
+        ambient_emissive: [f32; 3],
+        diffuse: [f32; 3],
+    },
+    Light {
+        level: u32,
+        light: u32,
+        light_kind: Option<&'static str>,
+        toward: [f32; 3],
+        /// None: a directional light's, which has no distance.
+        distance: Option<f32>,
+        term: [f32; 3],
+        outcome: &'static str,
+    },
+    Level {
+        level: u32,
+        colour: [f32; 3],
+        mirror_weight: [f32; 3],
+    },
+    Pixel {
+        colour: [f32; 3],
+        rgb8: [u8; 3],
+        passes: u32,
+    },
+    Unknown {
+        code: u32,
+    },
+}
+
+/// What a ray met: None, or the primitive with its t and `normal`.
+fn hit(scene: &Scene, s: &TraceStep, normal: Option<[f32; 3]>) -> Option<Hit> {
     if s.id == NO_HIT {
-        return "null".to_string();
+        return None;
     }
-    let (shape, loc) = match scene.primitive(u64::from(s.id)) {
-        Some(p) => (json_str(p.shape.name()), json_str(&p.loc.to_string())),
-        None => ("null".to_string(), "null".to_string()),
-    };
-    format!("{{\"primitive\":{},\"shape\":{shape},\"at\":{loc},\"t\":{}{more}}}", s.id, num(s.value[3]))
+    let p = scene.primitive(u64::from(s.id));
+    Some(Hit {
+        primitive: s.id,
+        shape: p.as_ref().map(|p| p.shape.name()),
+        at: p.as_ref().map(|p| p.loc.to_string()),
+        t: s.value[3],
+        normal,
+    })
 }
 
-/// The steps as JSON objects, one a step, in the order `describe` gives
-/// them; every number as the CPU build computed it. `kind` is one of
-/// camera, mirror, shadow, surface, light, level, pixel.
-pub fn json(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
+/// The steps as JSON objects (serialize each, or the lot), one a step, in
+/// the order `describe` gives them; every number as the CPU build computed it.
+pub fn json(scene: &Scene, steps: &[TraceStep]) -> Vec<Step> {
     steps
         .iter()
         .map(|s| match s.kind {
             layout::TRACE_CAMERA | layout::TRACE_MIRROR => {
-                let kind = if s.kind == layout::TRACE_CAMERA { "camera" } else { "mirror" };
-                let hit = hit_json(scene, s, &format!(",\"normal\":{}", vec3_json(s.value)));
-                format!(
-                    "{{\"kind\":\"{kind}\",\"level\":{},\"origin\":{},\"direction\":{},\"hit\":{hit},\"passes\":{}}}",
-                    s.level,
-                    vec3_json(s.origin),
-                    vec3_json(s.direction),
-                    s.passes
-                )
-            }
-            layout::TRACE_SHADOW => {
-                let hit = hit_json(scene, s, "");
-                // T_FAR, the largest float: a directional light's, any distance (null).
-                let t_max = if s.direction[3] == f32::MAX { "null".to_string() } else { num(s.direction[3]) };
-                format!(
-                    "{{\"kind\":\"shadow\",\"level\":{},\"light\":{},\"origin\":{},\"direction\":{},\"t_max\":{t_max},\"blocked_by\":{hit},\"passes\":{}}}",
-                    s.level,
-                    s.light,
-                    vec3_json(s.origin),
-                    vec3_json(s.direction),
-                    s.passes
-                )
-            }
-            layout::TRACE_SURFACE => format!(
-                "{{\"kind\":\"surface\",\"level\":{},\"primitive\":{},\"point\":{},\"ambient_emissive\":{},\"diffuse\":{}}}",
-                s.level,
-                s.id,
-                vec3_json(s.origin),
-                vec3_json(s.value),
-                vec3_json(s.extra)
-            ),
-            layout::TRACE_LIGHT => {
-                let outcome = match s.id {
-                    layout::TRACE_LIGHT_NOTHING => "nothing",
-                    layout::TRACE_LIGHT_ADDED => "added",
-                    _ => "shadow_ray",
+                let ray = Ray {
+                    level: s.level,
+                    origin: xyz(s.origin),
+                    direction: xyz(s.direction),
+                    hit: hit(scene, s, Some(xyz(s.value))),
+                    passes: s.passes,
                 };
+                if s.kind == layout::TRACE_CAMERA {
+                    Step::Camera(ray)
+                } else {
+                    Step::Mirror(ray)
+                }
+            }
+            layout::TRACE_SHADOW => Step::Shadow {
+                level: s.level,
+                light: s.light,
+                origin: xyz(s.origin),
+                direction: xyz(s.direction),
+                // T_FAR, the largest float: a directional light's, any distance (null).
+                t_max: (s.direction[3] != f32::MAX).then_some(s.direction[3]),
+                blocked_by: hit(scene, s, None),
+                passes: s.passes,
+            },
+            layout::TRACE_SURFACE => Step::Surface {
+                level: s.level,
+                primitive: s.id,
+                point: xyz(s.origin),
+                ambient_emissive: xyz(s.value),
+                diffuse: xyz(s.extra),
+            },
+            layout::TRACE_LIGHT => {
                 let light = scene.lights.get(s.light as usize);
-                let kind = light.map_or("null".to_string(), |l| json_str(l.kind.name()));
-                // A directional light has no distance (the kernel passes 0).
-                let distance = if light.is_some_and(|l| l.kind == LightKind::Directional) { "null".to_string() } else { num(s.direction[3]) };
-                format!(
-                    "{{\"kind\":\"light\",\"level\":{},\"light\":{},\"light_kind\":{kind},\"toward\":{},\"distance\":{},\"term\":{},\"outcome\":\"{outcome}\"}}",
-                    s.level,
-                    s.light,
-                    vec3_json(s.direction),
-                    distance,
-                    vec3_json(s.value)
-                )
+                Step::Light {
+                    level: s.level,
+                    light: s.light,
+                    light_kind: light.map(|l| l.kind.name()),
+                    toward: xyz(s.direction),
+                    // A directional light has no distance (the kernel passes 0).
+                    distance: (!light.is_some_and(|l| l.kind == LightKind::Directional)).then_some(s.direction[3]),
+                    term: xyz(s.value),
+                    outcome: match s.id {
+                        layout::TRACE_LIGHT_NOTHING => "nothing",
+                        layout::TRACE_LIGHT_ADDED => "added",
+                        _ => "shadow_ray",
+                    },
+                }
             }
-            layout::TRACE_LEVEL => format!(
-                "{{\"kind\":\"level\",\"level\":{},\"colour\":{},\"mirror_weight\":{}}}",
-                s.level,
-                vec3_json(s.value),
-                vec3_json(s.extra)
-            ),
+            layout::TRACE_LEVEL => Step::Level { level: s.level, colour: xyz(s.value), mirror_weight: xyz(s.extra) },
             layout::TRACE_PIXEL => {
-                let rgba = s.id.to_le_bytes();
-                format!(
-                    "{{\"kind\":\"pixel\",\"colour\":{},\"rgb8\":[{},{},{}],\"passes\":{}}}",
-                    vec3_json(s.value),
-                    rgba[0],
-                    rgba[1],
-                    rgba[2],
-                    s.passes
-                )
+                let [r, g, b, _] = s.id.to_le_bytes();
+                Step::Pixel { colour: xyz(s.value), rgb8: [r, g, b], passes: s.passes }
             }
-            other => format!("{{\"kind\":\"unknown\",\"code\":{other}}}"),
+            other => Step::Unknown { code: other },
         })
         .collect()
 }

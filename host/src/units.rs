@@ -99,6 +99,19 @@ pub fn median(values: impl IntoIterator<Item = f64>) -> f64 {
     }
 }
 
+/// `value` as one line of JSON (`--json`), through serde. The reports
+/// serialized are structs of plain fields, which cannot fail to serialize.
+pub(crate) fn to_json(value: &impl serde::Serialize) -> String {
+    serde_json::to_string(value).expect("a --json report serializes")
+}
+
+/// `x` rounded to `decimals` decimals, for JSON's numbers: the nearest f64
+/// to the rounded decimal, whose shortest digits are that decimal.
+pub(crate) fn rounded(x: f64, decimals: i32) -> f64 {
+    let scale = 10f64.powi(decimals);
+    (x * scale).round() / scale
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

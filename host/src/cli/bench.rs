@@ -23,8 +23,9 @@ use crate::render::{Picture, Renderer};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use crate::source::{parse_scene, scene_label};
 use crate::units::median;
-use crate::units::{json_str, thousands};
+use crate::units::{rounded, thousands, to_json};
 use clap::{Args, ValueEnum};
+use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -221,13 +222,6 @@ fn mib(bytes: Option<u64>) -> String {
     }
 }
 
-fn json_num(v: Option<f64>) -> String {
-    match v {
-        Some(v) if v.is_finite() => format!("{v}"),
-        _ => "null".to_string(),
-    }
-}
-
 fn ms_f(d: Duration) -> f64 {
     (d.as_secs_f64() * 1e6).round() / 1e3
 }
@@ -265,54 +259,83 @@ fn command_line() -> String {
         .join(" ")
 }
 
+/// One line of `bench --json`: a scene on a backend. Times in ms to the
+/// µs; a number that is not there (or not finite) is null.
+#[derive(Serialize)]
+struct RowJson<'a> {
+    scene: &'a str,
+    backend: &'a str,
+    device: &'a str,
+    width: u32,
+    height: u32,
+    spp: u32,
+    shadows: bool,
+    reflections: bool,
+    textures: bool,
+    max_depth: u32,
+    bvh: bool,
+    primitives_expanded: u64,
+    primitives_unique: u64,
+    lights: usize,
+    load_ms: f64,
+    build_ms: f64,
+    warmup: u32,
+    frames: usize,
+    frame_ms_median: f64,
+    frame_ms_min: f64,
+    frame_ms_max: f64,
+    dispatch_ms_median: Option<f64>,
+    primary_rays_per_frame: u64,
+    primary_mrays_per_s: f64,
+    all_rays_per_frame: u64,
+    all_mrays_per_s: f64,
+    host_peak_bytes: Option<u64>,
+    device_bytes: Option<u64>,
+    cpu_over_gpu: Option<f64>,
+    identical_to_gpu: Option<bool>,
+    kernel_build_ms: Option<f64>,
+    host_cpu: String,
+    host_threads: usize,
+}
+
 impl Row {
     fn json(&self, settings: &RenderSettings, warmup: u32) -> String {
         let d = |v: &[Duration], f: fn(&[Duration]) -> Duration| if v.is_empty() { None } else { Some(ms_f(f(v))) };
-        format!(
-            concat!(
-                "{{\"scene\":{},\"backend\":{},\"device\":{},\"width\":{},\"height\":{},\"spp\":{},",
-                "\"shadows\":{},\"reflections\":{},\"textures\":{},\"max_depth\":{},\"bvh\":{},",
-                "\"primitives_expanded\":{},\"primitives_unique\":{},\"lights\":{},",
-                "\"load_ms\":{},\"build_ms\":{},\"warmup\":{},\"frames\":{},",
-                "\"frame_ms_median\":{},\"frame_ms_min\":{},\"frame_ms_max\":{},\"dispatch_ms_median\":{},",
-                "\"primary_rays_per_frame\":{},\"primary_mrays_per_s\":{},\"all_rays_per_frame\":{},\"all_mrays_per_s\":{},",
-                "\"host_peak_bytes\":{},\"device_bytes\":{},\"cpu_over_gpu\":{},\"identical_to_gpu\":{},",
-                "\"kernel_build_ms\":{},\"host_cpu\":{},\"host_threads\":{}}}"
-            ),
-            json_str(&self.scene),
-            json_str(self.backend),
-            json_str(&self.device),
-            settings.width,
-            settings.height,
-            settings.spp,
-            settings.shadows,
-            settings.reflections,
-            settings.textures,
-            settings.max_depth,
-            settings.bvh,
-            self.counts.expanded,
-            self.counts.unique,
-            self.lights,
-            ms_f(self.load),
-            ms_f(self.build),
+        to_json(&RowJson {
+            scene: &self.scene,
+            backend: self.backend,
+            device: &self.device,
+            width: settings.width,
+            height: settings.height,
+            spp: settings.spp,
+            shadows: settings.shadows,
+            reflections: settings.reflections,
+            textures: settings.textures,
+            max_depth: settings.max_depth,
+            bvh: settings.bvh,
+            primitives_expanded: self.counts.expanded,
+            primitives_unique: self.counts.unique,
+            lights: self.lights,
+            load_ms: ms_f(self.load),
+            build_ms: ms_f(self.build),
             warmup,
-            self.frames.len(),
-            ms_f(self.median()),
-            ms_f(self.frames[0]),
-            ms_f(*self.frames.last().unwrap()),
-            json_num(d(&self.dispatch, median_time)),
-            self.primary_rays,
-            json_num(Some((self.mrays() * 1e4).round() / 1e4)),
-            self.all_rays,
-            json_num(Some((self.all_mrays() * 1e4).round() / 1e4)),
-            self.host_peak.map_or("null".into(), |b| b.to_string()),
-            self.device_bytes.map_or("null".into(), |b| b.to_string()),
-            json_num(self.cpu_over_gpu.map(|r| (r * 1e3).round() / 1e3)),
-            self.identical.map_or("null".into(), |b| b.to_string()),
-            json_num(self.kernel_build.as_ref().map(|(t, _)| ms_f(*t))),
-            json_str(&crate::cpu::host_cpu()),
-            crate::cpu::host_threads(),
-        )
+            frames: self.frames.len(),
+            frame_ms_median: ms_f(self.median()),
+            frame_ms_min: ms_f(self.frames[0]),
+            frame_ms_max: ms_f(*self.frames.last().unwrap()),
+            dispatch_ms_median: d(&self.dispatch, median_time),
+            primary_rays_per_frame: self.primary_rays,
+            primary_mrays_per_s: rounded(self.mrays(), 4),
+            all_rays_per_frame: self.all_rays,
+            all_mrays_per_s: rounded(self.all_mrays(), 4),
+            host_peak_bytes: self.host_peak,
+            device_bytes: self.device_bytes,
+            cpu_over_gpu: self.cpu_over_gpu.map(|r| rounded(r, 3)),
+            identical_to_gpu: self.identical,
+            kernel_build_ms: self.kernel_build.as_ref().map(|(t, _)| ms_f(*t)),
+            host_cpu: crate::cpu::host_cpu(),
+            host_threads: crate::cpu::host_threads(),
+        })
     }
 
     fn human(&self) -> String {
@@ -395,18 +418,31 @@ fn short_name(scene: &str) -> &str {
     Path::new(scene).file_name().and_then(|n| n.to_str()).unwrap_or(scene)
 }
 
+/// One line of `bench --json` for a scene not timed (`skipped`).
+#[derive(Serialize)]
+struct SkippedJson<'a> {
+    scene: &'a str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    backend: Option<&'a str>,
+    skipped: &'a str,
+    primitives_expanded: u64,
+    primitives_unique: u64,
+}
+
 /// A scene (or one backend of it) listed but not timed, and not an error,
 /// so that one table can name every depth while only some are feasible:
 /// over --max-primitives, or cut short by the device (lavapipe's loop budget).
 pub(crate) fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCounts, why: &str, args: &BenchArgs) {
     if args.json {
         outln!(
-            "{{\"scene\":{},{}\"skipped\":{},\"primitives_expanded\":{},\"primitives_unique\":{}}}",
-            json_str(scene),
-            backend.map(|b| format!("\"backend\":{},", json_str(b))).unwrap_or_default(),
-            json_str(why),
-            counts.expanded,
-            counts.unique
+            "{}",
+            to_json(&SkippedJson {
+                scene,
+                backend,
+                skipped: why,
+                primitives_expanded: counts.expanded,
+                primitives_unique: counts.unique
+            })
         );
     } else if args.markdown {
         outln!(
@@ -455,21 +491,45 @@ impl Growth<'_> {
     /// `growth_against` (the first scene's name); a ratio that is not there
     /// is null.
     fn json(&self, against: &str) -> String {
-        format!(
-            "{{\"growth_against\":{},\"scene\":{},\"primitives_expanded\":{},\"log_ratio\":{},\"rays_ratio\":{},\
-             \"gpu_frame_ratio\":{},\"gpu_ray_ratio\":{},\"gpu_dispatch_ratio\":{},\"cpu_frame_ratio\":{},\"cpu_ray_ratio\":{}}}",
-            json_str(against),
-            json_str(self.scene),
-            self.primitives,
-            json_num(self.log_ratio),
-            json_num(self.rays),
-            json_num(self.gpu),
-            json_num(self.per_ray(self.gpu)),
-            json_num(self.gpu_dispatch),
-            json_num(self.cpu),
-            json_num(self.per_ray(self.cpu))
-        )
+        to_json(&GrowthJson {
+            growth_against: against,
+            scene: self.scene,
+            primitives_expanded: self.primitives,
+            log_ratio: self.log_ratio,
+            rays_ratio: self.rays,
+            gpu_frame_ratio: self.gpu,
+            gpu_ray_ratio: self.per_ray(self.gpu),
+            gpu_dispatch_ratio: self.gpu_dispatch,
+            cpu_frame_ratio: self.cpu,
+            cpu_ray_ratio: self.per_ray(self.cpu),
+        })
     }
+}
+
+/// One line of `bench --growth --json` (`Growth::json`).
+#[derive(Serialize)]
+struct GrowthJson<'a> {
+    growth_against: &'a str,
+    scene: &'a str,
+    primitives_expanded: u64,
+    log_ratio: Option<f64>,
+    rays_ratio: Option<f64>,
+    gpu_frame_ratio: Option<f64>,
+    gpu_ray_ratio: Option<f64>,
+    gpu_dispatch_ratio: Option<f64>,
+    cpu_frame_ratio: Option<f64>,
+    cpu_ray_ratio: Option<f64>,
+}
+
+/// One line of `bench --growth --json` for a fitted line: `a + b ln N`
+/// for a backend's frame or ray (`growth_fit`), and its R².
+#[derive(Serialize)]
+struct GrowthFitJson<'a> {
+    growth_fit: &'a str,
+    against: &'a str,
+    a: f64,
+    b: f64,
+    r2: f64,
 }
 
 /// The growth table of `rows`, against the first scene; a backend is
@@ -845,13 +905,13 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             crate::output::emit_line(&g.json(&all_rows[0].scene))?;
         }
         for (key, _, f) in growth_fits(&all_rows) {
-            crate::output::emit_line(&format!(
-                "{{\"growth_fit\":{},\"against\":\"ln N\",\"a\":{},\"b\":{},\"r2\":{}}}",
-                json_str(key),
-                json_num(Some(f.a)),
-                json_num(Some(f.b)),
-                json_num(Some(f.r2))
-            ))?;
+            crate::output::emit_line(&to_json(&GrowthFitJson {
+                growth_fit: key,
+                against: "ln N",
+                a: f.a,
+                b: f.b,
+                r2: f.r2,
+            }))?;
         }
     } else if args.growth {
         print_growth(&all_rows, args.markdown);
@@ -1027,18 +1087,23 @@ mod tests {
         };
         let j = row.json(&RenderSettings::default(), 1);
         assert!(j.starts_with("{\"scene\":\"a \\\"b\\\"\",\"backend\":\"gpu\""), "{j}");
-        for needle in [
-            "\"primitives_expanded\":2929687",
-            "\"frame_ms_median\":20,",
-            "\"frame_ms_min\":10,",
-            "\"primary_mrays_per_s\":50,",
-            "\"all_rays_per_frame\":4000000,\"all_mrays_per_s\":200,",
-            "\"device_bytes\":2048",
-            "\"cpu_over_gpu\":null",
-            "\"kernel_build_ms\":43.5,\"host_cpu\":\"",
+        // serde_json writes a whole f64 as 20.0 where format! wrote 20: the values compared.
+        let v: serde_json::Value = serde_json::from_str(&j).unwrap();
+        for (key, want) in [
+            ("primitives_expanded", serde_json::json!(2929687)),
+            ("frame_ms_median", serde_json::json!(20.0)),
+            ("frame_ms_min", serde_json::json!(10.0)),
+            ("primary_mrays_per_s", serde_json::json!(50.0)),
+            ("all_rays_per_frame", serde_json::json!(4000000)),
+            ("all_mrays_per_s", serde_json::json!(200.0)),
+            ("device_bytes", serde_json::json!(2048)),
+            ("cpu_over_gpu", serde_json::Value::Null),
+            ("kernel_build_ms", serde_json::json!(43.5)),
         ] {
-            assert!(j.contains(needle), "{needle} in {j}");
+            assert_eq!(v[key], want, "{key} in {j}");
         }
+        assert!(j.contains("\"all_rays_per_frame\":4000000,\"all_mrays_per_s\":200.0,"), "{j}");
+        assert!(j.contains("\"kernel_build_ms\":43.5,\"host_cpu\":\""), "{j}");
         assert!(!j.contains('\n'));
         let m = row.markdown();
         assert!(

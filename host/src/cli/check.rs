@@ -13,7 +13,9 @@ use crate::image_io::{self};
 use crate::output::*;
 use crate::progress;
 use crate::render::{GpuRenderer, Picture, Renderer};
+use crate::units::to_json;
 use clap::Args;
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
@@ -49,6 +51,103 @@ pub struct CheckArgs {
     /// lets instrumentation of DIR run on both sides. Repeatable; one scene.
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true)]
     pixel: Vec<(u32, u32)>,
+    /// One JSON object per scene on stdout (and a summary object for several)
+    #[arg(long, help_heading = "Output", conflicts_with = "pixel")]
+    json: bool,
+}
+
+/// What `check --json` says of one scene.
+#[derive(Serialize)]
+struct SceneJson<'a> {
+    scene: String,
+    width: u32,
+    height: u32,
+    /// Every pixel of every buffer has the same bits.
+    identical: bool,
+    /// Some pixels differ, but no more than --allow-pixels.
+    accepted: bool,
+    /// Pixels that differ in at least one buffer.
+    differing_pixels: usize,
+    /// Each buffer (t, id, normal, rgba, rays), in the report's order.
+    buffers: Vec<BufferJson<'a>>,
+    /// The diff image written, or null where none was.
+    diff_image: Option<String>,
+}
+
+/// One buffer of [`SceneJson`]: how many pixels differ, the first (its
+/// values on either side, as the text report writes them) and the worst.
+#[derive(Serialize)]
+struct BufferJson<'a> {
+    buffer: &'a str,
+    differing: usize,
+    /// What `distance` counts ("ULP", "/255", "rays"); null for the ids.
+    unit: Option<&'a str>,
+    first: Option<FirstJson<'a>>,
+    worst: Option<WorstJson>,
+}
+
+#[derive(Serialize)]
+struct FirstJson<'a> {
+    x: u32,
+    y: u32,
+    device: &'a str,
+    cpu: &'a str,
+    /// Null for the ids, or a NaN against a number.
+    distance: Option<u64>,
+}
+
+#[derive(Serialize)]
+struct WorstJson {
+    x: u32,
+    y: u32,
+    /// Null for a NaN against a number.
+    distance: Option<u64>,
+}
+
+/// A distance of `check::CheckReport` in JSON: u64::MAX (a NaN against a number) is no distance.
+fn distance(d: u64) -> Option<u64> {
+    (d != u64::MAX).then_some(d)
+}
+
+impl<'a> SceneJson<'a> {
+    fn of(p: &Prepared, report: &'a check::CheckReport, accepted: bool, diff_image: Option<&Path>) -> Self {
+        SceneJson {
+            scene: p.scene.path.display().to_string(),
+            width: report.width,
+            height: report.height,
+            identical: report.identical(),
+            accepted,
+            differing_pixels: report.differing_pixels,
+            buffers: report
+                .buffers
+                .iter()
+                .map(|b| BufferJson {
+                    buffer: b.name,
+                    differing: b.differing,
+                    unit: Some(b.unit.trim()).filter(|u| !u.is_empty()),
+                    first: b.first.as_ref().map(|(x, y, device, cpu, d)| FirstJson {
+                        x: *x,
+                        y: *y,
+                        device,
+                        cpu,
+                        distance: d.and_then(distance),
+                    }),
+                    worst: b.worst.map(|(x, y, d)| WorstJson { x, y, distance: distance(d) }),
+                })
+                .collect(),
+            diff_image: diff_image.map(|d| d.display().to_string()),
+        }
+    }
+}
+
+/// What `check --json` says after several scenes.
+#[derive(Serialize)]
+struct SummaryJson {
+    scenes: usize,
+    identical: usize,
+    accepted: usize,
+    differ: usize,
+    failed: usize,
 }
 
 /// How one scene's check came out.
@@ -67,6 +166,11 @@ struct CheckBackends {
 }
 
 pub fn run(args: &CheckArgs) -> Result<(), Error> {
+    if args.json && args.output.as_deref().is_some_and(crate::output::is_stdout) {
+        return Err(Error::Usage(
+            "--json writes to standard output, and so does -o -: write the diff image to a file".into(),
+        ));
+    }
     status_beside(&args.output);
     let scenes = scene_list(&args.scenes);
     if !args.pixel.is_empty() && scenes.len() > 1 {
@@ -115,13 +219,27 @@ pub fn run(args: &CheckArgs) -> Result<(), Error> {
     }
     let n = scenes.len();
     if n > 1 {
-        outln!(
-            "check: {} of {n} scenes identical, {} within --allow-pixels, {} differ, {} failed",
-            n - accepted - differ.len() - batch.failed.len(),
-            accepted,
+        let identical = n - accepted - differ.len() - batch.failed.len();
+        if args.json {
+            emit_line(&to_json(&SummaryJson {
+                scenes: n,
+                identical,
+                accepted,
+                differ: differ.len(),
+                failed: batch.failed.len(),
+            }))?;
+        }
+        let line = format!(
+            "check: {identical} of {n} scenes identical, {accepted} within --allow-pixels, {} differ, {} failed",
             differ.len(),
             batch.failed.len()
         );
+        // With --json, the summary object's line on stderr, as a status line.
+        if args.json {
+            summary!("{line}");
+        } else {
+            outln!("{line}");
+        }
     }
     let differ_text = || match &differ[..] {
         [(_, pixels)] if n == 1 => format!("{pixels} pixels differ between the device and the CPU build"),
@@ -134,7 +252,7 @@ pub fn run(args: &CheckArgs) -> Result<(), Error> {
     match batch.failure(&also) {
         Some(failure) => Err(failure),
         None if differ.is_empty() => Ok(()),
-        None => Err(Error::Mismatch { command: "check", message: format!("{}", differ_text()) }),
+        None => Err(Error::Mismatch { command: "check", message: differ_text() }),
     }
 }
 
@@ -148,21 +266,27 @@ fn check_scene(
 ) -> Result<(Checked, Picture, Picture), Error> {
     let device = b.gpu.context().info().name.clone();
     print_scene(p);
-    outln!(
+    let intro = format!(
         "check: {} on {device} against the CPU build ({} threads), {}x{}, every buffer bit for bit",
         args.render.kernel.kernel_text(),
         b.cpu.threads,
         p.data.frame.width,
         p.data.frame.height
     );
+    if args.json {
+        detail!("{intro}");
+    } else {
+        outln!("{intro}");
+    }
     let scene = p.scene.path.display();
     let (gpu_picture, _) = progress::told(format!("{scene} on {device}"), |told| b.gpu.render_frame(&p.data, told))?;
     print_kernel(&b.gpu, &p.data)?;
     let (cpu_picture, _) =
         progress::told(format!("{scene} on the CPU build"), |told| b.cpu.render_frame(&p.data, told))?;
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;
-    outln!("{report}");
-    if args.output.is_some() || !report.identical() {
+    report_line(args, format_args!("{report}"));
+    let written = args.output.is_some() || !report.identical();
+    if written {
         image_io::write_png(diff, &report.diff_image)?;
         summary!("wrote {} (red: pixels that differ)", diff.display());
     } else {
@@ -174,16 +298,33 @@ fn check_scene(
     let checked = match report.differing_pixels {
         _ if report.identical() => Checked::Identical,
         n if n <= args.allow_pixels => {
-            outln!(
-                "NOT EXACT: {n} pixels differ, accepted by --allow-pixels {} (lavapipe and an NVIDIA H100 measured exact; \
+            report_line(
+                args,
+                format_args!(
+                    "NOT EXACT: {n} pixels differ, accepted by --allow-pixels {} (lavapipe and an NVIDIA H100 measured exact; \
                  a driver that does not fuse `fma` or honour `precise` may not be: docs/exactness.md#on-a-gpu)",
-                args.allow_pixels
+                    args.allow_pixels
+                ),
             );
             Checked::Accepted
         }
         n => Checked::Differ(n),
     };
+    if args.json {
+        let accepted = matches!(checked, Checked::Accepted);
+        emit_line(&to_json(&SceneJson::of(p, &report, accepted, written.then_some(diff))))?;
+    }
     Ok((checked, gpu_picture, cpu_picture))
+}
+
+/// A line of the text report: on stdout, or with --json (whose objects
+/// say it) on stderr with -v.
+fn report_line(args: &CheckArgs, line: std::fmt::Arguments) {
+    if args.json {
+        detail!("{line}");
+    } else {
+        outln!("{line}");
+    }
 }
 
 /// `check --pixel`: each pixel's render_pixel alone, through the harness.

@@ -10,6 +10,7 @@ use crate::frame::Aov;
 use crate::layout;
 use crate::source::*;
 use clap::Args;
+use serde::Serialize;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -30,6 +31,28 @@ pub struct TraceArgs {
     /// The picture's settings, as `render` takes them (the colour only; the CPU build traces).
     #[command(flatten)]
     render: RenderOptions,
+}
+
+/// What `trace --json` says: the pixel, the sample, its steps and, at one
+/// sample a pixel, the render's pixel.
+#[derive(Serialize)]
+struct Traced {
+    scene: String,
+    pixel: [u32; 2],
+    sample: u32,
+    spp: u32,
+    rays: usize,
+    steps: Vec<crate::trace::Step>,
+    render: Option<RenderedPixel>,
+}
+
+/// The render's pixel, and whether the trace agrees with it (its 8-bit
+/// colour, its rays and its first hit).
+#[derive(Serialize)]
+struct RenderedPixel {
+    rgba8: [u8; 4],
+    rays: u32,
+    agrees: bool,
 }
 
 /// `raycast trace`: the steps of one sample of one pixel (crate::trace),
@@ -69,7 +92,7 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
         outln!("{}", scene_line(&p));
     }
     let cpu = CpuRenderer::new()?;
-    let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Error::Failed(format!("{e}")))?;
+    let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Error::Failed(e.to_string()))?;
     let spp = p.data.frame.spp.max(1);
     // At one sample a pixel, the render's pixel: the same 8-bit colour, rays and first hit.
     let render = (spp == 1).then(|| cpu.render_rows(&p.data, &[y])[0][x as usize]);
@@ -84,20 +107,20 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
             })
     };
     if args.json {
-        let render_json = render.map_or("null".to_string(), |pixel| {
-            format!(
-                "{{\"rgba8\":[{}],\"rays\":{},\"agrees\":{}}}",
-                pixel.rgba.to_le_bytes().map(|c| c.to_string()).join(","),
-                pixel.rays,
-                agrees(&pixel)
-            )
-        });
-        crate::output::emit_line(&format!(
-            "{{\"scene\":{},\"pixel\":[{x},{y}],\"sample\":{},\"spp\":{spp},\"rays\":{rays},\"steps\":[{}],\"render\":{render_json}}}",
-            crate::units::json_str(&args.scene.as_deref().map_or(DEFAULT_SCENE_NAME.to_string(), |s| s.display().to_string())),
-            args.sample,
-            crate::trace::json(&p.scene, &steps).join(",")
-        ))?;
+        let traced = Traced {
+            scene: args.scene.as_deref().map_or(DEFAULT_SCENE_NAME.to_string(), |s| s.display().to_string()),
+            pixel: [x, y],
+            sample: args.sample,
+            spp,
+            rays,
+            steps: crate::trace::json(&p.scene, &steps),
+            render: render.map(|pixel| RenderedPixel {
+                rgba8: pixel.rgba.to_le_bytes(),
+                rays: pixel.rays,
+                agrees: agrees(&pixel),
+            }),
+        };
+        crate::output::emit_line(&crate::units::to_json(&traced))?;
     } else {
         outln!("pixel ({x}, {y}), sample {} of {spp}:", args.sample);
         for line in crate::trace::describe(&p.scene, &steps) {

@@ -22,8 +22,9 @@ use crate::error::{check_validation, Error};
 use crate::gpu::GpuError;
 use crate::render::Picture;
 use crate::scene::FlattenLimits;
-use crate::units::json_str;
 use crate::units::median;
+use crate::units::{rounded, to_json};
+use serde::Serialize;
 use std::path::Path;
 use std::time::Duration;
 
@@ -79,6 +80,28 @@ impl Pairs {
             p_value: sign_test(b_faster, a_faster + b_faster),
         }
     }
+}
+
+/// One line of `bench --versus DIR --json`: a scene's dispatch times on
+/// kernels A and B (ms, medians), B/A's ratios, the sign test and whether
+/// the pictures are identical.
+#[derive(Serialize)]
+struct VersusJson<'a> {
+    scene: &'a str,
+    a: &'a str,
+    b: &'a str,
+    a_kernel: &'a str,
+    b_kernel: &'a str,
+    pairs: u32,
+    a_dispatch_ms: f64,
+    b_dispatch_ms: f64,
+    ratio_median: f64,
+    ratio_min: f64,
+    ratio_max: f64,
+    b_faster: usize,
+    a_faster: usize,
+    sign_test_p: f64,
+    identical: bool,
 }
 
 /// `bench --versus DIR`.
@@ -153,7 +176,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
             Err(e) => return Err(e.into()),
         };
         let (Some(pa), Some(pb)) = (pa, pb) else { return Ok(()) };
-        let report = check::compare(&pa, "A", &pb, "B").map_err(|e| Error::Failed(format!("{e}")))?;
+        let report = check::compare(&pa, "A", &pb, "B").map_err(|e| Error::Failed(e.to_string()))?;
         let v = pairs.verdict();
         let pictures = if report.identical() {
             "identical (every buffer, bit for bit)".to_string()
@@ -162,22 +185,24 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
         };
         if args.json {
             outln!(
-                "{{\"scene\":{},\"a\":{},\"b\":{},\"a_kernel\":{},\"b_kernel\":{},\"pairs\":{},\"a_dispatch_ms\":{:.3},\"b_dispatch_ms\":{:.3},\"ratio_median\":{:.4},\"ratio_min\":{:.4},\"ratio_max\":{:.4},\"b_faster\":{},\"a_faster\":{},\"sign_test_p\":{:.4},\"identical\":{}}}",
-                json_str(&loaded.name),
-                json_str(&a_name),
-                json_str(&b_name),
-                json_str(&kernels.0),
-                json_str(&kernels.1),
-                args.frames,
-                v.a_median_ms,
-                v.b_median_ms,
-                v.ratio.0,
-                v.ratio.1,
-                v.ratio.2,
-                v.b_faster,
-                v.a_faster,
-                v.p_value,
-                report.identical()
+                "{}",
+                to_json(&VersusJson {
+                    scene: &loaded.name,
+                    a: &a_name,
+                    b: &b_name,
+                    a_kernel: &kernels.0,
+                    b_kernel: &kernels.1,
+                    pairs: args.frames,
+                    a_dispatch_ms: rounded(v.a_median_ms, 3),
+                    b_dispatch_ms: rounded(v.b_median_ms, 3),
+                    ratio_median: rounded(v.ratio.0, 4),
+                    ratio_min: rounded(v.ratio.1, 4),
+                    ratio_max: rounded(v.ratio.2, 4),
+                    b_faster: v.b_faster,
+                    a_faster: v.a_faster,
+                    sign_test_p: rounded(v.p_value, 4),
+                    identical: report.identical(),
+                })
             );
         } else {
             outln!("scene: {}", loaded.name);
