@@ -134,7 +134,10 @@ fn the_diff_image_shows_differing_pixels_red_over_a_faded_reference() {
                 continue;
             }
             assert!(p[0] == p[1] && p[1] == p[2], "({x}, {y}) is not grey: {p:?}");
-            assert!(p[0] >= 229 && original.iter().all(|&c| p[0] > c), "({x}, {y}) {p:?} not lighter than {original:?}");
+            assert!(
+                p[0] >= 229 && original.iter().all(|&c| p[0] > c),
+                "({x}, {y}) {p:?} not lighter than {original:?}"
+            );
         }
     }
     assert_eq!(red, 3);
@@ -167,13 +170,11 @@ fn folder_mode_judges_pairs_by_name() {
     assert_eq!(o.status.code(), Some(4), "{stdout}{err}");
     let lines: Vec<&str> = stdout.lines().collect();
     assert_eq!(
-        lines[0],
-        "PASS a.png: 0 of 200 pixels (0.0000%) differ by more than 2/255 (rule: at most 0.1%)",
+        lines[0], "PASS a.png: 0 of 200 pixels (0.0000%) differ by more than 2/255 (rule: at most 0.1%)",
         "{stdout}"
     );
     assert_eq!(
-        lines[1],
-        "FAIL b.png: 50 of 200 pixels (25.0000%) differ by more than 2/255 (rule: at most 0.1%)",
+        lines[1], "FAIL b.png: 50 of 200 pixels (25.0000%) differ by more than 2/255 (rule: at most 0.1%)",
         "{stdout}"
     );
     assert_eq!(lines[2], format!("FAIL c.png: missing from {a}"));

@@ -160,7 +160,8 @@ pub fn run(args: &CompareArgs) -> Result<(), Error> {
         (true, true) => run_folders(args),
         (false, false) => run_pair(args),
         (actual_is_dir, _) => {
-            let (folder, other) = if actual_is_dir { (&args.actual, &args.expected) } else { (&args.expected, &args.actual) };
+            let (folder, other) =
+                if actual_is_dir { (&args.actual, &args.expected) } else { (&args.expected, &args.actual) };
             Err(Error::Usage(format!(
                 "compare takes two pictures or two folders: {} is a folder and {} is not",
                 folder.display(),
@@ -320,11 +321,8 @@ fn run_folders(args: &CompareArgs) -> Result<(), Error> {
     let (mut failed, mut unreadable, mut diffs) = (Vec::new(), Vec::new(), 0usize);
     for name in &expected_names {
         let (actual, expected) = (args.actual.join(name), args.expected.join(name));
-        let (outcome, picture) = if actual.exists() {
-            judge(&actual, &expected, args, out_dir.is_some())
-        } else {
-            (Outcome::Missing, None)
-        };
+        let (outcome, picture) =
+            if actual.exists() { judge(&actual, &expected, args, out_dir.is_some()) } else { (Outcome::Missing, None) };
         let mut written = None;
         if let Some(dir) = out_dir {
             let stem = Path::new(name).file_stem().map_or(name.clone(), |s| s.to_string_lossy().into_owned());
