@@ -1738,13 +1738,13 @@ fn compare_reports_and_fails_beyond_the_threshold() {
         text(&j)
     );
     assert!(text(&j).0.contains("\"passes\":true"), "{:?}", text(&j));
-    // Pictures that cannot be compared: with --json still one object, its error said.
+    // Pictures of two sizes: a mismatch (exit 4); with --json still one object, its error said.
     let small = out_dir().join("cmp-small.png");
     assert!(raycast(&["render", "--width", "32", "--height", "24", "-o", small.to_str().unwrap()], &[])
         .status
         .success());
     let j = raycast(&["compare", a.to_str().unwrap(), small.to_str().unwrap(), "--json"], &[]);
-    assert_fails(&j, 1, "sizes differ: actual 64x48, expected 32x24");
+    assert_fails(&j, 4, "sizes differ: actual 64x48, expected 32x24");
     let want = "\"error\":\"sizes differ: actual 64x48, expected 32x24\",\"passes\":false}";
     assert!(text(&j).0.lines().count() == 1 && text(&j).0.contains(want), "{:?}", text(&j));
 }

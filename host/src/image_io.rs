@@ -224,24 +224,55 @@ impl ImageDiff {
         self.differing as f64 / self.total.max(1) as f64
     }
 
-    /// The same as its text, as JSON fields (no braces): "pixels",
-    /// "differing", "percent", "tolerance", "first" ({"at", "actual",
-    /// "expected"} or null) and "worst" ({"at", "by"} or null).
-    pub fn json_fields(&self) -> String {
-        let first = self.first.map_or("null".to_string(), |(x, y, a, e)| {
-            format!(
-                "{{\"at\":[{x},{y}],\"actual\":[{},{},{}],\"expected\":[{},{},{}]}}",
-                a[0], a[1], a[2], e[0], e[1], e[2]
-            )
-        });
-        let worst = self.worst.map_or("null".to_string(), |(x, y, d)| format!("{{\"at\":[{x},{y}],\"by\":{d}}}"));
-        format!(
-            "\"pixels\":{},\"differing\":{},\"percent\":{},\"tolerance\":{},\"first\":{first},\"worst\":{worst}",
-            self.total,
-            self.differing,
-            100.0 * self.fraction(),
-            self.tolerance
-        )
+    /// The same as its text, for JSON (serde): "pixels", "differing",
+    /// "percent", "tolerance", "first" ({"at", "actual", "expected"} or
+    /// null) and "worst" ({"at", "by"} or null).
+    pub fn json(&self) -> DiffJson {
+        DiffJson {
+            pixels: self.total,
+            differing: self.differing,
+            percent: 100.0 * self.fraction(),
+            tolerance: self.tolerance,
+            first: self.first.map(|(x, y, actual, expected)| FirstJson { at: [x, y], actual, expected }),
+            worst: self.worst.map(|(x, y, by)| WorstJson { at: [x, y], by }),
+        }
+    }
+}
+
+/// `ImageDiff::json`: its numbers, as `compare --json` writes them.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DiffJson {
+    pub pixels: usize,
+    pub differing: usize,
+    #[serde(serialize_with = "json_number")]
+    pub percent: f64,
+    pub tolerance: u8,
+    pub first: Option<FirstJson>,
+    pub worst: Option<WorstJson>,
+}
+
+/// The first differing pixel: where, and its two colours.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FirstJson {
+    pub at: [u32; 2],
+    pub actual: [u8; 3],
+    pub expected: [u8; 3],
+}
+
+/// The pixel that differs most: where, and by how much (of 255).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct WorstJson {
+    pub at: [u32; 2],
+    pub by: u8,
+}
+
+/// A number as Rust prints it: a whole one without a fraction (`0`, `25`,
+/// not serde_json's `0.0`), as `compare --json` always wrote it.
+pub fn json_number<S: serde::Serializer>(value: &f64, serializer: S) -> Result<S::Ok, S::Error> {
+    if value.fract() == 0.0 && value.abs() < 9_007_199_254_740_992.0 {
+        serializer.serialize_i64(*value as i64)
+    } else {
+        serializer.serialize_f64(*value)
     }
 }
 
@@ -297,6 +328,35 @@ pub fn compare(actual: &Rgb8, expected: &Rgb8, tolerance: u8) -> Result<ImageDif
         }
     }
     Ok(diff)
+}
+
+/// How far `highlight_diff` fades the reference towards white: a pixel's
+/// grey `g` is drawn as `255 - FADE * (255 - g)` (pixelmatch's alpha 0.1),
+/// so every pixel of the background is 229 or lighter and a red one shows.
+pub const FADE: f32 = 0.1;
+
+/// The diff picture `compare` writes: pure red (255, 0, 0) where a pixel of
+/// `actual` differs from `expected` by more than `tolerance` (the largest
+/// channel difference, as `compare` counts them), elsewhere the expected
+/// picture in grey faded towards white (`FADE`), so that one wrong pixel
+/// stands out. The two pictures are of the same size (`compare` said so).
+pub fn highlight_diff(actual: &Rgb8, expected: &Rgb8, tolerance: u8) -> Rgb8 {
+    assert_eq!((actual.width, actual.height), (expected.width, expected.height), "highlight_diff: sizes differ");
+    let data = actual
+        .data
+        .chunks_exact(3)
+        .zip(expected.data.chunks_exact(3))
+        .flat_map(|(a, e)| {
+            if (0..3).any(|c| a[c].abs_diff(e[c]) > tolerance) {
+                [255, 0, 0]
+            } else {
+                let grey = 0.299 * f32::from(e[0]) + 0.587 * f32::from(e[1]) + 0.114 * f32::from(e[2]);
+                let v = (255.0 - FADE * (255.0 - grey)).round() as u8;
+                [v, v, v]
+            }
+        })
+        .collect();
+    Rgb8 { width: expected.width, height: expected.height, data }
 }
 
 /// Where `write_diff_images` puts the actual, expected and diff pictures of `name`.
@@ -496,6 +556,25 @@ mod tests {
         let e = read_picture(&dir.join("wide.png")).unwrap_err();
         assert!(e.ends_with("wide.png: the picture is 300000000x1, more than the 268,435,456 pixels (16384x16384) of the largest picture raycast renders"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A differing pixel is pure red; an equal one (or one within the
+    /// tolerance) is the reference's grey faded towards white, lighter
+    /// than it was and never red.
+    #[test]
+    fn highlight_diff_marks_differing_pixels_red_over_a_faded_reference() {
+        let expected = Rgb8 { width: 3, height: 1, data: vec![0, 0, 0, 200, 40, 90, 255, 255, 255] };
+        let mut actual = expected.clone();
+        actual.data[0] = 3; // (0, 0) off by 3: differs
+        actual.data[4] = 42; // (1, 0) off by 2: within tolerance
+        let d = highlight_diff(&actual, &expected, 2);
+        assert_eq!((d.width, d.height), (3, 1));
+        assert_eq!(d.pixel(0, 0), [255, 0, 0]);
+        let grey = d.pixel(1, 0);
+        assert!(grey[0] == grey[1] && grey[1] == grey[2] && grey[0] >= 229 && grey[0] < 255, "{grey:?}");
+        assert!(grey[0] > 200, "not lighter than the reference: {grey:?}");
+        assert_eq!(d.pixel(2, 0), [255, 255, 255]);
+        assert_eq!(highlight_diff(&expected, &expected, 0).pixel(0, 0), [230, 230, 230]);
     }
 
     #[test]
