@@ -69,23 +69,6 @@ pub(crate) fn listed(items: &[impl AsRef<str>], word: &str) -> String {
     }
 }
 
-/// `s` as a JSON string, quoted and escaped.
-pub(crate) fn json_str(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => {
-                out.push_str(&format!("\\u{:04x}", c as u32));
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
-}
-
 /// The median of `values` (the mean of the middle two for an even count);
 /// NaN when there are none. The one median of bench's frames, versus's
 /// ratios and the preview's frame rates and pixel cost.
