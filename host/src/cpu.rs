@@ -474,10 +474,15 @@ mod tests {
             }
         }
         let data = crate::frame::build(&mirrors(point), &Default::default()).unwrap();
-        assert!(renderer.trace(&data, &data.frame, 512, 0, 0).unwrap_err().contains("outside the 512x384 picture"));
+        assert!(renderer
+            .trace(&data, &data.frame, 512, 0, 0)
+            .unwrap_err()
+            .to_string()
+            .contains("outside the 512x384 picture"));
         assert!(renderer
             .trace(&data, &data.frame, 0, 0, 1)
             .unwrap_err()
+            .to_string()
             .contains("sample 1 is not one of the pixel's 1"));
     }
 

@@ -48,14 +48,13 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), Error> {
     let validation = args.validate || std::env::var("RAYCAST_VALIDATION").is_ok_and(|v| v == "1");
     let device = args.device.clone();
     let mut harness =
-        Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation, timeout: args.timeout })
-            .map_err(fail)?;
+        Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation, timeout: args.timeout })?;
 
     let mut per_file = Vec::new();
     for path in &files {
         let shown = shown_path(path, &root);
         // File errors already read `file:line: error: …`.
-        let cases = file::load(path, &shown, harness.shaders()).map_err(Error::Scene)?;
+        let cases = file::load(path, &shown, harness.shaders())?;
         let wanted = |c: &crate::harness::Case| {
             args.only.iter().any(|t| c.function.contains(t.as_str()) || c.display_name().contains(t.as_str()))
         };
