@@ -41,9 +41,8 @@ pub struct ShaderTestArgs {
 
 /// Runs the command; Err is (message for stderr, exit status).
 pub fn run(args: &ShaderTestArgs) -> Result<(), Error> {
-    let fail = Error::Failed;
     let root = source_root();
-    let files = if args.files.is_empty() { default_files(&root).map_err(fail)? } else { args.files.clone() };
+    let files = if args.files.is_empty() { default_files(&root)? } else { args.files.clone() };
 
     let validation = args.validate || std::env::var("RAYCAST_VALIDATION").is_ok_and(|v| v == "1");
     let device = args.device.clone();
@@ -119,7 +118,7 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), Error> {
 }
 
 /// Every tests/shaders/*.toml of the source tree, sorted.
-fn default_files(root: &Path) -> Result<Vec<PathBuf>, String> {
+fn default_files(root: &Path) -> Result<Vec<PathBuf>, Error> {
     let dir = root.join("tests/shaders");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
@@ -128,7 +127,7 @@ fn default_files(root: &Path) -> Result<Vec<PathBuf>, String> {
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(format!("no test files in {}", dir.display()));
+        return Err(Error::Failed(format!("no test files in {}", dir.display())));
     }
     Ok(files)
 }
