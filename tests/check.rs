@@ -33,6 +33,7 @@
 
 use raycast::check;
 use raycast::cpu::CpuRenderer;
+use raycast::error::Error;
 use raycast::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
 use raycast::gpu::GpuOptions;
 use raycast::image_io::{self, Rgb8};
@@ -98,7 +99,7 @@ fn random_settings(rng: &mut Rng) -> RenderSettings {
 fn device_against_cpu(gpu: &GpuRenderer, cpu: &CpuRenderer, data: &FrameData) -> Result<(), (String, Option<Rgb8>)> {
     let result = gpu
         .render(data)
-        .map_err(|e| e.to_string())
+        .map_err(Error::from)
         .and_then(|(g, _)| check::compare(&g, "device", &cpu.render(data)?, "cpu"));
     let messages = gpu.context().take_validation_messages();
     let validation: String = messages.iter().map(|m| format!("\nvalidation: {m}")).collect();
@@ -293,7 +294,7 @@ fn main() -> ExitCode {
                 gpu.set_band_bytes(bands);
                 let label = format!("{name} {:?} {what}, device against cpu", settings.aov);
                 let result = frame::build(&scene, &settings)
-                    .map_err(|e| (e, None))
+                    .map_err(|e| (e.to_string(), None))
                     .and_then(|d| device_against_cpu(&gpu, &cpu, &d));
                 gpu.set_scene_buffers(SceneBuffers::Auto);
                 gpu.set_band_bytes(None);
@@ -374,7 +375,7 @@ fn main() -> ExitCode {
         let path = &scenes[k].0;
         let data = match scene::parse_str(&text, path, &parse)
             .and_then(|f| scene::flatten(&f, &FlattenLimits::default()))
-            .map_err(|e| e.to_string())
+            .map_err(Error::scene)
             .and_then(|s| frame::build(&s, &settings))
         {
             Ok(d) => d,

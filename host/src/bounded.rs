@@ -65,9 +65,10 @@ pub fn read(path: &Path, max: u64) -> Result<Vec<u8>, ReadError> {
 }
 
 /// `read` as UTF-8 text, at most MAX_INPUT_BYTES.
-pub fn read_text(path: &Path) -> Result<String, String> {
+pub fn read_text(path: &Path) -> Result<String, crate::error::Error> {
     let bytes = read(path, MAX_INPUT_BYTES).map_err(|e| e.to_string())?;
-    String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text (byte offset {})", e.utf8_error().valid_up_to()))
+    String::from_utf8(bytes)
+        .map_err(|e| format!("not UTF-8 text (byte offset {})", e.utf8_error().valid_up_to()).into())
 }
 
 #[cfg(test)]
@@ -97,6 +98,6 @@ mod tests {
         assert!(matches!(read(&path, 11), Err(ReadError::TooLarge(11))));
         std::fs::remove_file(&path).unwrap();
         assert_eq!(ReadError::TooLarge(MAX_INPUT_BYTES).to_string(), "larger than 1024 MiB");
-        assert!(read_text(Path::new("/nonexistent/x")).unwrap_err().contains("No such file"));
+        assert!(read_text(Path::new("/nonexistent/x")).unwrap_err().to_string().contains("No such file"));
     }
 }

@@ -3,6 +3,7 @@
 //! the first difference with both values in decimal and hex and its ULP
 //! distance, and the worst ULP distance.
 
+use crate::error::Error;
 use crate::image_io::Rgb8;
 use crate::layout::PixelOut;
 use crate::render::Picture;
@@ -75,9 +76,12 @@ fn hex_text(x: u32) -> String {
 }
 
 /// Compares every buffer of `a` and `b` bit for bit.
-pub fn compare(a: &Picture, a_name: &str, b: &Picture, b_name: &str) -> Result<CheckReport, String> {
+pub fn compare(a: &Picture, a_name: &str, b: &Picture, b_name: &str) -> Result<CheckReport, Error> {
     if (a.width, a.height) != (b.width, b.height) {
-        return Err(format!("sizes differ: {a_name} {}x{}, {b_name} {}x{}", a.width, a.height, b.width, b.height));
+        return Err(Error::Failed(format!(
+            "sizes differ: {a_name} {}x{}, {b_name} {}x{}",
+            a.width, a.height, b.width, b.height
+        )));
     }
     let mut t = BufferDiff { name: "t", unit: "ULP", ..Default::default() };
     let mut id = BufferDiff { name: "id", unit: "", ..Default::default() };

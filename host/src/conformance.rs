@@ -128,7 +128,7 @@ impl Case {
             textures: self.features,
             ..RenderSettings::default()
         };
-        frame::build(&scene, &settings).map_err(Error::Scene)
+        frame::build(&scene, &settings)
     }
 }
 

@@ -1,6 +1,7 @@
 //! The CPU backend: the C++ build of the shared GLSL (host/cpu), called
 //! through its C ABI, rows handed out to every core.
 
+use crate::error::Error;
 use crate::frame::FrameData;
 use crate::layout::{self, PixelOut};
 use crate::preview::layout::{AccumPixel, PreviewFrame};
@@ -47,7 +48,7 @@ const ROWS_PER_JOB: u32 = 4;
 
 /// Checks the C++ layout of every struct in `shaders/layout.h` against the
 /// Rust mirror (which the GPU side checks against naga's reflection).
-pub fn check_layouts() -> Result<(), String> {
+pub fn check_layouts() -> Result<(), Error> {
     let structs = [
         layout::Frame::layout(),
         layout::Primitive::layout(),
@@ -82,7 +83,10 @@ pub fn check_layouts() -> Result<(), String> {
     if errors.is_empty() {
         Ok(())
     } else {
-        Err(format!("the CPU build's structs differ from host/src/layout.rs:\n  {}", errors.join("\n  ")))
+        Err(Error::Failed(format!(
+            "the CPU build's structs differ from host/src/layout.rs:\n  {}",
+            errors.join("\n  ")
+        )))
     }
 }
 
@@ -169,7 +173,7 @@ pub struct CpuRenderer {
 
 impl CpuRenderer {
     /// Uses every core; checks the C++ struct layouts first.
-    pub fn new() -> Result<CpuRenderer, String> {
+    pub fn new() -> Result<CpuRenderer, Error> {
         check_layouts()?;
         Ok(CpuRenderer { threads: host_threads() })
     }
@@ -181,12 +185,12 @@ impl CpuRenderer {
     }
 
     /// The frame on every core; an error when its pixels' memory cannot be had.
-    pub fn render(&self, data: &FrameData) -> Result<Picture, String> {
+    pub fn render(&self, data: &FrameData) -> Result<Picture, Error> {
         self.render_told(data, &|_| {})
     }
 
     /// `render`, `told` the rows done (every sample of a row at once) as jobs finish.
-    pub fn render_told(&self, data: &FrameData, told: Told) -> Result<Picture, String> {
+    pub fn render_told(&self, data: &FrameData, told: Told) -> Result<Picture, Error> {
         let (width, height) = (data.frame.width, data.frame.height);
         let what = format!("the {width}x{height} picture's pixels ({} bytes each)", std::mem::size_of::<PixelOut>());
         let mut pixels = crate::render::try_filled(width as usize * height as usize, PixelOut::default(), &what)?;
@@ -229,13 +233,16 @@ impl CpuRenderer {
         x: u32,
         y: u32,
         sample: u32,
-    ) -> Result<Vec<layout::TraceStep>, String> {
+    ) -> Result<Vec<layout::TraceStep>, Error> {
         if x >= frame.width || y >= frame.height {
-            return Err(format!("pixel ({x}, {y}) is outside the {}x{} picture", frame.width, frame.height));
+            return Err(Error::Failed(format!(
+                "pixel ({x}, {y}) is outside the {}x{} picture",
+                frame.width, frame.height
+            )));
         }
         let spp = frame.spp.max(1);
         if sample >= spp {
-            return Err(format!("sample {sample} is not one of the pixel's {spp} (0 to {})", spp - 1));
+            return Err(Error::Failed(format!("sample {sample} is not one of the pixel's {spp} (0 to {})", spp - 1)));
         }
         let mut buffers = buffer_pointers(data);
         buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
@@ -467,10 +474,15 @@ mod tests {
             }
         }
         let data = crate::frame::build(&mirrors(point), &Default::default()).unwrap();
-        assert!(renderer.trace(&data, &data.frame, 512, 0, 0).unwrap_err().contains("outside the 512x384 picture"));
+        assert!(renderer
+            .trace(&data, &data.frame, 512, 0, 0)
+            .unwrap_err()
+            .to_string()
+            .contains("outside the 512x384 picture"));
         assert!(renderer
             .trace(&data, &data.frame, 0, 0, 1)
             .unwrap_err()
+            .to_string()
             .contains("sample 1 is not one of the pixel's 1"));
     }
 

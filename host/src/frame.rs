@@ -4,6 +4,7 @@
 //! once, in f64, and handed to both backends as the same f32 bits.
 
 use crate::bvh::{self, Aabb};
+use crate::error::Error;
 use crate::image_io;
 use crate::layout::{self, Mat4, Vec4};
 use crate::scene::{scene_bounds, Bounds, Camera, Group, Instance, LightKind, Primitive, Scene, Shape, TextureRef};
@@ -295,29 +296,29 @@ struct TextureTable {
 impl TextureTable {
     /// The index of `t`'s image, loading it on first use. Errors name the
     /// scene element: `file:line:col: error: …`.
-    fn add(&mut self, t: &TextureRef) -> Result<i32, String> {
+    fn add(&mut self, t: &TextureRef) -> Result<i32, Error> {
         let Some(path) = &t.resolved else {
-            return Err(format!(
+            return Err(Error::Scene(format!(
                 "{}: error: texture \"{}\" not found as a picture file (the warning at this element says where raycast looked); \
                  pass the folder that holds it with --assets DIR, or render with --no-textures",
                 t.loc, t.file
-            ));
+            )));
         };
         if let Some(&i) = self.index.get(path) {
             return Ok(i);
         }
-        let cannot = |e: String| format!("{}: error: cannot read texture {}: {e}", t.loc, path.display());
+        let cannot = |e: String| Error::Scene(format!("{}: error: cannot read texture {}: {e}", t.loc, path.display()));
         // The size from the header first: a picture too large for the
         // texture table is told so before it is decoded into memory.
         let (width, height) = image_io::picture_size(path).map_err(cannot)?;
         let total = self.texels.len() as u64 + u64::from(width) * u64::from(height);
         if width == 0 || height == 0 || total > MAX_TEXELS {
-            return Err(format!(
+            return Err(Error::Scene(format!(
                 "{}: error: texture {} ({width}x{height}) does not fit: all textures together may hold at most {} texels",
                 t.loc,
                 path.display(),
                 crate::units::thousands(MAX_TEXELS)
-            ));
+            )));
         }
         let image = image_io::decode_picture(path).map_err(|e| cannot(format!("{e} ({width}x{height})")))?.to_rgba8();
         let i = self.textures.len() as i32;
@@ -344,16 +345,16 @@ const LIGHT_REACH: f64 = 1.0e19;
 /// The scene's positioned lights within what the renderer's 32-bit floats
 /// can light with (`LIGHT_REACH`; the parser holds every number the
 /// renderer takes as written, the camera's position among them, to f32).
-fn check_light_reach(scene: &Scene) -> Result<(), String> {
+fn check_light_reach(scene: &Scene) -> Result<(), Error> {
     for l in scene.lights.iter().filter(|l| l.kind != LightKind::Directional) {
         let distance = l.position.length();
         if distance > LIGHT_REACH {
-            return Err(format!(
+            return Err(Error::Scene(format!(
                 "{}: error: this light is {distance:.3e} units from the origin: the renderer squares a light's distance in \
                  32-bit floats, which overflows beyond about 1.8e19, so it would light nothing; for light from far \
                  away, use type=\"directional\"",
                 l.loc
-            ));
+            )));
         }
     }
     Ok(())
@@ -380,7 +381,7 @@ const MIN_ROW_ANGLE: f64 = 1e-7;
 /// The camera's height angle over the picture's rows, refused below
 /// `MIN_ROW_ANGLE` (a telescope of heightangle 1e-5 degrees drew a sphere
 /// with wrong normals and gaps, without a word).
-fn check_row_angle(scene: &Scene, height: u32) -> Result<(), String> {
+fn check_row_angle(scene: &Scene, height: u32) -> Result<(), Error> {
     let degrees = scene.camera.height_angle_deg;
     let per_row = degrees.to_radians() / f64::from(height.max(1));
     if per_row >= MIN_ROW_ANGLE {
@@ -390,13 +391,13 @@ fn check_row_angle(scene: &Scene, height: u32) -> Result<(), String> {
         Some(loc) => loc.to_string(),
         None => format!("{} (its default heightangle)", scene.path.display()),
     };
-    Err(format!(
+    Err(Error::Scene(format!(
         "{place}: error: the camera's heightangle of {}° over {height} rows is {per_row:.1e} radians a row, less than the \
          {MIN_ROW_ANGLE:.0e} the renderer's 32-bit floats resolve (the picture would be noise): widen it (at least \
          {:.1e}°), or render fewer rows",
         crate::units::fmt_number(degrees),
         (MIN_ROW_ANGLE * f64::from(height.max(1))).to_degrees()
-    ))
+    )))
 }
 
 /// The largest singular value of `m`'s linear part: the most it stretches
@@ -427,7 +428,7 @@ fn stretch(m: &DMat4) -> f64 {
 /// the world is bounded from its placements' singular values (the most a
 /// matrix stretches, and the most its inverse does), so nothing is
 /// expanded.
-fn check_scaling(scene: &Scene) -> Result<(), String> {
+fn check_scaling(scene: &Scene) -> Result<(), Error> {
     // A ray's direction, of length 1 in the world, is of length within [lo, hi] in group g's space.
     let mut range = vec![(f64::INFINITY, 0.0f64); scene.groups.len()];
     if let Some(root) = range.first_mut() {
@@ -437,12 +438,12 @@ fn check_scaling(scene: &Scene) -> Result<(), String> {
         let (shrunk, grown) = (lo < 1.0 / MAX_SCALING, hi > MAX_SCALING);
         (shrunk || grown).then(|| {
             let scale = if shrunk { format!("up to {:.1e}", 1.0 / lo) } else { format!("down to {:.1e}", 1.0 / hi) };
-            format!(
+            Error::Scene(format!(
                 "{loc}: error: this {what} is scaled by {scale} in all (its transforms and those of the masters \
                  placing it): beyond {MAX_SCALING:.0e}, or below {:.0e}, the renderer's 32-bit intersection tests lose \
                  it, so it would drop out of the picture; scale the scene to other units",
                 1.0 / MAX_SCALING
-            )
+            ))
         })
     };
     for g in scene.groups_children_first().into_iter().rev() {
@@ -497,7 +498,7 @@ pub fn set_camera(frame: &mut layout::Frame, camera: &Camera) {
 /// Packs `scene` for rendering with `settings`. With textures on, loads
 /// every texture; one that cannot be found or read is an error naming the
 /// scene element.
-pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, String> {
+pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Error> {
     let mut notes = Vec::new();
     let mut table = TextureTable::default();
 
@@ -543,7 +544,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Stri
                     .unwrap_or([1.0, 1.0, 0.0, 0.0]),
             })
         })
-        .collect::<Result<Vec<_>, String>>()?;
+        .collect::<Result<Vec<_>, Error>>()?;
     let (materials, material_index) = unique_materials(materials);
     let mut packed = packed;
     for p in &mut packed.primitives {
@@ -856,7 +857,7 @@ const MAX_WRITTEN_OUT: usize = 1_000_000;
 /// where the scene fits as it is.
 /// The deepest levels are the cheapest to write out: a master there holds
 /// few primitives, and nothing is copied more often than it is placed.
-pub(crate) fn fit_nesting(scene: &Scene) -> Result<Option<(Scene, String)>, String> {
+pub(crate) fn fit_nesting(scene: &Scene) -> Result<Option<(Scene, String)>, Error> {
     let mut height = vec![0usize; scene.groups.len()];
     for g in scene.groups_children_first() {
         height[g] = scene.groups[g].instances.iter().map(|i| height[i.group as usize] + 1).max().unwrap_or(0);
@@ -885,12 +886,12 @@ pub(crate) fn fit_nesting(scene: &Scene) -> Result<Option<(Scene, String)>, Stri
         placed.sort_by_key(|i| height[i.group as usize]);
         total += placed.iter().map(|i| groups[i.group as usize].primitives.len()).sum::<usize>();
         if total > MAX_WRITTEN_OUT {
-            return Err(format!(
+            return Err(Error::Scene(format!(
                 "{}: error: masters are nested {deepest} deep, more than the shader's {max} levels, and writing the \
                  deepest levels out into the masters that place them would store more than {MAX_WRITTEN_OUT} \
                  primitives: nest the masters less deeply",
                 scene.path.display()
-            ));
+            )));
         }
         let copies: Vec<Primitive> = placed
             .iter()
@@ -947,8 +948,8 @@ pub(crate) fn fit_nesting(scene: &Scene) -> Result<Option<(Scene, String)>, Stri
 
 /// The scene's groups packed for the device; an error names the file (and
 /// the element, where one is to blame).
-fn pack_groups(scene: &Scene) -> Result<Packed, String> {
-    let whole = |message: String| format!("{}: error: {message}", scene.path.display());
+fn pack_groups(scene: &Scene) -> Result<Packed, Error> {
+    let whole = |message: String| Error::Scene(format!("{}: error: {message}", scene.path.display()));
     let groups = &scene.groups;
     let n = groups.len();
     if scene.primitive_count() >= u64::from(layout::NO_HIT) {
@@ -977,7 +978,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
     let mut group_sphere = vec![(DVec3::ZERO, 0.0f64); n];
     // The sphere records written (where in leaf_items, and the box record
     // in their place), and the surface of the bounds chosen against boxes.
-    let mut spheres: Vec<(usize, Result<[u32; 4], String>)> = Vec::new();
+    let mut spheres: Vec<(usize, Result<[u32; 4], Error>)> = Vec::new();
     struct Areas {
         chosen: f64,
         boxes: f64,
@@ -1048,9 +1049,9 @@ fn pack_groups(scene: &Scene) -> Result<Packed, String> {
                     let sphere_area = 4.0 * std::f64::consts::PI * sphere.1 * sphere.1;
                     let boxed = || {
                         let (q_lo, q_hi) = box_steps((lo, hi), (ilo, ihi)).ok_or_else(|| {
-                            format!("{}: error: this master's box cannot be written in steps of its leaf's (coordinates beyond about 1e38?)", inst.loc)
+                            Error::Scene(format!("{}: error: this master's box cannot be written in steps of its leaf's (coordinates beyond about 1e38?)", inst.loc))
                         })?;
-                        Ok::<_, String>(instance_record(q_lo, q_hi, item))
+                        Ok::<_, Error>(instance_record(q_lo, q_hi, item))
                     };
                     areas.boxes += box_area;
                     let record = match sphere_record((lo, hi), sphere, item) {
@@ -1519,15 +1520,15 @@ mod tests {
         };
         let mut table = TextureTable::default();
         // A PPM header alone: its size is read, its pixels never.
-        let e = table.add(&texture("huge.ppm", b"P6\n60000 60000\n255\n")).unwrap_err();
+        let e = table.add(&texture("huge.ppm", b"P6\n60000 60000\n255\n")).unwrap_err().to_string();
         assert!(
             e.starts_with("t.xml:3:7: error: texture ") && e.contains("huge.ppm (60000x60000) does not fit"),
             "{e}"
         );
-        let e = table.add(&texture("header.ppm", b"P6\n4")).unwrap_err();
+        let e = table.add(&texture("header.ppm", b"P6\n4")).unwrap_err().to_string();
         assert!(e.starts_with("t.xml:3:7: error: cannot read texture ") && e.contains("header.ppm"), "{e}");
         // Its header whole, its pixels cut short: told with the size.
-        let e = table.add(&texture("cut.ppm", b"P6\n4 4\n255\n\x01\x02")).unwrap_err();
+        let e = table.add(&texture("cut.ppm", b"P6\n4 4\n255\n\x01\x02")).unwrap_err().to_string();
         assert!(
             e.starts_with("t.xml:3:7: error: cannot read texture ") && e.contains("cut.ppm") && e.ends_with("(4x4)"),
             "{e}"
@@ -1535,12 +1536,12 @@ mod tests {
         let small = dir.join("small.png");
         image::RgbImage::from_pixel(3, 2, image::Rgb([1, 2, 3])).save(&small).unwrap();
         let small = std::fs::read(&small).unwrap();
-        assert_eq!(table.add(&texture("small2.png", &small)), Ok(0));
+        assert_eq!(table.add(&texture("small2.png", &small)).ok(), Some(0));
         assert_eq!((table.textures[0].width, table.textures[0].height, table.texels.len()), (3, 2, 6));
         // Other formats, told by their content: a BMP under a .png name.
         let bmp = dir.join("small.bmp");
         image::RgbImage::from_pixel(2, 2, image::Rgb([4, 5, 6])).save(&bmp).unwrap();
-        assert_eq!(table.add(&texture("bmp.png", &std::fs::read(&bmp).unwrap())), Ok(1));
+        assert_eq!(table.add(&texture("bmp.png", &std::fs::read(&bmp).unwrap())).ok(), Some(1));
         assert_eq!(
             table.texels[6..].iter().map(|t| t.rgba).collect::<Vec<_>>(),
             vec![u32::from_le_bytes([4, 5, 6, 255]); 4]
@@ -1573,7 +1574,7 @@ mod tests {
                 "t.xml",
             )
         };
-        let e = build(&scene("1e-5"), &RenderSettings::default()).map(|_| ()).unwrap_err();
+        let e = build(&scene("1e-5"), &RenderSettings::default()).map(|_| ()).unwrap_err().to_string();
         assert!(
             e.starts_with(
                 "t.xml:1:99: error: the camera's heightangle of 1e-5° over 384 rows is 4.5e-10 radians a row"
@@ -1606,8 +1607,11 @@ mod tests {
         };
         let master =
             |transform: &str| format!(r#"<transblock>{transform}<object type="master" name="inner"/></transblock>"#);
-        let outcome =
-            |xml: String| build(&crate::scene::from_xml(&xml, "t.xml"), &RenderSettings::default()).map(|_| ());
+        let outcome = |xml: String| {
+            build(&crate::scene::from_xml(&xml, "t.xml"), &RenderSettings::default())
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        };
         // Just inside: a translation of 1e38, a master scaled by 2e-15 and a
         // sphere by 5e14 (MAX_SCALING), a light 1e18 away, a camera at 1e38.
         for ok in [

@@ -8,6 +8,7 @@
 //! tracer" ones) are generated here, one master level per step, so that a
 //! few kilobytes of XML expand to millions of primitives.
 
+use crate::error::Error;
 use crate::scene::{Material, Node, SceneFile, Shape, TransBlock};
 use clap::ValueEnum;
 use glam::DMat4;
@@ -119,12 +120,12 @@ impl Default for GenOptions {
 /// A generated scene name as `bench` takes it, `gen:recursive-spheres:6`:
 /// None when `name` does not start with `gen:`, else the family and depth
 /// or what is wrong with them.
-pub fn parse_scene_name(name: &str) -> Option<Result<(Family, u32), String>> {
+pub fn parse_scene_name(name: &str) -> Option<Result<(Family, u32), Error>> {
     let rest = name.strip_prefix("gen:")?;
     let usage = || {
-        format!(
+        Error::Failed(format!(
             "{name}: a generated scene is gen:FAMILY:DEPTH with FAMILY recursive-spheres, recursive-cones or recursive-cubes and DEPTH {MIN_DEPTH} to {MAX_DEPTH}"
-        )
+        ))
     };
     let Some((family, depth)) = rest.split_once(':') else { return Some(Err(usage())) };
     let Some(family) = Family::ALL.into_iter().find(|f| f.name() == family) else { return Some(Err(usage())) };
@@ -219,12 +220,12 @@ fn escape_attr(s: &str) -> String {
 }
 
 /// The scene file of `family` at `depth` (1 to 12).
-pub fn generate(family: Family, depth: u32, options: &GenOptions) -> Result<String, String> {
+pub fn generate(family: Family, depth: u32, options: &GenOptions) -> Result<String, Error> {
     if !(MIN_DEPTH..=MAX_DEPTH).contains(&depth) {
-        return Err(format!(
+        return Err(Error::Usage(format!(
             "--depth {depth} is out of range: {MIN_DEPTH} to {MAX_DEPTH} (depth 12 already expands to {} primitives)",
             family.expanded_count(MAX_DEPTH)
-        ));
+        )));
     }
     let mut xml = String::with_capacity(4096);
     header(&mut xml, family == Family::RecursiveSpheres);
@@ -243,18 +244,18 @@ pub fn generate(family: Family, depth: u32, options: &GenOptions) -> Result<Stri
 /// same primitives in the same order; pictures agree with the instanced
 /// file's up to the rounding of the f32 matrices (one composed matrix where
 /// the instanced walk applies a chain).
-pub fn generate_flat(family: Family, depth: u32, options: &GenOptions) -> Result<String, String> {
+pub fn generate_flat(family: Family, depth: u32, options: &GenOptions) -> Result<String, Error> {
     if depth > MAX_FLAT_DEPTH {
-        return Err(format!(
+        return Err(Error::Usage(format!(
             "--depth {depth} --flat would write {} primitives out one by one; --flat goes to depth {MAX_FLAT_DEPTH} ({})",
             family.expanded_count(depth),
             family.expanded_count(MAX_FLAT_DEPTH)
-        ));
+        )));
     }
     let instanced = generate(family, depth, options)?;
     let file =
         crate::scene::parse_str(&instanced, std::path::Path::new("gen.xml"), &crate::scene::ParseOptions::default())
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| Error::Failed(e.to_string()))?;
     let mut xml = String::with_capacity(600 * family.expanded_count(depth) as usize);
     header(&mut xml, family == Family::RecursiveSpheres);
     xml.push_str("\t<object type=\"tree\" name=\"root\">\n");
@@ -590,7 +591,9 @@ mod tests {
                 }
             }
         }
-        let e = generate_flat(Family::RecursiveSpheres, MAX_FLAT_DEPTH + 1, &GenOptions::default()).unwrap_err();
+        let e = generate_flat(Family::RecursiveSpheres, MAX_FLAT_DEPTH + 1, &GenOptions::default())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--flat goes to depth 8"), "{e}");
     }
 
@@ -628,16 +631,22 @@ mod tests {
     #[test]
     fn depth_out_of_range_is_a_clear_error() {
         for depth in [0, 13, 100] {
-            let e = generate(Family::RecursiveSpheres, depth, &GenOptions::default()).unwrap_err();
+            let e = generate(Family::RecursiveSpheres, depth, &GenOptions::default()).unwrap_err().to_string();
             assert!(e.contains(&format!("--depth {depth} is out of range: 1 to 12")), "{e}");
         }
     }
 
     #[test]
     fn generated_scene_names() {
-        assert_eq!(parse_scene_name("gen:recursive-spheres:6"), Some(Ok((Family::RecursiveSpheres, 6))));
-        assert_eq!(parse_scene_name("gen:recursive-cubes:12"), Some(Ok((Family::RecursiveCubes, 12))));
-        assert_eq!(parse_scene_name("scenes/default.xml"), None);
+        assert_eq!(
+            parse_scene_name("gen:recursive-spheres:6").map(Result::ok),
+            Some(Some((Family::RecursiveSpheres, 6)))
+        );
+        assert_eq!(
+            parse_scene_name("gen:recursive-cubes:12").map(Result::ok),
+            Some(Some((Family::RecursiveCubes, 12)))
+        );
+        assert!(parse_scene_name("scenes/default.xml").is_none());
         for bad in [
             "gen:recursive-spheres:13",
             "gen:recursive-spheres:0",
@@ -645,7 +654,7 @@ mod tests {
             "gen:recursive-cones",
             "gen:",
         ] {
-            let e = parse_scene_name(bad).unwrap().unwrap_err();
+            let e = parse_scene_name(bad).unwrap().unwrap_err().to_string();
             assert!(e.contains("gen:FAMILY:DEPTH"), "{bad}: {e}");
         }
     }

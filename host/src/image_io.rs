@@ -1,6 +1,7 @@
 //! Reading and writing pictures, and comparing two pictures under a stated
 //! rule with a report a person can act on.
 
+use crate::error::Error;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -25,7 +26,7 @@ impl Rgb8 {
 /// own file writer flushes its buffer as it is dropped, where an error (a
 /// full disk; `-o /dev/full`) was lost and the command said it wrote the
 /// picture.
-pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
+pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), Error> {
     let mut bytes = Vec::new();
     image::ImageEncoder::write_image(
         image::codecs::png::PngEncoder::new(&mut bytes),
@@ -34,8 +35,8 @@ pub fn write_png(path: &Path, image: &Rgb8) -> Result<(), String> {
         image.height,
         image::ExtendedColorType::Rgb8,
     )
-    .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    crate::output::write_whole(path, &bytes).map_err(|e| e.to_string())
+    .map_err(|e| Error::Failed(format!("cannot write {}: {e}", path.display())))?;
+    crate::output::write_whole(path, &bytes)
 }
 
 /// Whether `path` names something there that is not a file or a link to
@@ -47,13 +48,13 @@ pub fn not_a_file(path: &Path) -> bool {
 /// A picture's name ends in .png or has no extension (a device such as
 /// /dev/stdout): raycast writes PNG, and `out.jpg` holding PNG bytes would
 /// mislead. Its error is a usage error (exit 2: a malformed value).
-pub fn check_output_name(path: &Path) -> Result<(), String> {
+pub fn check_output_name(path: &Path) -> Result<(), Error> {
     match path.extension().filter(|e| !e.eq_ignore_ascii_case("png")) {
-        Some(ext) => Err(format!(
+        Some(ext) => Err(Error::Usage(format!(
             "cannot write {}: raycast writes PNG pictures; name the file .png, not .{}",
             path.display(),
             ext.to_string_lossy()
-        )),
+        ))),
         None => Ok(()),
     }
 }
@@ -62,8 +63,8 @@ pub fn check_output_name(path: &Path) -> Result<(), String> {
 /// makes it (its name asked apart: `check_output_name`): its folder exists
 /// and takes a new file, and it is not itself a folder. (The write can
 /// still fail later, on a full disk; `write_png` says so.)
-pub fn check_output_path(path: &Path) -> Result<(), String> {
-    let cannot = |why: &str| Err(format!("cannot write {}: {why}", path.display()));
+pub fn check_output_path(path: &Path) -> Result<(), Error> {
+    let cannot = |why: &str| Err(Error::Failed(format!("cannot write {}: {why}", path.display())));
     if path.is_dir() {
         return cannot("it is a folder");
     }
@@ -165,7 +166,7 @@ pub fn decode_picture(path: &Path) -> Result<image::DynamicImage, String> {
 }
 
 /// `read_picture_counting_alpha`'s picture alone.
-pub fn read_picture(path: &Path) -> Result<Rgb8, String> {
+pub fn read_picture(path: &Path) -> Result<Rgb8, Error> {
     read_picture_counting_alpha(path).map(|(rgb, _)| rgb)
 }
 
@@ -173,8 +174,8 @@ pub fn read_picture(path: &Path) -> Result<Rgb8, String> {
 /// alpha dropped) and how many of its pixels were not opaque, so that a
 /// caller can say their alpha was not compared. At most
 /// `MAX_PICTURE_PIXELS`, told with the picture's size before it is decoded.
-pub fn read_picture_counting_alpha(path: &Path) -> Result<(Rgb8, usize), String> {
-    let cannot = |e: String| format!("cannot read {}: {e}", path.display());
+pub fn read_picture_counting_alpha(path: &Path) -> Result<(Rgb8, usize), Error> {
+    let cannot = |e: String| Error::Failed(format!("cannot read {}: {e}", path.display()));
     let (width, height) = picture_size(path).map_err(cannot)?;
     if u64::from(width) * u64::from(height) > MAX_PICTURE_PIXELS {
         let side = crate::frame::MAX_IMAGE_SIDE;
@@ -297,12 +298,12 @@ impl fmt::Display for ImageDiff {
 }
 
 /// Compares two pictures of the same size. Errors if the sizes differ.
-pub fn compare(actual: &Rgb8, expected: &Rgb8, tolerance: u8) -> Result<ImageDiff, String> {
+pub fn compare(actual: &Rgb8, expected: &Rgb8, tolerance: u8) -> Result<ImageDiff, Error> {
     if (actual.width, actual.height) != (expected.width, expected.height) {
-        return Err(format!(
+        return Err(Error::Failed(format!(
             "sizes differ: actual {}x{}, expected {}x{}",
             actual.width, actual.height, expected.width, expected.height
-        ));
+        )));
     }
     let mut diff = ImageDiff {
         tolerance,
@@ -367,13 +368,18 @@ pub fn diff_image_paths(dir: &Path, name: &str) -> [PathBuf; 3] {
 /// Removes those of `paths` that exist (pictures of a failure an earlier
 /// run wrote, which would say it still fails) and returns them; an error
 /// names the file that could not be removed.
-pub fn remove_stale(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+pub fn remove_stale(paths: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
     let mut removed = Vec::new();
     for path in paths {
         match std::fs::remove_file(path) {
             Ok(()) => removed.push(path.clone()),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(format!("cannot remove {}, a picture of an earlier run: {e}", path.display())),
+            Err(e) => {
+                return Err(Error::Failed(format!(
+                    "cannot remove {}, a picture of an earlier run: {e}",
+                    path.display()
+                )))
+            }
         }
     }
     Ok(removed)
@@ -387,8 +393,8 @@ pub fn write_diff_images(
     actual: &Rgb8,
     expected: &Rgb8,
     diff: &ImageDiff,
-) -> Result<[PathBuf; 3], String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+) -> Result<[PathBuf; 3], Error> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::Failed(format!("cannot create {}: {e}", dir.display())))?;
     let paths = diff_image_paths(dir, name);
     write_png(&paths[0], actual)?;
     write_png(&paths[1], expected)?;
@@ -427,7 +433,7 @@ mod tests {
         names.sort();
         assert_eq!(names, ["link.png", "p.png"], "a temporary file was left");
         write_png(Path::new("/dev/null"), &solid(1, 1, [0, 0, 0])).unwrap();
-        let full = write_png(Path::new("/dev/full"), &solid(1, 1, [0, 0, 0])).unwrap_err();
+        let full = write_png(Path::new("/dev/full"), &solid(1, 1, [0, 0, 0])).unwrap_err().to_string();
         assert!(full.starts_with("cannot write /dev/full: "), "{full}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -505,34 +511,37 @@ mod tests {
         );
         let huge = dir.join("huge.png");
         std::fs::write(&huge, b"P6\n20000 16384\n255\n").unwrap();
-        let e = read_picture(&huge).unwrap_err();
+        let e = read_picture(&huge).unwrap_err().to_string();
         assert!(
             e.contains("huge.png: the picture is 20000x16384, more than the 268,435,456 pixels (16384x16384)"),
             "{e}"
         );
         let empty = dir.join("empty.png");
         std::fs::write(&empty, b"").unwrap();
-        assert_eq!(read_picture(&empty).unwrap_err(), format!("cannot read {}: the file is empty", empty.display()));
+        assert_eq!(
+            read_picture(&empty).unwrap_err().to_string(),
+            format!("cannot read {}: the file is empty", empty.display())
+        );
         let cut = dir.join("cut.bmp");
         std::fs::write(&cut, &std::fs::read(&bmp).unwrap()[..20]).unwrap();
-        let e = read_picture(&cut).unwrap_err();
+        let e = read_picture(&cut).unwrap_err().to_string();
         assert!(e.ends_with("cut.bmp: the file ends before its picture does (cut short?)"), "{e}");
         let gif = dir.join("a.gif");
         std::fs::write(&gif, b"GIF89a\x01\x00\x01\x00\x00\x00\x00;").unwrap();
-        let e = read_picture(&gif).unwrap_err();
+        let e = read_picture(&gif).unwrap_err().to_string();
         assert!(e.contains("a.gif") && e.contains(PICTURE_FORMATS), "{e}");
         // Content that is no picture, whatever the name (the image crate
         // judged it by the name: "Invalid PNG signature", "extension not
         // recognized"); a folder said to be one.
         for name in ["text.png", "text.xml"] {
             std::fs::write(dir.join(name), b"<scenefile></scenefile>").unwrap();
-            let e = read_picture(&dir.join(name)).unwrap_err();
+            let e = read_picture(&dir.join(name)).unwrap_err().to_string();
             let why = format!(
                 "{name}: its content is not a picture raycast reads ({PICTURE_FORMATS}), whatever its name says"
             );
             assert!(e.ends_with(&why), "{e}");
         }
-        assert!(read_picture(&dir).unwrap_err().ends_with(": it is a folder"));
+        assert!(read_picture(&dir).unwrap_err().to_string().ends_with(": it is a folder"));
         // A PNG header of 300000000x1 is measured, not refused by the
         // decoder's memory limit ("Memory limit exceeded").
         let crc = |bytes: &[u8]| {
@@ -553,7 +562,7 @@ mod tests {
         wide.extend(b"IDAT");
         wide.extend(crc(b"IDAT").to_be_bytes());
         std::fs::write(dir.join("wide.png"), &wide).unwrap();
-        let e = read_picture(&dir.join("wide.png")).unwrap_err();
+        let e = read_picture(&dir.join("wide.png")).unwrap_err().to_string();
         assert!(e.ends_with("wide.png: the picture is 300000000x1, more than the 268,435,456 pixels (16384x16384) of the largest picture raycast renders"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
@@ -579,6 +588,6 @@ mod tests {
 
     #[test]
     fn compare_rejects_size_mismatch() {
-        assert!(compare(&solid(2, 2, [0; 3]), &solid(2, 3, [0; 3]), 0).unwrap_err().contains("2x2"));
+        assert!(compare(&solid(2, 2, [0; 3]), &solid(2, 3, [0; 3]), 0).unwrap_err().to_string().contains("2x2"));
     }
 }

@@ -338,7 +338,7 @@ fn settings() -> RenderSettings {
 /// `scene` packed as a default render packs it; where that fails (a
 /// texture file not found), packed without textures, with a note saying
 /// why, so that the rest can still be described.
-pub fn pack(scene: &Scene) -> Result<FrameData, String> {
+pub fn pack(scene: &Scene) -> Result<FrameData, crate::error::Error> {
     crate::frame::build(scene, &settings()).or_else(|e| {
         let mut data = crate::frame::build(scene, &RenderSettings { textures: false, ..settings() })?;
         data.notes.push(format!("packed without textures, as a default render fails: {e}"));

@@ -106,8 +106,8 @@ pub fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'
 /// name of another format is a usage error (exit 2), a folder that is not
 /// there or takes no file an error (exit 1).
 pub fn check_output(path: &Path) -> Result<(), Error> {
-    image_io::check_output_name(path).map_err(Error::usage)?;
-    Ok(image_io::check_output_path(path)?)
+    image_io::check_output_name(path)?;
+    image_io::check_output_path(path)
 }
 
 /// Status lines to stderr where `-o` sends the picture to stdout

@@ -2,6 +2,7 @@
 //! the picture that comes back.
 
 use crate::cpu::CpuRenderer;
+use crate::error::Error;
 use crate::frame::FrameData;
 use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel, RunBuffers};
 use crate::layout::{self, PixelOut};
@@ -46,7 +47,7 @@ pub(crate) fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec
 
 impl Picture {
     /// 8-bit RGB, row 0 at the top; an error when its memory cannot be had.
-    pub fn rgb8(&self) -> Result<Vec<u8>, String> {
+    pub fn rgb8(&self) -> Result<Vec<u8>, Error> {
         let what = format!("the {}x{} picture's RGB bytes", self.width, self.height);
         let mut out = try_filled(self.pixels.len() * 3, 0u8, &what)?;
         for (rgb, p) in out.chunks_exact_mut(3).zip(&self.pixels) {
@@ -112,7 +113,7 @@ pub trait Renderer {
 
     /// One frame of `data`, telling its progress as it goes, with where the
     /// time went (the CPU build's frame is all `dispatch`).
-    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), crate::error::Error>;
+    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), Error>;
 }
 
 impl Renderer for GpuRenderer {
@@ -120,7 +121,7 @@ impl Renderer for GpuRenderer {
         self.context.info().summary()
     }
 
-    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), crate::error::Error> {
+    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), Error> {
         Ok(self.render_told(data, told)?)
     }
 }
@@ -130,9 +131,9 @@ impl Renderer for CpuRenderer {
         self.summary("")
     }
 
-    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), crate::error::Error> {
+    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), Error> {
         let start = std::time::Instant::now();
-        let picture = self.render_told(data, told).map_err(crate::error::Error::Failed)?;
+        let picture = self.render_told(data, told)?;
         let timings =
             GpuTimings { dispatch: start.elapsed(), bands: 1, band_rows: data.frame.height, ..GpuTimings::default() };
         Ok((picture, timings))
@@ -179,13 +180,13 @@ pub enum SceneBuffers {
 /// Whether `data`'s arrays fit the uniform kernels' images, and the device
 /// binds as many storage images as a uniform kernel declares (`images`: its
 /// data images and any picture); else what does not.
-pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result<(), String> {
+pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result<(), Error> {
     let limit = ctx.storage_image_limit();
     if (limit as usize) < images {
-        return Err(format!(
+        return Err(Error::Failed(format!(
             "{} binds at most {limit} storage images a kernel (maxPerStageDescriptorStorageImages), the uniform kernel {images}",
             ctx.info().name
-        ));
+        )));
     }
     let sizes: Vec<(u32, &str, usize)> =
         data.scene_buffers().iter().map(|&(b, what, bytes)| (b, what, bytes.len())).collect();
@@ -244,15 +245,15 @@ pub fn check_storage_arrays(
 }
 
 /// `fits_uniform` on (binding, what, bytes) of each scene buffer.
-fn fits_images(sizes: &[(u32, &str, usize)]) -> Result<(), String> {
+fn fits_images(sizes: &[(u32, &str, usize)]) -> Result<(), Error> {
     let max = layout::UNIFORM_KERNEL_IMAGE_BYTES;
     match sizes.iter().find(|(binding, _, len)| layout::UNIFORM_KERNEL_IMAGES.contains(binding) && *len > max) {
         None => Ok(()),
-        Some((_, what, len)) => Err(format!(
+        Some((_, what, len)) => Err(Error::Failed(format!(
             "{what} take {len} bytes; the uniform kernels' images hold at most {max} bytes ({} rows of {} texels) an array",
             layout::IMAGE_ROWS,
             layout::IMAGE_WIDTH
-        )),
+        ))),
     }
 }
 
@@ -587,8 +588,8 @@ impl GpuRenderer {
     /// The device of `options` with the kernels compiled from `dir`
     /// (`--shaders DIR`): its render.comp, and its render_uniform.comp
     /// when it has one.
-    pub fn from_shaders(options: &GpuOptions, dir: &std::path::Path) -> Result<GpuRenderer, String> {
-        let context = GpuContext::new(options).map_err(|e| e.to_string())?;
+    pub fn from_shaders(options: &GpuOptions, dir: &std::path::Path) -> Result<GpuRenderer, Error> {
+        let context = GpuContext::new(options)?;
         let (spirv, uniform) = crate::gpu::compile_kernel_pair(dir, "render", context.division())?;
         Ok(GpuRenderer::with_context(context, &spirv, uniform.as_deref()))
     }
@@ -778,7 +779,7 @@ mod tests {
     fn arrays_past_the_images_do_not_fit() {
         let max = layout::UNIFORM_KERNEL_IMAGE_BYTES;
         assert!(fits_images(&[(layout::BINDING_PRIMITIVES, "the primitives", max)]).is_ok());
-        let e = fits_images(&[(layout::BINDING_NODES, "the hierarchy nodes", max + 16)]).unwrap_err();
+        let e = fits_images(&[(layout::BINDING_NODES, "the hierarchy nodes", max + 16)]).unwrap_err().to_string();
         assert_eq!(
             e,
             format!("the hierarchy nodes take {} bytes; the uniform kernels' images hold at most {max} bytes (4096 rows of 4096 texels) an array", max + 16)

@@ -54,10 +54,10 @@ pub fn parse_scene(name: Option<&str>, opts: &ParseOptions) -> Result<SceneFile,
         }
         Some(n) => match generated_name(n).and_then(gen::parse_scene_name) {
             Some(Ok((family, levels))) => {
-                let xml = gen::generate(family, levels, &GenOptions::default()).map_err(Error::Failed)?;
+                let xml = gen::generate(family, levels, &GenOptions::default())?;
                 scene::parse_str(&xml, Path::new(n), opts).map_err(located)
             }
-            Some(Err(e)) => Err(Error::Failed(e)),
+            Some(Err(e)) => Err(e),
             None => scene::parse_file(Path::new(n), opts).map_err(located),
         },
     }

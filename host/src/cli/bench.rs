@@ -140,7 +140,7 @@ fn load_parsed(
     for w in &scene.warnings {
         errln!("{w}");
     }
-    let data = frame::build(&scene, settings).map_err(Error::Scene)?;
+    let data = frame::build(&scene, settings)?;
     let build = data.build_time;
     let load = start.elapsed().saturating_sub(build);
     for note in &data.notes {

@@ -172,7 +172,7 @@ pub fn run(args: &CompareArgs) -> Result<(), Error> {
 }
 
 /// A picture read as RGB, a warning on stderr where some of it is not opaque.
-fn read(path: &Path) -> Result<Rgb8, String> {
+fn read(path: &Path) -> Result<Rgb8, Error> {
     let (rgb, translucent) = image_io::read_picture_counting_alpha(path)?;
     if translucent > 0 {
         eprintln!(
@@ -192,14 +192,14 @@ fn judge(actual: &Path, expected: &Path, args: &CompareArgs, diff_picture: bool)
     let pictures = read(actual).and_then(|a| Ok((a, read(expected)?)));
     let (a, e) = match pictures {
         Ok(pictures) => pictures,
-        Err(e) => return (Outcome::Unreadable(e), None),
+        Err(e) => return (Outcome::Unreadable(e.to_string()), None),
     };
     if (a.width, a.height) != (e.width, e.height) {
         return (Outcome::SizesDiffer { actual: (a.width, a.height), expected: (e.width, e.height) }, None);
     }
     let diff = match image_io::compare(&a, &e, args.tolerance) {
         Ok(diff) => diff,
-        Err(e) => return (Outcome::Unreadable(e), None),
+        Err(e) => return (Outcome::Unreadable(e.to_string()), None),
     };
     let passes = diff.fraction() * 100.0 <= args.max_percent;
     let picture = diff_picture.then(|| image_io::highlight_diff(&a, &e, args.tolerance));

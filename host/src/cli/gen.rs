@@ -38,8 +38,7 @@ pub fn run(args: &GenArgs) -> Result<(), Error> {
         generate_flat(args.family, args.levels, &options)
     } else {
         generate(args.family, args.levels, &options)
-    }
-    .map_err(Error::Usage)?;
+    }?;
     match &args.output {
         None => emit(&xml).map_err(|e| Error::Failed(format!("cannot write the scene to standard output: {e}")))?,
         Some(path) => {

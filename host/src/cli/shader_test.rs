@@ -41,21 +41,19 @@ pub struct ShaderTestArgs {
 
 /// Runs the command; Err is (message for stderr, exit status).
 pub fn run(args: &ShaderTestArgs) -> Result<(), Error> {
-    let fail = Error::Failed;
     let root = source_root();
-    let files = if args.files.is_empty() { default_files(&root).map_err(fail)? } else { args.files.clone() };
+    let files = if args.files.is_empty() { default_files(&root)? } else { args.files.clone() };
 
     let validation = args.validate || std::env::var("RAYCAST_VALIDATION").is_ok_and(|v| v == "1");
     let device = args.device.clone();
     let mut harness =
-        Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation, timeout: args.timeout })
-            .map_err(fail)?;
+        Harness::new(&HarnessOptions { shaders: args.shaders.clone(), device, validation, timeout: args.timeout })?;
 
     let mut per_file = Vec::new();
     for path in &files {
         let shown = shown_path(path, &root);
         // File errors already read `file:line: error: …`.
-        let cases = file::load(path, &shown, harness.shaders()).map_err(Error::Scene)?;
+        let cases = file::load(path, &shown, harness.shaders())?;
         let wanted = |c: &crate::harness::Case| {
             args.only.iter().any(|t| c.function.contains(t.as_str()) || c.display_name().contains(t.as_str()))
         };
@@ -120,7 +118,7 @@ pub fn run(args: &ShaderTestArgs) -> Result<(), Error> {
 }
 
 /// Every tests/shaders/*.toml of the source tree, sorted.
-fn default_files(root: &Path) -> Result<Vec<PathBuf>, String> {
+fn default_files(root: &Path) -> Result<Vec<PathBuf>, Error> {
     let dir = root.join("tests/shaders");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .map_err(|e| format!("cannot read {}: {e}", dir.display()))?
@@ -129,7 +127,7 @@ fn default_files(root: &Path) -> Result<Vec<PathBuf>, String> {
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(format!("no test files in {}", dir.display()));
+        return Err(Error::Failed(format!("no test files in {}", dir.display())));
     }
     Ok(files)
 }

@@ -92,7 +92,7 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
         outln!("{}", scene_line(&p));
     }
     let cpu = CpuRenderer::new()?;
-    let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample).map_err(|e| Error::Failed(e.to_string()))?;
+    let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample)?;
     let spp = p.data.frame.spp.max(1);
     // At one sample a pixel, the render's pixel: the same 8-bit colour, rays and first hit.
     let render = (spp == 1).then(|| cpu.render_rows(&p.data, &[y])[0][x as usize]);

@@ -176,7 +176,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
             Err(e) => return Err(e.into()),
         };
         let (Some(pa), Some(pb)) = (pa, pb) else { return Ok(()) };
-        let report = check::compare(&pa, "A", &pb, "B").map_err(|e| Error::Failed(e.to_string()))?;
+        let report = check::compare(&pa, "A", &pb, "B")?;
         let v = pairs.verdict();
         let pictures = if report.identical() {
             "identical (every buffer, bit for bit)".to_string()

@@ -10,15 +10,17 @@ use std::sync::Arc;
 use super::glsl::ShaderInfo;
 use super::value::{Scalar, Type, Value};
 use super::{Case, Expected, Rule, SceneBuffers};
+use crate::error::Error;
 
 const CASE_KEYS: [&str; 8] = ["name", "function", "inputs", "expected", "same_as_cpu", "rule", "scene", "cpu"];
 
 /// The cases of one file. `shown` is how the file is named in locations
 /// (`tests/shaders/cone.toml`). Errors read `file:line: error: …` (TOML's
 /// own, `file:line:column: error: …`).
-pub fn load(path: &Path, shown: &str, info: &ShaderInfo) -> Result<Vec<Case>, String> {
-    let text = crate::bounded::read_text(path).map_err(|e| format!("{shown}: error: cannot read it: {e}"))?;
-    parse(&text, shown, info)
+pub fn load(path: &Path, shown: &str, info: &ShaderInfo) -> Result<Vec<Case>, Error> {
+    let text =
+        crate::bounded::read_text(path).map_err(|e| Error::Scene(format!("{shown}: error: cannot read it: {e}")))?;
+    parse(&text, shown, info).map_err(Error::Scene)
 }
 
 /// [`load`] for text already read.

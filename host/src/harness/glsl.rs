@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::value::{Scalar, StructDef, Type, Value};
+use crate::error::Error;
 
 /// A top-level function of `raycast.glsl` or a file it includes.
 #[derive(Clone, Debug, PartialEq)]
@@ -133,7 +134,7 @@ fn pieces(dir: &Path, name: &str, seen: &mut Vec<String>, out: &mut Vec<Piece>) 
 impl ShaderInfo {
     /// Reads layout.h, scene_buffers.glsl and raycast.glsl of `dir`, with
     /// the files raycast.glsl includes.
-    pub fn load(dir: &Path) -> Result<ShaderInfo, String> {
+    pub fn load(dir: &Path) -> Result<ShaderInfo, Error> {
         let (layout, buffers) = (read_in(dir, LAYOUT)?, read_in(dir, SCENE_BUFFERS)?);
         let mut shared_files = Vec::new();
         let mut shared = Vec::new();
@@ -155,7 +156,7 @@ impl ShaderInfo {
             info.read_file(&piece.text, &at(&piece.file))?;
         }
         if info.scene_buffers.is_empty() {
-            return Err(format!("{}: no storage buffers found", at(SCENE_BUFFERS)));
+            return Err(Error::Failed(format!("{}: no storage buffers found", at(SCENE_BUFFERS))));
         }
         Ok(info)
     }
@@ -603,7 +604,7 @@ mod tests {
         let member = "struct LeafItem {\n    uint item;";
         assert_eq!(layout.matches(member).count(), 1, "layout.h changed: update this test");
         std::fs::write(dir.join(LAYOUT), layout.replace(member, "struct LeafItem {\n")).unwrap();
-        let e = ShaderInfo::load(&dir).err().unwrap();
+        let e = ShaderInfo::load(&dir).err().unwrap().to_string();
         let _ = std::fs::remove_dir_all(&dir);
         assert!(e.contains("layout.h:") && e.ends_with("struct LeafItem: has no members"), "{e}");
     }
@@ -650,7 +651,7 @@ mod tests {
         assert_eq!(info.constants.get("A"), Some(&Value::Float(2.0)));
         assert_eq!(info.function("last").unwrap().ret, Type::Struct(info.structs["Pair"].clone()));
         std::fs::remove_file(dir.join("b.glsl")).unwrap();
-        let e = ShaderInfo::load(&dir).err().unwrap();
+        let e = ShaderInfo::load(&dir).err().unwrap().to_string();
         let _ = std::fs::remove_dir_all(&dir);
         assert!(e.contains("b.glsl") && e.contains("included at") && e.contains("a.glsl:3"), "{e}");
     }

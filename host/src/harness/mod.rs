@@ -39,6 +39,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::check::ulp_distance;
+use crate::error::Error;
 use crate::gpu::{self, DeviceSelector, GpuContext, GpuOptions, Kernel};
 use crate::layout::{self, BindingLayout, FieldLayout, StructLayout};
 use cpu::CpuLibrary;
@@ -289,7 +290,7 @@ struct Prepared {
 }
 
 impl Harness {
-    pub fn new(opts: &HarnessOptions) -> Result<Harness, String> {
+    pub fn new(opts: &HarnessOptions) -> Result<Harness, Error> {
         let root = source_root();
         let default_shaders = root.join("shaders");
         let dir = opts.shaders.clone().unwrap_or_else(|| default_shaders.clone());
@@ -306,11 +307,10 @@ impl Harness {
             device: opts.device.clone(),
             validation: opts.validation,
             timeout: opts.timeout,
-        })
-        .map_err(|e| e.to_string())?;
+        })?;
         if let Err(e) = copy_shaders(&dir, &work) {
             let _ = std::fs::remove_dir_all(&work);
-            return Err(e);
+            return Err(Error::Failed(e));
         }
         Ok(Harness {
             kernels: HashMap::new(),

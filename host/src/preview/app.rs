@@ -140,7 +140,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Error> {
         let textures = scene.texture_files();
         crate::output::refuse_overwriting(path, args.scene.iter().chain(&textures).map(PathBuf::as_path))?;
     }
-    let data = frame::build(&scene, &settings).map_err(Error::scene)?;
+    let data = frame::build(&scene, &settings)?;
     for note in &data.notes {
         errln!("raycast: note: {note}");
     }
@@ -885,11 +885,11 @@ impl Preview {
     /// samples start over. A failure keeps who drew and shows in the title.
     fn switch_drawing(&mut self) {
         let switched = if let Some(why) = self.renderer.device_cannot_draw() {
-            Err(why.to_string())
+            Err(Error::Failed(why.to_string()))
         } else if self.renderer.cpu_threads().is_some() {
-            self.renderer.draw_on_device().map_err(|e| e.to_string())
+            self.renderer.draw_on_device().map_err(Error::from)
         } else {
-            CpuRenderer::new().and_then(|cpu| self.renderer.draw_on_cpu(cpu).map_err(|e| e.to_string()))
+            CpuRenderer::new().and_then(|cpu| Ok(self.renderer.draw_on_cpu(cpu)?))
         };
         match switched {
             Ok(()) if self.shader_edited && self.renderer.cpu_threads().is_some() => errln!(

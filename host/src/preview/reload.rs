@@ -135,7 +135,7 @@ fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
                             texture_stamps = stamps(&scene.texture_files());
                             Reload::Scene(Box::new((scene, data)))
                         }
-                        Err(e) => Reload::Failed(e),
+                        Err(e) => Reload::Failed(e.to_string()),
                     },
                     Err(e) => Reload::Failed(e.to_string()),
                 };

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::cpu::CpuRenderer;
+use crate::error::Error;
 use crate::frame::FrameData;
 use crate::gpu::{
     Buffer, DataImage, DescriptorSet, FrameLoop, FrameStatus, GpuContext, GpuError, Kernel, PresentMode, Resource,
@@ -449,7 +450,7 @@ impl PreviewRenderer {
     /// kernel that now draws it.
     /// With a device apart, they are its kernels (compiled for it): this
     /// device only shows the pixels.
-    pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), String>, GpuError> {
+    pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), Error>, GpuError> {
         let apart_role = self.apart_role();
         match &mut self.apart {
             Some(apart) => apart.renderer.replace_kernels(kernels, data, apart_role),
@@ -465,7 +466,7 @@ impl PreviewRenderer {
         kernels: PreviewKernels,
         data: &FrameData,
         role: Role,
-    ) -> Result<Result<(), String>, GpuError> {
+    ) -> Result<Result<(), Error>, GpuError> {
         self.frames.wait()?;
         let relayout = kernels.uniform.is_some() != self.kernels.uniform.is_some();
         let scene = if relayout {
@@ -479,7 +480,7 @@ impl PreviewRenderer {
                 let key = KernelKey { uniform, ..key };
                 match kernels.build(&self.context, key) {
                     Ok(kernel) => Some((key, kernel)),
-                    Err(e) => return Ok(Err(e.to_string())),
+                    Err(e) => return Ok(Err(Error::Gpu(e))),
                 }
             }
             None => None,

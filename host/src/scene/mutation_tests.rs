@@ -59,8 +59,8 @@ fn mutated_scenes_fail_with_located_errors_and_never_panic() {
         let text = mutate(&texts[k], &mut rng, VALUES);
         let name = files[k].display().to_string();
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let file = parse_str(&text, &files[k], &options).map_err(|e| e.to_string())?;
-            let scene = flatten(&file, &FlattenLimits::default()).map_err(|e| e.to_string())?;
+            let file = parse_str(&text, &files[k], &options).map_err(crate::error::Error::scene)?;
+            let scene = flatten(&file, &FlattenLimits::default()).map_err(crate::error::Error::scene)?;
             let data = frame::build(&scene, &settings)?;
             cpu.render(&data).map(|_| ())
         }));
@@ -71,6 +71,7 @@ fn mutated_scenes_fail_with_located_errors_and_never_panic() {
             }
             Ok(Err(e)) => {
                 refused += 1;
+                let e = e.to_string();
                 // FILE:LINE:COL: error: …
                 let located = e.strip_prefix(&name).and_then(|rest| {
                     let mut parts = rest.splitn(4, ':');
