@@ -23,7 +23,7 @@ pub(crate) fn prepare(scene: Option<&Path>, o: &RenderOptions) -> Result<Prepare
     settings.validate().map_err(Error::usage)?;
     let start = Instant::now();
     let parse = o.parse_options();
-    let scene = load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives }).map_err(Error::scene)?;
+    let scene = load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives })?;
     let data = frame::build(&scene, &settings)?;
     for note in &data.notes {
         errln!("raycast: note: {note}");

@@ -756,7 +756,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
     // A scene loaded and timed on each backend: its rows (None: skipped, and listed so).
     let time = |name: Option<&str>| -> Result<Option<(LoadedScene, Vec<Row>)>, Error> {
         reset_peak_host();
-        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(Error::scene)? else {
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args)? else {
             return Ok(None);
         };
         let load_peak = peak_host_bytes();

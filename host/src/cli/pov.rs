@@ -61,7 +61,7 @@ pub fn run(args: &PovArgs) -> Result<(), Error> {
         refuse_overwriting(out, name.map(Path::new))?;
     }
     let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
-    let (file, _) = load_scene_file(name.map(Path::new), &parse, &FlattenLimits::default()).map_err(Error::scene)?;
+    let (file, _) = load_scene_file(name.map(Path::new), &parse, &FlattenLimits::default())?;
     let export = crate::pov::export(&file, &settings, &scene_label(name));
     for note in &export.notes {
         errln!("raycast: note: POV-Ray draws this otherwise: {note}");

@@ -138,7 +138,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
     // One scene compared (or listed as skipped).
     let compare_one = |name: Option<&str>| -> Result<(), Error> {
         // Over --max-primitives: listed as skipped, as `bench` does.
-        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args).map_err(Error::scene)? else {
+        let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args)? else {
             return Ok(());
         };
         // Which kernel each runs: a folder without render_uniform.comp has only the storage one.
