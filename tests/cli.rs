@@ -2554,7 +2554,7 @@ fn render_json_describes_each_picture() {
 }
 
 /// `raycast --help` ends with the exit codes' table; `render -h` is one
-/// line a flag under headings, 40 lines at most at 100 columns.
+/// line a flag under headings, 40 lines at most at 80 and 100 columns.
 #[test]
 fn help_is_short_and_lists_the_exit_codes() {
     let o = raycast(&["--help"], &[]);
@@ -2562,14 +2562,16 @@ fn help_is_short_and_lists_the_exit_codes() {
     for code in raycast::error::EXIT_CODES {
         assert!(out.contains(&format!("  {}  {}", code.0, code.1)), "--help lacks exit code {}: {out}", code.0);
     }
-    let o = raycast(&["render", "-h"], &[("COLUMNS", "100")]);
-    let out = text(&o).0;
-    assert!(o.status.success(), "{out}");
-    assert!(out.lines().count() <= 40, "render -h is {} lines:\n{out}", out.lines().count());
-    for heading in ["Picture:", "Quality:", "Device:", "Diagnostics:", "Output:"] {
-        assert!(out.contains(heading), "render -h lacks {heading}\n{out}");
+    for columns in [80, 100] {
+        let o = raycast(&["render", "-h"], &[("COLUMNS", &columns.to_string())]);
+        let out = text(&o).0;
+        assert!(o.status.success(), "{out}");
+        assert!(out.lines().count() <= 40, "render -h is {} lines at {columns} columns:\n{out}", out.lines().count());
+        for heading in ["Picture:", "Quality:", "Device:", "Diagnostics:", "Output:"] {
+            assert!(out.contains(heading), "render -h lacks {heading}\n{out}");
+        }
+        assert!(out.lines().all(|l| l.chars().count() <= columns), "a line over {columns} columns:\n{out}");
     }
-    assert!(out.lines().all(|l| l.chars().count() <= 100), "a line over 100 columns:\n{out}");
 }
 
 /// `check --json`: one object a scene on stdout, parsed by serde_json, and

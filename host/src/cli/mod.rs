@@ -47,7 +47,7 @@ pub struct Cli {
 pub enum Command {
     /// Render scenes to PNGs (the embedded default scene when none is given).
     ///
-    /// Render scenes to PNGs, one after the other on one device (the embedded default scene when none is given).
+    /// Several scenes go one after the other on one device, its start-up and each kernel paid once.
     Render(render::RenderArgs),
     /// Render on the device and on the CPU build and compare every buffer bit for bit.
     Check(check::CheckArgs),

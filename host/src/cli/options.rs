@@ -22,8 +22,9 @@ pub struct RenderOptions {
     /// Picture height in pixels (1 to 16384)
     #[arg(long, default_value_t = 384, value_name = "H", value_parser = parse_height, help_heading = "Picture")]
     pub height: u32,
-    /// color, normal, depth, id, cost or cost-all
-    #[arg(long, value_enum, default_value_t = Aov::Color, help_heading = "Picture", hide_possible_values = true)]
+    /// color (default), normal, depth, id, cost, cost-all
+    #[arg(long, value_enum, default_value_t = Aov::Color, help_heading = "Picture", hide_possible_values = true,
+          hide_default_value = true)]
     pub aov: Aov,
     /// With --aov depth: the distances drawn white and black
     ///
@@ -46,7 +47,7 @@ pub struct RenderOptions {
     /// Turn texture mapping off
     #[arg(long, help_heading = "Picture")]
     pub no_textures: bool,
-    /// Mirror bounces (0 to 16; old spelling --depth)
+    /// Mirror bounces, 0 to 16 (alias --depth)
     #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = parse_bounces, help_heading = "Picture")]
     pub bounces: u32,
     /// Extra folder to find textures in (repeatable)
@@ -56,14 +57,14 @@ pub struct RenderOptions {
     /// texture: pass the corpus root.
     #[arg(long, value_name = "DIR", help_heading = "Picture")]
     pub assets: Vec<PathBuf>,
-    /// Samples per pixel, in a fixed pattern
+    /// Samples per pixel (a fixed pattern)
     ///
     /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
     #[arg(long, default_value_t = 1, value_name = "N", value_parser = parse_spp, help_heading = "Quality")]
     pub spp: u32,
-    /// How textures are sampled: nearest, bilinear
-    #[arg(long, value_enum, default_value_t = TextureFilter::Nearest, value_name = "FILTER", help_heading = "Quality",
-          hide_possible_values = true)]
+    /// nearest (default) or bilinear
+    #[arg(long, value_enum, default_value_t = TextureFilter::Nearest, value_name = "F", help_heading = "Quality",
+          hide_possible_values = true, hide_default_value = true)]
     pub texture_filter: TextureFilter,
     /// Test every primitive for every ray (no hierarchy; same picture)
     ///
@@ -86,7 +87,7 @@ pub struct RenderOptions {
 /// (`render`, `check`, `bench`, `conformance`).
 #[derive(Args, Debug)]
 pub struct KernelOptions {
-    /// Vulkan device: an index or part of a name (raycast devices)
+    /// From `raycast devices`: an index or part of a name
     #[arg(long, value_name = "NAME|INDEX", help_heading = "Device")]
     pub device: Option<DeviceSelector>,
     /// Compile the device's kernel from DIR/render.comp

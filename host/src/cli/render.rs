@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene files (XML), `-` for stdin, or gen:FAMILY:LEVELS [default: the default scene]
+    /// XML files, `-` for stdin, or gen:FAMILY:LEVELS [default: built in]
     ///
     /// Scene files (XML), rendered one after the other on one device (its
     /// start-up and each kernel paid once), `-` for XML on standard input,
@@ -30,19 +30,22 @@ pub struct RenderArgs {
     scenes: Vec<PathBuf>,
     #[command(flatten)]
     render: RenderOptions,
-    /// Output PNG for one scene, `-` for stdout [default: SCENE.png]
+    /// Output PNG for one scene, `-` for stdout
+    ///
+    /// Output PNG, for one scene; `-` writes it to standard output [default: SCENE.png in the current folder]
     #[arg(short, long, value_name = "OUT.png", conflicts_with = "out_dir", value_parser = crate::output::parse_output,
           help_heading = "Output")]
     output: Option<PathBuf>,
-    /// Folder for the pictures, each SCENE.png [default: .]
+    /// Folder for the pictures [default: .]
     #[arg(long, value_name = "DIR", help_heading = "Output")]
     out_dir: Option<PathBuf>,
-    /// gpu (Vulkan), cpu (the C++ build) or auto
+    /// gpu (default), cpu (the C++ build) or auto
     ///
     /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
-    #[arg(long, value_enum, default_value_t = Backend::Gpu, help_heading = "Device", hide_possible_values = true)]
+    #[arg(long, value_enum, default_value_t = Backend::Gpu, help_heading = "Device", hide_possible_values = true,
+          hide_default_value = true)]
     backend: Backend,
-    /// A turntable of N pictures, turned 360/N degrees each
+    /// A turntable: N pictures, 360/N degrees apart
     ///
     /// A turntable: N pictures of each scene, the camera turned 360/N degrees
     /// further each time about the scene's up through the point it looks at
@@ -50,7 +53,7 @@ pub struct RenderArgs {
     /// named as without --orbit with -000, -001, … before `.png`
     #[arg(long, value_name = "N", help_heading = "Output")]
     orbit: Option<u32>,
-    /// Render again when the scene, a texture or a shader changes
+    /// Render again when a scene, texture or shader changes
     ///
     /// Keep going: render again whenever a scene file, one of its textures
     /// or the --shaders folder changes (for a picture viewer that reloads
