@@ -385,8 +385,9 @@ pub fn remove_stale(paths: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
     Ok(removed)
 }
 
-/// Writes `<dir>/<name>-actual.png`, `-expected.png` and `-diff.png` and
-/// returns their paths.
+/// Writes `<dir>/<name>-actual.png`, `-expected.png` and `-diff.png` (the
+/// expected picture faded, each pixel beyond the tolerance in red:
+/// [`highlight_diff`]) and returns their paths.
 pub fn write_diff_images(
     dir: &Path,
     name: &str,
@@ -398,7 +399,7 @@ pub fn write_diff_images(
     let paths = diff_image_paths(dir, name);
     write_png(&paths[0], actual)?;
     write_png(&paths[1], expected)?;
-    write_png(&paths[2], &diff.diff_image)?;
+    write_png(&paths[2], &highlight_diff(actual, expected, diff.tolerance))?;
     Ok(paths)
 }
 
