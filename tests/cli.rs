@@ -2654,3 +2654,37 @@ fn check_json_describes_each_scene() {
 
     assert_fails(&raycast(&["check", "--json", "-o", "-"], &[]), 2, "--json writes to standard output");
 }
+
+/// Every command's `-h` is one line a flag under headings: at 80 columns
+/// no line is wider and none runs past 45 lines (measured when written:
+/// render 40, check 41, bench 43, preview 38, trace 33, pov 26, info 24,
+/// conformance 24, compare 23, gen 23, shader-test 21, devices 10), and
+/// every flag's short line fits beside it (none wraps onto a line of its own).
+#[test]
+fn every_commands_short_help_fits_80_columns() {
+    let commands = [
+        "render",
+        "check",
+        "preview",
+        "compare",
+        "shader-test",
+        "trace",
+        "info",
+        "devices",
+        "gen",
+        "bench",
+        "conformance",
+        "pov",
+    ];
+    for command in commands {
+        let o = raycast(&[command, "-h"], &[("COLUMNS", "80")]);
+        let out = text(&o).0;
+        assert!(o.status.success(), "{command} -h: {out}");
+        let lines = out.lines().count();
+        assert!(lines <= 45, "{command} -h is {lines} lines at 80 columns:\n{out}");
+        assert!(out.lines().all(|l| l.chars().count() <= 80), "{command} -h: a line over 80 columns:\n{out}");
+        // A flag's text wrapped onto a line of its own: deep indentation, no flag.
+        let wrapped = out.lines().find(|l| l.starts_with("        ") && !l.trim_start().starts_with('-'));
+        assert!(wrapped.is_none(), "{command} -h: a short line wraps ({wrapped:?}):\n{out}");
+    }
+}

@@ -19,6 +19,18 @@ pub enum Backend {
     Auto,
 }
 
+/// A flag's `--help` text: `text`, then each of `E`'s values on a line with
+/// its doc comment, as clap lists them; for a flag whose `-h` line names the
+/// values itself (`hide_possible_values`, which hides clap's list too).
+pub fn with_values<E: ValueEnum>(text: &str) -> String {
+    let mut help = format!("{text}\n\nPossible values:");
+    for value in E::value_variants().iter().filter_map(ValueEnum::to_possible_value) {
+        let line = value.get_help().map(ToString::to_string).unwrap_or_default();
+        help.push_str(&format!("\n- {}: {line}", value.get_name()));
+    }
+    help
+}
+
 /// `X,Y`: two whole numbers (`--pixel`, `--click`).
 pub fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
     let parse =

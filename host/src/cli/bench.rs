@@ -33,40 +33,55 @@ use std::time::{Duration, Instant};
 /// `raycast bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
+    /// XML files or gen:FAMILY:LEVELS [default: built in]
+    ///
     /// Scene files, or generated scenes as gen:FAMILY:DEPTH (gen:recursive-spheres:6; see
     /// `raycast gen --help`). Without any, the embedded default scene.
     #[arg(value_name = "SCENE")]
     pub scenes: Vec<String>,
+    /// gpu (default), cpu (the C++ build) or both
+    ///
     /// Where to render: the Vulkan device, the CPU build, or both side by side.
-    #[arg(long, value_enum, default_value_t = BenchBackend::Gpu)]
+    #[arg(long, value_enum, default_value_t = BenchBackend::Gpu, help_heading = "Device", hide_possible_values = true,
+          hide_default_value = true)]
     pub backend: BenchBackend,
+    /// Timed frames (the median is reported)
+    ///
     /// Timed frames per scene and backend (the median is reported).
-    #[arg(long, default_value_t = 5, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    #[arg(long, default_value_t = 5, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000),
+          help_heading = "Timing")]
     pub frames: u32,
-    /// Untimed frames before them.
-    #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=10_000))]
+    /// Untimed frames before them
+    #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(0..=10_000),
+          help_heading = "Timing")]
     pub warmup: u32,
     #[command(flatten)]
     pub render: crate::cli::options::RenderOptions,
-    /// One JSON object per scene and backend, one per line.
-    #[arg(long, conflicts_with = "markdown")]
+    /// One JSON object per scene and backend, one per line
+    #[arg(long, conflicts_with = "markdown", help_heading = "Output")]
     pub json: bool,
+    /// A Markdown table (BENCHMARKS.md) with its command line
+    ///
     /// A Markdown table (BENCHMARKS.md), with the command line that made it.
-    #[arg(long)]
+    #[arg(long, help_heading = "Output")]
     pub markdown: bool,
+    /// Time a kernel from DIR's shaders against the first
+    ///
     /// Time a second device kernel, compiled from DIR's shaders, against the
     /// first (the built-in one, or --shaders') in one process, frame pairs
     /// in turn: per scene both dispatch medians, the median of the paired
     /// ratios, how many pairs each won (with a sign test), and whether the
     /// two pictures have the same bits.
-    #[arg(long, value_name = "DIR", conflicts_with_all = ["growth", "markdown"])]
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["growth", "markdown"], help_heading = "Timing")]
     pub versus: Option<PathBuf>,
+    /// How scene times grow against the first's, beside ln N
+    ///
     /// After the results, how each scene's frame median grows against the
     /// first scene's, beside ln N / ln N0 (what logarithmic growth in the
     /// primitive count N allows), and the times fitted against ln N (a +
     /// b·ln N and R², from three scenes on); with --json a line a scene,
     /// told by its `growth_against`, and a line a fit, by its `growth_fit`.
-    #[arg(long)]
+    #[arg(long, help_heading = "Timing")]
     pub growth: bool,
 }
 

@@ -20,6 +20,8 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct CheckArgs {
+    /// XML files or gen:FAMILY:LEVELS [default: built in]
+    ///
     /// Scene files (XML), checked one after the other on one device and one
     /// CPU build (their start-up and each kernel paid once), or generated
     /// scenes (gen:recursive-spheres:6). Without any, the embedded default
@@ -28,29 +30,41 @@ pub struct CheckArgs {
     scenes: Vec<PathBuf>,
     #[command(flatten)]
     render: RenderOptions,
+    /// Diff image for one scene [default: SCENE-check.png]
+    ///
     /// Where to write the diff image, for one scene [default:
     /// <scene name>-check.png, and only when something differs]: red where
     /// any buffer differs, a dim copy of the device's render elsewhere.
-    #[arg(short, long, value_name = "DIFF.png", conflicts_with = "out_dir", value_parser = crate::output::parse_output)]
+    #[arg(short, long, value_name = "DIFF.png", conflicts_with = "out_dir", value_parser = crate::output::parse_output,
+          help_heading = "Output")]
     output: Option<PathBuf>,
+    /// Folder for the diff images [default: .]
+    ///
     /// Folder for the diff images, each <scene name>-check.png (made if
     /// missing) [default: the current folder]
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", help_heading = "Output")]
     out_dir: Option<PathBuf>,
+    /// Succeed when at most K pixels differ
+    ///
     /// Succeed when at most K pixels differ (in each scene). For a GPU whose
     /// driver breaks the kernels' exactness (lavapipe and an NVIDIA H100
     /// keep it: docs/exactness.md#on-a-gpu); the output says the check was not
     /// exact.
-    #[arg(long, default_value_t = 0, value_name = "K")]
+    #[arg(long, default_value_t = 0, value_name = "K", help_heading = "Rule")]
     allow_pixels: usize,
+    /// Also run pixel X,Y alone on both sides (repeatable)
+    ///
     /// Also run pixel (X, Y) alone through the shader-test harness:
     /// render_pixel(X, Y) in a one-invocation kernel on the device and in a
     /// C++ build compiled at run time, both from --shaders DIR (or the source
     /// tree's shaders/), compared bit for bit. Tells a difference that
     /// follows the code from one that follows the whole-frame kernel, and
     /// lets instrumentation of DIR run on both sides. Repeatable; one scene.
-    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true)]
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true,
+          help_heading = "Diagnostics")]
     pixel: Vec<(u32, u32)>,
+    /// One JSON object per scene on stdout
+    ///
     /// One JSON object per scene on stdout (and a summary object for several)
     #[arg(long, help_heading = "Output", conflicts_with = "pixel")]
     json: bool,

@@ -12,27 +12,39 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
+    /// The picture to judge, or a folder of them
+    ///
     /// The picture to judge (PNG, JPEG, BMP or PNM, told by its content), or a folder of them: then EXPECTED is a
     /// folder too, and each of its pictures is compared with the one of the same name here.
     actual: PathBuf,
+    /// The picture it should match, or a folder of them
+    ///
     /// The picture it should match (PNG, JPEG, BMP or PNM), or the folder of them (every picture file in it is a
     /// pair; one missing from ACTUAL fails).
     expected: PathBuf,
+    /// Channel difference allowed (0-255)
+    ///
     /// A pixel differs when a colour channel (red, green or blue, at 8 bits;
     /// alpha is not compared) is off by more than this (0 to 255).
-    #[arg(long, default_value_t = 2, value_name = "N")]
+    #[arg(long, default_value_t = 2, value_name = "N", help_heading = "Rule")]
     tolerance: u8,
+    /// Percent of pixels that may differ
+    ///
     /// Fail (exit 4) when more than this percentage of pixels differ.
-    #[arg(long, default_value_t = 0.1, value_name = "PERCENT")]
+    #[arg(long, default_value_t = 0.1, value_name = "PERCENT", help_heading = "Rule")]
     max_percent: f64,
+    /// Diff image, or folder of them
+    ///
     /// Where to write the diff image: pure red where pixels differ, over the expected picture faded towards white.
     /// With two folders, a folder (made if need be) where each failing pair's is written as NAME-diff.png.
-    #[arg(short, long, visible_alias = "out-dir", value_name = "DIFF.png|DIR")]
+    #[arg(short, long, visible_alias = "out-dir", value_name = "DIFF.png|DIR", help_heading = "Output")]
     output: Option<PathBuf>,
+    /// JSON instead of text (for graders)
+    ///
     /// JSON instead of text (for graders): one object with the two files, the counts, the first and worst pixel,
     /// the rule (--tolerance, --max-percent) and whether the pictures pass it; with two folders one object per
     /// pair (with its "name") and a last one that sums them up. The exit status is the same.
-    #[arg(long)]
+    #[arg(long, help_heading = "Output")]
     json: bool,
 }
 

@@ -8,20 +8,28 @@ use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub struct ConformanceArgs {
+    /// The cs1230 corpus [default: $RAYCAST_CORPUS]
+    ///
     /// The cs1230 corpus: its scene folders (test_unit, test_intersect, …)
     /// and bench/ of official renders [default: $RAYCAST_CORPUS]
     #[arg(value_name = "CORPUS")]
     corpus: Option<PathBuf>,
+    /// Folder for failures and table.md [default: conformance]
+    ///
     /// Folder for each failing case's actual / expected / diff pictures and
     /// for table.md, the measured fractions (made if missing).
-    #[arg(long, value_name = "DIR", default_value = "conformance")]
+    #[arg(long, value_name = "DIR", default_value = "conformance", help_heading = "Output", hide_default_value = true)]
     out_dir: PathBuf,
-    /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
-    #[arg(long, value_enum, default_value_t = Backend::Gpu)]
+    /// gpu (default), cpu (the C++ build) or auto
+    #[arg(long, value_enum, default_value_t = Backend::Gpu, help_heading = "Device", hide_possible_values = true,
+          hide_default_value = true, long_help = crate::args::with_values::<Backend>(
+              "Where to run the shared code: a Vulkan device, or its C++ build on every core [default: gpu]"))]
     backend: Backend,
     /// The device and its kernel (`--shaders DIR`: does a shader change still match the course's renders?).
     #[command(flatten)]
     kernel: KernelOptions,
+    /// Only the cases whose name holds TEXT (repeatable)
+    ///
     /// Only the cases whose name holds TEXT (`test_light/`, `Normal`,
     /// `recursiveSpheres4 Color`); repeatable, a case runs if any matches.
     #[arg(long, value_name = "TEXT")]

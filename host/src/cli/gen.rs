@@ -8,27 +8,37 @@ use std::path::PathBuf;
 
 /// `raycast gen`.
 #[derive(Args, Debug)]
-#[command(after_help = gen::CONSTRUCTION)]
+#[command(after_long_help = gen::CONSTRUCTION)]
 pub struct GenArgs {
-    /// Which corpus scene to extend.
-    #[arg(value_enum)]
+    /// recursive-spheres, recursive-cones or recursive-cubes
+    #[arg(value_enum, hide_possible_values = true,
+          long_help = crate::args::with_values::<Family>("Which corpus scene to extend."))]
     pub family: Family,
+    /// Levels deep: 4 is the corpus scene (187 primitives)
+    ///
     /// Levels of the recursion: 4 is the corpus scene (187 primitives), 10 about 2.9 million.
-    #[arg(long, alias = "depth", value_name = "N", value_parser = clap::value_parser!(u32).range(i64::from(gen::MIN_DEPTH)..=i64::from(gen::MAX_DEPTH)))]
+    #[arg(long, alias = "depth", value_name = "N", value_parser = clap::value_parser!(u32).range(i64::from(gen::MIN_DEPTH)..=i64::from(gen::MAX_DEPTH)),
+          help_heading = "Picture")]
     pub levels: u32,
-    /// Write the scene to FILE [default: standard output].
-    #[arg(short, long, value_name = "FILE")]
+    /// Write the scene to FILE [default: standard output]
+    #[arg(short, long, value_name = "FILE", help_heading = "Output")]
     pub output: Option<PathBuf>,
-    /// The texture file every primitive names, as written into the XML.
-    #[arg(long, value_name = "FILE", default_value = gen::CORPUS_TEXTURE, conflicts_with = "no_textures")]
+    /// Texture every primitive names [default: the corpus's]
+    ///
+    /// The texture file every primitive names, as written into the XML
+    /// [default: image/marsTexture.png, the corpus's, relative to its root].
+    #[arg(long, value_name = "FILE", default_value = gen::CORPUS_TEXTURE, conflicts_with = "no_textures",
+          help_heading = "Picture", hide_default_value = true)]
     pub texture: String,
-    /// Write no texture (and no blend) into the materials.
-    #[arg(long, alias = "no-texture")]
+    /// Write no texture (and no blend) into the materials
+    #[arg(long, alias = "no-texture", help_heading = "Picture")]
     pub no_textures: bool,
+    /// Every instance written out, no masters (depth at most 8)
+    ///
     /// Write every instance out: each primitive its own transblock under the root with the matrix the renderer
     /// composes, no masters (as POV-Ray holds the scene), for comparing a flat file with the instanced one. Depth
     /// at most 8.
-    #[arg(long)]
+    #[arg(long, help_heading = "Output")]
     pub flat: bool,
 }
 

@@ -9,17 +9,23 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
+    /// XML files or gen:FAMILY:LEVELS [default: built in]
+    ///
     /// Scene files (XML) or generated scenes (gen:FAMILY:DEPTH). Without any, the embedded default scene.
     #[arg(value_name = "SCENE")]
     scenes: Vec<String>,
+    /// Extra folder to find textures in (repeatable)
+    ///
     /// Extra folder to find textures in, after the scene file's folder (repeatable).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", help_heading = "Picture")]
     assets: Vec<PathBuf>,
+    /// Most primitives per scene
+    ///
     /// Refuse scenes that expand to more primitives than this.
-    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N")]
+    #[arg(long, default_value_t = FlattenLimits::default().max_primitives, value_name = "N", help_heading = "Quality")]
     max_primitives: usize,
-    /// One JSON object a line, a scene each, instead of text.
-    #[arg(long)]
+    /// One JSON object a line, a scene each, instead of text
+    #[arg(long, help_heading = "Output")]
     json: bool,
 }
 

@@ -10,32 +10,49 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct PovArgs {
+    /// An XML file or gen:FAMILY:LEVELS [default: built in]
+    ///
     /// A scene file (XML) or a generated scene (gen:FAMILY:DEPTH) [default: the embedded default scene].
     #[arg(value_name = "SCENE")]
     scene: Option<String>,
+    /// Write the scene to FILE [default: standard output]
+    ///
     /// Write the POV-Ray scene to FILE [default: standard output].
-    #[arg(short, long, value_name = "FILE")]
+    #[arg(short, long, value_name = "FILE", help_heading = "Output")]
     output: Option<PathBuf>,
+    /// Extra folder to find textures in (repeatable)
+    ///
     /// Extra folder to find textures in, after the scene file's folder (repeatable).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", help_heading = "Picture")]
     assets: Vec<PathBuf>,
+    /// Picture width in pixels (1 to 16384)
+    ///
     /// The picture's width, for the camera's film and the command line in the file's head.
-    #[arg(long, default_value_t = 512, value_name = "W", value_parser = crate::args::parse_width)]
+    #[arg(long, default_value_t = 512, value_name = "W", value_parser = crate::args::parse_width,
+          help_heading = "Picture")]
     width: u32,
+    /// Picture height in pixels (1 to 16384)
+    ///
     /// The picture's height.
-    #[arg(long, default_value_t = 384, value_name = "H", value_parser = crate::args::parse_height)]
+    #[arg(long, default_value_t = 384, value_name = "H", value_parser = crate::args::parse_height,
+          help_heading = "Picture")]
     height: u32,
+    /// Lights cast no shadows (`shadowless`)
+    ///
     /// Lights that cast no shadows (`shadowless`), as `render --no-shadows`.
-    #[arg(long)]
+    #[arg(long, help_heading = "Picture")]
     no_shadows: bool,
-    /// No mirror reflections, as `render --no-reflections`.
-    #[arg(long)]
+    /// No mirror reflections, as `render --no-reflections`
+    #[arg(long, help_heading = "Picture")]
     no_reflections: bool,
-    /// No textures, as `render --no-textures`.
-    #[arg(long)]
+    /// No textures, as `render --no-textures`
+    #[arg(long, help_heading = "Picture")]
     no_textures: bool,
+    /// Mirror bounces, 0 to 16 (alias --depth)
+    ///
     /// Mirror bounces (POV-Ray's max_trace_level is one more: it counts the camera ray).
-    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = crate::args::parse_bounces)]
+    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = crate::args::parse_bounces,
+          help_heading = "Picture")]
     bounces: u32,
 }
 

@@ -15,27 +15,40 @@ use crate::harness::{file, source_root, summary, Harness, HarnessOptions};
 
 #[derive(Args, Debug)]
 pub struct ShaderTestArgs {
+    /// Test files (TOML) [default: tests/shaders/*.toml]
+    ///
     /// Test files (TOML) [default: every tests/shaders/*.toml of the source tree]
     files: Vec<PathBuf>,
+    /// Test DIR's shaders instead of the source tree's
+    ///
     /// Test the layout.h, scene_buffers.glsl and raycast.glsl of DIR instead of
     /// the source tree's shaders/ (on the device and in the C++ build).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", help_heading = "Device")]
     shaders: Option<PathBuf>,
+    /// From `raycast devices`: an index or part of a name
+    ///
     /// Vulkan device: an index from `raycast devices` or part of its name.
-    #[arg(long, value_name = "NAME|INDEX")]
+    #[arg(long, value_name = "NAME|INDEX", help_heading = "Device")]
     device: Option<DeviceSelector>,
+    /// Enable the Khronos validation layer (exit 3 on any message)
+    ///
     /// Enable the Khronos validation layer; any message fails the command (exit 3).
     /// Also on when RAYCAST_VALIDATION=1.
-    #[arg(long)]
+    #[arg(long, help_heading = "Diagnostics")]
     validate: bool,
+    /// Only cases whose function or name holds TEXT (repeatable)
+    ///
     /// Only the cases whose function or name holds TEXT (`--only cone`,
     /// `--only div_rn`); repeatable, a case runs if any matches.
     #[arg(long, value_name = "TEXT")]
     only: Vec<String>,
+    /// Longest a function's cases may run
+    ///
     /// The longest a function's run of cases may take, on the device or in
     /// the C++ build (each in a process of its own), before its cases fail
     /// with the timeout's error (a tested function's endless loop).
-    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::args::parse_timeout)]
+    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::args::parse_timeout,
+          help_heading = "Device")]
     timeout: std::time::Duration,
 }
 

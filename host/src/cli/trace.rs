@@ -15,18 +15,24 @@ use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub struct TraceArgs {
+    /// An XML file or gen:FAMILY:LEVELS [default: built in]
+    ///
     /// A scene file (XML) or a generated scene (gen:FAMILY:DEPTH). Without one, the embedded default scene.
     #[arg(value_name = "SCENE")]
     scene: Option<PathBuf>,
-    /// The pixel: X columns from the left, Y rows from the top.
-    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true)]
+    /// The pixel: X columns from the left, Y rows from the top
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true, help_heading = "Picture")]
     pixel: (u32, u32),
+    /// Which of the pixel's --spp samples
+    ///
     /// Which of the pixel's `--spp` samples (0 is the pixel centre when there is one).
-    #[arg(long, default_value_t = 0, value_name = "S")]
+    #[arg(long, default_value_t = 0, value_name = "S", help_heading = "Picture")]
     sample: u32,
+    /// One JSON object instead of text
+    ///
     /// One JSON object instead of text: the pixel, the sample, every step with its numbers as computed (floats in
     /// shortest round-trip digits) and, at one sample a pixel, the render's pixel and whether the trace agrees with it.
-    #[arg(long)]
+    #[arg(long, help_heading = "Output")]
     json: bool,
     /// The picture's settings, as `render` takes them (the colour only; the CPU build traces).
     #[command(flatten)]
