@@ -24,7 +24,7 @@ pub struct RenderOptions {
     pub height: u32,
     /// color (default), normal, depth, id, cost, cost-all
     #[arg(long, value_enum, default_value_t = Aov::Color, help_heading = "Picture", hide_possible_values = true,
-          hide_default_value = true)]
+          hide_default_value = true, long_help = crate::args::with_values::<Aov>("What the picture shows [default: color]"))]
     pub aov: Aov,
     /// With --aov depth: the distances drawn white and black
     ///
@@ -64,7 +64,8 @@ pub struct RenderOptions {
     pub spp: u32,
     /// nearest (default) or bilinear
     #[arg(long, value_enum, default_value_t = TextureFilter::Nearest, value_name = "F", help_heading = "Quality",
-          hide_possible_values = true, hide_default_value = true)]
+          hide_possible_values = true, hide_default_value = true,
+          long_help = crate::args::with_values::<TextureFilter>("How textures are sampled [default: nearest]"))]
     pub texture_filter: TextureFilter,
     /// Test every primitive for every ray (no hierarchy; same picture)
     ///

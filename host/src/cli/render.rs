@@ -40,10 +40,9 @@ pub struct RenderArgs {
     #[arg(long, value_name = "DIR", help_heading = "Output")]
     out_dir: Option<PathBuf>,
     /// gpu (default), cpu (the C++ build) or auto
-    ///
-    /// Where to run the shared code: a Vulkan device, or its C++ build on every core.
     #[arg(long, value_enum, default_value_t = Backend::Gpu, help_heading = "Device", hide_possible_values = true,
-          hide_default_value = true)]
+          hide_default_value = true, long_help = crate::args::with_values::<Backend>(
+              "Where to run the shared code: a Vulkan device, or its C++ build on every core [default: gpu]"))]
     backend: Backend,
     /// A turntable: N pictures, 360/N degrees apart
     ///
