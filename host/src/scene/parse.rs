@@ -217,7 +217,7 @@ fn parse_text(text: &str, file: Arc<PathBuf>, opts: &ParseOptions) -> Result<Sce
         line_starts,
         opts,
         base_dir,
-        warnings: Vec::new(),
+        warnings: Default::default(),
         trees: Vec::new(),
         declared: HashMap::new(),
         all_names: HashMap::new(),
@@ -250,7 +250,8 @@ struct Ctx<'a> {
     line_starts: Vec<usize>,
     opts: &'a ParseOptions,
     base_dir: PathBuf,
-    warnings: Vec<Warning>,
+    /// In a cell: a number's reading (`number`, `&self`) warns too.
+    warnings: std::cell::RefCell<Vec<Warning>>,
     trees: Vec<NamedTree>,
     /// Trees fully parsed so far: name → index in `trees`.
     declared: HashMap<String, usize>,
@@ -427,7 +428,12 @@ impl<'a> Ctx<'a> {
     }
 
     fn warn(&mut self, loc: SourceLoc, message: String) {
-        self.warnings.push(Warning { loc, message });
+        self.note(loc, message);
+    }
+
+    /// [`Self::warn`] where the parser is borrowed, not its own (`number`).
+    fn note(&self, loc: SourceLoc, message: String) {
+        self.warnings.borrow_mut().push(Warning { loc, message });
     }
 
     fn xml_error(&self, e: &roxmltree::Error) -> SceneError {
@@ -611,7 +617,10 @@ impl<'a> Ctx<'a> {
         // Formatted only for an error: this runs for every number of the file.
         let what = || format!("attribute `{}` of <{}>", a.name(), n.tag_name().name());
         if t.is_empty() {
-            return Err(self.err(self.aloc(a), format!("{} is empty (expected a number)", what())));
+            // The course's parser reads an empty number as 0 (its official
+            // scenes have `<rotate z=""/>`): lenient too, and said.
+            self.note(self.aloc(a), format!("{} is empty; read as 0, as the course's parser reads it", what()));
+            return Ok(0.0);
         }
         match t.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
@@ -847,7 +856,7 @@ impl<'a> Ctx<'a> {
             lights,
             trees: std::mem::take(&mut self.trees),
             root: root_idx,
-            warnings: std::mem::take(&mut self.warnings),
+            warnings: self.warnings.take(),
         })
     }
 
@@ -1178,7 +1187,7 @@ impl<'a> Ctx<'a> {
         }
         self.check_attrs(n, &[]);
         let mut transforms = Vec::new();
-        let mut object: Option<(Node, SourceLoc)> = None;
+        let mut objects: Vec<(Node, SourceLoc)> = Vec::new();
         for c in self.elements(n) {
             match c.tag_name().name() {
                 "translate" => transforms.push(Transform::Translate(self.xyz(c)?)),
@@ -1242,26 +1251,39 @@ impl<'a> Ctx<'a> {
                 }
                 "object" => {
                     let here = self.nloc(c);
-                    if let Some((_, first)) = &object {
-                        return Err(self.err(
-                            here,
-                            format!(
-                                "a second <object> in one <transblock> (the first is at {}); a transblock holds exactly one object — put each in its own transblock",
-                                line_col(first)
-                            ),
-                        ));
+                    if let Some((_, first)) = objects.first() {
+                        // The course's parser draws each with the transblock's
+                        // transforms: so does raycast, and says so.
+                        let message = format!(
+                            "a second <object> in one <transblock> (the first is at {}); each is drawn with the \
+                             transblock's transforms, as the course's parser does (a transblock holds one object \
+                             in the format: put each in its own)",
+                            line_col(first)
+                        );
+                        self.warn(here.clone(), message);
                     }
                     let node = self.object(c, depth)?;
-                    object = Some((node, here));
+                    objects.push((node, here));
                 }
                 _ => self.unknown_element(c, "transblock", TRANSBLOCK_ELEMENTS),
             }
         }
-        let Some((object, _)) = object else {
-            return Err(self.err(
-                self.nloc(n),
-                "<transblock> has no <object> (expected exactly one: a primitive, a tree or a master)".to_string(),
-            ));
+        let object = match objects.len() {
+            0 => {
+                return Err(self.err(
+                    self.nloc(n),
+                    "<transblock> has no <object> (expected exactly one: a primitive, a tree or a master)".to_string(),
+                ))
+            }
+            1 => objects.pop().expect("one object").0,
+            // Several: an inline tree of them, each under no transform of its own.
+            _ => Node::Tree {
+                loc: objects[0].1.clone(),
+                blocks: objects
+                    .into_iter()
+                    .map(|(object, loc)| TransBlock { transforms: Vec::new(), matrix: DMat4::IDENTITY, object, loc })
+                    .collect(),
+            },
         };
         let matrix = transforms.iter().fold(DMat4::IDENTITY, |m, t| m * transform_matrix(t));
         // One or two transforms, where a pushed Vec holds room for four (136 bytes each).
@@ -2170,14 +2192,23 @@ mod tests {
     }
 
     #[test]
-    fn transblock_needs_exactly_one_object() {
+    fn transblock_needs_an_object_and_takes_several_with_a_warning() {
         bad_at(&block("<translate x=\"1\" y=\"0\" z=\"0\"/>"), 3, 1, "<transblock> has no <object>");
-        bad_at(
-            &block("<object type=\"primitive\" name=\"cube\"/>\n<object type=\"primitive\" name=\"sphere\"/>"),
-            5,
-            1,
-            "a second <object> in one <transblock> (the first is at 4:1)",
-        );
+        // Several, as the course's parser takes them: each drawn with the
+        // transblock's transforms, the same as a transblock apiece.
+        let two = "<object type=\"primitive\" name=\"cube\"/>\n<object type=\"primitive\" name=\"sphere\"/>";
+        let f = ok(&block(&format!("<translate x=\"1\" y=\"2\" z=\"3\"/>\n{two}")));
+        warned_at(&f, 6, 1, "a second <object> in one <transblock> (the first is at 5:1); each is drawn");
+        let apart = ok(&root(
+            "<transblock><translate x=\"1\" y=\"2\" z=\"3\"/><object type=\"primitive\" name=\"cube\"/></transblock>\n\
+             <transblock><translate x=\"1\" y=\"2\" z=\"3\"/><object type=\"primitive\" name=\"sphere\"/></transblock>",
+        ));
+        let flat = |f: &SceneFile| {
+            let s = crate::scene::flatten(f, &crate::scene::FlattenLimits::default()).unwrap();
+            s.flat_primitives().into_iter().map(|p| (format!("{:?}", p.shape), p.world_from_object)).collect::<Vec<_>>()
+        };
+        assert_eq!(flat(&f), flat(&apart), "two objects in one transblock, against a transblock each");
+        assert_eq!(flat(&f).len(), 2);
         let f = ok(&block("<object type=\"primitive\" name=\"cube\"/>\n<frobnicate/>"));
         warned_at(&f, 5, 1, "unknown element <frobnicate> in <transblock> (expected translate, rotate, scale, matrix or object); skipped");
     }
@@ -2204,7 +2235,6 @@ mod tests {
     #[test]
     fn bad_numbers_are_errors_at_the_attribute() {
         for (v, msg) in [
-            ("", "is empty (expected a number)"),
             ("=0.1", "is \"=0.1\", which is not a number"),
             ("abc", "is \"abc\", which is not a number"),
             ("1,5", "which is not a number"),
@@ -2224,6 +2254,15 @@ mod tests {
         }
         // f32 fields: finite in f64 but not in f32.
         bad_at(&prim("cube", "<shininess v=\"1e39\"/>"), 5, 12, "too large");
+        // An empty number reads as 0, as the course's parser reads it, with a warning there.
+        for v in ["", "  "] {
+            let f = ok(&block(&format!(
+                "<translate x=\"0\" y=\"{v}\" z=\"0\"/><object type=\"primitive\" name=\"cube\"/>"
+            )));
+            warned_at(&f, 4, 18, "attribute `y` of <translate> is empty; read as 0");
+        }
+        let f = ok(&block("<rotate x=\"0\" y=\"1\" z=\"\" angle=\"90\"/><object type=\"primitive\" name=\"cube\"/>"));
+        warned_at(&f, 4, 21, "attribute `z` of <rotate> is empty; read as 0");
         // Whitespace around a number is tolerated.
         let f = ok(&prim("cube", "<shininess v=\" 12 \"/>"));
         assert_eq!(first_prim(&f).1.shininess, 12.0);
@@ -2400,8 +2439,9 @@ mod tests {
         warned_at(&f, 2, 1, "unknown top-level element <include>");
         // A primitive named triangle.
         bad_at(&prim("triangle", ""), 4, 26, "unknown primitive \"triangle\"");
-        // Numbers written "" or "=0.1".
-        bad_at(&prim("cube", "<blend v=\"\"/>"), 5, 8, "attribute `v` of <blend> is empty");
+        // Numbers written "" (read as 0, as the course's parser reads it, with a warning) or "=0.1" (an error).
+        let f = ok(&prim("cube", "<blend v=\"\"/>"));
+        warned_at(&f, 5, 8, "attribute `v` of <blend> is empty; read as 0");
         bad_at(
             &prim("cube", "<blend v=\"=0.1\"/>"),
             5,
@@ -2623,12 +2663,8 @@ mod tests {
         warned_at(&f, 2, 15, "second <cameradata> (the first is at 2:1); ignored");
         let f = ok(&with_top(" <globaldata/><globaldata/>"));
         warned_at(&f, 2, 15, "second <globaldata> (the first is at 2:2); ignored");
-        bad_at(
-            &block("<object type=\"primitive\" name=\"cube\"/><object type=\"primitive\" name=\"sphere\"/>"),
-            4,
-            39,
-            "a second <object> in one <transblock> (the first is at 4:1)",
-        );
+        let f = ok(&block("<object type=\"primitive\" name=\"cube\"/><object type=\"primitive\" name=\"sphere\"/>"));
+        warned_at(&f, 4, 39, "a second <object> in one <transblock> (the first is at 4:1)");
     }
 
     #[test]
