@@ -1,14 +1,18 @@
 //! raycast: a ray caster that runs as a Vulkan compute shader over
 //! CS1230/CS123/Comp175 XML scenes.
 //!
-//! Parts (see docs/architecture.md): `scene` reads scene files, `frame`
-//! turns a scene into the buffers of `layout`, `gpu` runs kernels on a
-//! Vulkan device, `render` runs the render kernel, `image_io` reads, writes
-//! and compares pictures, `bounded` reads text inputs up to a size,
-//! `uint_defines` reads the shaders' `#define`d constants, `units` writes
-//! byte counts for people, `info` describes a scene and its hierarchy,
-//! `conformance` holds the course's renders' comparison rule, `cli` is the
-//! command line.
+//! Parts (see docs/architecture.md): `source` says where a scene comes
+//! from and `scene` reads it, `frame` turns a scene into the buffers of
+//! `layout`, `render` holds the `Renderer` trait and the render kernel,
+//! `gpu` runs kernels on a Vulkan device, `cpu` the C++ build of the same
+//! GLSL, `image_io` reads, writes and compares pictures, `output` writes a
+//! command's products, `error` is the one error type and its exit codes,
+//! `bounded` reads text inputs up to a size, `uint_defines` reads the
+//! shaders' `#define`d constants, `units` writes numbers for people,
+//! `measure` memory, `info` describes a scene and its hierarchy,
+//! `conformance` holds the course's renders' comparison rule, `harness`
+//! runs shader unit tests, `preview` is the window, and `cli` is the
+//! command line (one module per command, named by nothing outside it).
 
 /// `println!` that goes on when stdout is closed (`raycast render | head`):
 /// the status lines are for reading, the work (the PNG, the exit status)
