@@ -5,7 +5,7 @@ use crate::error::Error;
 use crate::frame::FrameData;
 use crate::layout::{self, PixelOut};
 use crate::preview::layout::{AccumPixel, PreviewFrame};
-use crate::render::{Picture, Progress, Told};
+use crate::render::{GpuTimings, Picture, Progress, Renderer, Told};
 use std::ffi::{c_void, CString};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
@@ -353,6 +353,48 @@ impl CpuRenderer {
         });
         done.load(Ordering::Relaxed)
     }
+}
+
+impl Renderer for CpuRenderer {
+    fn describe(&self) -> String {
+        self.summary("")
+    }
+
+    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), Error> {
+        let start = std::time::Instant::now();
+        let picture = self.render_told(data, told)?;
+        let timings =
+            GpuTimings { dispatch: start.elapsed(), bands: 1, band_rows: data.frame.height, ..GpuTimings::default() };
+        Ok((picture, timings))
+    }
+}
+
+/// Recomputes with the CPU build the pixels of `picture` (a render of
+/// `data`) that the device cut short; returns how many. The CPU build runs
+/// the same shader code: on lavapipe, the only device known to cut pixels
+/// short, its pixels are the device's bit for bit (what `raycast check`
+/// and CI compare), so the finished picture is the one the device would
+/// have made without its limit.
+pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRenderer, told: Told) -> usize {
+    let width = picture.width as usize;
+    let rows: Vec<u32> = picture
+        .pixels
+        .chunks(width)
+        .enumerate()
+        .filter(|(_, row)| row.iter().any(PixelOut::is_cut_short))
+        .map(|(i, _)| i as u32)
+        .collect();
+    let mut count = 0;
+    for (row, cpu_row) in rows.iter().zip(cpu.render_rows_told(data, &rows, told)) {
+        let device_row = &mut picture.pixels[*row as usize * width..][..width];
+        for (d, c) in device_row.iter_mut().zip(cpu_row) {
+            if d.is_cut_short() {
+                *d = c;
+                count += 1;
+            }
+        }
+    }
+    count
 }
 
 #[cfg(test)]

@@ -12,8 +12,9 @@ use glam::{DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-/// Largest width or height accepted (the pixel buffer of 16384² is 8 GiB).
-pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest width or height accepted (the pixel buffer of 16384² is 8 GiB);
+/// defined with the pictures (`image_io`), which read nothing larger.
+pub use crate::image_io::MAX_IMAGE_SIDE;
 /// Scenes keep masters as instanced groups: memory grows with the file.
 pub const INSTANCING: bool = true;
 

@@ -98,10 +98,22 @@ pub fn check_output_path(path: &Path) -> Result<(), Error> {
     }
 }
 
+/// Whether a picture can be written to `path` (the two checks above): a
+/// name of another format is a usage error (exit 2), a folder that is not
+/// there or takes no file an error (exit 1).
+pub fn check_output(path: &Path) -> Result<(), Error> {
+    check_output_name(path)?;
+    check_output_path(path)
+}
+
+/// Largest width or height of a picture raycast renders or reads (the
+/// pixel buffer of 16384² is 8 GiB); `frame::MAX_IMAGE_SIDE` is this one.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
 /// The most pixels a picture read whole may have (`read_picture`: compare,
 /// the conformance references): the largest picture raycast renders,
-/// `frame::MAX_IMAGE_SIDE` squared (16384 × 16384).
-pub const MAX_PICTURE_PIXELS: u64 = crate::frame::MAX_IMAGE_SIDE as u64 * crate::frame::MAX_IMAGE_SIDE as u64;
+/// `MAX_IMAGE_SIDE` squared (16384 × 16384).
+pub const MAX_PICTURE_PIXELS: u64 = MAX_IMAGE_SIDE as u64 * MAX_IMAGE_SIDE as u64;
 
 /// The picture formats raycast reads (the image crate's features in
 /// host/Cargo.toml), for messages.
@@ -178,7 +190,7 @@ pub fn read_picture_counting_alpha(path: &Path) -> Result<(Rgb8, usize), Error> 
     let cannot = |e: String| Error::Failed(format!("cannot read {}: {e}", path.display()));
     let (width, height) = picture_size(path).map_err(cannot)?;
     if u64::from(width) * u64::from(height) > MAX_PICTURE_PIXELS {
-        let side = crate::frame::MAX_IMAGE_SIDE;
+        let side = MAX_IMAGE_SIDE;
         return Err(cannot(format!(
             "the picture is {width}x{height}, more than the {} pixels ({side}x{side}) of the largest picture raycast renders",
             crate::units::thousands(MAX_PICTURE_PIXELS)

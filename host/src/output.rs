@@ -3,7 +3,6 @@
 //! any work (a name of the wrong kind, a file the command reads).
 
 use crate::error::Error;
-use crate::image_io;
 use std::path::{Path, PathBuf};
 
 /// Whether standard output was closed as the process started (`raycast gen
@@ -100,14 +99,6 @@ pub fn refuse_overwriting<'a>(output: &Path, inputs: impl IntoIterator<Item = &'
         ))),
         None => Ok(()),
     }
-}
-
-/// Whether a picture can be written to `path` (`image_io`'s checks): a
-/// name of another format is a usage error (exit 2), a folder that is not
-/// there or takes no file an error (exit 1).
-pub fn check_output(path: &Path) -> Result<(), Error> {
-    image_io::check_output_name(path)?;
-    image_io::check_output_path(path)
 }
 
 /// Status lines to stderr where `-o` sends the picture to stdout

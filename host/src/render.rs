@@ -1,7 +1,6 @@
 //! Rendering a [`FrameData`] on a Vulkan device with the render kernel, and
 //! the picture that comes back.
 
-use crate::cpu::CpuRenderer;
 use crate::error::Error;
 use crate::frame::FrameData;
 use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel, RunBuffers};
@@ -123,20 +122,6 @@ impl Renderer for GpuRenderer {
 
     fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), Error> {
         Ok(self.render_told(data, told)?)
-    }
-}
-
-impl Renderer for CpuRenderer {
-    fn describe(&self) -> String {
-        self.summary("")
-    }
-
-    fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), Error> {
-        let start = std::time::Instant::now();
-        let picture = self.render_told(data, told)?;
-        let timings =
-            GpuTimings { dispatch: start.elapsed(), bands: 1, band_rows: data.frame.height, ..GpuTimings::default() };
-        Ok((picture, timings))
     }
 }
 
@@ -465,34 +450,6 @@ pub struct GpuRenderer {
     /// The most bytes of a band's buffers (`set_band_bytes`); None: as
     /// many as the device's storage buffers hold.
     band_bytes: Option<u64>,
-}
-
-/// Recomputes with the CPU build the pixels of `picture` (a render of
-/// `data`) that the device cut short; returns how many. The CPU build runs
-/// the same shader code: on lavapipe, the only device known to cut pixels
-/// short, its pixels are the device's bit for bit (what `raycast check`
-/// and CI compare), so the finished picture is the one the device would
-/// have made without its limit.
-pub fn finish_cut_short(picture: &mut Picture, data: &FrameData, cpu: &CpuRenderer, told: Told) -> usize {
-    let width = picture.width as usize;
-    let rows: Vec<u32> = picture
-        .pixels
-        .chunks(width)
-        .enumerate()
-        .filter(|(_, row)| row.iter().any(PixelOut::is_cut_short))
-        .map(|(i, _)| i as u32)
-        .collect();
-    let mut count = 0;
-    for (row, cpu_row) in rows.iter().zip(cpu.render_rows_told(data, &rows, told)) {
-        let device_row = &mut picture.pixels[*row as usize * width..][..width];
-        for (d, c) in device_row.iter_mut().zip(cpu_row) {
-            if d.is_cut_short() {
-                *d = c;
-                count += 1;
-            }
-        }
-    }
-    count
 }
 
 /// What to do about pixels cut short, for the commands that render

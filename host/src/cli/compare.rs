@@ -222,7 +222,7 @@ fn judge(actual: &Path, expected: &Path, args: &CompareArgs, diff_picture: bool)
 fn run_pair(args: &CompareArgs) -> Result<(), Error> {
     status_beside(&args.output);
     if let Some(path) = &args.output {
-        check_output(path)?;
+        image_io::check_output(path)?;
         refuse_overwriting(path, [args.actual.as_path(), args.expected.as_path()])?;
     }
     let (outcome, picture) = judge(&args.actual, &args.expected, args, args.output.is_some());

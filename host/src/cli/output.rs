@@ -2,7 +2,7 @@
 
 use crate::cli::batch::*;
 use crate::error::Error;
-use crate::output::*;
+use crate::image_io;
 use std::path::{Path, PathBuf};
 
 /// `<scene stem><suffix>.png` ("default" for the embedded scene) in `dir`,
@@ -41,7 +41,7 @@ pub(crate) fn output_paths(
         .map(|scene| output.clone().unwrap_or_else(|| default_output(*scene, suffix, out_dir.as_deref())))
         .collect();
     for (i, path) in outputs.iter().enumerate() {
-        check_output(path)?;
+        image_io::check_output(path)?;
         if let Some(j) = outputs[..i].iter().position(|earlier| earlier == path) {
             return Err(Error::Usage(format!(
                 "{} and {} would both be written to {}: give them in separate commands, or rename one",

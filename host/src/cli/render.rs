@@ -304,7 +304,7 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
     if picture.pixels.iter().any(crate::layout::PixelOut::is_cut_short) {
         let cpu = CpuRenderer::new()?;
         let label = format!("{}, the pixels cut short", output.display());
-        let finished = progress::told(label, |told| crate::render::finish_cut_short(&mut picture, &p.data, &cpu, told));
+        let finished = progress::told(label, |told| crate::cpu::finish_cut_short(&mut picture, &p.data, &cpu, told));
         errln!(
             "raycast: note: {} cut {finished} of {} pixels short (Mesa's lavapipe gives each shader invocation 65535 loop \
              iterations in all); the CPU build of the same code computed those pixels, which on lavapipe gives the \

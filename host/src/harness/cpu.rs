@@ -38,12 +38,6 @@ pub fn compile_flags() -> Vec<String> {
 /// words, the input words, the output words.
 type Entry = unsafe extern "C" fn(*const *const std::ffi::c_void, *const u32, *const u32, *mut u32);
 
-/// The exit status of a run that read past the scene's arrays, its
-/// standard error saying what: the generated source defines
-/// RAYCAST_CHECKED_BUFFERS as this, which turns on host/cpu/shared.hpp's
-/// checked arrays (`codegen::cpp_source`).
-pub const BUFFER_OVERRUN_EXIT: i32 = 3;
-
 /// A library of case runners, built and known to load (each run loads it
 /// in a process of its own: `run`).
 pub struct CpuLibrary {
@@ -162,7 +156,7 @@ impl CpuLibrary {
         if !out.status.success() {
             use std::os::unix::process::ExitStatusExt;
             let said = String::from_utf8_lossy(&out.stderr);
-            if out.status.code() == Some(BUFFER_OVERRUN_EXIT) {
+            if out.status.code() == Some(codegen::BUFFER_OVERRUN_EXIT) {
                 return Err(format!(
                     "the C++ build of {key} {}: each count and index of the scene must fit its arrays \
                      (a buffer the scene leaves out is one zeroed element)",

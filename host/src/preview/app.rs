@@ -129,7 +129,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Error> {
     settings.validate().map_err(Error::usage)?;
     super::check_script(args)?;
     if let Some(path) = &args.screenshot {
-        crate::output::check_output(path)?;
+        crate::image_io::check_output(path)?;
     }
     let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
     let limits = FlattenLimits { max_primitives: args.max_primitives };

@@ -4,7 +4,7 @@
 //! expanded: memory grows with the file, not with the expansion.
 
 use super::model::*;
-use super::parse::{parse_file, unit, ParseOptions};
+use super::parse::{parse_file, ParseOptions};
 use glam::DMat4;
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
@@ -26,66 +26,6 @@ impl Default for FlattenLimits {
 /// Parses and flattens a scene file.
 pub fn load(path: &Path, opts: &ParseOptions, limits: &FlattenLimits) -> Result<Scene, SceneError> {
     flatten(&parse_file(path, opts)?, limits)
-}
-
-/// Why a transform cannot be inverted reliably.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum NotInvertible {
-    /// An entry is not finite.
-    NotFinite,
-    /// The determinant is zero, or the columns are so nearly dependent that
-    /// the determinant of the normalised columns is below 1e-12.
-    Singular,
-    /// The determinant or the inverse overflows or underflows.
-    OutOfRange,
-}
-
-impl std::fmt::Display for NotInvertible {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            NotInvertible::NotFinite => "transform is not finite (an overflow?)",
-            NotInvertible::Singular => "transform is singular (a scale of 0?)",
-            NotInvertible::OutOfRange => "transform is out of range (a scale too large or too small?)",
-        })
-    }
-}
-
-/// Why a transform cannot be inverted reliably, if it cannot: entries not
-/// finite; a determinant that is zero, overflows or underflows; or columns
-/// so nearly dependent that the determinant of the normalised columns is
-/// below 1e-12. Else the inverse.
-pub(super) fn check_invertible(m: &DMat4) -> Result<DMat4, NotInvertible> {
-    if !m.is_finite() {
-        return Err(NotInvertible::NotFinite);
-    }
-    let det = m.determinant();
-    if det == 0.0 {
-        return Err(NotInvertible::Singular);
-    }
-    if !det.is_finite() || det.abs() < f64::MIN_POSITIVE {
-        return Err(NotInvertible::OutOfRange);
-    }
-    let conditioning = if m.row(3) == glam::DVec4::new(0.0, 0.0, 0.0, 1.0) {
-        match (unit(m.x_axis.truncate()), unit(m.y_axis.truncate()), unit(m.z_axis.truncate())) {
-            (Some(a), Some(b), Some(c)) => a.dot(b.cross(c)).abs(),
-            _ => 0.0,
-        }
-    } else {
-        let u = |v: glam::DVec4| {
-            let s = v.abs().max_element();
-            let w = v / s;
-            w / w.length()
-        };
-        DMat4::from_cols(u(m.x_axis), u(m.y_axis), u(m.z_axis), u(m.w_axis)).determinant().abs()
-    };
-    if conditioning.is_nan() || conditioning < 1e-12 {
-        return Err(NotInvertible::Singular);
-    }
-    let inverse = m.inverse();
-    if !inverse.is_finite() {
-        return Err(NotInvertible::OutOfRange);
-    }
-    Ok(inverse)
 }
 
 /// The inverse of a primitive's or master's combined transform, once it is

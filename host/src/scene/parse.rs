@@ -7,7 +7,6 @@
 //! unknown element or attribute, a duplicate, a texture that cannot be found)
 //! is a warning.
 
-use super::flatten::{check_invertible, NotInvertible};
 use super::model::*;
 use crate::units::{fmt_number, fmt_vector};
 use glam::{DMat4, DVec3};
@@ -320,17 +319,6 @@ fn shown(s: &str) -> String {
         out.push('…');
     }
     format!("{out:?}")
-}
-
-/// A unit vector along `v`, or None when `v` is zero or not finite. Scales
-/// first so large components do not overflow.
-pub(crate) fn unit(v: DVec3) -> Option<DVec3> {
-    let m = v.abs().max_element();
-    if m.is_nan() || m <= 0.0 || !m.is_finite() {
-        return None;
-    }
-    let w = v / m;
-    Some(w / w.length())
 }
 
 /// The matrix of one transform.
