@@ -314,7 +314,7 @@ pub(crate) fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result
     let (opened, why) = open_backend(backend, &o.kernel)?;
     match &opened {
         RenderBackend::Cpu(cpu) => detail!("device: {}", cpu.summary(&why)),
-        RenderBackend::Gpu(renderer) => detail!("device: {}", renderer.context().info().summary()),
+        RenderBackend::Gpu(renderer) => detail!("device: {}", renderer.describe()),
     }
     Ok(opened)
 }

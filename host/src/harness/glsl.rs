@@ -509,23 +509,31 @@ fn top_level(text: &str) -> Vec<Decl> {
 mod tests {
     use super::*;
 
-    fn sample() -> ShaderInfo {
-        let dir = std::env::temp_dir().join(format!("raycast-glsl-parse-{}", std::process::id()));
+    /// A fresh shader folder `name` (under the temp dir) with `layout` as
+    /// layout.h, one storage buffer of `Thing`s as scene_buffers.glsl, and
+    /// `shared` as raycast.glsl.
+    fn shader_dir(name: &str, layout: &str, shared: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("raycast-glsl-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join(LAYOUT), "#define BINDING_THING 3 // x\n#define NO_HIT 0xffffffffu\nstruct Thing {\n  vec4 a; // c\n  uint b, c;\n};\n").unwrap();
+        std::fs::write(dir.join(LAYOUT), layout).unwrap();
         std::fs::write(
             dir.join(SCENE_BUFFERS),
             "layout(std430, binding = BINDING_THING) readonly buffer ThingBlock { Thing things[]; };\n",
         )
         .unwrap();
-        std::fs::write(
-            dir.join(SHARED),
+        std::fs::write(dir.join(SHARED), shared).unwrap();
+        dir
+    }
+
+    fn sample() -> ShaderInfo {
+        let dir = shader_dir(
+            "parse",
+            "#define BINDING_THING 3 // x\n#define NO_HIT 0xffffffffu\nstruct Thing {\n  vec4 a; // c\n  uint b, c;\n};\n",
             "const float T_FAR = 3.40282347e38f;\n/* block\ncomment */\nstruct Ray {\n    vec3 origin;\n    vec3 direction;\n};\n\
              precise float\nsquare(float x) {\n  { return x * x; }\n}\nvoid nothing() {}\nRay make(vec3 o, const vec3 d) { Ray r; r.origin = o; r.direction = d; return r; }\n\
              uint count(Thing t, bool b) { return b ? t.b : 0u; }\nfloat bad(out float x) { x = 1.0f; return x; }\n\
              float twice(float x) { return 2.0f * x; }\nvec3 twice(vec3 x) { return 2.0f * x; }\nfloat twice(float x, float y) { return x + y; }\n",
-        )
-        .unwrap();
+        );
         let info = ShaderInfo::load(&dir).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         info
@@ -615,20 +623,12 @@ mod tests {
     /// was included.
     #[test]
     fn follows_includes_in_order() {
-        let dir = std::env::temp_dir().join(format!("raycast-glsl-includes-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join(LAYOUT), "#define BINDING_THING 3\nstruct Thing {\n  uint b;\n};\n").unwrap();
-        std::fs::write(
-            dir.join(SCENE_BUFFERS),
-            "layout(std430, binding = BINDING_THING) readonly buffer ThingBlock { Thing things[]; };\n",
-        )
-        .unwrap();
-        std::fs::write(
-            dir.join(SHARED),
+        let dir = shader_dir(
+            "includes",
+            "#define BINDING_THING 3\nstruct Thing {\n  uint b;\n};\n",
             "// umbrella\n#ifndef G\n#define G\nfloat first(float x) { return x; }\n#include \"a.glsl\"\n\
              Pair last(float x) { Pair p; p.a = x; p.b = x; return p; }\n  #  include \"a.glsl\"\n#endif\n",
-        )
-        .unwrap();
+        );
         std::fs::write(
             dir.join("a.glsl"),
             "// a\nconst float A = 2.0f;\n#include \"b.glsl\"\nfloat in_a(Pair p) { return p.a; }\n",
