@@ -3,12 +3,15 @@
 
 use crate::error::Error;
 use crate::frame::FrameData;
+use crate::gpu::Buffer;
 use crate::layout::{self, PixelOut};
 use crate::preview::layout::{AccumPixel, PreviewFrame};
-use crate::render::{GpuTimings, Picture, Progress, Renderer, Told};
+use crate::render::{GpuTimings, Picture, Progress, Progressive, Renderer, Told};
 use std::ffi::{c_void, CString};
+use std::ops::Range;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 extern "C" {
     fn raycast_cpu_render_rows(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
@@ -352,6 +355,76 @@ impl CpuRenderer {
             }
         });
         done.load(Ordering::Relaxed)
+    }
+}
+
+/// The CPU build drawing the preview's samples (`raycast preview --backend
+/// cpu`): preview_main.glsl's steps in C++ (`CpuRenderer::preview_rows`),
+/// with the picture's running sums and pixels it keeps, frame.width a row.
+/// A device shows its pixels (the preview kernel built with HOST_PIXELS).
+pub struct CpuProgressive {
+    cpu: CpuRenderer,
+    accum: Vec<AccumPixel>,
+    pixels: Vec<PixelOut>,
+    /// The time of the sample drawn last, until `wait` reports it.
+    drawn_in: Option<Duration>,
+}
+
+impl CpuProgressive {
+    /// Running sums for a picture of `w` x `h` pixels, drawn by `cpu`.
+    pub fn new(cpu: CpuRenderer, [w, h]: [u32; 2]) -> CpuProgressive {
+        let count = w as usize * h as usize;
+        CpuProgressive {
+            cpu,
+            accum: vec![AccumPixel::default(); count],
+            pixels: vec![PixelOut::default(); count],
+            drawn_in: None,
+        }
+    }
+
+    /// The same CPU build for a picture of another size; the samples start over.
+    pub fn resized(self, size: [u32; 2]) -> CpuProgressive {
+        CpuProgressive::new(self.cpu, size)
+    }
+
+    /// The threads that draw.
+    pub fn threads(&self) -> usize {
+        self.cpu.threads
+    }
+}
+
+impl Progressive for CpuProgressive {
+    fn describe(&self) -> String {
+        Renderer::describe(&self.cpu)
+    }
+
+    /// Draws the sample before it returns.
+    fn add_sample(
+        &mut self,
+        data: &FrameData,
+        frame: &layout::Frame,
+        preview: &PreviewFrame,
+        row_end: u32,
+    ) -> Result<(), Error> {
+        let start = Instant::now();
+        self.cpu.preview_rows(data, frame, preview, row_end, &mut self.accum, &mut self.pixels);
+        self.drawn_in = Some(start.elapsed());
+        Ok(())
+    }
+
+    fn wait(&mut self) -> Result<Option<Duration>, Error> {
+        Ok(self.drawn_in.take())
+    }
+
+    fn copy_pixels(&mut self, bytes: Range<usize>, to: &Buffer) -> Result<(), Error> {
+        let start = bytes.start;
+        to.write(start, &bytemuck::cast_slice(&self.pixels)[bytes]);
+        Ok(())
+    }
+
+    /// Never: the CPU build runs every loop to its end.
+    fn cut_short(&mut self) -> Result<u32, Error> {
+        Ok(0)
     }
 }
 

@@ -3,8 +3,10 @@
 
 use crate::error::Error;
 use crate::frame::FrameData;
-use crate::gpu::{GpuContext, GpuError, GpuOptions, Kernel, RunBuffers};
+use crate::gpu::{Buffer, GpuContext, GpuError, GpuOptions, Kernel, RunBuffers};
 use crate::layout::{self, PixelOut};
+use crate::preview::layout::PreviewFrame;
+use std::ops::Range;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -123,6 +125,41 @@ impl Renderer for GpuRenderer {
     fn render_frame(&self, data: &FrameData, told: Told) -> Result<(Picture, GpuTimings), Error> {
         Ok(self.render_told(data, told)?)
     }
+}
+
+/// Draws a picture a sample at a time into running sums it keeps: the
+/// preview's way (shaders/preview_main.glsl), where [`Renderer`] draws a
+/// whole frame at once. The preview kernel on a device (preview/renderer.rs
+/// `PreviewRenderer`) and the CPU build ([`crate::cpu::CpuProgressive`])
+/// implement it; the preview window asks whichever draws for each sample,
+/// its time and its pixels.
+pub trait Progressive {
+    /// The backend as status lines name it: the device, or the CPU build with its threads.
+    fn describe(&self) -> String;
+
+    /// Adds sample `preview.sample_index` (its jitter in `preview`) of
+    /// `frame`'s rows `preview.row_offset` to `row_end`, drawn with `data`'s
+    /// scene, into the running sums: those rows' pixels become the average
+    /// of the samples so far. `frame` is at most the picture's size. May
+    /// return before the sample is drawn: `wait` waits for it.
+    fn add_sample(
+        &mut self,
+        data: &FrameData,
+        frame: &layout::Frame,
+        preview: &PreviewFrame,
+        row_end: u32,
+    ) -> Result<(), Error>;
+
+    /// Waits for the sample in flight; the time it took, where known.
+    fn wait(&mut self) -> Result<Option<Duration>, Error>;
+
+    /// Copies the bytes `bytes` of the frame's pixels (`PixelOut`s,
+    /// frame.width a row) to the same place in `to`.
+    fn copy_pixels(&mut self, bytes: Range<usize>, to: &Buffer) -> Result<(), Error>;
+
+    /// How many pixels of the last sample the device cut short (Mesa's loop
+    /// budget per invocation: sampling.glsl loop_budget_ok); they are wrong.
+    fn cut_short(&mut self) -> Result<u32, Error>;
 }
 
 /// Where the time of one frame went (on a device: its upload, dispatch and readback).

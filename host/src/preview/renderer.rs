@@ -1,13 +1,15 @@
 //! The preview kernel on a device: its buffers and display image, a
 //! swapchain, and one frame at a time. Everything Vulkan is the gpu part's;
 //! this only says which buffer goes to which binding of preview.comp, and,
-//! when the CPU build (`HostSamples`) or another device (`apart`) draws the
-//! samples, hands their pixels to the kernel that shows them.
+//! when the CPU build or another device (`apart`) draws the samples, hands
+//! their pixels to the kernel that shows them. Whichever draws, it draws
+//! through `render::Progressive`, which this renderer implements too.
 
+use std::ops::Range;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use crate::cpu::CpuRenderer;
+use crate::cpu::{CpuProgressive, CpuRenderer};
 use crate::error::Error;
 use crate::frame::FrameData;
 use crate::gpu::{
@@ -15,7 +17,7 @@ use crate::gpu::{
     StorageImage, Swapchain,
 };
 use crate::layout::{self, Frame, PixelOut};
-use crate::render::{SceneFeatures, Specialization};
+use crate::render::{Progressive, SceneFeatures, Specialization};
 
 use super::layout::{
     preview_bindings, preview_images, preview_uniform_bindings, preview_uniform_images, AccumPixel, PreviewFrame,
@@ -225,32 +227,6 @@ impl<K: Copy + PartialEq, T> Built<K, T> {
     }
 }
 
-/// The samples drawn by the CPU build (`raycast preview --backend cpu`):
-/// preview_main.glsl's steps in C++ (`CpuRenderer::preview_rows`), the
-/// running sums and pixels kept here; each band's pixels go to the pixel
-/// buffer and the kernel, built with HOST_PIXELS, shows them. The device
-/// then only presents.
-struct HostSamples {
-    cpu: CpuRenderer,
-    /// The picture's running sums and pixels, frame.width a row.
-    accum: Vec<AccumPixel>,
-    pixels: Vec<PixelOut>,
-    /// The CPU's time for the frame in flight, until `wait` reports it.
-    drawn_in: Option<Duration>,
-}
-
-impl HostSamples {
-    fn new(cpu: CpuRenderer, [w, h]: [u32; 2]) -> HostSamples {
-        let count = w as usize * h as usize;
-        HostSamples {
-            cpu,
-            accum: vec![AccumPixel::default(); count],
-            pixels: vec![PixelOut::default(); count],
-            drawn_in: None,
-        }
-    }
-}
-
 /// Per-pixel buffers and the display image of one picture size.
 struct PictureBuffers {
     size: [u32; 2],
@@ -300,20 +276,30 @@ pub struct PreviewRenderer {
     kernel: Built<KernelKey, Kernel>,
     kernels: PreviewKernels,
     /// The CPU build draws the samples (None: the kernel does).
-    host: Option<HostSamples>,
+    host: Option<CpuProgressive>,
     /// The device that draws the samples where it is not the window's (one
     /// that cannot present to it, or --window-device): the same kernel
     /// there, without a window; each band's pixels come back through the
     /// host and this renderer's kernel, built with HOST_PIXELS, shows them.
     /// The CPU build draws instead while `host` is Some.
-    apart: Option<Box<Apart>>,
+    apart: Option<Box<PreviewRenderer>>,
+    /// The time the CPU build or the device apart took for the sample in
+    /// flight (and its pixels' way here), until `wait` reports it.
+    drawn_in: Option<Duration>,
     context: Arc<GpuContext>,
 }
 
-/// The renderer of the device apart, and its time for the frame in flight.
-struct Apart {
-    renderer: PreviewRenderer,
-    drawn_in: Option<Duration>,
+/// Whichever draws the samples for the window's device: the CPU build, else
+/// the device apart; None: the window's device's own kernel.
+fn drawer<'a>(
+    host: &'a mut Option<CpuProgressive>,
+    apart: &'a mut Option<Box<PreviewRenderer>>,
+) -> Option<&'a mut dyn Progressive> {
+    match (host, apart) {
+        (Some(cpu), _) => Some(cpu),
+        (None, Some(device)) => Some(&mut **device),
+        (None, None) => None,
+    }
 }
 
 impl PreviewRenderer {
@@ -335,8 +321,7 @@ impl PreviewRenderer {
         let apart = match apart {
             Some((ctx, kernels)) => {
                 let role = Role::of(false, cpu.is_some());
-                let renderer = PreviewRenderer::without_window(ctx, kernels, data, size, role)?;
-                Some(Box::new(Apart { renderer, drawn_in: None }))
+                Some(Box::new(PreviewRenderer::without_window(ctx, kernels, data, size, role)?))
             }
             None => None,
         };
@@ -344,7 +329,7 @@ impl PreviewRenderer {
         let role = Role::of(apart.is_some(), cpu.is_some());
         let mut r = PreviewRenderer::without_window(context, kernels, data, size, role)?;
         r.swapchain = Some(Swapchain::new(&r.context, window, mode)?);
-        r.host = cpu.map(|c| HostSamples::new(c, size));
+        r.host = cpu.map(|c| CpuProgressive::new(c, size));
         r.apart = apart;
         Ok(r)
     }
@@ -372,6 +357,7 @@ impl PreviewRenderer {
             kernels,
             host: None,
             apart: None,
+            drawn_in: None,
             context: context.clone(),
         })
     }
@@ -453,7 +439,7 @@ impl PreviewRenderer {
     pub fn set_kernels(&mut self, kernels: PreviewKernels, data: &FrameData) -> Result<Result<(), Error>, GpuError> {
         let apart_role = self.apart_role();
         match &mut self.apart {
-            Some(apart) => apart.renderer.replace_kernels(kernels, data, apart_role),
+            Some(apart) => apart.replace_kernels(kernels, data, apart_role),
             None => {
                 let role = self.role();
                 self.replace_kernels(kernels, data, role)
@@ -499,7 +485,7 @@ impl PreviewRenderer {
     pub fn set_scene(&mut self, data: &FrameData) -> Result<(), GpuError> {
         let role = self.apart_role();
         if let Some(apart) = &mut self.apart {
-            apart.renderer.replace_scene(data, role)?;
+            apart.replace_scene(data, role)?;
         }
         let role = self.role();
         self.replace_scene(data, role)
@@ -519,14 +505,14 @@ impl PreviewRenderer {
             return Ok(());
         }
         if let Some(apart) = &mut self.apart {
-            apart.renderer.resize(size)?;
+            apart.resize(size)?;
         }
         self.frames.wait()?;
         self.set = None;
         self.picture = PictureBuffers::new(&self.context, size)?;
         self.frame_size = size;
         if let Some(host) = self.host.take() {
-            self.host = Some(HostSamples::new(host.cpu, size));
+            self.host = Some(host.resized(size));
         }
         Ok(())
     }
@@ -542,7 +528,7 @@ impl PreviewRenderer {
 
     /// The CPU build's threads when it draws the samples.
     pub fn cpu_threads(&self) -> Option<usize> {
-        self.host.as_ref().map(|h| h.cpu.threads)
+        self.host.as_ref().map(CpuProgressive::threads)
     }
 
     /// Why the device cannot draw the scene (an array beyond one of its
@@ -550,7 +536,7 @@ impl PreviewRenderer {
     /// may not be called then.
     pub fn device_cannot_draw(&self) -> Option<&str> {
         match &self.apart {
-            Some(apart) => apart.renderer.scene.left_off.as_deref(),
+            Some(apart) => apart.scene.left_off.as_deref(),
             None => self.scene.left_off.as_deref(),
         }
     }
@@ -569,7 +555,7 @@ impl PreviewRenderer {
     /// they start over.
     pub fn draw_on_cpu(&mut self, cpu: CpuRenderer) -> Result<(), GpuError> {
         self.frames.wait()?;
-        self.host = Some(HostSamples::new(cpu, self.picture.size));
+        self.host = Some(CpuProgressive::new(cpu, self.picture.size));
         Ok(())
     }
 
@@ -579,7 +565,7 @@ impl PreviewRenderer {
     /// is scaled up to the window) and `preview`, dispatches, and with
     /// `present` shows the display image (so present only once a sample's
     /// last band is drawn). Returns at once when the kernel draws the
-    /// sample; the CPU build draws it (`HostSamples`) before the dispatch.
+    /// sample; the CPU build draws it before the dispatch.
     pub fn render(
         &mut self,
         data: &FrameData,
@@ -587,7 +573,7 @@ impl PreviewRenderer {
         preview: &PreviewFrame,
         row_end: u32,
         present: bool,
-    ) -> Result<FrameStatus, GpuError> {
+    ) -> Result<FrameStatus, Error> {
         let [w, h] = self.picture.size;
         assert!(
             frame.width >= 1 && frame.height >= 1 && frame.width <= w && frame.height <= h,
@@ -595,27 +581,18 @@ impl PreviewRenderer {
         );
         assert!(preview.row_offset < row_end && row_end <= frame.height, "the band is inside the frame");
         self.frames.wait()?;
-        if let Some(host) = &mut self.host {
+        if let Some(drawer) = drawer(&mut self.host, &mut self.apart) {
             let start = Instant::now();
-            host.cpu.preview_rows(data, frame, preview, row_end, &mut host.accum, &mut host.pixels);
-            let band = preview.row_offset as usize * frame.width as usize..row_end as usize * frame.width as usize;
-            self.picture
-                .pixels
-                .write(band.start * std::mem::size_of::<PixelOut>(), bytemuck::cast_slice(&host.pixels[band]));
-            host.drawn_in = Some(start.elapsed());
-        } else if let Some(apart) = &mut self.apart {
-            let start = Instant::now();
-            let r = &mut apart.renderer;
-            r.render(data, frame, preview, row_end, false)?;
+            drawer.add_sample(data, frame, preview, row_end)?;
             // Its dispatch where it has timestamps: a kernel built for this
             // frame is no part of what the steering's cost per pixel measures.
-            let dispatch = r.wait()?;
+            let drawn = drawer.wait()?;
             let copy = Instant::now();
             let size = std::mem::size_of::<PixelOut>();
             let band = preview.row_offset as usize * frame.width as usize * size
                 ..row_end as usize * frame.width as usize * size;
-            r.picture.pixels.copy_to(band.start, &self.picture.pixels, band.start, band.len());
-            apart.drawn_in = Some(dispatch.map_or_else(|| start.elapsed(), |d| d + copy.elapsed()));
+            drawer.copy_pixels(band, &self.picture.pixels)?;
+            self.drawn_in = Some(drawn.map_or_else(|| start.elapsed(), |d| d + copy.elapsed()));
         }
         self.prepare(frame)?;
         self.frame_size = [frame.width, frame.height];
@@ -627,7 +604,7 @@ impl PreviewRenderer {
         let groups = [frame.width.div_ceil(wg[0]), (row_end - preview.row_offset).div_ceil(wg[1]), 1];
         let set = self.set.as_ref().expect("bound");
         let swapchain = self.swapchain.as_mut().filter(|_| present);
-        self.frames.submit(kernel, set, groups, &self.picture.display, self.frame_size, swapchain)
+        Ok(self.frames.submit(kernel, set, groups, &self.picture.display, self.frame_size, swapchain)?)
     }
 
     /// Waits for the frame in flight; its dispatch time when the device has
@@ -635,8 +612,7 @@ impl PreviewRenderer {
     /// dispatch and the pixels' way back) when it drew the sample.
     pub fn wait(&mut self) -> Result<Option<Duration>, GpuError> {
         let device = self.frames.wait()?;
-        let others = self.host.as_mut().map(|h| &mut h.drawn_in).or(self.apart.as_mut().map(|a| &mut a.drawn_in));
-        match others.and_then(Option::take) {
+        match self.drawn_in.take() {
             Some(cpu) => Ok(Some(cpu + device.unwrap_or_default())),
             None => Ok(device),
         }
@@ -644,9 +620,9 @@ impl PreviewRenderer {
 
     /// How many pixels of the last frame the device cut short (Mesa's loop
     /// budget per invocation; raycast.glsl loop_budget_ok): they are wrong.
-    pub fn cut_short(&mut self) -> Result<u32, GpuError> {
-        if let (None, Some(apart)) = (&self.host, &mut self.apart) {
-            return apart.renderer.cut_short();
+    pub fn cut_short(&mut self) -> Result<u32, Error> {
+        if let Some(drawer) = drawer(&mut self.host, &mut self.apart) {
+            return drawer.cut_short();
         }
         self.frames.wait()?;
         let status: PreviewStatus =
@@ -672,6 +648,38 @@ impl PreviewRenderer {
         let size = std::mem::size_of::<PixelOut>();
         let index = i as usize * self.frame_size[0] as usize + j as usize;
         Ok(bytemuck::pod_read_unaligned(&self.picture.pixels.read(index * size, size)))
+    }
+}
+
+/// The device apart draws the window's samples through this (`drawer`):
+/// its kernel, without a window.
+impl Progressive for PreviewRenderer {
+    fn describe(&self) -> String {
+        self.context.info().summary()
+    }
+
+    fn add_sample(
+        &mut self,
+        data: &FrameData,
+        frame: &Frame,
+        preview: &PreviewFrame,
+        row_end: u32,
+    ) -> Result<(), Error> {
+        self.render(data, frame, preview, row_end, false).map(|_| ())
+    }
+
+    fn wait(&mut self) -> Result<Option<Duration>, Error> {
+        Ok(PreviewRenderer::wait(self)?)
+    }
+
+    fn copy_pixels(&mut self, bytes: Range<usize>, to: &Buffer) -> Result<(), Error> {
+        self.frames.wait()?;
+        self.picture.pixels.copy_to(bytes.start, to, bytes.start, bytes.len());
+        Ok(())
+    }
+
+    fn cut_short(&mut self) -> Result<u32, Error> {
+        PreviewRenderer::cut_short(self)
     }
 }
 
