@@ -26,6 +26,7 @@
 // 20, 21: the shader-test harness's own
 #define BINDING_COUNT 13     // bindings 0 .. BINDING_COUNT-1 of the scene and the pixels
 #define BINDING_SAMPLE_SUMS 13 // SampleSum[]: render.comp's own, read and written
+#define BINDING_COURSE_SUMS 22 // CourseSum[]: render.comp's own under FLAG_COURSE_SAMPLING
 
 #define MAX_LEVELS 16  // deepest nesting of instances
 #define STACK_SIZE 128 // traversal stack entries (the host proves a scene fits)
@@ -100,7 +101,8 @@
 // specialised, in arrays.
 #define SPEC_LEVELS_IN_REGISTERS 19 // a bool
 #define SPEC_REGISTER_LEVELS 20     // a count: the levels the walk keeps, 1 to MAX_LEVELS
-#define SPEC_COUNT 21
+#define SPEC_COURSE_SAMPLING 21 // FLAG_COURSE_SAMPLING
+#define SPEC_COUNT 22
 
 // Primitive.shape
 #define SHAPE_CUBE 0u
@@ -120,6 +122,7 @@
 #define AOV_DEPTH 2u  // grey by distance along the camera ray (Frame.aov_scale xy); black on a miss
 #define AOV_ID 3u     // a colour per primitive id; black on a miss
 #define AOV_COST 4u   // the camera ray's walk: its passes on a heat scale (Frame.aov_scale z), hit or miss
+#define AOV_SAMPLES 6u  // the pixel's samples (camera rays) on the heat scale, dark red at COURSE_MAX_SAMPLES
 #define AOV_COST_ALL 5u // every ray of the pixel (camera, shadow, mirror) traced as in colour: their walks' passes summed, on the same scale
 
 // Frame.flags
@@ -127,10 +130,12 @@
 #define FLAG_REFLECTIONS 2u
 #define FLAG_TEXTURES 4u
 #define FLAG_NO_BVH 8u // test every primitive: the hierarchy's boxes are ignored
+#define FLAG_COURSE_SAMPLING 64u // the course's adaptive supersampling (course_sampling.glsl), not frame.spp
 
 // Frame.texture_filter
 #define FILTER_NEAREST 0u
 #define FILTER_BILINEAR 1u
+#define FILTER_COURSE 2u // bilinear between texels floor(x) and floor(x) + 1: no half-texel shift
 
 // PixelOut.id of a pixel whose ray hit nothing.
 #define NO_HIT 0xffffffffu
@@ -317,6 +322,31 @@ struct SampleSum {
     uint rays;    // their rays (RAYS_CUT_SHORT added when any was cut short)
     uint pad0;
     uint pad1;
+};
+
+// The course's adaptive supersampling (course_sampling.glsl): squares of
+// 4 samples refined down to COURSE_LEVELS levels, at most
+// COURSE_MAX_SAMPLES = 4 + 16 + 64 samples a pixel.
+#define COURSE_LEVELS 3
+#define COURSE_MAX_SAMPLES 84
+
+// A pixel's walk through the adaptive scheme between render.comp's
+// dispatches (course_sampling.glsl course_add): per level of the square
+// being sampled, its samples' min (a), max (b) and sum (c); a refined
+// square's `a` sums its quadrants' values instead. Zeroed by the host: the
+// first sample is next.
+struct CourseSum {
+    vec4 a0;
+    vec4 b0;
+    vec4 c0;
+    vec4 a1;
+    vec4 b1;
+    vec4 c1;
+    vec4 c2;      // level 2 is never refined: its sum alone
+    uint state;   // course_sampling.glsl: quadrant, level, path, COURSE_DONE
+    uint samples; // taken so far
+    uint rays;    // their rays (RAYS_CUT_SHORT added when any was cut short)
+    uint pad0;
 };
 
 // shaders/fma_probe.comp: fma(a, b, c) as the device computes it, case by

@@ -30,6 +30,7 @@
 #include "lighting.glsl"
 #include "aov.glsl"
 #include "trace.glsl"
+#include "course_sampling.glsl"
 #include "sampling.glsl"
 
 #endif

@@ -16,6 +16,11 @@
 // stored), and each invocation does one sample's work: Mesa's lavapipe
 // gives an invocation 65535 loop iterations in all (sampling.glsl
 // loop_budget_ok), which several samples of a deep scene exceed.
+//
+// Under FLAG_COURSE_SAMPLING (--supersample course) the host dispatches it
+// COURSE_MAX_SAMPLES times: each pixel takes the next sample its adaptive
+// scheme asks for (course_sampling.glsl; the state in `course_sums`, zeroed
+// by the host) until it is done, the steps render_course_pixel takes.
 #include "layout.h"
 
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE, local_size_z = 1) in;
@@ -23,6 +28,7 @@ layout(local_size_x = WORKGROUP_SIZE, local_size_y = WORKGROUP_SIZE, local_size_
 #include "scene_buffers.glsl"
 layout(std430, binding = BINDING_PIXELS) writeonly buffer PixelBlock { PixelOut pixels[]; };
 layout(std430, binding = BINDING_SAMPLE_SUMS) buffer SampleSumBlock { SampleSum sums[]; };
+layout(std430, binding = BINDING_COURSE_SUMS) buffer CourseSumBlock { CourseSum course_sums[]; };
 
 #include "raycast.glsl"
 
@@ -36,6 +42,29 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + j;
+    if (HAS_COURSE_SAMPLING && (frame.flags & FLAG_COURSE_SAMPLING) != 0u) {
+        CourseSum st = course_sums[index];
+        if (course_done(st)) {
+            return;
+        }
+        bool first = st.samples == 0u;
+        PixelSample c = sample_pixel(j, i, course_offset(st));
+        st = course_add(st, c.color);
+        st.rays = st.rays + c.rays;
+        if (!loop_budget_ok()) {
+            st.rays = st.rays | RAYS_CUT_SHORT;
+        }
+        if (first) {
+            // t, id and normal are the first sample's.
+            pixels[index] = pixel_out(c.hit, vec3(0.0f, 0.0f, 0.0f), st.rays);
+        }
+        if (course_done(st)) {
+            pixels[index].rgba = pack_rgba8(course_color(st));
+            pixels[index].rays = st.rays;
+        }
+        course_sums[index] = st;
+        return;
+    }
     uint n = max(frame.spp, 1u);
     uint s = sums[index].samples;
     if (s >= n) {

@@ -81,10 +81,34 @@ bool loop_budget_ok() {
     return passes == frame.loop_canary;
 }
 
-// The colour a pixel stores: its n samples' colour sum over n.
+// The colour a pixel stores: its n samples' colour sum over n; with
+// AOV_SAMPLES, n on the heat scale (course_sampling.glsl course_color).
 precise vec3 sample_average(vec3 sum, uint n) {
+    if (HAS_AOVS && frame.aov == AOV_SAMPLES) {
+        return heat_color(div_rn(float(n), float(COURSE_MAX_SAMPLES)));
+    }
     precise vec3 average = div_rn(sum, float(n));
     return average;
+}
+
+// render_pixel under FLAG_COURSE_SAMPLING: the course's adaptive scheme
+// (course_sampling.glsl), its samples in the order course_add asks for
+// them; t, id and normal from the first.
+PixelOut render_course_pixel(uint j, uint i) {
+    CourseSum st = course_start();
+    PixelSample first = sample_pixel(j, i, course_offset(st));
+    st = course_add(st, first.color);
+    uint rays = first.rays;
+    while (!course_done(st)) {
+        PixelSample next = sample_pixel(j, i, course_offset(st));
+        st = course_add(st, next.color);
+        rays = rays + next.rays;
+    }
+    PixelOut o = pixel_out(first.hit, course_color(st), rays);
+    if (!loop_budget_ok()) {
+        o.rays = o.rays | RAYS_CUT_SHORT;
+    }
+    return o;
 }
 
 // Everything one pixel computes (the CPU build's and the harness's way;
@@ -93,6 +117,9 @@ precise vec3 sample_average(vec3 sum, uint n) {
 // normal from the first sample (the pixel centre when spp = 1); the rays of
 // every sample.
 PixelOut render_pixel(uint j, uint i) {
+    if (HAS_COURSE_SAMPLING && (frame.flags & FLAG_COURSE_SAMPLING) != 0u) {
+        return render_course_pixel(j, i);
+    }
     uint n = max(frame.spp, 1u);
     PixelSample first = sample_pixel(j, i, sample_offset(0u, n));
     precise vec3 sum = first.color;

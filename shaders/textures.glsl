@@ -66,10 +66,13 @@ uint wrap(float x, uint size) {
     return uint(f) % size;
 }
 
-// The bilinear filter of sample_texture at texel coordinates (x, y).
-precise vec3 bilinear(Texture tex, float x, float y) {
-    precise float bx = x - 0.5f;
-    precise float by = y - 0.5f;
+// The bilinear filter of sample_texture at texel coordinates (x, y),
+// between the texels around (x - shift, y - shift): shift 1/2 centres
+// texel k at k + 1/2 (FILTER_BILINEAR); shift 0 at k (FILTER_COURSE, the
+// course's filter: T[floor x] and T[floor x + 1] by the fraction of x).
+precise vec3 bilinear(Texture tex, float x, float y, float shift) {
+    precise float bx = x - shift;
+    precise float by = y - shift;
     precise float fx = bx - floor(bx);
     precise float fy = by - floor(by);
     uint c0 = wrap(bx, tex.width);
@@ -84,13 +87,14 @@ precise vec3 bilinear(Texture tex, float x, float y) {
 
 // T(u, v): u, v clamped to [0, 1], scaled by the repeat counts. Nearest:
 // column floor(u r_u W) mod W, row floor(v r_v H) mod H. Bilinear: the four
-// texels around (u r_u W - 1/2, v r_v H - 1/2), wrapped, weighted in a fixed order.
+// texels around (u r_u W - 1/2, v r_v H - 1/2), wrapped, weighted in a fixed
+// order; the course's filter: around (u r_u W, v r_v H).
 precise vec3 sample_texture(Material m, vec2 uv) {
     Texture tex = textures[uint(m.texture)];
     precise float x = (clamp01(uv.x) * m.texture_repeat.x) * float(tex.width);
     precise float y = (clamp01(uv.y) * m.texture_repeat.y) * float(tex.height);
     if (HAS_BILINEAR && frame.texture_filter != FILTER_NEAREST) {
-        return bilinear(tex, x, y);
+        return bilinear(tex, x, y, (frame.texture_filter == FILTER_COURSE) ? 0.0f : 0.5f);
     }
     return texel_rgb(tex, wrap(x, tex.width), wrap(y, tex.height));
 }

@@ -94,7 +94,8 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             // The AOVs other than colour: the first hit's, black on a miss
             // but for the cost, which a miss has too. AOV_COST_ALL goes on
             // as colour does, its picture made at the end.
-            if (HAS_AOVS && frame.aov != AOV_COLOR && frame.aov != AOV_COST_ALL && (h.id != NO_HIT || frame.aov == AOV_COST)) {
+            if (HAS_AOVS && frame.aov != AOV_COLOR && frame.aov != AOV_COST_ALL && frame.aov != AOV_SAMPLES &&
+                (h.id != NO_HIT || frame.aov == AOV_COST)) {
                 s.color = aov_color(frame.aov, ray, h);
                 break;
             }

@@ -46,6 +46,9 @@ pub enum Aov {
     /// What all the pixel's rays cost (camera, shadow and mirror rays, traced as in colour): their walks' passes
     /// summed, on the same scale, dark red from 256 passes on (render and check: --cost-max)
     CostAll,
+    /// How many samples (camera rays) the pixel took, on the heat scale, dark red at 84 (the most
+    /// `--supersample course` takes); the colour is drawn as usual to decide them
+    Samples,
 }
 
 impl Aov {
@@ -58,6 +61,7 @@ impl Aov {
             Aov::Id => "id",
             Aov::Cost => "cost",
             Aov::CostAll => "cost-all",
+            Aov::Samples => "samples",
         }
     }
 
@@ -70,6 +74,7 @@ impl Aov {
             Aov::Id => layout::AOV_ID,
             Aov::Cost => layout::AOV_COST,
             Aov::CostAll => layout::AOV_COST_ALL,
+            Aov::Samples => layout::AOV_SAMPLES,
         }
     }
 
@@ -110,6 +115,20 @@ pub enum TextureFilter {
     Nearest,
     /// The four nearest texels, weighted
     Bilinear,
+    /// The course's bilinear filter: texels k and k + 1 weighted by the fraction of x = u·W, without the half-texel
+    /// shift (docs/scene-format.md#texture-filters)
+    Course,
+}
+
+/// Where a pixel's samples go (`--supersample`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Supersample {
+    /// --spp samples in a fixed pattern, averaged: the pixel's area average as --spp grows
+    #[default]
+    Pattern,
+    /// The course's adaptive scheme: 4 samples at the quadrant centres, each quadrant refined the same way where
+    /// they differ by more than 0.2 in a channel, down to 8x8 (docs/scene-format.md#adaptive-supersampling)
+    Course,
 }
 
 /// Settings of one render, independent of the backend.
@@ -128,6 +147,8 @@ pub struct RenderSettings {
     pub bvh: bool,
     /// Samples per pixel (the fixed pattern of raycast.glsl's sample_offset).
     pub spp: u32,
+    /// The fixed pattern of `spp` samples, or the course's adaptive scheme.
+    pub supersample: Supersample,
     pub texture_filter: TextureFilter,
     /// Aov::Depth: the distances drawn white and black; None for the
     /// scene's bounding sphere seen from the camera (`depth_range`).
@@ -149,6 +170,7 @@ impl Default for RenderSettings {
             max_depth: 4,
             bvh: true,
             spp: 1,
+            supersample: Supersample::Pattern,
             texture_filter: TextureFilter::Nearest,
             depth_range: None,
             cost_max: None,
@@ -206,6 +228,12 @@ impl RenderSettings {
         side_in_range("--width", self.width).map_err(SettingsError)?;
         side_in_range("--height", self.height).map_err(SettingsError)?;
         spp_in_range(self.spp).map_err(SettingsError)?;
+        if self.supersample == Supersample::Course && self.spp > 1 {
+            return Err(SettingsError(format!(
+                "--spp {} and --supersample course are two ways to place samples: choose one",
+                self.spp
+            )));
+        }
         bounces_in_range(self.max_depth).map_err(SettingsError)?;
         if self.depth_range.is_some() && self.aov != Aov::Depth {
             return Err(SettingsError("--depth-range is for --aov depth; this render is not one".to_string()));
@@ -596,6 +624,9 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
     if settings.textures {
         flags |= layout::FLAG_TEXTURES;
     }
+    if settings.supersample == Supersample::Course {
+        flags |= layout::FLAG_COURSE_SAMPLING;
+    }
     let mut frame = layout::Frame {
         k: [g.ka, g.kd, g.ks, g.kt],
         width: settings.width,
@@ -618,6 +649,7 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
         texture_filter: match settings.texture_filter {
             TextureFilter::Nearest => layout::FILTER_NEAREST,
             TextureFilter::Bilinear => layout::FILTER_BILINEAR,
+            TextureFilter::Course => layout::FILTER_COURSE,
         },
         // The root group's root node (0 without a hierarchy).
         root_node: packed.group_roots.first().copied().unwrap_or(0),

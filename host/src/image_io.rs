@@ -228,6 +228,8 @@ pub struct ImageDiff {
     pub first: Option<(u32, u32, [u8; 3], [u8; 3])>,
     /// Pixel with the largest channel difference: (x, y, difference).
     pub worst: Option<(u32, u32, u8)>,
+    /// Every channel's squared difference, summed (for `psnr`).
+    pub squared_error: u64,
     /// Black where equal within tolerance; red scaled by the difference elsewhere.
     pub diff_image: Rgb8,
 }
@@ -235,6 +237,15 @@ pub struct ImageDiff {
 impl ImageDiff {
     pub fn fraction(&self) -> f64 {
         self.differing as f64 / self.total.max(1) as f64
+    }
+
+    /// Peak signal-to-noise ratio in dB over every channel of every pixel:
+    /// 10 log10(255^2 / mean squared difference); None for identical pictures.
+    pub fn psnr(&self) -> Option<f64> {
+        (self.squared_error > 0).then(|| {
+            let mse = self.squared_error as f64 / (3 * self.total.max(1)) as f64;
+            10.0 * (255.0 * 255.0 / mse).log10()
+        })
     }
 
     /// The same as its text, for JSON (serde): "pixels", "differing",
@@ -245,6 +256,7 @@ impl ImageDiff {
             pixels: self.total,
             differing: self.differing,
             percent: 100.0 * self.fraction(),
+            psnr_db: self.psnr().map(|db| (db * 100.0).round() / 100.0),
             tolerance: self.tolerance,
             first: self.first.map(|(x, y, actual, expected)| FirstJson { at: [x, y], actual, expected }),
             worst: self.worst.map(|(x, y, by)| WorstJson { at: [x, y], by }),
@@ -259,6 +271,8 @@ pub struct DiffJson {
     pub differing: usize,
     #[serde(serialize_with = "json_number")]
     pub percent: f64,
+    /// `ImageDiff::psnr`, to 0.01 dB; null for identical pictures.
+    pub psnr_db: Option<f64>,
     pub tolerance: u8,
     pub first: Option<FirstJson>,
     pub worst: Option<WorstJson>,
@@ -323,12 +337,14 @@ pub fn compare(actual: &Rgb8, expected: &Rgb8, tolerance: u8) -> Result<ImageDif
         differing: 0,
         first: None,
         worst: None,
+        squared_error: 0,
         diff_image: Rgb8 { width: actual.width, height: actual.height, data: vec![0; actual.data.len()] },
     };
     for y in 0..actual.height {
         for x in 0..actual.width {
             let (a, e) = (actual.pixel(x, y), expected.pixel(x, y));
             let d = (0..3).map(|c| a[c].abs_diff(e[c])).max().unwrap_or(0);
+            diff.squared_error += (0..3).map(|c| u64::from(a[c].abs_diff(e[c])).pow(2)).sum::<u64>();
             if d > diff.worst.map_or(0, |w| w.2) {
                 diff.worst = Some((x, y, d));
             }

@@ -149,6 +149,24 @@ pub struct SampleSum {
     pub pad1: u32,
 }
 
+/// A pixel's walk through the course's adaptive supersampling between
+/// render.comp's dispatches (layout.h, course_sampling.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct CourseSum {
+    pub a0: Vec4,
+    pub b0: Vec4,
+    pub c0: Vec4,
+    pub a1: Vec4,
+    pub b1: Vec4,
+    pub c1: Vec4,
+    pub c2: Vec4,
+    pub state: u32,
+    pub samples: u32,
+    pub rays: u32,
+    pub pad0: u32,
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct FmaCase {
@@ -399,6 +417,12 @@ impl SampleSum {
     }
 }
 
+impl CourseSum {
+    pub fn layout() -> StructLayout {
+        struct_layout!(CourseSum, "CourseSum", [a0, b0, c0, a1, b1, c1, c2, state, samples, rays, pad0])
+    }
+}
+
 impl FmaCase {
     pub fn layout() -> StructLayout {
         struct_layout!(FmaCase, "FmaCase", [a, b, c, r])
@@ -491,7 +515,8 @@ pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u
 /// scene as `uniform_kernel_scene_bindings`.
 pub fn render_uniform_bindings() -> Vec<BindingLayout> {
     let mut b = uniform_kernel_scene_bindings(true);
-    b.extend(render_bindings().into_iter().filter(|r| r.binding == BINDING_PIXELS || r.binding == BINDING_SAMPLE_SUMS));
+    let own = [BINDING_PIXELS, BINDING_SAMPLE_SUMS, BINDING_COURSE_SUMS];
+    b.extend(render_bindings().into_iter().filter(|r| own.contains(&r.binding)));
     b
 }
 
@@ -507,5 +532,6 @@ pub fn pixel_kernel_bindings() -> Vec<BindingLayout> {
 pub fn render_bindings() -> Vec<BindingLayout> {
     let mut b = pixel_kernel_bindings();
     b.push(BindingLayout::array(BINDING_SAMPLE_SUMS, SampleSum::layout()).writable());
+    b.push(BindingLayout::array(BINDING_COURSE_SUMS, CourseSum::layout()).writable());
     b
 }

@@ -280,22 +280,28 @@ fn fits_images(sizes: &[(u32, &str, usize)]) -> Result<(), Error> {
 }
 
 /// What a kernel built for a scene keeps of the shaders' code: one bool per
-/// feature's specialization constant (shaders/layout.h SPEC_CUBES to
-/// SPEC_AOVS), false for what the scene and its frame flags can never
+/// feature's specialization constant (shaders/layout.h SPEC_*, but for the
+/// walk's form), false for what the scene and its frame flags can never
 /// reach; and the walk's form (SPEC_LEVELS_IN_REGISTERS, SPEC_REGISTER_LEVELS).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Specialization {
-    keeps: [bool; FEATURES],
+    /// By constant_id; the walk's form's two are unused here.
+    keeps: [bool; SPEC_COUNT],
     /// The walk's levels kept in registers, so many, or None: in arrays.
     register_levels: Option<u32>,
 }
 
-/// The constants that turn a feature's code on or off: those before the walk's form.
-const FEATURES: usize = layout::SPEC_LEVELS_IN_REGISTERS as usize;
+const SPEC_COUNT: usize = layout::SPEC_COUNT as usize;
+
+/// Whether constant `id` turns a feature's code on or off: every one but the walk's form's two.
+#[cfg(test)]
+const fn is_feature(id: u32) -> bool {
+    id != layout::SPEC_LEVELS_IN_REGISTERS && id != layout::SPEC_REGISTER_LEVELS
+}
 
 impl Specialization {
     /// Everything kept, the levels in arrays: the shaders' defaults, what the CPU build runs.
-    pub const ALL: Specialization = Specialization { keeps: [true; FEATURES], register_levels: None };
+    pub const ALL: Specialization = Specialization { keeps: [true; SPEC_COUNT], register_levels: None };
 
     /// What rendering `data` with `frame` can reach.
     pub fn of(data: &FrameData, frame: &layout::Frame) -> Specialization {
@@ -303,8 +309,8 @@ impl Specialization {
     }
 
     /// The constants' values for `Kernel::specialized`, by constant_id.
-    pub fn constants(&self) -> [u32; layout::SPEC_COUNT as usize] {
-        let mut values = [0u32; layout::SPEC_COUNT as usize];
+    pub fn constants(&self) -> [u32; SPEC_COUNT] {
+        let mut values = [0u32; SPEC_COUNT];
         for (value, &keep) in values.iter_mut().zip(&self.keeps) {
             *value = u32::from(keep);
         }
@@ -331,7 +337,7 @@ impl Specialization {
 }
 
 /// The specialization constants by name, for `Specialization::describe`.
-const SPEC_NAMES: [(u32, &str); FEATURES] = [
+const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_CUBES, "cubes"),
     (layout::SPEC_CONES, "cones"),
     (layout::SPEC_CYLINDERS, "cylinders"),
@@ -351,6 +357,7 @@ const SPEC_NAMES: [(u32, &str); FEATURES] = [
     (layout::SPEC_BOX_RECORDS, "instance boxes"),
     (layout::SPEC_SPHERE_RECORDS, "instance spheres"),
     (layout::SPEC_AOVS, "the normal, depth, id and cost AOVs"),
+    (layout::SPEC_COURSE_SAMPLING, "the course's adaptive supersampling"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -418,7 +425,7 @@ impl SceneFeatures {
     pub fn specialization(&self, frame: &layout::Frame) -> Specialization {
         let flag = |f: u32| frame.flags & f != 0;
         let textures = self.textured && flag(layout::FLAG_TEXTURES);
-        let mut on = [false; FEATURES];
+        let mut on = [false; SPEC_COUNT];
         for (id, value) in [
             (layout::SPEC_CUBES, self.cubes),
             (layout::SPEC_CONES, self.cones),
@@ -441,6 +448,7 @@ impl SceneFeatures {
             (layout::SPEC_BOX_RECORDS, self.box_records),
             (layout::SPEC_SPHERE_RECORDS, self.sphere_records),
             (layout::SPEC_AOVS, frame.aov != layout::AOV_COLOR),
+            (layout::SPEC_COURSE_SAMPLING, flag(layout::FLAG_COURSE_SAMPLING)),
         ] {
             on[id as usize] = value;
         }
@@ -600,12 +608,17 @@ impl GpuRenderer {
         self.band_bytes = bytes;
     }
 
-    /// How many rows of a `width`-pixel picture one dispatch draws: as many
+    /// How many rows of `frame`'s picture one dispatch draws: as many
     /// as a storage buffer of the device holds in pixel records and running
     /// sums (or `set_band_bytes`), a whole number of tiles.
-    pub fn band_rows(&self, width: u32) -> u32 {
-        let per_row =
-            u64::from(width) * std::mem::size_of::<PixelOut>().max(std::mem::size_of::<layout::SampleSum>()) as u64;
+    pub fn band_rows(&self, frame: &layout::Frame) -> u32 {
+        // The course's scheme's state is the largest record.
+        let sums = if frame.flags & layout::FLAG_COURSE_SAMPLING != 0 {
+            std::mem::size_of::<layout::CourseSum>()
+        } else {
+            std::mem::size_of::<layout::SampleSum>()
+        };
+        let per_row = u64::from(frame.width) * std::mem::size_of::<PixelOut>().max(sums) as u64;
         let limit = self.band_bytes.unwrap_or(u64::MAX).min(self.context.max_storage_bytes());
         let tiles = (limit / per_row.max(1) / u64::from(layout::WORKGROUP_SIZE)).max(1);
         u32::try_from(tiles * u64::from(layout::WORKGROUP_SIZE)).unwrap_or(u32::MAX)
@@ -705,8 +718,11 @@ impl GpuRenderer {
             try_with_capacity(count, &what).map_err(|message| GpuError::BadRun { kernel: "render".into(), message })?;
         let mut timings = GpuTimings::default();
         // Bands of rows where the picture's pixels do not fit one storage buffer.
-        let band_rows = self.band_rows(f.width);
-        let (bands, spp) = (f.height.div_ceil(band_rows), f.spp.max(1));
+        let band_rows = self.band_rows(f);
+        // Dispatches: one sample of every pixel each, as many as a pixel takes at most.
+        let course = f.flags & layout::FLAG_COURSE_SAMPLING != 0;
+        let spp = if course { layout::COURSE_MAX_SAMPLES } else { f.spp.max(1) };
+        let bands = f.height.div_ceil(band_rows);
         for (band, row_offset) in (0..f.height).step_by(band_rows as usize).enumerate() {
             // `done`: the band's samples done, a fraction where one is partly drawn.
             let tell = |done: f64| {
@@ -719,12 +735,17 @@ impl GpuRenderer {
             let rows = band_rows.min(f.height - row_offset);
             let frame = layout::Frame { row_offset, ..*f };
             let count = f.width as usize * rows as usize;
+            // The course's scheme keeps its state beside the sums; else one record, unused.
+            let course_sums = std::mem::size_of::<layout::CourseSum>() * if course { count } else { 1 };
             let mut inputs = vec![(layout::BINDING_FRAME, bytemuck::bytes_of(&frame))];
             inputs.extend(scene.iter().map(|(binding, bytes)| (*binding, bytes.as_ref())));
             let buffers = RunBuffers {
                 inputs: &inputs,
                 // The samples' running sums start at zero: sample 0 is next.
-                cleared: &[(layout::BINDING_SAMPLE_SUMS, count * std::mem::size_of::<layout::SampleSum>())],
+                cleared: &[
+                    (layout::BINDING_SAMPLE_SUMS, count * std::mem::size_of::<layout::SampleSum>()),
+                    (layout::BINDING_COURSE_SUMS, course_sums),
+                ],
                 output: (layout::BINDING_PIXELS, count * std::mem::size_of::<PixelOut>()),
                 // Sentinel: a pixel the kernel never wrote reads as NaN t and id 0xffffffff.
                 fill: 0xffff_ffff,
@@ -831,7 +852,7 @@ mod tests {
 
     /// The features' constants that are on, by SPEC_* name.
     fn on(s: Specialization) -> Vec<u32> {
-        (0..FEATURES as u32).filter(|&id| s.constants()[id as usize] == 1).collect()
+        (0..SPEC_COUNT as u32).filter(|&id| is_feature(id) && s.constants()[id as usize] == 1).collect()
     }
 
     /// A constant is on exactly when the scene and the flags can reach its
@@ -885,8 +906,8 @@ mod tests {
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
-             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs; \
-             the walk's 2 levels in registers"
+             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, \
+             the course's adaptive supersampling; the walk's 2 levels in registers"
         );
         // An AOV other than colour keeps its code.
         for aov in [Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost, Aov::CostAll] {
@@ -914,7 +935,7 @@ mod tests {
         // Every feature's constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
         ids.sort();
-        assert_eq!(ids, (0..FEATURES as u32).collect::<Vec<_>>());
+        assert_eq!(ids, (0..SPEC_COUNT as u32).filter(|&id| is_feature(id)).collect::<Vec<_>>());
     }
 
     /// A kernel specialised for a scene keeps the walk's levels in

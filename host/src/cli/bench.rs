@@ -825,7 +825,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             match timed {
                 Ok(()) => {
                     row.host_peak = peak(peak_host_bytes());
-                    row.device_bytes = Some(device_bytes(&loaded.data, uniform, g.band_rows(loaded.data.frame.width)));
+                    row.device_bytes = Some(device_bytes(&loaded.data, uniform, g.band_rows(&loaded.data.frame)));
                     rows.push(row);
                 }
                 Err(GpuError::CutShort { count, total, .. }) => {

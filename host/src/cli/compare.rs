@@ -33,6 +33,13 @@ pub struct CompareArgs {
     /// Fail (exit 4) when more than this percentage of pixels differ.
     #[arg(long, default_value_t = 0.1, value_name = "PERCENT", help_heading = "Rule")]
     max_percent: f64,
+    /// Also require this PSNR in dB
+    ///
+    /// Also fail (exit 4) when the peak signal-to-noise ratio over every channel, 10 log10(255^2 / mean squared
+    /// difference), is below this many dB: the rule for sampled pictures, which match a reference on average rather
+    /// than pixel for pixel. Identical pictures have no noise and pass any.
+    #[arg(long, value_name = "DB", help_heading = "Rule")]
+    min_psnr: Option<f64>,
     /// Diff image, or folder of them
     ///
     /// Where to write the diff image: pure red where pixels differ, over the expected picture faded towards white.
@@ -69,14 +76,24 @@ impl Outcome {
     /// the pictures could not be compared.
     fn verdict(&self, args: &CompareArgs) -> String {
         match self {
-            Outcome::Compared { diff, .. } => format!(
-                "{} of {} pixels ({:.4}%) differ by more than {}/255 (rule: at most {}%)",
-                thousands(diff.differing as u64),
-                thousands(diff.total as u64),
-                100.0 * diff.fraction(),
-                diff.tolerance,
-                args.max_percent
-            ),
+            Outcome::Compared { diff, .. } => {
+                // The PSNR where the rule has it (--min-psnr).
+                let (psnr, min_psnr) = match args.min_psnr {
+                    Some(min) => (
+                        diff.psnr().map_or(", identical".to_string(), |db| format!(", PSNR {db:.2} dB")),
+                        format!(", PSNR at least {min} dB"),
+                    ),
+                    None => (String::new(), String::new()),
+                };
+                format!(
+                    "{} of {} pixels ({:.4}%) differ by more than {}/255{psnr} (rule: at most {}%{min_psnr})",
+                    thousands(diff.differing as u64),
+                    thousands(diff.total as u64),
+                    100.0 * diff.fraction(),
+                    diff.tolerance,
+                    args.max_percent
+                )
+            }
             Outcome::SizesDiffer { actual: (aw, ah), expected: (ew, eh) } => {
                 format!("sizes differ: {aw}x{ah} against {ew}x{eh}")
             }
@@ -91,6 +108,7 @@ impl Outcome {
             Outcome::Compared { diff, passes } => OutcomeJson::Compared {
                 diff: diff.json(),
                 max_percent: args.max_percent,
+                min_psnr: args.min_psnr,
                 passes: *passes,
                 diff_image: diff_image.map(|p| p.display().to_string()),
             },
@@ -131,6 +149,8 @@ enum OutcomeJson {
         diff: DiffJson,
         #[serde(serialize_with = "image_io::json_number")]
         max_percent: f64,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        min_psnr: Option<f64>,
         passes: bool,
         diff_image: Option<String>,
     },
@@ -167,6 +187,9 @@ fn emit_json(value: &impl Serialize) -> Result<(), Error> {
 pub fn run(args: &CompareArgs) -> Result<(), Error> {
     if !(0.0..=100.0).contains(&args.max_percent) {
         return Err(Error::Usage(format!("--max-percent {} is out of range: 0 to 100", args.max_percent)));
+    }
+    if let Some(db) = args.min_psnr.filter(|db| !db.is_finite()) {
+        return Err(Error::Usage(format!("--min-psnr {db} is not a number of dB")));
     }
     match (args.actual.is_dir(), args.expected.is_dir()) {
         (true, true) => run_folders(args),
@@ -213,7 +236,11 @@ fn judge(actual: &Path, expected: &Path, args: &CompareArgs, diff_picture: bool)
         Ok(diff) => diff,
         Err(e) => return (Outcome::Unreadable(e.to_string()), None),
     };
-    let passes = diff.fraction() * 100.0 <= args.max_percent;
+    let psnr_ok = match (args.min_psnr, diff.psnr()) {
+        (Some(min), Some(db)) => db >= min,
+        _ => true,
+    };
+    let passes = diff.fraction() * 100.0 <= args.max_percent && psnr_ok;
     let picture = diff_picture.then(|| image_io::highlight_diff(&a, &e, args.tolerance));
     (Outcome::Compared { diff, passes }, picture)
 }
@@ -255,12 +282,20 @@ fn run_pair(args: &CompareArgs) -> Result<(), Error> {
     }
     match outcome {
         Outcome::Compared { passes: true, .. } => Ok(()),
-        Outcome::Compared { diff, .. } => Err(Error::Mismatch {
+        Outcome::Compared { diff, .. } if diff.fraction() * 100.0 > args.max_percent => Err(Error::Mismatch {
             command: "compare",
             message: format!(
                 "{:.4}% of pixels differ, more than --max-percent {}",
                 diff.fraction() * 100.0,
                 args.max_percent
+            ),
+        }),
+        Outcome::Compared { diff, .. } => Err(Error::Mismatch {
+            command: "compare",
+            message: format!(
+                "PSNR {:.2} dB, below --min-psnr {}",
+                diff.psnr().unwrap_or(f64::INFINITY),
+                args.min_psnr.unwrap_or_default()
             ),
         }),
         Outcome::SizesDiffer { actual, expected } => {

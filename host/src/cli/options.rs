@@ -4,7 +4,7 @@
 use crate::args::*;
 use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, validation_wanted, Error};
-use crate::frame::{Aov, RenderSettings, TextureFilter};
+use crate::frame::{Aov, RenderSettings, Supersample, TextureFilter};
 use crate::gpu::{DeviceSelector, GpuOptions};
 use crate::render::{GpuRenderer, Renderer, SceneBuffers};
 use crate::scene::{FlattenLimits, ParseOptions};
@@ -22,7 +22,7 @@ pub struct RenderOptions {
     /// Picture height in pixels (1 to 16384)
     #[arg(long, default_value_t = 384, value_name = "H", value_parser = parse_height, help_heading = "Picture")]
     pub height: u32,
-    /// color (default), normal, depth, id, cost, cost-all
+    /// color (default), normal, depth, id, cost[-all], samples
     #[arg(long, value_enum, default_value_t = Aov::Color, help_heading = "Picture", hide_possible_values = true,
           hide_default_value = true, long_help = crate::args::with_values::<Aov>("What the picture shows [default: color]"))]
     pub aov: Aov,
@@ -62,7 +62,12 @@ pub struct RenderOptions {
     /// Samples per pixel, in a fixed pattern (the same on every device and the CPU).
     #[arg(long, default_value_t = 1, value_name = "N", value_parser = parse_spp, help_heading = "Quality")]
     pub spp: u32,
-    /// nearest (default) or bilinear
+    /// pattern (default) or course (adaptive)
+    #[arg(long, value_enum, default_value_t = Supersample::Pattern, value_name = "S", help_heading = "Quality",
+          hide_possible_values = true, hide_default_value = true,
+          long_help = crate::args::with_values::<Supersample>("Where a pixel's samples go [default: pattern]"))]
+    pub supersample: Supersample,
+    /// nearest (default), bilinear or course
     #[arg(long, value_enum, default_value_t = TextureFilter::Nearest, value_name = "F", help_heading = "Quality",
           hide_possible_values = true, hide_default_value = true,
           long_help = crate::args::with_values::<TextureFilter>("How textures are sampled [default: nearest]"))]
@@ -174,6 +179,7 @@ impl RenderOptions {
             max_depth: self.bounces,
             bvh: !self.no_bvh,
             spp: self.spp,
+            supersample: self.supersample,
             texture_filter: self.texture_filter,
             depth_range: self.depth_range,
             cost_max: self.cost_max,

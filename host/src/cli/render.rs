@@ -50,7 +50,7 @@ pub struct RenderArgs {
     /// further each time about the scene's up through the point it looks at
     /// (as the preview's orbit), the first the scene's own camera; each
     /// named as without --orbit with -000, -001, … before `.png`
-    #[arg(long, value_name = "N", help_heading = "Output")]
+    #[arg(long, value_name = "N", help_heading = "Output", hide_short_help = true)]
     orbit: Option<u32>,
     /// Render again when a scene, texture or shader changes
     ///
