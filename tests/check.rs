@@ -167,7 +167,8 @@ fn main() -> ExitCode {
     let band_bytes =
         u64::from(BAND_WIDTH) * std::mem::size_of::<raycast::layout::PixelOut>() as u64 * u64::from(BAND_ROWS);
     gpu.set_band_bytes(Some(band_bytes));
-    assert_eq!(gpu.band_rows(BAND_WIDTH), BAND_ROWS, "the bands' size");
+    let band_frame = raycast::layout::Frame { width: BAND_WIDTH, ..Default::default() };
+    assert_eq!(gpu.band_rows(&band_frame), BAND_ROWS, "the bands' size");
     gpu.set_band_bytes(None);
     println!("bit-exact check: {} against the CPU build ({} threads)", gpu.context().info().name, cpu.threads);
     let out_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("check");

@@ -79,7 +79,7 @@ fn deep_recursive_spheres_fit_in_bounded_memory() -> bool {
     let host = peak_host_bytes().expect("VmHWM in /proc/self/status");
     let uniform =
         renderer.kernel_for(&data).unwrap_or_else(|e| panic!("{e}")).name() == raycast::render::UNIFORM_KERNEL;
-    let device = device_bytes(&data, uniform, renderer.band_rows(data.frame.width));
+    let device = device_bytes(&data, uniform, renderer.band_rows(&data.frame));
     println!(
         "{name}: {} spheres expanded, {} in the file ({} bytes); load and build {:.1} ms, dispatch {:.1} ms at {}x{}; \
          host peak {:.1} MiB (bound {:.0}), device {:.1} MiB (bound {:.0})",
