@@ -233,7 +233,9 @@ impl Writer<'_> {
                     Shape::Sphere => "sphere { <0, 0, 0>, 0.5",
                     Shape::Cylinder => "cylinder { <0, -0.5, 0>, <0, 0.5, 0>, 0.5",
                     Shape::Cone => "cone { <0, -0.5, 0>, 0.5, <0, 0.5, 0>, 0",
-                    Shape::Torus | Shape::Mesh { .. } => {
+                    // POV-Ray's torus lies about y too: major radius (the ring), then minor (the tube).
+                    Shape::Torus => "torus { 0.375, 0.125",
+                    Shape::Mesh { .. } => {
                         self.note(format!(
                             "a {} is left out (at {loc} and any others), as raycast leaves it out",
                             shape.name()

@@ -244,8 +244,9 @@ fn fits_images(sizes: &[(u32, &str, usize)]) -> Result<(), Error> {
 
 /// What a kernel built for a scene keeps of the shaders' code: one bool per
 /// feature's specialization constant (shaders/layout.h SPEC_CUBES to
-/// SPEC_AOVS), false for what the scene and its frame flags can never
-/// reach; and the walk's form (SPEC_LEVELS_IN_REGISTERS, SPEC_REGISTER_LEVELS).
+/// SPEC_AOVS, and from SPEC_TORI on), false for what the scene and its
+/// frame flags can never reach; and the walk's form
+/// (SPEC_LEVELS_IN_REGISTERS, SPEC_REGISTER_LEVELS).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Specialization {
     keeps: [bool; FEATURES],
@@ -253,8 +254,9 @@ pub struct Specialization {
     register_levels: Option<u32>,
 }
 
-/// The constants that turn a feature's code on or off: those before the walk's form.
-const FEATURES: usize = layout::SPEC_LEVELS_IN_REGISTERS as usize;
+/// One entry per constant_id; those of the walk's form (SPEC_LEVELS_IN_REGISTERS,
+/// SPEC_REGISTER_LEVELS) are not features and take their values from `register_levels`.
+const FEATURES: usize = layout::SPEC_COUNT as usize;
 
 impl Specialization {
     /// Everything kept, the levels in arrays: the shaders' defaults, what the CPU build runs.
@@ -293,8 +295,8 @@ impl Specialization {
     }
 }
 
-/// The specialization constants by name, for `Specialization::describe`.
-const SPEC_NAMES: [(u32, &str); FEATURES] = [
+/// The features' specialization constants by name, for `Specialization::describe`.
+const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_CUBES, "cubes"),
     (layout::SPEC_CONES, "cones"),
     (layout::SPEC_CYLINDERS, "cylinders"),
@@ -314,6 +316,7 @@ const SPEC_NAMES: [(u32, &str); FEATURES] = [
     (layout::SPEC_BOX_RECORDS, "instance boxes"),
     (layout::SPEC_SPHERE_RECORDS, "instance spheres"),
     (layout::SPEC_AOVS, "the normal, depth, id and cost AOVs"),
+    (layout::SPEC_TORI, "tori"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -326,6 +329,7 @@ pub struct SceneFeatures {
     cubes: bool,
     cones: bool,
     cylinders: bool,
+    tori: bool,
     /// raycast.glsl intersect_shape's last case: any other shape.
     spheres: bool,
     instances: bool,
@@ -355,11 +359,13 @@ impl SceneFeatures {
     pub fn of(data: &FrameData) -> SceneFeatures {
         let shape = |s: u32| data.primitives.iter().any(|p| p.shape == s);
         let (cube, cone, cylinder) = (layout::SHAPE_CUBE, layout::SHAPE_CONE, layout::SHAPE_CYLINDER);
+        let torus = layout::SHAPE_TORUS;
         SceneFeatures {
             cubes: shape(cube),
             cones: shape(cone),
             cylinders: shape(cylinder),
-            spheres: data.primitives.iter().any(|p| ![cube, cone, cylinder].contains(&p.shape)),
+            tori: shape(torus),
+            spheres: data.primitives.iter().any(|p| ![cube, cone, cylinder, torus].contains(&p.shape)),
             instances: !data.instances.is_empty(),
             positioned_lights: data.lights.iter().any(|l| l.kind != layout::LIGHT_DIRECTIONAL),
             spot_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_SPOT),
@@ -404,6 +410,7 @@ impl SceneFeatures {
             (layout::SPEC_BOX_RECORDS, self.box_records),
             (layout::SPEC_SPHERE_RECORDS, self.sphere_records),
             (layout::SPEC_AOVS, frame.aov != layout::AOV_COLOR),
+            (layout::SPEC_TORI, self.tori),
         ] {
             on[id as usize] = value;
         }
@@ -794,7 +801,9 @@ mod tests {
 
     /// The features' constants that are on, by SPEC_* name.
     fn on(s: Specialization) -> Vec<u32> {
-        (0..FEATURES as u32).filter(|&id| s.constants()[id as usize] == 1).collect()
+        let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|&(id, _)| id).filter(|&id| s.constants()[id as usize] == 1).collect();
+        ids.sort_unstable();
+        ids
     }
 
     /// A constant is on exactly when the scene and the flags can reach its
@@ -848,7 +857,7 @@ mod tests {
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
-             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs; \
+             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori; \
              the walk's 2 levels in registers"
         );
         // An AOV other than colour keeps its code.

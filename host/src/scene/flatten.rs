@@ -176,10 +176,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                 }
                 Node::Primitive { shape, material, loc } => {
                     if !drawn(shape) {
-                        let msg = match shape {
-                            Shape::Torus => "torus is not rendered (no canonical size is defined); skipped",
-                            _ => "mesh is not rendered (meshes are not supported yet); skipped",
-                        };
+                        let msg = "mesh is not rendered (meshes are not supported yet); skipped";
                         if skipped.insert((loc.line, loc.col)) {
                             warnings.push(Warning { loc: loc.clone(), message: msg.to_string() });
                         }
@@ -225,7 +222,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
 }
 
 fn drawn(shape: &Shape) -> bool {
-    !matches!(shape, Shape::Torus | Shape::Mesh { .. })
+    !matches!(shape, Shape::Mesh { .. })
 }
 
 impl Group {
