@@ -423,6 +423,18 @@ mod tests {
         assert!(e.notes.is_empty(), "{:?}", e.notes);
     }
 
+    /// POV-Ray's torus lies about y as raycast's does: ring radius, then tube radius, placed by the matrix.
+    #[test]
+    fn a_torus_is_povrays_torus() {
+        let e = exported(
+            r#"<scenefile><object type="tree" name="root"><transblock><scale x="2" y="1" z="2"/>
+              <object type="primitive" name="torus"/></transblock></object></scenefile>"#,
+        );
+        assert!(e.sdl.contains("torus { 0.375, 0.125 texture {"), "{}", e.sdl);
+        assert!(e.sdl.contains("matrix <2, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0> }"), "{}", e.sdl);
+        assert!(e.notes.is_empty(), "{:?}", e.notes);
+    }
+
     #[test]
     fn materials_as_povray_finishes() {
         let e = exported(
