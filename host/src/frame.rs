@@ -7,7 +7,9 @@ use crate::bvh::{self, Aabb};
 use crate::error::Error;
 use crate::image_io;
 use crate::layout::{self, Mat4, Vec4};
-use crate::scene::{scene_bounds, shape_box, Bounds, Camera, Group, Instance, LightKind, Primitive, Scene, Shape, TextureRef};
+use crate::scene::{
+    scene_bounds, shape_box, Bounds, Camera, Group, Instance, LightKind, Primitive, Scene, Shape, TextureRef,
+};
 use glam::{DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::path::PathBuf;

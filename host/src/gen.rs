@@ -476,7 +476,10 @@ pub fn count_primitives(file: &SceneFile) -> PrimitiveCounts {
         for b in blocks {
             match &b.object {
                 Node::Primitive { shape, .. } => {
-                    *own += u64::from(matches!(shape, Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere | Shape::Torus))
+                    *own += u64::from(matches!(
+                        shape,
+                        Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere | Shape::Torus
+                    ))
                 }
                 Node::Tree { blocks, .. } => walk(blocks, own, masters),
                 Node::Master { tree, .. } => masters.push(*tree),

@@ -801,7 +801,8 @@ mod tests {
 
     /// The features' constants that are on, by SPEC_* name.
     fn on(s: Specialization) -> Vec<u32> {
-        let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|&(id, _)| id).filter(|&id| s.constants()[id as usize] == 1).collect();
+        let mut ids: Vec<u32> =
+            SPEC_NAMES.iter().map(|&(id, _)| id).filter(|&id| s.constants()[id as usize] == 1).collect();
         ids.sort_unstable();
         ids
     }
