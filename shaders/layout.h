@@ -101,14 +101,16 @@
 // specialised, in arrays.
 #define SPEC_LEVELS_IN_REGISTERS 19 // a bool
 #define SPEC_REGISTER_LEVELS 20     // a count: the levels the walk keeps, 1 to MAX_LEVELS
-#define SPEC_COURSE_SAMPLING 21 // FLAG_COURSE_SAMPLING
-#define SPEC_COUNT 22
+#define SPEC_TORI 21              // a torus (SHAPE_TORUS)
+#define SPEC_COURSE_SAMPLING 26   // FLAG_COURSE_SAMPLING
+#define SPEC_COUNT 27
 
 // Primitive.shape
 #define SHAPE_CUBE 0u
 #define SHAPE_CONE 1u
 #define SHAPE_CYLINDER 2u
 #define SHAPE_SPHERE 3u
+#define SHAPE_TORUS 4u
 
 // Light.kind
 #define LIGHT_POINT 0u

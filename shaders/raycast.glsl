@@ -24,7 +24,7 @@
 #include "exact.glsl"
 #include "rays.glsl"
 #include "camera.glsl"
-#include "shapes.glsl" // and shape_cube, shape_sphere, shape_cylinder, shape_cone
+#include "shapes.glsl" // and shape_cube, shape_sphere, shape_cylinder, shape_cone, shape_torus
 #include "traversal.glsl"
 #include "textures.glsl"
 #include "lighting.glsl"

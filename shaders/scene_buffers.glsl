@@ -121,6 +121,7 @@ layout(constant_id = SPEC_FLAT_LIST) const bool HAS_FLAT_LIST = true;
 layout(constant_id = SPEC_BOX_RECORDS) const bool HAS_BOX_RECORDS = true;
 layout(constant_id = SPEC_SPHERE_RECORDS) const bool HAS_SPHERE_RECORDS = true;
 layout(constant_id = SPEC_AOVS) const bool HAS_AOVS = true;
+layout(constant_id = SPEC_TORI) const bool HAS_TORI = true;
 layout(constant_id = SPEC_COURSE_SAMPLING) const bool HAS_COURSE_SAMPLING = true;
 // The walk's form (layout.h): its levels in arrays unless LEVELS_IN_REGISTERS,
 // then REGISTER_LEVELS of them in registers (used only in comparisons with

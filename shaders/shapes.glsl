@@ -1,7 +1,7 @@
 // shapes.glsl: the canonical shapes, object space (see docs/scene-format.md#primitives):
 //   cube [-0.5, 0.5]^3, sphere r 0.5, cylinder r 0.5 with y in [-0.5, 0.5]
 //   and both caps, cone with base r 0.5 at y = -0.5, apex at y = 0.5 and a
-//   base cap.
+//   base cap, torus about y with ring radius 0.375 and tube radius 0.125.
 // What the shapes share (a plane's t, the nearer of two hits, the roots of
 // a quadratic, a ray's closest approach), one file per shape included where
 // its turn comes, and intersect_shape, the test of any of them.
@@ -65,6 +65,7 @@ precise float closest_t(Ray r, vec3 c) {
 #include "shape_sphere.glsl"
 #include "shape_cylinder.glsl"
 #include "shape_cone.glsl"
+#include "shape_torus.glsl"
 
 // The test of shape `shape`; the HAS_* constants leave out the shapes a
 // specialised kernel's scene does not have.
@@ -77,6 +78,9 @@ ShapeHit intersect_shape(uint shape, Ray r) {
     }
     if (HAS_CYLINDERS && shape == SHAPE_CYLINDER) {
         return intersect_cylinder(r);
+    }
+    if (HAS_TORI && shape == SHAPE_TORUS) {
+        return intersect_torus(r);
     }
     if (HAS_SPHERES) {
         return intersect_sphere(r);

@@ -33,6 +33,12 @@ precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
     if (HAS_SPHERES && shape == SHAPE_SPHERE) {
         return vec2(around_y(p), 0.5f - asin_portable(2.0f * p.y) * 0.318309873f);
     }
+    if (HAS_TORI && shape == SHAPE_TORUS) {
+        // u around y; v around the tube, from its inner equator (v = 0)
+        // over the top (1/4) and the outer equator (1/2) to the bottom (3/4).
+        precise float rho = sqrt_rn(p.x * p.x + p.z * p.z);
+        return vec2(around_y(p), 0.5f - atan2_portable(p.y, rho - 0.375f) * 0.159154937f);
+    }
     // Cylinder and cone: caps have the normal (0, +-1, 0), bodies n.y >= 0
     // for the cone and 0 for the cylinder.
     if (n.y < 0.0f && n.x == 0.0f && n.z == 0.0f) {

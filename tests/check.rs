@@ -4,10 +4,10 @@
 //!
 //! Scenes: every scene in scenes/, the stress scenes in tests/scenes/stress
 //! (also at an odd size, where the centre rays are exactly axis-parallel),
-//! and every corpus scene when RAYCAST_CORPUS is set (skipped, and said so,
+//! the torus scenes tests/scenes/torus*.xml (likewise), and every corpus scene when RAYCAST_CORPUS is set (skipped, and said so,
 //! otherwise); each in colour and with the normal AOV at 512x384, with
-//! shadows, reflections and textures on. Our scenes and the corpus's
-//! test_feature scenes also with 4 samples per pixel and bilinear texture
+//! shadows, reflections and textures on. Our scenes, the torus scenes and
+//! the corpus's test_feature scenes also with 4 samples per pixel and bilinear texture
 //! filtering. And the hierarchy changes nothing: every scene rendered on
 //! the CPU with --no-bvh (every primitive tested) has the same bits as with
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
@@ -134,6 +134,14 @@ fn main() -> ExitCode {
     for f in xml_files(&repo.join("tests/scenes/stress")) {
         scenes.push((f, &[(512, 384), (511, 383)]));
     }
+    let torus_scenes: Vec<PathBuf> = xml_files(&repo.join("tests/scenes"))
+        .into_iter()
+        .filter(|f| f.file_name().is_some_and(|n| n.to_string_lossy().starts_with("torus")))
+        .collect();
+    assert!(torus_scenes.len() >= 2, "tests/scenes/torus*.xml: {torus_scenes:?}");
+    for f in &torus_scenes {
+        scenes.push((f.clone(), &[(512, 384), (511, 383)]));
+    }
     let corpus = common::corpus("the corpus scenes");
     let mut assets = Vec::new();
     if let Some(c) = &corpus {
@@ -184,7 +192,8 @@ fn main() -> ExitCode {
                 continue;
             }
         };
-        let supersample = path.starts_with(repo.join("scenes")) || name.starts_with("test_feature");
+        let supersample =
+            path.starts_with(repo.join("scenes")) || name.starts_with("test_feature") || torus_scenes.contains(path);
         let mut variants: Vec<(u32, u32, Aov, u32, TextureFilter)> = Vec::new();
         for &(width, height) in *sizes {
             variants.push((width, height, Aov::Color, 1, TextureFilter::Nearest));

@@ -144,6 +144,7 @@ const bool HAS_FLAT_LIST = true;
 const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
 const bool HAS_AOVS = true;
+const bool HAS_TORI = true;
 const bool HAS_COURSE_SAMPLING = true;
 // The walk's levels in arrays (layout.h, SPEC_LEVELS_IN_REGISTERS): the
 // CPU build is compiled once for every scene, so it cannot hold a scene's

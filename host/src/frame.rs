@@ -7,7 +7,9 @@ use crate::bvh::{self, Aabb};
 use crate::error::Error;
 use crate::image_io;
 use crate::layout::{self, Mat4, Vec4};
-use crate::scene::{scene_bounds, Bounds, Camera, Group, Instance, LightKind, Primitive, Scene, Shape, TextureRef};
+use crate::scene::{
+    scene_bounds, shape_box, Bounds, Camera, Group, Instance, LightKind, Primitive, Scene, Shape, TextureRef,
+};
 use glam::{DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -697,8 +699,9 @@ fn shape_code(shape: &Shape) -> u32 {
         Shape::Cube => layout::SHAPE_CUBE,
         Shape::Cone => layout::SHAPE_CONE,
         Shape::Cylinder => layout::SHAPE_CYLINDER,
+        Shape::Torus => layout::SHAPE_TORUS,
         // flatten() keeps only drawn shapes.
-        Shape::Sphere | Shape::Torus | Shape::Mesh { .. } => layout::SHAPE_SPHERE,
+        Shape::Sphere | Shape::Mesh { .. } => layout::SHAPE_SPHERE,
     }
 }
 
@@ -794,7 +797,7 @@ fn placed_sphere(m: &DMat4, (centre, radius): (DVec3, f64)) -> (DVec3, f64) {
 /// The radius of a canonical shape's bounding sphere about its centre.
 fn shape_radius(shape: &Shape) -> f64 {
     match shape {
-        Shape::Sphere => 0.5,
+        Shape::Sphere | Shape::Torus => 0.5,
         Shape::Cone | Shape::Cylinder => 0.5f64.sqrt(),
         _ => 0.75f64.sqrt(),
     }
@@ -804,7 +807,7 @@ fn shape_radius(shape: &Shape) -> f64 {
 /// `m`, within the unit cube) lies from `c`: the nearer of the unit cube's
 /// farthest corner and the shape's own bounding sphere placed by m.
 fn primitive_reach(shape: &Shape, m: &DMat4, c: DVec3) -> f64 {
-    let corners = Aabb::UNIT.corners().iter().map(|&k| (m.transform_point3(k) - c).length()).fold(0.0, f64::max);
+    let corners = shape_box(shape).corners().iter().map(|&k| (m.transform_point3(k) - c).length()).fold(0.0, f64::max);
     let (centre, radius) = placed_sphere(m, (DVec3::ZERO, shape_radius(shape)));
     corners.min((centre - c).length() + radius)
 }
@@ -1027,7 +1030,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, Error> {
         let bounds: Vec<Aabb> = group
             .primitives
             .iter()
-            .map(|p| Aabb::UNIT.transformed(&p.world_from_object))
+            .map(|p| shape_box(&p.shape).transformed(&p.world_from_object))
             .chain(group.instances.iter().map(|i| group_bounds[i.group as usize].transformed(&i.parent_from_group)))
             .collect();
         let built = bvh::build(&bounds, np);

@@ -466,8 +466,8 @@ pub struct PrimitiveCounts {
     pub unique: u64,
 }
 
-/// Counts the drawn primitives (cube, cone, cylinder, sphere; torus and
-/// mesh are not drawn) of `file`'s root: each tree's expansion once,
+/// Counts the drawn primitives (cube, cone, cylinder, sphere, torus; a
+/// mesh is not drawn) of `file`'s root: each tree's expansion once,
 /// memoised, so a scene of billions costs as much as its file.
 pub fn count_primitives(file: &SceneFile) -> PrimitiveCounts {
     // Per tree: the drawn primitives written in it (inline trees included)
@@ -476,7 +476,10 @@ pub fn count_primitives(file: &SceneFile) -> PrimitiveCounts {
         for b in blocks {
             match &b.object {
                 Node::Primitive { shape, .. } => {
-                    *own += u64::from(matches!(shape, Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere))
+                    *own += u64::from(matches!(
+                        shape,
+                        Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere | Shape::Torus
+                    ))
                 }
                 Node::Tree { blocks, .. } => walk(blocks, own, masters),
                 Node::Master { tree, .. } => masters.push(*tree),

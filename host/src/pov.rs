@@ -233,7 +233,9 @@ impl Writer<'_> {
                     Shape::Sphere => "sphere { <0, 0, 0>, 0.5",
                     Shape::Cylinder => "cylinder { <0, -0.5, 0>, <0, 0.5, 0>, 0.5",
                     Shape::Cone => "cone { <0, -0.5, 0>, 0.5, <0, 0.5, 0>, 0",
-                    Shape::Torus | Shape::Mesh { .. } => {
+                    // POV-Ray's torus lies about y too: major radius (the ring), then minor (the tube).
+                    Shape::Torus => "torus { 0.375, 0.125",
+                    Shape::Mesh { .. } => {
                         self.note(format!(
                             "a {} is left out (at {loc} and any others), as raycast leaves it out",
                             shape.name()
@@ -418,6 +420,18 @@ mod tests {
         // POV-Ray's matrix: the columns in turn, the translation last.
         assert!(e.sdl.contains("object { Raycast_tree_0 matrix <1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 2, 3> }"), "{}", e.sdl);
         assert!(e.sdl.contains("object { Raycast_tree_1 matrix <2, 0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0> }"), "{}", e.sdl);
+        assert!(e.notes.is_empty(), "{:?}", e.notes);
+    }
+
+    /// POV-Ray's torus lies about y as raycast's does: ring radius, then tube radius, placed by the matrix.
+    #[test]
+    fn a_torus_is_povrays_torus() {
+        let e = exported(
+            r#"<scenefile><object type="tree" name="root"><transblock><scale x="2" y="1" z="2"/>
+              <object type="primitive" name="torus"/></transblock></object></scenefile>"#,
+        );
+        assert!(e.sdl.contains("torus { 0.375, 0.125 texture {"), "{}", e.sdl);
+        assert!(e.sdl.contains("matrix <2, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0> }"), "{}", e.sdl);
         assert!(e.notes.is_empty(), "{:?}", e.notes);
     }
 

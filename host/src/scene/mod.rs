@@ -11,7 +11,7 @@ pub mod mutate;
 mod mutation_tests;
 pub mod parse;
 
-pub use bounds::{scene_bounds, Bounds};
+pub use bounds::{scene_bounds, shape_box, Bounds};
 pub use camera_control::CameraControl;
 pub use flatten::{flatten, load, FlattenLimits};
 pub use model::*;

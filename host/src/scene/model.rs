@@ -252,7 +252,7 @@ pub enum Shape {
     Cone,
     Cylinder,
     Sphere,
-    /// Parsed and kept; not rendered (no canonical size is defined).
+    /// About the y axis, ring radius 0.375, tube radius 0.125 (docs/scene-format.md#torus).
     Torus,
     /// Parsed and kept; not rendered yet. The OBJ path as written.
     Mesh {

@@ -2064,6 +2064,23 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
+    /// The torus has one canonical size (docs/scene-format.md#torus): a
+    /// radius written on it is warned about and ignored, a misspelling is
+    /// an error with a suggestion, and it takes a material as any shape.
+    #[test]
+    fn torus_takes_no_size_and_a_material() {
+        let f = ok(&block("<object type=\"primitive\" name=\"torus\" radius=\"2\" tube=\"0.1\"/>"));
+        assert_eq!(*first_prim(&f).0, Shape::Torus);
+        warned_at(&f, 4, 39, "unknown attribute `radius` on <object>");
+        warned_at(&f, 4, 50, "unknown attribute `tube` on <object>");
+        bad_at(&block("<object type=\"primitive\" name=\"tours\"/>"), 4, 26, "did you mean \"torus\"?");
+        bad_at(&block("<object type=\"primitive\" name=\"Torus\"/>"), 4, 26, "unknown primitive \"Torus\"");
+        let f = ok(&prim("torus", "<diffuse r=\"0.5\" g=\"0.25\" b=\"1\"/><reflective r=\"1\" g=\"1\" b=\"1\"/>"));
+        let (shape, m) = first_prim(&f);
+        assert_eq!((shape, m.diffuse, m.reflective), (&Shape::Torus, [0.5, 0.25, 1.0], [1.0, 1.0, 1.0]));
+        bad_at(&prim("torus", "<diffuse r=\"x\" g=\"0\" b=\"0\"/>"), 5, 10, "");
+    }
+
     #[test]
     fn primitive_shapes() {
         for (name, shape) in [
