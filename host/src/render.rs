@@ -251,6 +251,8 @@ pub struct Specialization {
     keeps: [bool; FEATURES],
     /// The walk's levels kept in registers, so many, or None: in arrays.
     register_levels: Option<u32>,
+    /// SPEC_MESHES (after the walk's form, so kept apart from `keeps`).
+    meshes: bool,
 }
 
 /// The constants that turn a feature's code on or off: those before the walk's form.
@@ -258,7 +260,7 @@ const FEATURES: usize = layout::SPEC_LEVELS_IN_REGISTERS as usize;
 
 impl Specialization {
     /// Everything kept, the levels in arrays: the shaders' defaults, what the CPU build runs.
-    pub const ALL: Specialization = Specialization { keeps: [true; FEATURES], register_levels: None };
+    pub const ALL: Specialization = Specialization { keeps: [true; FEATURES], register_levels: None, meshes: true };
 
     /// What rendering `data` with `frame` can reach.
     pub fn of(data: &FrameData, frame: &layout::Frame) -> Specialization {
@@ -273,6 +275,7 @@ impl Specialization {
         }
         values[layout::SPEC_LEVELS_IN_REGISTERS as usize] = u32::from(self.register_levels.is_some());
         values[layout::SPEC_REGISTER_LEVELS as usize] = self.register_levels.unwrap_or(1);
+        values[layout::SPEC_MESHES as usize] = u32::from(self.meshes);
         values
     }
 
@@ -280,7 +283,12 @@ impl Specialization {
     /// "keeps spheres, instances, …; leaves out cubes, …".
     pub fn describe(&self) -> String {
         let names = |on: bool| -> Vec<&str> {
-            SPEC_NAMES.iter().filter(|(id, _)| self.keeps[*id as usize] == on).map(|(_, name)| *name).collect()
+            let mut v: Vec<&str> =
+                SPEC_NAMES.iter().filter(|(id, _)| self.keeps[*id as usize] == on).map(|(_, name)| *name).collect();
+            if self.meshes == on {
+                v.push("meshes");
+            }
+            v
         };
         let (kept, out) = (names(true), names(false));
         let list = |v: &[&str]| if v.is_empty() { "nothing".to_string() } else { v.join(", ") };
@@ -349,6 +357,8 @@ pub struct SceneFeatures {
     sphere_records: bool,
     /// The levels the walk enters (FrameData::levels).
     levels: u32,
+    /// A mesh primitive (SHAPE_MESH).
+    meshes: bool,
 }
 
 impl SceneFeatures {
@@ -359,7 +369,7 @@ impl SceneFeatures {
             cubes: shape(cube),
             cones: shape(cone),
             cylinders: shape(cylinder),
-            spheres: data.primitives.iter().any(|p| ![cube, cone, cylinder].contains(&p.shape)),
+            spheres: data.primitives.iter().any(|p| ![cube, cone, cylinder, layout::SHAPE_MESH].contains(&p.shape)),
             instances: !data.instances.is_empty(),
             positioned_lights: data.lights.iter().any(|l| l.kind != layout::LIGHT_DIRECTIONAL),
             spot_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_SPOT),
@@ -374,6 +384,7 @@ impl SceneFeatures {
             box_records: record_kind(data, 0),
             sphere_records: record_kind(data, layout::RECORD_SPHERE),
             levels: data.levels,
+            meshes: shape(layout::SHAPE_MESH),
         }
     }
 
@@ -412,7 +423,7 @@ impl SceneFeatures {
         // count below the scene's would drop its deeper levels).
         debug_assert!((1..=layout::MAX_LEVELS).contains(&self.levels), "{} levels", self.levels);
         let register_levels = Some(self.levels.max(1));
-        Specialization { keeps: on, register_levels }
+        Specialization { keeps: on, register_levels, meshes: self.meshes }
     }
 }
 

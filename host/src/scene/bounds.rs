@@ -40,7 +40,7 @@ impl Bounds {
 
 /// The world-space box around every primitive: each primitive's
 /// world_from_object applied to the corners of the canonical box
-/// [-0.5, 0.5]³ (which holds all four canonical shapes), group by group
+/// [-0.5, 0.5]³ (which holds all four canonical shapes) or a mesh's box, group by group
 /// through the instances without expanding them. None without primitives.
 pub fn scene_bounds(scene: &Scene) -> Option<Bounds> {
     use crate::bvh::Aabb;
@@ -52,7 +52,7 @@ pub fn scene_bounds(scene: &Scene) -> Option<Bounds> {
         let group = &scene.groups[g];
         let mut b = Aabb::EMPTY;
         for p in &group.primitives {
-            b = b.union(Aabb::UNIT.transformed(&p.world_from_object));
+            b = b.union(scene.object_box(&p.shape).transformed(&p.world_from_object));
         }
         for i in &group.instances {
             b = b.union(boxes[i.group as usize].transformed(&i.parent_from_group));

@@ -3,11 +3,13 @@
 //! matrix within the group) and [`Instance`]s of other groups. Nothing is
 //! expanded: memory grows with the file, not with the expansion.
 
+use super::mesh::{self, Mesh};
 use super::model::*;
 use super::parse::{parse_file, ParseOptions};
 use glam::DMat4;
 use std::collections::{HashMap, HashSet};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Limits of [`flatten`].
 #[derive(Clone, Debug)]
@@ -104,6 +106,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
     }
 
     let mut warnings = file.warnings.clone();
+    let mut meshes: Vec<Arc<Mesh>> = Vec::new();
     let mut materials: Vec<Material> = Vec::new();
     let mut material_of: HashMap<*const Material, u32> = HashMap::new();
     let mut skipped: HashSet<(u32, u32)> = HashSet::new();
@@ -186,6 +189,13 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                         continue;
                     }
                     let inverse = renderable_inverse(&ctm, "primitive").map_err(|e| err(Some(b.loc.clone()), e))?;
+                    let shape = match shape {
+                        Shape::Mesh { file: name, resolved } => {
+                            let path = load_mesh(name, resolved.as_deref(), loc, &mut meshes)?;
+                            Shape::Mesh { file: name.clone(), resolved: Some(path) }
+                        }
+                        other => other.clone(),
+                    };
                     let key = material as *const Material;
                     let index = match material_of.get(&key) {
                         Some(&i) => i,
@@ -199,7 +209,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                         }
                     };
                     group.primitives.push(Primitive {
-                        shape: shape.clone(),
+                        shape,
                         material: index,
                         world_from_object: ctm,
                         object_from_world: inverse,
@@ -220,12 +230,37 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
         lights: file.lights.clone(),
         groups,
         materials,
+        meshes,
         warnings,
     })
 }
 
 fn drawn(shape: &Shape) -> bool {
-    !matches!(shape, Shape::Torus | Shape::Mesh { .. })
+    !matches!(shape, Shape::Torus)
+}
+
+/// The canonical path of the mesh file `name` (found at `resolved` by the
+/// parser), loading it into `meshes` the first time: a file drawn by any
+/// number of primitives is read once.
+fn load_mesh(
+    name: &str,
+    resolved: Option<&Path>,
+    loc: &SourceLoc,
+    meshes: &mut Vec<Arc<Mesh>>,
+) -> Result<PathBuf, SceneError> {
+    let missing = |message: String| SceneError { loc: Some(loc.clone()), file: loc.file.clone(), message };
+    let Some(found) = resolved else {
+        return Err(missing(format!(
+            "mesh file \"{name}\" not found next to the scene, in an --assets folder or in the folders above the scene's"
+        )));
+    };
+    let path = std::fs::canonicalize(found).unwrap_or_else(|_| found.to_path_buf());
+    if !meshes.iter().any(|m| m.path == path) {
+        let mut mesh = mesh::load(found, loc)?;
+        mesh.path = path.clone();
+        meshes.push(Arc::new(mesh));
+    }
+    Ok(path)
 }
 
 impl Group {

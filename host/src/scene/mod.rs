@@ -4,6 +4,7 @@
 pub mod bounds;
 pub mod camera_control;
 pub mod flatten;
+pub mod mesh;
 pub mod model;
 #[doc(hidden)]
 pub mod mutate;
