@@ -84,7 +84,7 @@ precise vec3 cross3(vec3 a, vec3 b) {
 // is mesh_nodes[root], at t <= t_max (on equal t the lowest triangle index,
 // so that the answer does not depend on the order of the walk): t (T_FAR
 // on a miss), the object-space normal (not unit) and the texture
-// coordinates. With FLAG_NO_BVH the boxes are ignored and every triangle
+// coordinates (the normal faces the ray: below). With FLAG_NO_BVH the boxes are ignored and every triangle
 // is tested: the same answer.
 struct MeshHit {
     float t;
@@ -137,11 +137,16 @@ MeshHit intersect_mesh(uint root, Ray r, float t_max) {
     MeshVertex a = mesh_vertices[tri.a];
     MeshVertex b = mesh_vertices[tri.b];
     MeshVertex c = mesh_vertices[tri.c];
+    // Two-sided: the normal turned to the side the ray comes from (by the
+    // face's own normal), so that a mesh seen from inside (a room) is lit
+    // from inside.
+    precise vec3 face = cross3(xyz(b.position) - xyz(a.position), xyz(c.position) - xyz(a.position));
+    bool back = dot3(face, r.direction) > 0.0f;
     if ((tri.flags & MESH_SMOOTH) != 0u) {
         precise vec3 n = best_weights.y * xyz(a.normal) + best_weights.z * xyz(b.normal) + best_weights.w * xyz(c.normal);
-        best.normal = n;
+        best.normal = back ? -n : n;
     } else {
-        best.normal = cross3(xyz(b.position) - xyz(a.position), xyz(c.position) - xyz(a.position));
+        best.normal = back ? -face : face;
     }
     precise vec2 uv = best_weights.y * vec2(a.position.w, a.normal.w) + best_weights.z * vec2(b.position.w, b.normal.w) +
                       best_weights.w * vec2(c.position.w, c.normal.w);

@@ -680,7 +680,10 @@ fn pack_meshes(scene: &Scene) -> Result<PackedMeshes, Error> {
     let mut out = PackedMeshes::default();
     for mesh in &scene.meshes {
         let too_many = |what: &str| {
-            Error::Scene(format!("{}: error: the meshes together have more {what} than the shader can index", mesh.path.display()))
+            Error::Scene(format!(
+                "{}: error: the meshes together have more {what} than the shader can index",
+                mesh.path.display()
+            ))
         };
         let vertex_base = u32::try_from(out.vertices.len()).map_err(|_| too_many("vertices"))?;
         let triangle_base = u32::try_from(out.triangles.len()).map_err(|_| too_many("triangles"))?;
@@ -710,12 +713,24 @@ fn pack_meshes(scene: &Scene) -> Result<PackedMeshes, Error> {
         for node in &built.nodes {
             let (lo, hi) = node.bounds.padded_f32();
             let first = if node.count == 0 { node_base + node.first } else { triangle_base + node.first };
-            out.nodes.push(layout::BvhNode { lo, hi, first, count: node.count, axis: node.axis, primitives: node.count });
+            out.nodes.push(layout::BvhNode {
+                lo,
+                hi,
+                first,
+                count: node.count,
+                axis: node.axis,
+                primitives: node.count,
+            });
         }
         for &t in &built.order {
             let [a, b, c] = mesh.triangles[t as usize];
             let flags = if mesh.smooth[t as usize] { layout::MESH_SMOOTH } else { 0 };
-            out.triangles.push(layout::MeshTriangle { a: vertex_base + a, b: vertex_base + b, c: vertex_base + c, flags });
+            out.triangles.push(layout::MeshTriangle {
+                a: vertex_base + a,
+                b: vertex_base + b,
+                c: vertex_base + c,
+                flags,
+            });
         }
         for (i, p) in mesh.positions.iter().enumerate() {
             let n = mesh.normals.get(i).copied().unwrap_or([0.0; 3]);

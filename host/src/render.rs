@@ -285,7 +285,8 @@ impl Specialization {
         let names = |on: bool| -> Vec<&str> {
             let mut v: Vec<&str> =
                 SPEC_NAMES.iter().filter(|(id, _)| self.keeps[*id as usize] == on).map(|(_, name)| *name).collect();
-            if self.meshes == on {
+            // Named where kept only: the lists of scenes without meshes read as before.
+            if self.meshes && on {
                 v.push("meshes");
             }
             v

@@ -535,21 +535,38 @@ mod tests {
     }
 
     #[test]
-    fn torus_and_mesh_skipped_with_one_warning_per_source() {
+    fn torus_skipped_with_one_warning_per_source() {
         let top =
             "<object type=\"tree\" name=\"m\"><transblock><object type=\"primitive\" name=\"torus\"/></transblock>\
-            <transblock><object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\"/></transblock></object>\n";
+            <transblock><object type=\"primitive\" name=\"cube\"/></transblock></object>\n";
         let body = "<transblock><object type=\"master\" name=\"m\"/></transblock>".repeat(3)
             + "<transblock><object type=\"primitive\" name=\"sphere\"/></transblock>";
         let s = scene(&doc(top, &body));
-        assert_eq!(s.flat_primitives().len(), 1);
-        assert_eq!(s.materials.len(), 1);
-        assert_eq!(s.flat_primitives()[0].material, 0);
+        assert_eq!(s.flat_primitives().len(), 4);
+        assert_eq!(s.materials.len(), 2);
         let torus: Vec<&Warning> = s.warnings.iter().filter(|w| w.message.contains("torus")).collect();
         assert_eq!(torus.len(), 1);
         assert_eq!(torus[0].message, "torus is not rendered (no canonical size is defined); skipped");
         assert_eq!((torus[0].loc.line, torus[0].loc.col), (2, 42));
-        assert_eq!(s.warnings.iter().filter(|w| w.message.contains("mesh")).count(), 1);
+    }
+
+    /// A mesh whose file is not found is an error at its element; one
+    /// found is loaded once however many primitives and instances draw it.
+    #[test]
+    fn meshes_are_loaded_once_and_a_missing_one_is_an_error() {
+        let mesh = "<transblock><object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\"/></transblock>";
+        let f = parse(&doc("", mesh));
+        let e = flatten(&f, &FlattenLimits::default()).unwrap_err().to_string();
+        assert!(e.contains("error: mesh file \"a.obj\" not found"), "{e}");
+        let dir = std::env::temp_dir().join(format!("raycast-flatten-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let top = format!("<object type=\"tree\" name=\"m\">{mesh}{mesh}</object>\n");
+        let body = "<transblock><object type=\"master\" name=\"m\"/></transblock>".repeat(3) + mesh;
+        let path = dir.join("t.xml");
+        std::fs::write(&path, doc(&top, &body)).unwrap();
+        let s = load(&path, &ParseOptions::default(), &FlattenLimits::default()).unwrap();
+        assert_eq!((s.flat_primitives().len(), s.meshes.len(), s.meshes[0].triangles.len()), (7, 1, 1));
     }
 
     #[test]

@@ -86,10 +86,18 @@ pub fn load(path: &Path, used_at: &SourceLoc) -> Result<Mesh, SceneError> {
             mesh.bounds = mesh.bounds.union(Aabb { lo: d, hi: d });
             mesh.positions.push(p);
             if any_normals {
-                mesh.normals.push(if smooth { [m.normals[3 * v], m.normals[3 * v + 1], m.normals[3 * v + 2]] } else { [0.0; 3] });
+                mesh.normals.push(if smooth {
+                    [m.normals[3 * v], m.normals[3 * v + 1], m.normals[3 * v + 2]]
+                } else {
+                    [0.0; 3]
+                });
             }
             if any_uvs {
-                let uv = if m.texcoords.len() == 2 * count { [m.texcoords[2 * v], m.texcoords[2 * v + 1]] } else { [0.0; 2] };
+                let uv = if m.texcoords.len() == 2 * count {
+                    [m.texcoords[2 * v], m.texcoords[2 * v + 1]]
+                } else {
+                    [0.0; 2]
+                };
                 mesh.uvs.push(uv);
             }
         }
@@ -151,8 +159,11 @@ fn scan(path: &Path, text: &[u8], used_at: &SourceLoc) -> Result<(), SceneError>
                     if parts.len() > 3 || parts[0].is_empty() {
                         return Err(bad(format!("face corner \"{c}\" is not v, v/vt, v//vn or v/vt/vn")));
                     }
-                    for (k, (part, have, what)) in
-                        parts.iter().zip([(v, "vertices (v)"), (vt, "texture coordinates (vt)"), (vn, "normals (vn)")]).map(|(p, (h, w))| (p, h, w)).enumerate()
+                    for (k, (part, have, what)) in parts
+                        .iter()
+                        .zip([(v, "vertices (v)"), (vt, "texture coordinates (vt)"), (vn, "normals (vn)")])
+                        .map(|(p, (h, w))| (p, h, w))
+                        .enumerate()
                     {
                         if part.is_empty() && k > 0 {
                             continue;
@@ -197,7 +208,8 @@ mod tests {
         assert_eq!((m.positions.len(), m.triangles.len(), m.normals.len(), m.uvs.len()), (4, 2, 0, 0));
         assert_eq!(m.smooth, vec![false, false]);
         assert_eq!(m.bounds.hi, DVec3::new(1.0, 1.0, 0.0));
-        let m = load_text("smooth.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvt 0.5 1\nf 1/1/1 2/1/1 3/1/1\n").unwrap();
+        let m =
+            load_text("smooth.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvt 0.5 1\nf 1/1/1 2/1/1 3/1/1\n").unwrap();
         assert_eq!((m.triangles.len(), m.normals.len(), m.uvs.len()), (1, 3, 3));
         assert_eq!((m.smooth[0], m.normals[0], m.uvs[2]), (true, [0.0, 0.0, 1.0], [0.5, 1.0]));
     }
