@@ -17,15 +17,21 @@
 #define BINDING_MATERIALS 2  // Material[]
 #define BINDING_LIGHTS 3     // Light[]
 #define BINDING_PIXELS 4     // PixelOut[], written by the kernel
-// 5 to 7: the preview kernel's own (shaders/preview.h)
+// 5 to 7 and 19: the preview kernel's own (shaders/preview.h)
 #define BINDING_TEXTURES 8   // Texture[]
 #define BINDING_TEXELS 9     // Texel[]: every texture's texels, row 0 at the top
 #define BINDING_NODES 10     // BvhNode[]: every group's hierarchy
 #define BINDING_LEAF_ITEMS 11 // LeafItem[]: what the leaves hold
 #define BINDING_INSTANCES 12 // Instance[]: placed copies of a group (a master tree)
 // 20, 21: the shader-test harness's own
-#define BINDING_COUNT 13     // bindings 0 .. BINDING_COUNT-1 of the scene and the pixels
 #define BINDING_SAMPLE_SUMS 13 // SampleSum[]: render.comp's own, read and written
+// Triangle meshes (docs/scene-format.md#triangle-meshes), storage buffers in
+// every kernel (the uniform kernels too): each mesh file once, however many
+// primitives draw it.
+#define BINDING_MESH_NODES 14     // BvhNode[]: every mesh's own hierarchy, in the mesh's space
+#define BINDING_MESH_TRIANGLES 15 // MeshTriangle[]: every mesh's triangles, in its leaves' order
+#define BINDING_MESH_VERTICES 16  // MeshVertex[]: every mesh's vertices
+#define BINDING_COUNT 17     // bindings 0 .. BINDING_COUNT-1 of the scene and the pixels (13: render.comp's own)
 #define BINDING_COURSE_SUMS 22 // CourseSum[]: render.comp's own under FLAG_COURSE_SAMPLING
 
 #define MAX_LEVELS 16  // deepest nesting of instances
@@ -102,6 +108,7 @@
 #define SPEC_LEVELS_IN_REGISTERS 19 // a bool
 #define SPEC_REGISTER_LEVELS 20     // a count: the levels the walk keeps, 1 to MAX_LEVELS
 #define SPEC_TORI 21              // a torus (SHAPE_TORUS)
+#define SPEC_MESHES 22            // a mesh primitive (SHAPE_MESH)
 #define SPEC_COURSE_SAMPLING 26   // FLAG_COURSE_SAMPLING
 #define SPEC_COUNT 27
 
@@ -111,6 +118,7 @@
 #define SHAPE_CYLINDER 2u
 #define SHAPE_SPHERE 3u
 #define SHAPE_TORUS 4u
+#define SHAPE_MESH 5u // a triangle mesh: Primitive.mesh is its root in the mesh nodes
 
 // Light.kind
 #define LIGHT_POINT 0u
@@ -188,7 +196,7 @@ struct Primitive {
     uint shape;
     uint material;
     uint id_offset; // its id is the group's first id plus this
-    uint pad1;
+    uint mesh;      // SHAPE_MESH: its mesh's root node in mesh_nodes; 0 otherwise
 };
 
 // A node of a group's bounding volume hierarchy, in the group's space.
@@ -237,6 +245,33 @@ struct Instance {
     uint id_offset; // ids of its primitives start at the parent's first id plus this
     uint pad0;
     uint pad1;
+};
+
+// A mesh's hierarchy is a BvhNode tree (count > 0: a leaf of `count`
+// triangles at mesh_triangles[first ..); count = 0: children first and
+// first + 1, split along axis), its boxes in the mesh's own space (the OBJ
+// file's coordinates). The walk holds at most MESH_STACK_SIZE entries: the
+// host refuses a deeper tree.
+#define MESH_STACK_SIZE 64
+// MeshTriangle.flags: interpolate the vertices' normals (the file gave
+// them); otherwise the face's own normal, (b - a) x (c - a).
+#define MESH_SMOOTH 1u
+
+// A triangle: its vertices' indices in mesh_vertices (the mesh's offset
+// added), counter-clockwise seen from outside as OBJ writes them.
+struct MeshTriangle {
+    uint a;
+    uint b;
+    uint c;
+    uint flags;
+};
+
+// A vertex: position (w: its texture u) and normal (w: its texture v,
+// already flipped so that v = 0 is the image's top row; u = v = 0 where
+// the file gives no coordinates).
+struct MeshVertex {
+    vec4 position;
+    vec4 normal;
 };
 
 struct Material {

@@ -12,7 +12,7 @@
 #define BINDING_PREVIEW 5 // PreviewFrame (one)
 #define BINDING_ACCUM 6   // AccumPixel[], one per pixel, read and written
 #define BINDING_DISPLAY 7 // rgba8 storage image, copied to the window
-#define BINDING_STATUS 14 // PreviewStatus (one), read and written
+#define BINDING_STATUS 19 // PreviewStatus (one), read and written (after the meshes' 14 to 16)
 
 // The preview kernel's specialization constant after layout.h's SPEC_*
 // (SPEC_COUNT): set, the host has drawn the pixels (`raycast preview

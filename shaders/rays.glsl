@@ -21,7 +21,7 @@ struct SceneHit {
     float t;       // T_FAR on a miss
     uint id;       // primitive index, NO_HIT on a miss
     vec3 normal;   // world-space unit normal
-    vec3 p_object; // the hit point in the primitive's object space
+    vec3 p_object; // the hit point in the primitive's object space; a mesh's (u, v, 0)
     vec3 n_object; // its object-space normal as the shape test gave it (not unit)
     uint material; // the hit primitive's material and shape
     uint shape;

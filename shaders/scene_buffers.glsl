@@ -122,6 +122,7 @@ layout(constant_id = SPEC_BOX_RECORDS) const bool HAS_BOX_RECORDS = true;
 layout(constant_id = SPEC_SPHERE_RECORDS) const bool HAS_SPHERE_RECORDS = true;
 layout(constant_id = SPEC_AOVS) const bool HAS_AOVS = true;
 layout(constant_id = SPEC_TORI) const bool HAS_TORI = true;
+layout(constant_id = SPEC_MESHES) const bool HAS_MESHES = true;
 layout(constant_id = SPEC_COURSE_SAMPLING) const bool HAS_COURSE_SAMPLING = true;
 // The walk's form (layout.h): its levels in arrays unless LEVELS_IN_REGISTERS,
 // then REGISTER_LEVELS of them in registers (used only in comparisons with
@@ -132,5 +133,10 @@ layout(constant_id = SPEC_REGISTER_LEVELS) const uint REGISTER_LEVELS = 1u;
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };
 layout(std430, binding = BINDING_TEXELS) readonly buffer TexelBlock { Texel texels[]; };
+// Triangle meshes: storage buffers in every kernel (a mesh can outgrow the
+// images, and lavapipe's branch per lane is paid only inside a mesh).
+layout(std430, binding = BINDING_MESH_NODES) readonly buffer MeshNodeBlock { BvhNode mesh_nodes[]; };
+layout(std430, binding = BINDING_MESH_TRIANGLES) readonly buffer MeshTriangleBlock { MeshTriangle mesh_triangles[]; };
+layout(std430, binding = BINDING_MESH_VERTICES) readonly buffer MeshVertexBlock { MeshVertex mesh_vertices[]; };
 
 #endif

@@ -12,6 +12,9 @@ precise float around_y(vec3 p) {
 
 // (u, v) of an object-space hit point p with the shape test's normal n.
 precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
+    if (HAS_MESHES && shape == SHAPE_MESH) {
+        return vec2(p.x, p.y); // the mesh's own coordinates (traversal.glsl, primitive_hit)
+    }
     if (HAS_CUBES && shape == SHAPE_CUBE) {
         if (n.x > 0.0f) {
             return vec2(0.5f - p.z, 0.5f - p.y);

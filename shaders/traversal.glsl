@@ -73,17 +73,31 @@ bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
     return dot3(perp, perp) <= rr && (tc >= 0.0f || tc * tc * dd <= rr) && (past <= 0.0f || past * past * dd <= rr);
 }
 
+#include "shape_mesh.glsl"
+
 // best, or the hit of ray lr (in the space of the primitive's group) with
 // primitive `item` when it is nearer (on equal t, when its id, first_id
 // plus its offset, is lower): its t, id, item and object-space point and
 // normal. The walk finishes the hit it keeps after its loop (the world
 // normal, material and shape).
+// A mesh's hit keeps its texture coordinates (u, v, 0) where the others
+// keep their point (surface_uv reads them back).
 SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id) {
     Ray local = ray_through(primitive_at(item).object_from_world, lr);
-    ShapeHit h = intersect_shape(primitive_at(item).shape, local);
+    ShapeHit h;
+    bool mesh = HAS_MESHES && primitive_at(item).shape == SHAPE_MESH;
+    vec2 mesh_uv = vec2(0.0f, 0.0f);
+    if (mesh) {
+        MeshHit m = intersect_mesh(primitive_at(item).mesh, local, best.t);
+        h.t = m.t;
+        h.normal = m.normal;
+        mesh_uv = m.uv;
+    } else {
+        h = intersect_shape(primitive_at(item).shape, local);
+    }
     uint id = first_id + primitive_at(item).id_offset;
     if (h.t < best.t || (h.t == best.t && best.id != NO_HIT && id < best.id)) {
-        precise vec3 p_object = local.origin + h.t * local.direction;
+        precise vec3 p_object = mesh ? vec3(mesh_uv, 0.0f) : local.origin + h.t * local.direction;
         best.t = h.t;
         best.id = id;
         best.item = item;

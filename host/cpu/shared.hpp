@@ -60,6 +60,9 @@ inline thread_local RAYCAST_SCENE_ARRAY(Texel) texels;
 inline thread_local RAYCAST_SCENE_ARRAY(BvhNode) nodes;
 inline thread_local RAYCAST_SCENE_ARRAY(LeafItem) leaf_items;
 inline thread_local RAYCAST_SCENE_ARRAY(Instance) instances;
+inline thread_local RAYCAST_SCENE_ARRAY(BvhNode) mesh_nodes;
+inline thread_local RAYCAST_SCENE_ARRAY(MeshTriangle) mesh_triangles;
+inline thread_local RAYCAST_SCENE_ARRAY(MeshVertex) mesh_vertices;
 #undef RAYCAST_SCENE_ARRAY
 
 // Element i of primitives, nodes and instances, as scene_buffers.glsl reads them.
@@ -91,6 +94,9 @@ struct Scene {
     const BvhNode* nodes;
     const LeafItem* leaf_items;
     const Instance* instances;
+    const BvhNode* mesh_nodes;
+    const MeshTriangle* mesh_triangles;
+    const MeshVertex* mesh_vertices;
 };
 
 inline void bind_scene(const Scene& s) {
@@ -103,6 +109,9 @@ inline void bind_scene(const Scene& s) {
     nodes = s.nodes;
     leaf_items = s.leaf_items;
     instances = s.instances;
+    mesh_nodes = s.mesh_nodes;
+    mesh_triangles = s.mesh_triangles;
+    mesh_vertices = s.mesh_vertices;
 }
 
 // Binds the kernel's buffers (buffers[b] at binding b, layout.h BINDING_*,
@@ -118,6 +127,9 @@ inline Scene bind_buffers(const void* const* buffers) {
     s.nodes = static_cast<const BvhNode*>(buffers[BINDING_NODES]);
     s.leaf_items = static_cast<const LeafItem*>(buffers[BINDING_LEAF_ITEMS]);
     s.instances = static_cast<const Instance*>(buffers[BINDING_INSTANCES]);
+    s.mesh_nodes = static_cast<const BvhNode*>(buffers[BINDING_MESH_NODES]);
+    s.mesh_triangles = static_cast<const MeshTriangle*>(buffers[BINDING_MESH_TRIANGLES]);
+    s.mesh_vertices = static_cast<const MeshVertex*>(buffers[BINDING_MESH_VERTICES]);
     bind_scene(s);
     return s;
 }
@@ -145,6 +157,7 @@ const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
 const bool HAS_AOVS = true;
 const bool HAS_TORI = true;
+const bool HAS_MESHES = true;
 const bool HAS_COURSE_SAMPLING = true;
 // The walk's levels in arrays (layout.h, SPEC_LEVELS_IN_REGISTERS): the
 // CPU build is compiled once for every scene, so it cannot hold a scene's

@@ -62,6 +62,8 @@ pub fn check_layouts() -> Result<(), Error> {
         layout::BvhNode::layout(),
         layout::LeafItem::layout(),
         layout::Instance::layout(),
+        layout::MeshTriangle::layout(),
+        layout::MeshVertex::layout(),
         layout::PixelOut::layout(),
         layout::TraceStep::layout(),
         AccumPixel::layout(),

@@ -7,9 +7,7 @@ use crate::bvh::{self, Aabb};
 use crate::error::Error;
 use crate::image_io;
 use crate::layout::{self, Mat4, Vec4};
-use crate::scene::{
-    scene_bounds, shape_box, Bounds, Camera, Group, Instance, LightKind, Primitive, Scene, Shape, TextureRef,
-};
+use crate::scene::{scene_bounds, Bounds, Camera, Group, Instance, LightKind, Primitive, Scene, Shape, TextureRef};
 use glam::{DMat4, DVec3, DVec4};
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -280,6 +278,12 @@ pub struct FrameData {
     pub nodes: Vec<layout::BvhNode>,
     pub leaf_items: Vec<layout::LeafItem>,
     pub instances: Vec<layout::Instance>,
+    /// Every mesh's hierarchy, triangles and vertices (`pack_meshes`).
+    pub mesh_nodes: Vec<layout::BvhNode>,
+    pub mesh_triangles: Vec<layout::MeshTriangle>,
+    pub mesh_vertices: Vec<layout::MeshVertex>,
+    /// The meshes packed (each file once).
+    pub meshes: usize,
     /// Each scene group's root node in `nodes` (its nodes follow it, its
     /// inner nodes' children at `first` and `first + 1`); u32::MAX for a
     /// group with nothing to draw. Empty without a hierarchy.
@@ -302,7 +306,7 @@ impl FrameData {
     /// The scene's storage buffers other than the frame itself, as
     /// (binding, what it is for messages, bytes): the one list every kernel
     /// that includes raycast.glsl binds (shaders/scene_buffers.glsl).
-    pub fn scene_buffers(&self) -> [(u32, &'static str, &[u8]); 8] {
+    pub fn scene_buffers(&self) -> [(u32, &'static str, &[u8]); 11] {
         [
             (layout::BINDING_PRIMITIVES, "the primitives", bytemuck::cast_slice(&self.primitives)),
             (layout::BINDING_MATERIALS, "the materials", bytemuck::cast_slice(&self.materials)),
@@ -312,6 +316,9 @@ impl FrameData {
             (layout::BINDING_NODES, "the hierarchy's nodes", bytemuck::cast_slice(&self.nodes)),
             (layout::BINDING_LEAF_ITEMS, "the hierarchy's leaf items", bytemuck::cast_slice(&self.leaf_items)),
             (layout::BINDING_INSTANCES, "the instances", bytemuck::cast_slice(&self.instances)),
+            (layout::BINDING_MESH_NODES, "the meshes' nodes", bytemuck::cast_slice(&self.mesh_nodes)),
+            (layout::BINDING_MESH_TRIANGLES, "the meshes' triangles", bytemuck::cast_slice(&self.mesh_triangles)),
+            (layout::BINDING_MESH_VERTICES, "the meshes' vertices", bytemuck::cast_slice(&self.mesh_vertices)),
         ]
     }
 }
@@ -546,7 +553,11 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
         }
         None => scene,
     };
-    let packed = pack_groups(scene)?;
+    let mut packed = pack_groups(scene)?;
+    let meshes = pack_meshes(scene)?;
+    for p in packed.primitives.iter_mut().filter(|p| p.shape == layout::SHAPE_MESH) {
+        p.mesh = meshes.roots[p.mesh as usize];
+    }
     let build_time = start.elapsed();
 
     let materials = scene
@@ -577,7 +588,6 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
         })
         .collect::<Result<Vec<_>, Error>>()?;
     let (materials, material_index) = unique_materials(materials);
-    let mut packed = packed;
     for p in &mut packed.primitives {
         p.material = material_index[p.material as usize];
     }
@@ -670,6 +680,10 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
         nodes: packed.nodes,
         leaf_items: packed.leaf_items,
         instances: packed.instances,
+        mesh_nodes: meshes.nodes,
+        mesh_triangles: meshes.triangles,
+        mesh_vertices: meshes.vertices,
+        meshes: scene.meshes.len(),
         group_roots: packed.group_roots,
         levels: packed.levels,
         expanded: scene.primitive_count(),
@@ -677,6 +691,94 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
         build_time,
         notes,
     })
+}
+
+/// Every mesh of a scene as the device buffers hold them (layout.h,
+/// BINDING_MESH_*): each its own hierarchy, built once however many
+/// primitives draw it.
+#[derive(Default)]
+struct PackedMeshes {
+    nodes: Vec<layout::BvhNode>,
+    triangles: Vec<layout::MeshTriangle>,
+    vertices: Vec<layout::MeshVertex>,
+    /// Each mesh's root node.
+    roots: Vec<u32>,
+}
+
+/// Builds each mesh's hierarchy over its triangles (bvh.rs, the groups'
+/// builder: binned SAH, at most 4 triangles a leaf) and packs its nodes,
+/// its triangles in leaf order and its vertices, with global indices.
+fn pack_meshes(scene: &Scene) -> Result<PackedMeshes, Error> {
+    let mut out = PackedMeshes::default();
+    for mesh in &scene.meshes {
+        let too_many = |what: &str| {
+            Error::Scene(format!(
+                "{}: error: the meshes together have more {what} than the shader can index",
+                mesh.path.display()
+            ))
+        };
+        let vertex_base = u32::try_from(out.vertices.len()).map_err(|_| too_many("vertices"))?;
+        let triangle_base = u32::try_from(out.triangles.len()).map_err(|_| too_many("triangles"))?;
+        let node_base = u32::try_from(out.nodes.len()).map_err(|_| too_many("nodes"))?;
+        let bounds: Vec<Aabb> = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                t.iter().fold(Aabb::EMPTY, |b, &v| {
+                    let p = mesh.positions[v as usize];
+                    let d = DVec3::new(p[0].into(), p[1].into(), p[2].into());
+                    b.union(Aabb { lo: d, hi: d })
+                })
+            })
+            .collect();
+        let built = bvh::build(&bounds, bounds.len());
+        // The walk keeps at most depth + 1 entries (shape_mesh.glsl).
+        if built.depth as usize + 1 > layout::MESH_STACK_SIZE as usize {
+            return Err(Error::Scene(format!(
+                "{}: error: the mesh's hierarchy is {} deep, more than the shader's {} (degenerate triangles?)",
+                mesh.path.display(),
+                built.depth,
+                layout::MESH_STACK_SIZE - 1
+            )));
+        }
+        out.roots.push(node_base);
+        for node in &built.nodes {
+            let (lo, hi) = node.bounds.padded_f32();
+            let first = if node.count == 0 { node_base + node.first } else { triangle_base + node.first };
+            out.nodes.push(layout::BvhNode {
+                lo,
+                hi,
+                first,
+                count: node.count,
+                axis: node.axis,
+                primitives: node.count,
+            });
+        }
+        for &t in &built.order {
+            let [a, b, c] = mesh.triangles[t as usize];
+            let flags = if mesh.smooth[t as usize] { layout::MESH_SMOOTH } else { 0 };
+            out.triangles.push(layout::MeshTriangle {
+                a: vertex_base + a,
+                b: vertex_base + b,
+                c: vertex_base + c,
+                flags,
+            });
+        }
+        for (i, p) in mesh.positions.iter().enumerate() {
+            let n = mesh.normals.get(i).copied().unwrap_or([0.0; 3]);
+            // OBJ's v = 0 is the image's bottom row, the textures' top (textures.glsl).
+            let [u, v] = mesh.uvs.get(i).map_or([0.0, 0.0], |&[u, v]| [u, 1.0 - v]);
+            out.vertices.push(layout::MeshVertex { position: [p[0], p[1], p[2], u], normal: [n[0], n[1], n[2], v] });
+        }
+    }
+    if out.nodes.len() > layout::MAX_INDEX as usize || out.vertices.len() > layout::MAX_INDEX as usize {
+        return Err(Error::Scene(format!(
+            "{}: error: the scene's meshes need more nodes or vertices than the shader can index ({})",
+            scene.path.display(),
+            layout::MAX_INDEX
+        )));
+    }
+    Ok(out)
 }
 
 /// Scenes of one group with at most this many primitives skip the hierarchy.
@@ -701,7 +803,8 @@ fn shape_code(shape: &Shape) -> u32 {
         Shape::Cylinder => layout::SHAPE_CYLINDER,
         Shape::Torus => layout::SHAPE_TORUS,
         // flatten() keeps only drawn shapes.
-        Shape::Sphere | Shape::Mesh { .. } => layout::SHAPE_SPHERE,
+        Shape::Mesh { .. } => layout::SHAPE_MESH,
+        Shape::Sphere => layout::SHAPE_SPHERE,
     }
 }
 
@@ -794,21 +897,27 @@ fn placed_sphere(m: &DMat4, (centre, radius): (DVec3, f64)) -> (DVec3, f64) {
     (m.transform_point3(centre), radius * rows.sqrt())
 }
 
-/// The radius of a canonical shape's bounding sphere about its centre.
-fn shape_radius(shape: &Shape) -> f64 {
-    match shape {
+/// A shape's bounding sphere in object space: a canonical shape's about
+/// the origin, a mesh's about its box's centre.
+fn shape_sphere(scene: &Scene, shape: &Shape) -> (DVec3, f64) {
+    if let Some(i) = scene.mesh_index(shape) {
+        return scene.meshes[i].bounding_sphere();
+    }
+    let radius = match shape {
         Shape::Sphere | Shape::Torus => 0.5,
         Shape::Cone | Shape::Cylinder => 0.5f64.sqrt(),
         _ => 0.75f64.sqrt(),
-    }
+    };
+    (DVec3::ZERO, radius)
 }
 
-/// The farthest any point of a primitive (a canonical shape placed by
-/// `m`, within the unit cube) lies from `c`: the nearer of the unit cube's
-/// farthest corner and the shape's own bounding sphere placed by m.
-fn primitive_reach(shape: &Shape, m: &DMat4, c: DVec3) -> f64 {
-    let corners = shape_box(shape).corners().iter().map(|&k| (m.transform_point3(k) - c).length()).fold(0.0, f64::max);
-    let (centre, radius) = placed_sphere(m, (DVec3::ZERO, shape_radius(shape)));
+/// The farthest any point of a primitive (a shape placed by `m`, within
+/// its object box) lies from `c`: the nearer of the box's farthest corner
+/// and the shape's own bounding sphere placed by m.
+fn primitive_reach(scene: &Scene, shape: &Shape, m: &DMat4, c: DVec3) -> f64 {
+    let corners =
+        scene.object_box(shape).corners().iter().map(|&k| (m.transform_point3(k) - c).length()).fold(0.0, f64::max);
+    let (centre, radius) = placed_sphere(m, shape_sphere(scene, shape));
     corners.min((centre - c).length() + radius)
 }
 
@@ -817,15 +926,20 @@ fn primitive_reach(shape: &Shape, m: &DMat4, c: DVec3) -> f64 {
 /// from the box's towards the farthest item (Bădoiu and Clarkson's
 /// iteration, over each item's own bounding sphere), out to the farthest
 /// point of any item.
-fn bounding_sphere(group: &crate::scene::Group, bounds: &Aabb, spheres: &[(DVec3, f64)]) -> (DVec3, f64) {
+fn bounding_sphere(
+    scene: &Scene,
+    group: &crate::scene::Group,
+    bounds: &Aabb,
+    spheres: &[(DVec3, f64)],
+) -> (DVec3, f64) {
     let balls: Vec<(DVec3, f64)> = group
         .primitives
         .iter()
-        .map(|p| placed_sphere(&p.world_from_object, (DVec3::ZERO, shape_radius(&p.shape))))
+        .map(|p| placed_sphere(&p.world_from_object, shape_sphere(scene, &p.shape)))
         .chain(group.instances.iter().map(|i| placed_sphere(&i.parent_from_group, spheres[i.group as usize])))
         .collect();
     let reach = |c: DVec3| {
-        let prims = group.primitives.iter().map(|p| primitive_reach(&p.shape, &p.world_from_object, c));
+        let prims = group.primitives.iter().map(|p| primitive_reach(scene, &p.shape, &p.world_from_object, c));
         let insts = balls[group.primitives.len()..].iter().map(|(b, r)| (*b - c).length() + r);
         prims.chain(insts).fold(0.0, f64::max)
     };
@@ -977,6 +1091,7 @@ pub(crate) fn fit_nesting(scene: &Scene) -> Result<Option<(Scene, String)>, Erro
         lights: scene.lights.clone(),
         groups: kept,
         materials: scene.materials.clone(),
+        meshes: scene.meshes.clone(),
         warnings: scene.warnings.clone(),
     };
     Ok(Some((written_out, note)))
@@ -1030,7 +1145,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, Error> {
         let bounds: Vec<Aabb> = group
             .primitives
             .iter()
-            .map(|p| shape_box(&p.shape).transformed(&p.world_from_object))
+            .map(|p| scene.object_box(&p.shape).transformed(&p.world_from_object))
             .chain(group.instances.iter().map(|i| group_bounds[i.group as usize].transformed(&i.parent_from_group)))
             .collect();
         let built = bvh::build(&bounds, np);
@@ -1041,7 +1156,7 @@ fn pack_groups(scene: &Scene) -> Result<Packed, Error> {
         group_root[g] = node_base;
         group_bounds[g] = built.nodes[0].bounds;
         if g != 0 {
-            group_sphere[g] = bounding_sphere(group, &built.nodes[0].bounds, &group_sphere);
+            group_sphere[g] = bounding_sphere(scene, group, &built.nodes[0].bounds, &group_sphere);
         }
         // Depth of each node, for the stack bound.
         let mut depth = vec![0u32; built.nodes.len()];
@@ -1156,7 +1271,8 @@ fn pack_groups(scene: &Scene) -> Result<Packed, Error> {
             shape: shape_code(&p.shape),
             material: p.material,
             id_offset: p.id_offset as u32,
-            pad1: 0,
+            // The mesh's index here; `build` makes it its root node.
+            mesh: scene.mesh_index(&p.shape).map_or(0, |i| i as u32),
         })
         .collect();
     let instances = groups

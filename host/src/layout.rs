@@ -51,7 +51,26 @@ pub struct Primitive {
     pub shape: u32,
     pub material: u32,
     pub id_offset: u32,
-    pub pad1: u32,
+    /// SHAPE_MESH: its mesh's root in the mesh nodes; 0 otherwise.
+    pub mesh: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct MeshTriangle {
+    pub a: u32,
+    pub b: u32,
+    pub c: u32,
+    pub flags: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct MeshVertex {
+    /// w: the texture u.
+    pub position: Vec4,
+    /// w: the texture v (0 at the image's top row).
+    pub normal: Vec4,
 }
 
 #[repr(C)]
@@ -295,7 +314,19 @@ impl Frame {
 
 impl Primitive {
     pub fn layout() -> StructLayout {
-        struct_layout!(Primitive, "Primitive", [object_from_world, shape, material, id_offset, pad1])
+        struct_layout!(Primitive, "Primitive", [object_from_world, shape, material, id_offset, mesh])
+    }
+}
+
+impl MeshTriangle {
+    pub fn layout() -> StructLayout {
+        struct_layout!(MeshTriangle, "MeshTriangle", [a, b, c, flags])
+    }
+}
+
+impl MeshVertex {
+    pub fn layout() -> StructLayout {
+        struct_layout!(MeshVertex, "MeshVertex", [position, normal])
     }
 }
 
@@ -450,6 +481,9 @@ pub fn scene_bindings() -> Vec<BindingLayout> {
         BindingLayout::array(BINDING_NODES, BvhNode::layout()),
         BindingLayout::array(BINDING_LEAF_ITEMS, LeafItem::layout()),
         BindingLayout::array(BINDING_INSTANCES, Instance::layout()),
+        BindingLayout::array(BINDING_MESH_NODES, BvhNode::layout()),
+        BindingLayout::array(BINDING_MESH_TRIANGLES, MeshTriangle::layout()),
+        BindingLayout::array(BINDING_MESH_VERTICES, MeshVertex::layout()),
     ]
 }
 

@@ -358,6 +358,7 @@ const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_SPHERE_RECORDS, "instance spheres"),
     (layout::SPEC_AOVS, "the normal, depth, id and cost AOVs"),
     (layout::SPEC_TORI, "tori"),
+    (layout::SPEC_MESHES, "meshes"),
     (layout::SPEC_COURSE_SAMPLING, "the course's adaptive supersampling"),
 ];
 
@@ -395,6 +396,8 @@ pub struct SceneFeatures {
     sphere_records: bool,
     /// The levels the walk enters (FrameData::levels).
     levels: u32,
+    /// A mesh primitive (SHAPE_MESH).
+    meshes: bool,
 }
 
 impl SceneFeatures {
@@ -407,7 +410,11 @@ impl SceneFeatures {
             cones: shape(cone),
             cylinders: shape(cylinder),
             tori: shape(torus),
-            spheres: data.primitives.iter().any(|p| ![cube, cone, cylinder, torus].contains(&p.shape)),
+            meshes: shape(layout::SHAPE_MESH),
+            spheres: data
+                .primitives
+                .iter()
+                .any(|p| ![cube, cone, cylinder, torus, layout::SHAPE_MESH].contains(&p.shape)),
             instances: !data.instances.is_empty(),
             positioned_lights: data.lights.iter().any(|l| l.kind != layout::LIGHT_DIRECTIONAL),
             spot_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_SPOT),
@@ -453,6 +460,7 @@ impl SceneFeatures {
             (layout::SPEC_SPHERE_RECORDS, self.sphere_records),
             (layout::SPEC_AOVS, frame.aov != layout::AOV_COLOR),
             (layout::SPEC_TORI, self.tori),
+            (layout::SPEC_MESHES, self.meshes),
             (layout::SPEC_COURSE_SAMPLING, flag(layout::FLAG_COURSE_SAMPLING)),
         ] {
             on[id as usize] = value;
@@ -911,7 +919,7 @@ mod tests {
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
-             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori, \
+             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori, meshes, \
              the course's adaptive supersampling; the walk's 2 levels in registers"
         );
         // An AOV other than colour keeps its code.
@@ -940,9 +948,9 @@ mod tests {
         // Every feature's constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
         ids.sort();
-        // Ids 22 to 25 are issue 44's other features' (layout.h), named on
+        // Ids 23 to 25 are issue 44's other features' (layout.h), named on
         // their own branches: drop this filter once they are merged.
-        let assigned = |id: &u32| !(22..=25).contains(id);
+        let assigned = |id: &u32| !(23..=25).contains(id);
         assert_eq!(ids, (0..SPEC_COUNT as u32).filter(|&id| is_feature(id) && assigned(&id)).collect::<Vec<_>>());
     }
 

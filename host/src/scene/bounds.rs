@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use super::{Scene, Shape};
+use super::Scene;
 
 /// An axis-aligned box in world space.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,19 +38,9 @@ impl Bounds {
     }
 }
 
-/// The box a canonical shape fills in object space: [-0.5, 0.5]³, but
-/// for the torus, whose y spans [-0.125, 0.125].
-pub fn shape_box(shape: &Shape) -> crate::bvh::Aabb {
-    use crate::bvh::Aabb;
-    match shape {
-        Shape::Torus => Aabb { lo: DVec3::new(-0.5, -0.125, -0.5), hi: DVec3::new(0.5, 0.125, 0.5) },
-        _ => Aabb::UNIT,
-    }
-}
-
 /// The world-space box around every primitive: each primitive's
-/// world_from_object applied to the corners of its canonical box
-/// (`shape_box`), group by group
+/// world_from_object applied to the corners of its object box
+/// (`Scene::object_box`: the canonical shape's, or a mesh's), group by group
 /// through the instances without expanding them. None without primitives.
 pub fn scene_bounds(scene: &Scene) -> Option<Bounds> {
     use crate::bvh::Aabb;
@@ -62,7 +52,7 @@ pub fn scene_bounds(scene: &Scene) -> Option<Bounds> {
         let group = &scene.groups[g];
         let mut b = Aabb::EMPTY;
         for p in &group.primitives {
-            b = b.union(shape_box(&p.shape).transformed(&p.world_from_object));
+            b = b.union(scene.object_box(&p.shape).transformed(&p.world_from_object));
         }
         for i in &group.instances {
             b = b.union(boxes[i.group as usize].transformed(&i.parent_from_group));

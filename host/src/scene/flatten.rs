@@ -3,11 +3,13 @@
 //! matrix within the group) and [`Instance`]s of other groups. Nothing is
 //! expanded: memory grows with the file, not with the expansion.
 
+use super::mesh::{self, Mesh};
 use super::model::*;
 use super::parse::{parse_file, ParseOptions};
 use glam::DMat4;
-use std::collections::{HashMap, HashSet};
-use std::path::Path;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Limits of [`flatten`].
 #[derive(Clone, Debug)]
@@ -71,11 +73,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
         while let Some(blocks) = stack.pop() {
             for b in blocks {
                 match &b.object {
-                    Node::Primitive { shape, .. } => {
-                        if drawn(shape) {
-                            total = total.saturating_add(1);
-                        }
-                    }
+                    Node::Primitive { .. } => total = total.saturating_add(1),
                     Node::Tree { blocks, .. } => stack.push(blocks),
                     Node::Master { tree: t, loc } => {
                         if *t >= i {
@@ -103,10 +101,10 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
         ));
     }
 
-    let mut warnings = file.warnings.clone();
+    let warnings = file.warnings.clone();
+    let mut meshes: Vec<Arc<Mesh>> = Vec::new();
     let mut materials: Vec<Material> = Vec::new();
     let mut material_of: HashMap<*const Material, u32> = HashMap::new();
-    let mut skipped: HashSet<(u32, u32)> = HashSet::new();
     // One group per tree that is drawn: the root first, then each master in
     // the order it is first placed.
     let mut groups: Vec<Group> = Vec::new();
@@ -154,8 +152,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                             format!("internal error: master tree index {tree} is out of range"),
                         ));
                     }
-                    // A group even when it draws nothing, so that its
-                    // skipped primitives are reported; no instance then.
+                    // A group even when it draws nothing; no instance then.
                     let child = *group_of.entry(*tree).or_insert_with(|| {
                         pending.push(*tree);
                         groups.push(Group::default_named(&file.trees[*tree].name));
@@ -175,14 +172,14 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                     next_id += counts[*tree];
                 }
                 Node::Primitive { shape, material, loc } => {
-                    if !drawn(shape) {
-                        let msg = "mesh is not rendered (meshes are not supported yet); skipped";
-                        if skipped.insert((loc.line, loc.col)) {
-                            warnings.push(Warning { loc: loc.clone(), message: msg.to_string() });
-                        }
-                        continue;
-                    }
                     let inverse = renderable_inverse(&ctm, "primitive").map_err(|e| err(Some(b.loc.clone()), e))?;
+                    let shape = match shape {
+                        Shape::Mesh { file: name, resolved } => {
+                            let path = load_mesh(name, resolved.as_deref(), loc, &mut meshes)?;
+                            Shape::Mesh { file: name.clone(), resolved: Some(path) }
+                        }
+                        other => other.clone(),
+                    };
                     let key = material as *const Material;
                     let index = match material_of.get(&key) {
                         Some(&i) => i,
@@ -196,7 +193,7 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
                         }
                     };
                     group.primitives.push(Primitive {
-                        shape: shape.clone(),
+                        shape,
                         material: index,
                         world_from_object: ctm,
                         object_from_world: inverse,
@@ -217,12 +214,33 @@ pub fn flatten(file: &SceneFile, limits: &FlattenLimits) -> Result<Scene, SceneE
         lights: file.lights.clone(),
         groups,
         materials,
+        meshes,
         warnings,
     })
 }
 
-fn drawn(shape: &Shape) -> bool {
-    !matches!(shape, Shape::Mesh { .. })
+/// The canonical path of the mesh file `name` (found at `resolved` by the
+/// parser), loading it into `meshes` the first time: a file drawn by any
+/// number of primitives is read once.
+fn load_mesh(
+    name: &str,
+    resolved: Option<&Path>,
+    loc: &SourceLoc,
+    meshes: &mut Vec<Arc<Mesh>>,
+) -> Result<PathBuf, SceneError> {
+    let missing = |message: String| SceneError { loc: Some(loc.clone()), file: loc.file.clone(), message };
+    let Some(found) = resolved else {
+        return Err(missing(format!(
+            "mesh file \"{name}\" not found next to the scene, in an --assets folder or in the folders above the scene's"
+        )));
+    };
+    let path = std::fs::canonicalize(found).unwrap_or_else(|_| found.to_path_buf());
+    if !meshes.iter().any(|m| m.path == path) {
+        let mut mesh = mesh::load(found, loc)?;
+        mesh.path = path.clone();
+        meshes.push(Arc::new(mesh));
+    }
+    Ok(path)
 }
 
 impl Group {
@@ -496,25 +514,42 @@ mod tests {
         assert_eq!(s.flat_primitives().len(), 1);
     }
 
-    /// A torus is drawn (docs/scene-format.md#torus), placed by every master that holds it;
-    /// a mesh is skipped with one warning however many times it is placed.
+    /// A torus is drawn (docs/scene-format.md#torus), placed by every master that holds it.
     #[test]
-    fn torus_drawn_and_mesh_skipped_with_one_warning_per_source() {
+    fn torus_drawn_once_per_placement() {
         let top =
             "<object type=\"tree\" name=\"m\"><transblock><object type=\"primitive\" name=\"torus\"/></transblock>\
-            <transblock><object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\"/></transblock></object>\n";
+            <transblock><object type=\"primitive\" name=\"cube\"/></transblock></object>\n";
         let body = "<transblock><object type=\"master\" name=\"m\"/></transblock>".repeat(3)
             + "<transblock><object type=\"primitive\" name=\"sphere\"/></transblock>";
         let s = scene(&doc(top, &body));
         let count = |shape: Shape| s.flat_primitives().iter().filter(|p| p.shape == shape).count();
-        assert_eq!((count(Shape::Torus), count(Shape::Sphere), s.flat_primitives().len()), (3, 1, 4));
-        // The torus's material once for its three placements, and the sphere's.
-        assert_eq!(s.materials.len(), 2);
+        assert_eq!((count(Shape::Torus), count(Shape::Sphere), s.flat_primitives().len()), (3, 1, 7));
+        // The torus's material once for its three placements, the cubes' and the sphere's.
+        assert_eq!(s.materials.len(), 3);
         let torus_materials: Vec<u32> =
             s.flat_primitives().iter().filter(|p| p.shape == Shape::Torus).map(|p| p.material).collect();
         assert!(torus_materials.iter().all(|&m| m == torus_materials[0]), "{torus_materials:?}");
         assert_eq!(s.warnings.iter().filter(|w| w.message.contains("torus")).count(), 0);
-        assert_eq!(s.warnings.iter().filter(|w| w.message.contains("mesh")).count(), 1);
+    }
+
+    /// A mesh whose file is not found is an error at its element; one
+    /// found is loaded once however many primitives and instances draw it.
+    #[test]
+    fn meshes_are_loaded_once_and_a_missing_one_is_an_error() {
+        let mesh = "<transblock><object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\"/></transblock>";
+        let f = parse(&doc("", mesh));
+        let e = flatten(&f, &FlattenLimits::default()).unwrap_err().to_string();
+        assert!(e.contains("error: mesh file \"a.obj\" not found"), "{e}");
+        let dir = std::env::temp_dir().join(format!("raycast-flatten-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let top = format!("<object type=\"tree\" name=\"m\">{mesh}{mesh}</object>\n");
+        let body = "<transblock><object type=\"master\" name=\"m\"/></transblock>".repeat(3) + mesh;
+        let path = dir.join("t.xml");
+        std::fs::write(&path, doc(&top, &body)).unwrap();
+        let s = load(&path, &ParseOptions::default(), &FlattenLimits::default()).unwrap();
+        assert_eq!((s.flat_primitives().len(), s.meshes.len(), s.meshes[0].triangles.len()), (7, 1, 1));
     }
 
     #[test]

@@ -4,6 +4,7 @@
 pub mod bounds;
 pub mod camera_control;
 pub mod flatten;
+pub mod mesh;
 pub mod model;
 #[doc(hidden)]
 pub mod mutate;
@@ -11,7 +12,7 @@ pub mod mutate;
 mod mutation_tests;
 pub mod parse;
 
-pub use bounds::{scene_bounds, shape_box, Bounds};
+pub use bounds::{scene_bounds, Bounds};
 pub use camera_control::CameraControl;
 pub use flatten::{flatten, load, FlattenLimits};
 pub use model::*;

@@ -254,9 +254,12 @@ pub enum Shape {
     Sphere,
     /// About the y axis, ring radius 0.375, tube radius 0.125 (docs/scene-format.md#torus).
     Torus,
-    /// Parsed and kept; not rendered yet. The OBJ path as written.
+    /// A triangle mesh: the OBJ path as written, and where it was found
+    /// (the parser looks it up as a texture's image; flatten() makes it
+    /// canonical and loads each file once into `Scene::meshes`).
     Mesh {
         file: String,
+        resolved: Option<PathBuf>,
     },
 }
 
@@ -397,10 +400,32 @@ pub struct Scene {
     /// Materials, deduplicated by source location (an instanced primitive
     /// shares one material).
     pub materials: Vec<Material>,
+    /// Each mesh file its primitives draw, loaded once (`Shape::Mesh`'s
+    /// canonical `resolved` path names it).
+    pub meshes: Vec<Arc<super::mesh::Mesh>>,
     pub warnings: Vec<Warning>,
 }
 
 impl Scene {
+    /// The mesh a `Shape::Mesh` primitive draws: its index in `meshes`.
+    pub fn mesh_index(&self, shape: &Shape) -> Option<usize> {
+        let Shape::Mesh { resolved: Some(path), .. } = shape else { return None };
+        self.meshes.iter().position(|m| &m.path == path)
+    }
+
+    /// The box that holds a primitive of this shape in its object space:
+    /// the canonical box [-0.5, 0.5]³, or a mesh's own.
+    pub fn object_box(&self, shape: &Shape) -> crate::bvh::Aabb {
+        match self.mesh_index(shape) {
+            Some(i) => self.meshes[i].bounds,
+            // The canonical shapes fill [-0.5, 0.5]^3; the torus's y spans [-0.125, 0.125].
+            None if *shape == Shape::Torus => {
+                crate::bvh::Aabb { lo: glam::DVec3::new(-0.5, -0.125, -0.5), hi: glam::DVec3::new(0.5, 0.125, 0.5) }
+            }
+            None => crate::bvh::Aabb::UNIT,
+        }
+    }
+
     /// How many primitives the scene draws (every instance expanded).
     pub fn primitive_count(&self) -> u64 {
         self.groups.first().map_or(0, |g| g.expanded)

@@ -1400,20 +1400,21 @@ impl<'a> Ctx<'a> {
                 self.check_attrs(n, OBJECT_ATTRIBUTES);
                 let mf = Self::attr(n, "meshfile");
                 let f = Self::attr(n, "filename");
-                match (mf, f) {
+                let file = match (mf, f) {
                     (Some(a), Some(_)) => {
                         let msg = "mesh has both meshfile= and filename=; using meshfile".to_string();
                         self.warn(self.nloc(n), msg);
-                        Shape::Mesh { file: a.value().to_string() }
+                        a
                     }
-                    (Some(a), None) | (None, Some(a)) => Shape::Mesh { file: a.value().to_string() },
+                    (Some(a), None) | (None, Some(a)) => a,
                     (None, None) => {
                         return Err(self.err(
                             self.nloc(n),
                             "a mesh primitive needs meshfile=\"file.obj\" (or filename=)".to_string(),
                         ))
                     }
-                }
+                };
+                self.mesh_shape(&file)
             }
             other => {
                 let hint = match suggest(other, PRIMITIVES) {
@@ -1434,6 +1435,28 @@ impl<'a> Ctx<'a> {
         }
         let material = self.material(n)?;
         Ok(Node::Primitive { shape, material, loc: self.nloc(n) })
+    }
+
+    /// A mesh's OBJ file, looked for as a texture's image is (each name
+    /// once); not found, flatten() says so, as an error.
+    fn mesh_shape(&mut self, a: &Attribute) -> Shape {
+        let file = a.value().to_string();
+        let key = ("mesh".to_string(), file.clone());
+        let (resolved, warning) = match self.images.get(&key) {
+            Some(known) => known.clone(),
+            None if file.trim().is_empty() => (None, None),
+            None => {
+                let (found, note) = self.lookup("object", &file);
+                // Not found: flatten()'s error says so; a note is kept only with a file found.
+                let looked_up = (found.clone(), note.filter(|_| found.is_some()));
+                self.images.insert(key, looked_up.clone());
+                looked_up
+            }
+        };
+        if let Some(msg) = warning {
+            self.warn(self.aloc(a), msg);
+        }
+        Shape::Mesh { file, resolved }
     }
 
     fn material(&mut self, n: XNode) -> R<Material> {
@@ -2093,9 +2116,9 @@ mod tests {
             assert_eq!(*first_prim(&ok(&prim(name, ""))).0, shape);
         }
         let f = ok(&block("<object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\"/>"));
-        assert_eq!(*first_prim(&f).0, Shape::Mesh { file: "a.obj".into() });
+        assert_eq!(*first_prim(&f).0, Shape::Mesh { file: "a.obj".into(), resolved: None });
         let f = ok(&block("<object type=\"primitive\" name=\"mesh\" filename=\"b.obj\"/>"));
-        assert_eq!(*first_prim(&f).0, Shape::Mesh { file: "b.obj".into() });
+        assert_eq!(*first_prim(&f).0, Shape::Mesh { file: "b.obj".into(), resolved: None });
         bad_at(&block("<object type=\"primitive\" name=\"mesh\"/>"), 4, 1, "needs meshfile=");
         bad_at(
             &block("<object type=\"primitive\" name=\"triangle\"/>"),
