@@ -41,7 +41,7 @@ void main() {
     if (s >= n) {
         return;
     }
-    PixelSample x = sample_pixel(j, i, sample_offset(s, n));
+    PixelSample x = sample_pixel(j, i, sample_offset(s, n), sample_dims(s, n));
     precise vec3 sum = x.color;
     uint rays = x.rays;
     if (s > 0u) {

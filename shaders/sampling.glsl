@@ -94,11 +94,11 @@ precise vec3 sample_average(vec3 sum, uint n) {
 // every sample.
 PixelOut render_pixel(uint j, uint i) {
     uint n = max(frame.spp, 1u);
-    PixelSample first = sample_pixel(j, i, sample_offset(0u, n));
+    PixelSample first = sample_pixel(j, i, sample_offset(0u, n), sample_dims(0u, n));
     precise vec3 sum = first.color;
     uint rays = first.rays;
     for (uint s = 1u; s < n; s++) {
-        PixelSample next = sample_pixel(j, i, sample_offset(s, n));
+        PixelSample next = sample_pixel(j, i, sample_offset(s, n), sample_dims(s, n));
         sum = sum + next.color;
         rays = rays + next.rays;
     }

@@ -121,6 +121,8 @@ layout(constant_id = SPEC_FLAT_LIST) const bool HAS_FLAT_LIST = true;
 layout(constant_id = SPEC_BOX_RECORDS) const bool HAS_BOX_RECORDS = true;
 layout(constant_id = SPEC_SPHERE_RECORDS) const bool HAS_SPHERE_RECORDS = true;
 layout(constant_id = SPEC_AOVS) const bool HAS_AOVS = true;
+layout(constant_id = SPEC_AREA_LIGHTS) const bool HAS_AREA_LIGHTS = true;
+layout(constant_id = SPEC_DOF) const bool HAS_DOF = true;
 // The walk's form (layout.h): its levels in arrays unless LEVELS_IN_REGISTERS,
 // then REGISTER_LEVELS of them in registers (used only in comparisons with
 // a variable, for naga's sake as above).

@@ -144,6 +144,8 @@ const bool HAS_FLAT_LIST = true;
 const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
 const bool HAS_AOVS = true;
+const bool HAS_AREA_LIGHTS = true;
+const bool HAS_DOF = true;
 // The walk's levels in arrays (layout.h, SPEC_LEVELS_IN_REGISTERS): the
 // CPU build is compiled once for every scene, so it cannot hold a scene's
 // count of levels; the device's register form computes the same bits

@@ -253,8 +253,10 @@ pub struct Specialization {
     register_levels: Option<u32>,
 }
 
-/// The constants that turn a feature's code on or off: those before the walk's form.
-const FEATURES: usize = layout::SPEC_LEVELS_IN_REGISTERS as usize;
+/// The constants that turn a feature's code on or off: every constant
+/// (the walk's form, SPEC_LEVELS_IN_REGISTERS and SPEC_REGISTER_LEVELS, is
+/// set apart in `constants`).
+const FEATURES: usize = layout::SPEC_COUNT as usize;
 
 impl Specialization {
     /// Everything kept, the levels in arrays: the shaders' defaults, what the CPU build runs.
@@ -268,8 +270,8 @@ impl Specialization {
     /// The constants' values for `Kernel::specialized`, by constant_id.
     pub fn constants(&self) -> [u32; layout::SPEC_COUNT as usize] {
         let mut values = [0u32; layout::SPEC_COUNT as usize];
-        for (value, &keep) in values.iter_mut().zip(&self.keeps) {
-            *value = u32::from(keep);
+        for &(id, _) in SPEC_NAMES {
+            values[id as usize] = u32::from(self.keeps[id as usize]);
         }
         values[layout::SPEC_LEVELS_IN_REGISTERS as usize] = u32::from(self.register_levels.is_some());
         values[layout::SPEC_REGISTER_LEVELS as usize] = self.register_levels.unwrap_or(1);
@@ -294,7 +296,7 @@ impl Specialization {
 }
 
 /// The specialization constants by name, for `Specialization::describe`.
-const SPEC_NAMES: [(u32, &str); FEATURES] = [
+const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_CUBES, "cubes"),
     (layout::SPEC_CONES, "cones"),
     (layout::SPEC_CYLINDERS, "cylinders"),
@@ -314,6 +316,8 @@ const SPEC_NAMES: [(u32, &str); FEATURES] = [
     (layout::SPEC_BOX_RECORDS, "instance boxes"),
     (layout::SPEC_SPHERE_RECORDS, "instance spheres"),
     (layout::SPEC_AOVS, "the normal, depth, id and cost AOVs"),
+    (layout::SPEC_AREA_LIGHTS, "area lights"),
+    (layout::SPEC_DOF, "depth of field"),
 ];
 
 /// What a scene has that the kernels may leave out when it is missing
@@ -331,6 +335,7 @@ pub struct SceneFeatures {
     instances: bool,
     positioned_lights: bool,
     spot_lights: bool,
+    area_lights: bool,
     textured: bool,
     specular: bool,
     /// A material with a reflective channel other than 0.
@@ -363,6 +368,7 @@ impl SceneFeatures {
             instances: !data.instances.is_empty(),
             positioned_lights: data.lights.iter().any(|l| l.kind != layout::LIGHT_DIRECTIONAL),
             spot_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_SPOT),
+            area_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_AREA),
             textured: data.materials.iter().any(|m| m.texture >= 0),
             specular: data.materials.iter().any(|m| m.shininess > 0.0),
             reflective: data.materials.iter().any(|m| m.reflective[..3].iter().any(|&r| r != 0.0)),
@@ -404,6 +410,8 @@ impl SceneFeatures {
             (layout::SPEC_BOX_RECORDS, self.box_records),
             (layout::SPEC_SPHERE_RECORDS, self.sphere_records),
             (layout::SPEC_AOVS, frame.aov != layout::AOV_COLOR),
+            (layout::SPEC_AREA_LIGHTS, self.area_lights),
+            (layout::SPEC_DOF, flag(layout::FLAG_DOF)),
         ] {
             on[id as usize] = value;
         }
