@@ -519,7 +519,7 @@ pub fn lens(camera: &Camera) -> Option<(f32, f32)> {
 
 /// The lens radius of an `<aperture>` of 1, in world units: fitted to the
 /// course's render of test_dof/dof.xml (docs/scene-format.md#depth-of-field).
-pub const LENS_RADIUS_PER_APERTURE: f64 = 1.0;
+pub const LENS_RADIUS_PER_APERTURE: f64 = 1.5;
 
 /// An area light's in-plane unit axes (e_u, e_v) for its unit normal `n`
 /// (the direction it faces): e_u is the world x axis made perpendicular to
