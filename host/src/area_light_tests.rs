@@ -93,11 +93,13 @@ fn a_strip_casts_the_umbra_and_penumbra_of_similar_triangles() {
     let lit = render(&scene, &RenderSettings { shadows: false, ..settings });
     let floor_x = |j: u32| ((f64::from(j) + 0.5) / f64::from(width) * 2.0 - 1.0) * tan_w;
     let row = 1;
-    let dark: Vec<u32> = (0..width).filter(|&j| shadowed.pixels[(row * width + j) as usize].rgba & 0xffffff == 0).collect();
+    let dark: Vec<u32> =
+        (0..width).filter(|&j| shadowed.pixels[(row * width + j) as usize].rgba & 0xffffff == 0).collect();
     let shaded: Vec<u32> = (0..width)
         .filter(|&j| shadowed.pixels[(row * width + j) as usize].rgba != lit.pixels[(row * width + j) as usize].rgba)
         .collect();
-    let (umbra, shadow) = ((d * big_h - big_w * h) / (2.0 * (big_h - h)), (d * big_h + big_w * h) / (2.0 * (big_h - h)));
+    let (umbra, shadow) =
+        ((d * big_h - big_w * h) / (2.0 * (big_h - h)), (d * big_h + big_w * h) / (2.0 * (big_h - h)));
     let tolerance = 2.0 * tan_w / f64::from(width) + big_w / (2.0 * f64::from(n)) * h / (big_h - h);
     let edges = [
         ("umbra, left", floor_x(dark[0]), -umbra),
@@ -106,7 +108,10 @@ fn a_strip_casts_the_umbra_and_penumbra_of_similar_triangles() {
         ("shadow, right", floor_x(*shaded.last().unwrap()), shadow),
     ];
     for (what, got, want) in edges {
-        assert!((got - want).abs() <= tolerance, "{what} edge at x = {got:.4}, closed form {want:.4}, tolerance {tolerance:.4}");
+        assert!(
+            (got - want).abs() <= tolerance,
+            "{what} edge at x = {got:.4}, closed form {want:.4}, tolerance {tolerance:.4}"
+        );
     }
     println!("edges (measured, closed form): {edges:?}; tolerance {tolerance:.4}");
 }

@@ -149,7 +149,10 @@ impl Case {
 
     fn picture_text(&self) -> String {
         if let Some(s) = &self.sampled {
-            return format!("colour {}x{} --spp {}, the reference shrunk {}x", self.width, self.height, s.spp, s.shrink);
+            return format!(
+                "colour {}x{} --spp {}, the reference shrunk {}x",
+                self.width, self.height, s.spp, s.shrink
+            );
         }
         match self.aov {
             Aov::Color => format!(

@@ -1940,7 +1940,8 @@ mod tests {
             ("area", LightKind::Area),
         ] {
             let size = "<width v=\"1\"/><height v=\"1\"/>"; // an area light's; the others ignore it
-            let f = light(&format!("<type v=\"{v}\"/><direction x=\"1\" y=\"0\" z=\"0\"/><angle v=\"1\"/>{size}")).unwrap();
+            let f =
+                light(&format!("<type v=\"{v}\"/><direction x=\"1\" y=\"0\" z=\"0\"/><angle v=\"1\"/>{size}")).unwrap();
             assert_eq!(f.lights[0].kind, k);
         }
         // Non-unique ids are fine; more than 8 lights are fine.
