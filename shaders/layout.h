@@ -109,6 +109,8 @@
 #define SPEC_REGISTER_LEVELS 20     // a count: the levels the walk keeps, 1 to MAX_LEVELS
 #define SPEC_TORI 21              // a torus (SHAPE_TORUS)
 #define SPEC_MESHES 22            // a mesh primitive (SHAPE_MESH)
+#define SPEC_AREA_LIGHTS 24      // an area light (LIGHT_AREA): its samples over the rectangle
+#define SPEC_DOF 25              // FLAG_DOF: the thin lens (camera.glsl)
 #define SPEC_COURSE_SAMPLING 26   // FLAG_COURSE_SAMPLING
 #define SPEC_COUNT 27
 
@@ -124,6 +126,7 @@
 #define LIGHT_POINT 0u
 #define LIGHT_DIRECTIONAL 1u
 #define LIGHT_SPOT 2u
+#define LIGHT_AREA 3u // a rectangle: Frame.light_samples points (docs/scene-format.md#area-lights)
 
 // Frame.aov: what PixelOut.rgba holds (aov.glsl aov_color). The
 // others than colour see the first hit only: no shadow or mirror ray.
@@ -141,6 +144,7 @@
 #define FLAG_TEXTURES 4u
 #define FLAG_NO_BVH 8u // test every primitive: the hierarchy's boxes are ignored
 #define FLAG_COURSE_SAMPLING 64u // the course's adaptive supersampling (course_sampling.glsl), not frame.spp
+#define FLAG_DOF 32u   // a thin lens: Frame.lens_radius and focal_distance (camera.glsl)
 
 // Frame.texture_filter
 #define FILTER_NEAREST 0u
@@ -184,9 +188,12 @@ struct Frame {
     // buffers hold that band alone (a picture larger than one storage
     // buffer renders in bands). 0 elsewhere.
     uint row_offset;
-    uint pad0;
-    uint pad1;
-    uint pad2;
+    // FLAG_DOF: the thin lens's radius and the distance in focus, world
+    // units along the view axis (camera.glsl lens_ray); 0 without.
+    float lens_radius;
+    float focal_distance;
+    // Points taken on each area light a sample (LIGHT_AREA; --light-samples).
+    uint light_samples;
 };
 
 // A primitive of a group. Its matrix maps the group's space (the world for
@@ -301,11 +308,15 @@ struct Texel {
     uint rgba;
 };
 
+// An area light (LIGHT_AREA) is the rectangle position + a e_u + b e_v,
+// a and b in [-1/2, 1/2], with its edges e_u (width long) in
+// direction_to_light and e_v (height long) in spot_axis, which it uses for
+// nothing else (frame.rs area_edges; docs/scene-format.md#area-lights).
 struct Light {
     vec4 color;
     vec4 position;
-    vec4 direction_to_light; // -normalize(direction), computed on the host
-    vec4 spot_axis;          // normalize(direction), computed on the host
+    vec4 direction_to_light; // -normalize(direction), computed on the host; area: e_u
+    vec4 spot_axis;          // normalize(direction), computed on the host; area: e_v
     vec4 attenuation;        // constant, linear, quadratic
     uint kind;
     float angle_deg;    // spot: outer half-angle

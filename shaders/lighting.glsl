@@ -30,10 +30,28 @@ precise vec3 positioned_light_intensity(Light l, vec3 color, vec3 to_light, floa
 // spot falloff.
 precise vec3 light_intensity(Light l, vec3 to_light, float dist) {
     precise vec3 intensity = xyz(l.color);
+    if (HAS_AREA_LIGHTS && l.kind == LIGHT_AREA) {
+        // Each of an area light's points is a point light of its colour / N.
+        intensity = div_rn(intensity, float(frame.light_samples));
+    }
     if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
         return positioned_light_intensity(l, intensity, to_light, dist);
     }
     return intensity;
+}
+
+// Point k of the n that area light l (LIGHT_AREA) shows a sample: the
+// stratified Hammersley point ((k + 1/2)/n, radical_inverse(k) + 1/(2n)) of
+// the unit square, rotated by the sample's `rotation` (sample_dims zw; 0 at
+// one sample a pixel) modulo 1, placed on the rectangle position + a e_u +
+// b e_v with a, b in [-1/2, 1/2) (docs/scene-format.md#area-lights).
+precise vec3 area_light_point(Light l, uint k, uint n, vec2 rotation) {
+    precise float a = div_rn(float(k) + 0.5f, float(n)) + rotation.x;
+    precise float b = (radical_inverse_base(k, 2u) + div_rn(0.5f, float(n))) + rotation.y;
+    a = a - floor(a);
+    b = b - floor(b);
+    precise vec3 p = (xyz(l.position) + (a - 0.5f) * xyz(l.direction_to_light)) + (b - 0.5f) * xyz(l.spot_axis);
+    return p;
 }
 
 // The shading of one hit, a light at a time (sample_pixel): Phong at the

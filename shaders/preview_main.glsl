@@ -39,7 +39,8 @@ void main() {
     vec2 offset = (preview.sample_index == 0u) ? vec2(0.0f, 0.0f) : vec2(preview.jitter.x, preview.jitter.y);
 
     // Every mode is a Frame.aov of sample_pixel, as in render.comp.
-    PixelSample s = sample_pixel(j, i, offset);
+    // Its lens point and area-light rotation: sample_index of a sequence without end (n = 1).
+    PixelSample s = sample_pixel(j, i, offset, sample_dims(preview.sample_index, 1u));
     SceneHit hit = s.hit;
     vec3 color = s.color;
     uint rays = s.rays;

@@ -48,7 +48,7 @@ void main() {
             return;
         }
         bool first = st.samples == 0u;
-        PixelSample c = sample_pixel(j, i, course_offset(st));
+        PixelSample c = sample_pixel(j, i, course_offset(st), sample_dims(st.samples, 1u));
         st = course_add(st, c.color);
         st.rays = st.rays + c.rays;
         if (!loop_budget_ok()) {
@@ -70,7 +70,7 @@ void main() {
     if (s >= n) {
         return;
     }
-    PixelSample x = sample_pixel(j, i, sample_offset(s, n));
+    PixelSample x = sample_pixel(j, i, sample_offset(s, n), sample_dims(s, n));
     precise vec3 sum = x.color;
     uint rays = x.rays;
     if (s > 0u) {

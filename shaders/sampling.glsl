@@ -93,14 +93,15 @@ precise vec3 sample_average(vec3 sum, uint n) {
 
 // render_pixel under FLAG_COURSE_SAMPLING: the course's adaptive scheme
 // (course_sampling.glsl), its samples in the order course_add asks for
-// them; t, id and normal from the first.
+// them, sample k's lens point and area-light rotation sample_dims(k, 1) (as
+// the preview's: the count is not known ahead); t, id and normal from the first.
 PixelOut render_course_pixel(uint j, uint i) {
     CourseSum st = course_start();
-    PixelSample first = sample_pixel(j, i, course_offset(st));
+    PixelSample first = sample_pixel(j, i, course_offset(st), sample_dims(st.samples, 1u));
     st = course_add(st, first.color);
     uint rays = first.rays;
     while (!course_done(st)) {
-        PixelSample next = sample_pixel(j, i, course_offset(st));
+        PixelSample next = sample_pixel(j, i, course_offset(st), sample_dims(st.samples, 1u));
         st = course_add(st, next.color);
         rays = rays + next.rays;
     }
@@ -121,11 +122,11 @@ PixelOut render_pixel(uint j, uint i) {
         return render_course_pixel(j, i);
     }
     uint n = max(frame.spp, 1u);
-    PixelSample first = sample_pixel(j, i, sample_offset(0u, n));
+    PixelSample first = sample_pixel(j, i, sample_offset(0u, n), sample_dims(0u, n));
     precise vec3 sum = first.color;
     uint rays = first.rays;
     for (uint s = 1u; s < n; s++) {
-        PixelSample next = sample_pixel(j, i, sample_offset(s, n));
+        PixelSample next = sample_pixel(j, i, sample_offset(s, n), sample_dims(s, n));
         sum = sum + next.color;
         rays = rays + next.rays;
     }

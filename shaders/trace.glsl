@@ -36,11 +36,22 @@ struct PixelSample {
 //
 // Each step is also a TRACE (layout.h TraceStep): the CPU build records
 // them for `raycast trace`; in a kernel TRACE is nothing.
+// The light point after point lk of light li's ln: (light, point).
+uvec2 next_light_point(uint li, uint lk, uint ln) {
+    if (lk + 1u < ln) {
+        return uvec2(li, lk + 1u);
+    }
+    return uvec2(li + 1u, 0u);
+}
+
 #ifndef TRACE
 #define TRACE(kind, level, light, id, passes, origin, direction, value, extra)
 #endif
-PixelSample sample_pixel(uint j, uint i, vec2 offset) {
+PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
     Ray ray = camera_ray(j, i, offset); // the level's ray: the camera's, then the mirror's
+    if (HAS_DOF && (frame.flags & FLAG_DOF) != 0u) {
+        ray = lens_ray(ray, vec2(dims.x, dims.y));
+    }
     PixelSample s;
     s.color = vec3(0.0f, 0.0f, 0.0f);
     s.rays = 0u;
@@ -60,6 +71,9 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
     precise vec3 color = vec3(0.0f, 0.0f, 0.0f);
     precise vec3 pending = vec3(0.0f, 0.0f, 0.0f);
     uint li = 0u;
+    // An area light's point lk of ln (sample_dims zw rotates them); other lights have one.
+    uint lk = 0u;
+    uint ln = 1u;
     uint passes = 0u; // every walk's, for AOV_COST_ALL
     // Whether s.hit holds the camera ray's hit. Not `level == 0u`: with
     // that test Mesa 22.3's lavapipe stored 0 as the normal of a lane that
@@ -85,7 +99,9 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             if (h.id == NO_HIT) {
                 color = color + pending;
             }
-            li = li + 1u;
+            uvec2 after = next_light_point(li, lk, ln);
+            li = after.x;
+            lk = after.y;
         } else {
             if (!first_kept) {
                 s.hit = h;
@@ -107,6 +123,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             TRACE(TRACE_SURFACE, level, 0u, h.id, 0u, vec4(surface.p, 1.0f), vec4(0.0f), vec4(surface.base, 0.0f),
                   vec4(surface.diffuse, 0.0f));
             li = 0u;
+            lk = 0u;
         }
         // The lights from li on: each adds its term, up to the first that
         // needs a shadow ray.
@@ -115,18 +132,27 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
             Light l = light_at(li);
             precise vec3 to_light = xyz(l.direction_to_light);
             precise float dist = 0.0f;
+            // Where the light is: its position, or an area light's point lk.
+            precise vec3 at = xyz(l.position);
+            ln = 1u;
+            if (HAS_AREA_LIGHTS && l.kind == LIGHT_AREA) {
+                ln = frame.light_samples;
+                at = area_light_point(l, lk, ln, vec2(dims.z, dims.w));
+            }
             if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
-                precise vec3 d = xyz(l.position) - surface.p;
+                precise vec3 d = at - surface.p;
                 dist = sqrt_rn(dot3(d, d));
                 to_light = div_rn(d, dist);
             }
             precise vec3 lit = light_term(surface, l, to_light, dist);
             if (negligible(lit)) {
-                TRACE(TRACE_LIGHT, level, li, TRACE_LIGHT_NOTHING, 0u, vec4(0.0f), vec4(to_light, dist), vec4(lit, 0.0f), vec4(0.0f));
-                li = li + 1u;
+                TRACE(TRACE_LIGHT, level, li, TRACE_LIGHT_NOTHING, 0u, vec4(at, float(lk)), vec4(to_light, dist), vec4(lit, 0.0f), vec4(0.0f));
+                uvec2 after = next_light_point(li, lk, ln);
+                li = after.x;
+                lk = after.y;
                 continue;
             }
-            TRACE(TRACE_LIGHT, level, li, shadows ? TRACE_LIGHT_SHADOW : TRACE_LIGHT_ADDED, 0u, vec4(0.0f),
+            TRACE(TRACE_LIGHT, level, li, shadows ? TRACE_LIGHT_SHADOW : TRACE_LIGHT_ADDED, 0u, vec4(at, float(lk)),
                   vec4(to_light, dist), vec4(lit, 0.0f), vec4(0.0f));
             if (shadows) {
                 // From 0.001 (ray_offset) along L toward the light: blocked
@@ -137,7 +163,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
                 next.direction = to_light;
                 precise float t_max = T_FAR;
                 if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
-                    precise vec3 rest = xyz(l.position) - shadow_origin;
+                    precise vec3 rest = at - shadow_origin;
                     t_max = sqrt_rn(dot3(rest, rest));
                 }
                 next_t_max = t_max;
@@ -146,7 +172,9 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset) {
                 break;
             }
             color = color + lit;
-            li = li + 1u;
+            uvec2 after = next_light_point(li, lk, ln);
+            li = after.x;
+            lk = after.y;
         }
         if (shadow) {
             continue;

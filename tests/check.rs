@@ -10,7 +10,8 @@
 //! render without shadows and mirrors); each in colour and with the normal AOV at 512x384, with
 //! shadows, reflections and textures on. Our scenes, the torus scenes and
 //! the corpus's test_feature scenes also with 4 samples per pixel and bilinear texture
-//! filtering. And the hierarchy changes nothing: every scene rendered on
+//! filtering; so are the corpus's test_dof and test_area_light and
+//! tests/scenes/lens (depth of field, area lights) at 160x120. And the hierarchy changes nothing: every scene rendered on
 //! the CPU with --no-bvh (every primitive tested) has the same bits as with
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
 //! build's bits, as does its render without shadows (160x120); the stress
@@ -144,11 +145,23 @@ fn main() -> ExitCode {
     for f in &torus_scenes {
         scenes.push((f.clone(), &[(512, 384), (511, 383)]));
     }
+    // Depth of field and area lights (small: every sample traces lens or light points).
+    for f in xml_files(&repo.join("tests/scenes/lens")) {
+        scenes.push((f, &[(160, 120)]));
+    }
     let corpus = common::corpus("the corpus scenes");
     let mut assets = Vec::new();
     if let Some(c) = &corpus {
         assets.push(c.clone());
-        for group in ["test_unit", "test_intersect", "test_light", "test_efficiency", "test_feature"] {
+        for group in [
+            "test_unit",
+            "test_intersect",
+            "test_light",
+            "test_efficiency",
+            "test_feature",
+            "test_dof",
+            "test_area_light",
+        ] {
             for f in xml_files(&c.join(group)) {
                 scenes.push((f, &[(512, 384)]));
             }
@@ -200,17 +213,20 @@ fn main() -> ExitCode {
             }
         };
         let mesh = path.starts_with(repo.join("tests/scenes/mesh"));
+        // The lens and area lights converge with the samples: 1 and 4 (and 2 in bands).
+        let sampled = ["test_dof", "test_area_light", "tests/scenes/lens"];
         let supersample = path.starts_with(repo.join("scenes"))
             || name.starts_with("test_feature")
             || torus_scenes.contains(path)
-            || mesh;
+            || mesh
+            || sampled.iter().any(|s| name.starts_with(s));
         let mut variants: Vec<(u32, u32, Aov, u32, TextureFilter)> = Vec::new();
         for &(width, height) in *sizes {
             variants.push((width, height, Aov::Color, 1, TextureFilter::Nearest));
             variants.push((width, height, Aov::Normal, 1, TextureFilter::Nearest));
         }
         if supersample {
-            variants.push((512, 384, Aov::Color, 4, TextureFilter::Bilinear));
+            variants.push((sizes[0].0, sizes[0].1, Aov::Color, 4, TextureFilter::Bilinear));
         }
         // The depth AOV (its default range, from the scene's bounds) with
         // two samples summed, and the id and both cost AOVs, small (one

@@ -860,7 +860,7 @@ fn the_timeout_bounds_one_submission_not_the_picture() {
 #[test]
 fn a_kernel_that_never_ends_is_an_error_not_a_hang() {
     let shaders = copy_of_shaders("endless-shaders");
-    let at = "    PixelSample x = sample_pixel(j, i, sample_offset(s, n));";
+    let at = "    PixelSample x = sample_pixel(j, i, sample_offset(s, n), sample_dims(s, n));";
     let spin = "    for (uint spin = 0u; frame.width != 0u; spin++) {\n        sums[index].samples = spin;\n        \
                 if (sums[index].rays == 0xfffffff0u) {\n            break;\n        }\n    }\n";
     common::plant(&shaders, "render_main.glsl", at, &format!("{spin}{at}"));

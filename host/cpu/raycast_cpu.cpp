@@ -30,7 +30,7 @@ extern "C" void raycast_cpu_preview_rows(const void* const* buffers, uint32_t ro
         for (uint32_t j = 0; j < s.frame.width; j++) {
             size_t index = size_t(i - row_begin) * s.frame.width + j;
             // preview_main.glsl's steps, but the canary (the CPU build has no loop budget).
-            PixelSample x = sample_pixel(j, i, offset);
+            PixelSample x = sample_pixel(j, i, offset, sample_dims(sample_index, 1u));
             vec3 sum = x.color;
             if (sample_index > 0u) {
                 sum = xyz(accum[index].sum) + x.color;
@@ -60,7 +60,7 @@ const Field fields[] = {
     AT(Frame, height), AT(Frame, primitive_count), AT(Frame, light_count), AT(Frame, aov),
     AT(Frame, flags), AT(Frame, max_depth), AT(Frame, spp), AT(Frame, texture_filter),
     AT(Frame, root_node), AT(Frame, node_count), AT(Frame, loop_canary),
-    AT(Frame, row_offset), AT(Frame, pad0), AT(Frame, pad1), AT(Frame, pad2),
+    AT(Frame, row_offset), AT(Frame, lens_radius), AT(Frame, focal_distance), AT(Frame, light_samples),
     SIZE(BvhNode), AT(BvhNode, lo), AT(BvhNode, hi), AT(BvhNode, first), AT(BvhNode, count),
     AT(BvhNode, axis), AT(BvhNode, primitives),
     SIZE(LeafItem), AT(LeafItem, item),

@@ -36,7 +36,8 @@ extern "C" uint32_t raycast_cpu_trace_sample(const void* const* buffers, uint32_
     trace_steps = static_cast<TraceStep*>(out);
     trace_capacity = capacity;
     trace_count = 0;
-    sample_pixel(x, y, sample_offset(sample, max(s.frame.spp, 1u)));
+    uint32_t n = max(s.frame.spp, 1u);
+    sample_pixel(x, y, sample_offset(sample, n), sample_dims(sample, n));
     trace_steps = nullptr;
     trace_capacity = 0;
     return trace_count;

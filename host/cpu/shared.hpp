@@ -159,6 +159,8 @@ const bool HAS_AOVS = true;
 const bool HAS_TORI = true;
 const bool HAS_MESHES = true;
 const bool HAS_COURSE_SAMPLING = true;
+const bool HAS_AREA_LIGHTS = true;
+const bool HAS_DOF = true;
 // The walk's levels in arrays (layout.h, SPEC_LEVELS_IN_REGISTERS): the
 // CPU build is compiled once for every scene, so it cannot hold a scene's
 // count of levels; the device's register form computes the same bits

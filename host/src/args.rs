@@ -82,6 +82,11 @@ pub fn parse_spp(s: &str) -> Result<u32, String> {
     crate::frame::spp_in_range(whole(s)?)
 }
 
+/// `--light-samples`: 1 to `frame::MAX_LIGHT_SAMPLES`.
+pub fn parse_light_samples(s: &str) -> Result<u32, String> {
+    crate::frame::light_samples_in_range(whole(s)?)
+}
+
 /// `--bounces`: at most the kernels' mirror depth.
 pub fn parse_bounces(s: &str) -> Result<u32, String> {
     crate::frame::bounces_in_range(whole(s)?)

@@ -20,6 +20,10 @@ pub const INSTANCING: bool = true;
 
 /// Most samples per pixel accepted.
 pub const MAX_SPP: u32 = 4096;
+/// Points on each area light a sample, unless `--light-samples` says (docs/scene-format.md#area-lights).
+pub const DEFAULT_LIGHT_SAMPLES: u32 = 16;
+/// Most `--light-samples` accepted.
+pub const MAX_LIGHT_SAMPLES: u32 = 1024;
 /// Most passes `--cost-max` takes (its scale is a float: exact to 2^24).
 pub const MAX_COST: u32 = 1 << 24;
 /// Most texels of all textures together (4 bytes each).
@@ -156,6 +160,10 @@ pub struct RenderSettings {
     /// Aov::Cost and CostAll: the passes drawn at the hot end; None for
     /// `Aov::default_cost_max`.
     pub cost_max: Option<u32>,
+    /// The thin lens of a camera with an aperture (off: `--no-dof`, the pinhole).
+    pub dof: bool,
+    /// Points on each area light a sample (`--light-samples`).
+    pub light_samples: u32,
 }
 
 impl Default for RenderSettings {
@@ -174,6 +182,8 @@ impl Default for RenderSettings {
             texture_filter: TextureFilter::Nearest,
             depth_range: None,
             cost_max: None,
+            dof: true,
+            light_samples: DEFAULT_LIGHT_SAMPLES,
         }
     }
 }
@@ -207,6 +217,14 @@ pub fn spp_in_range(v: u32) -> Result<u32, String> {
     Ok(v)
 }
 
+/// `--light-samples` within 1 to MAX_LIGHT_SAMPLES.
+pub fn light_samples_in_range(v: u32) -> Result<u32, String> {
+    if v == 0 || v > MAX_LIGHT_SAMPLES {
+        return Err(format!("--light-samples {v} is out of range: between 1 and {MAX_LIGHT_SAMPLES} points a light"));
+    }
+    Ok(v)
+}
+
 /// `--bounces` at most layout::MAX_DEPTH.
 pub fn bounces_in_range(v: u32) -> Result<u32, String> {
     if v > layout::MAX_DEPTH {
@@ -235,6 +253,7 @@ impl RenderSettings {
             )));
         }
         bounces_in_range(self.max_depth).map_err(SettingsError)?;
+        light_samples_in_range(self.light_samples).map_err(SettingsError)?;
         if self.depth_range.is_some() && self.aov != Aov::Depth {
             return Err(SettingsError("--depth-range is for --aov depth; this render is not one".to_string()));
         }
@@ -525,6 +544,35 @@ pub fn world_from_film(cam: &Camera, width: u32, height: u32) -> DMat4 {
     translate * rotate * scale_inv
 }
 
+/// The thin lens of `camera`, (radius, focal distance) in world units, or
+/// None for a pinhole: no aperture, or one of 0
+/// (docs/scene-format.md#depth-of-field). The parser has checked both
+/// numbers: an aperture comes with a positive focal length.
+pub fn lens(camera: &Camera) -> Option<(f32, f32)> {
+    let aperture = camera.aperture.filter(|&a| a > 0.0)?;
+    let focal = camera.focal_length?;
+    Some(((aperture * LENS_RADIUS_PER_APERTURE) as f32, focal as f32))
+}
+
+/// The lens radius of an `<aperture>` of 1, in world units: fitted to the
+/// course's render of test_dof/dof.xml (docs/scene-format.md#depth-of-field).
+pub const LENS_RADIUS_PER_APERTURE: f64 = 1.5;
+
+/// An area light's in-plane unit axes (e_u, e_v) for its unit normal `n`
+/// (the direction it faces): e_u is the world x axis made perpendicular to
+/// n when n is within about 26 degrees of straight up or down (|n_y| >=
+/// 0.9), e_v = n x e_u; otherwise e_v is the world y axis made
+/// perpendicular to n, e_u = e_v x n (docs/scene-format.md#area-lights).
+pub fn area_edges(n: DVec3) -> (DVec3, DVec3) {
+    if n.y.abs() >= 0.9 {
+        let e_u = (DVec3::X - DVec3::X.dot(n) * n).normalize();
+        (e_u, n.cross(e_u))
+    } else {
+        let e_v = (DVec3::Y - DVec3::Y.dot(n) * n).normalize();
+        (e_v.cross(n), e_v)
+    }
+}
+
 /// `frame` seen through `camera`: its world_from_film (for the frame's
 /// width and height) and eye, each element computed in f64 and rounded to
 /// f32, as `build` makes them for a scene with that camera.
@@ -600,19 +648,25 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
                 LightKind::Point => layout::LIGHT_POINT,
                 LightKind::Directional => layout::LIGHT_DIRECTIONAL,
                 LightKind::Spot => layout::LIGHT_SPOT,
-                LightKind::Area => {
-                    notes.push(format!("{}: area light drawn as a point light at its position", l.loc));
-                    layout::LIGHT_POINT
-                }
+                LightKind::Area => layout::LIGHT_AREA,
             };
             // Directions are unit vectors only when they are not zero; the
             // parser rejects a zero direction where the light uses it.
             let axis = if l.direction.length_squared() > 0.0 { l.direction.normalize() } else { DVec3::ZERO };
+            // An area light keeps its rectangle's edges where the others
+            // keep their directions (layout.h, Light).
+            let (to_light, spot_axis) = match l.kind {
+                LightKind::Area => {
+                    let (e_u, e_v) = area_edges(axis);
+                    (e_u * f64::from(l.width), e_v * f64::from(l.height))
+                }
+                _ => (-axis, axis),
+            };
             layout::Light {
                 color: rgb(l.color),
                 position: vec4(l.position, 1.0),
-                direction_to_light: vec4(-axis, 0.0),
-                spot_axis: vec4(axis, 0.0),
+                direction_to_light: vec4(to_light, 0.0),
+                spot_axis: vec4(spot_axis, 0.0),
                 attenuation: [l.attenuation[0], l.attenuation[1], l.attenuation[2], 0.0],
                 kind,
                 angle_deg: l.angle_deg,
@@ -638,6 +692,10 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
     }
     if settings.supersample == Supersample::Course {
         flags |= layout::FLAG_COURSE_SAMPLING;
+    }
+    let lens = lens(&scene.camera).filter(|_| settings.dof);
+    if lens.is_some() {
+        flags |= layout::FLAG_DOF;
     }
     let mut frame = layout::Frame {
         k: [g.ka, g.kd, g.ks, g.kt],
@@ -667,6 +725,9 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
         root_node: packed.group_roots.first().copied().unwrap_or(0),
         node_count: packed.nodes.len() as u32,
         loop_canary: layout::LOOP_CANARY,
+        lens_radius: lens.map_or(0.0, |l| l.0),
+        focal_distance: lens.map_or(0.0, |l| l.1),
+        light_samples: settings.light_samples,
         ..layout::Frame::default()
     };
     set_camera(&mut frame, &scene.camera);

@@ -177,8 +177,19 @@ impl Info {
         let list = |v: &[(&str, usize)]| v.iter().map(|(k, n)| format!("{n} {k}")).collect::<Vec<_>>().join(", ");
         let mut out = format!("scene: {}\n", self.scene);
         let c = &self.camera;
+        // A thin lens (docs/scene-format.md#depth-of-field): its radius and the distance in focus.
+        let lens = match crate::frame::lens(c) {
+            Some((radius, focal)) => {
+                format!(
+                    "; a thin lens of radius {}, in focus at {}",
+                    number(f64::from(radius)),
+                    number(f64::from(focal))
+                )
+            }
+            None => String::new(),
+        };
         out += &format!(
-            "  camera: eye {}, look {}, up {}, height angle {}°\n",
+            "  camera: eye {}, look {}, up {}, height angle {}°{lens}\n",
             vector(c.pos),
             vector(c.look),
             vector(c.up),

@@ -39,9 +39,11 @@ pub struct Frame {
     pub loop_canary: u32,
     /// render.comp: the first row of the band a dispatch draws (`GpuRenderer::render_marked`).
     pub row_offset: u32,
-    pub pad0: u32,
-    pub pad1: u32,
-    pub pad2: u32,
+    /// FLAG_DOF: the thin lens's radius and the distance in focus (camera.glsl lens_ray).
+    pub lens_radius: f32,
+    pub focal_distance: f32,
+    /// Points on each area light a sample (LIGHT_AREA).
+    pub light_samples: u32,
 }
 
 #[repr(C)]
@@ -304,9 +306,9 @@ impl Frame {
                 node_count,
                 loop_canary,
                 row_offset,
-                pad0,
-                pad1,
-                pad2
+                lens_radius,
+                focal_distance,
+                light_samples
             ]
         )
     }

@@ -101,6 +101,8 @@ macro_rules! errln {
     }};
 }
 
+#[cfg(test)]
+mod area_light_tests;
 pub mod args;
 pub mod bounded;
 pub mod bvh;

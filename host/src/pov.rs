@@ -183,8 +183,20 @@ fn matrix(m: &DMat4) -> String {
 /// y from -½ to ½.
 fn camera(c: &Camera, s: &RenderSettings) -> String {
     let m = crate::frame::world_from_film(c, s.width, s.height);
+    // The thin lens (docs/scene-format.md#depth-of-field): POV-Ray's
+    // aperture is the lens's diameter, its focal point a point in focus,
+    // its blur samples the rays a pixel (raycast's --spp).
+    let lens = match crate::frame::lens(c).filter(|_| s.dof) {
+        Some((radius, focal)) => format!(
+            "  aperture {}\n  focal_point {}\n  blur_samples {}\n",
+            num32(2.0 * radius),
+            vector(c.pos + f64::from(focal) * c.look.normalize()),
+            s.spp
+        ),
+        None => String::new(),
+    };
     format!(
-        "camera {{\n  perspective\n  location {}\n  direction {}\n  right {}\n  up {}\n}}\n",
+        "camera {{\n  perspective\n  location {}\n  direction {}\n  right {}\n  up {}\n{lens}}}\n",
         vector(m.w_axis.truncate()),
         vector(-m.z_axis.truncate()),
         vector(2.0 * m.x_axis.truncate()),
@@ -357,14 +369,19 @@ impl Writer<'_> {
                 num32((l.angle_deg - l.penumbra_deg).max(0.0)),
                 num32(l.angle_deg)
             ),
-            LightKind::Point | LightKind::Area => {
-                if l.kind == LightKind::Area {
-                    self.note(format!(
-                        "area light {} ({}) is a point light at its position, as raycast draws it",
-                        l.id, l.loc
-                    ));
-                }
-                format!("light_source {{ {} color {}{shadowless} }}\n", vector(l.position), rgb(color))
+            LightKind::Point => format!("light_source {{ {} color {}{shadowless} }}\n", vector(l.position), rgb(color)),
+            LightKind::Area => {
+                // The rectangle's edges (frame::area_edges) and a square
+                // grid of about --light-samples lights over it.
+                let (e_u, e_v) = crate::frame::area_edges(l.direction.normalize());
+                let n = f64::from(self.settings.light_samples).sqrt().ceil();
+                format!(
+                    "light_source {{ {} color {} area_light {}, {}, {n}, {n}{shadowless} }}\n",
+                    vector(l.position),
+                    rgb(color),
+                    vector(e_u * f64::from(l.width)),
+                    vector(e_v * f64::from(l.height))
+                )
             }
         }
     }

@@ -359,6 +359,8 @@ const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_AOVS, "the normal, depth, id and cost AOVs"),
     (layout::SPEC_TORI, "tori"),
     (layout::SPEC_MESHES, "meshes"),
+    (layout::SPEC_AREA_LIGHTS, "area lights"),
+    (layout::SPEC_DOF, "depth of field"),
     (layout::SPEC_COURSE_SAMPLING, "the course's adaptive supersampling"),
 ];
 
@@ -378,6 +380,7 @@ pub struct SceneFeatures {
     instances: bool,
     positioned_lights: bool,
     spot_lights: bool,
+    area_lights: bool,
     textured: bool,
     specular: bool,
     /// A material with a reflective channel other than 0.
@@ -418,6 +421,7 @@ impl SceneFeatures {
             instances: !data.instances.is_empty(),
             positioned_lights: data.lights.iter().any(|l| l.kind != layout::LIGHT_DIRECTIONAL),
             spot_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_SPOT),
+            area_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_AREA),
             textured: data.materials.iter().any(|m| m.texture >= 0),
             specular: data.materials.iter().any(|m| m.shininess > 0.0),
             reflective: data.materials.iter().any(|m| m.reflective[..3].iter().any(|&r| r != 0.0)),
@@ -462,6 +466,8 @@ impl SceneFeatures {
             (layout::SPEC_TORI, self.tori),
             (layout::SPEC_MESHES, self.meshes),
             (layout::SPEC_COURSE_SAMPLING, flag(layout::FLAG_COURSE_SAMPLING)),
+            (layout::SPEC_AREA_LIGHTS, self.area_lights),
+            (layout::SPEC_DOF, flag(layout::FLAG_DOF)),
         ] {
             on[id as usize] = value;
         }
@@ -920,7 +926,7 @@ mod tests {
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
              mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori, meshes, \
-             the course's adaptive supersampling; the walk's 2 levels in registers"
+             area lights, depth of field, the course's adaptive supersampling; the walk's 2 levels in registers"
         );
         // An AOV other than colour keeps its code.
         for aov in [Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost, Aov::CostAll] {
@@ -948,9 +954,9 @@ mod tests {
         // Every feature's constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
         ids.sort();
-        // Ids 23 to 25 are issue 44's other features' (layout.h), named on
-        // their own branches: drop this filter once they are merged.
-        let assigned = |id: &u32| !(23..=25).contains(id);
+        // Id 23 is issue 44's refraction's (layout.h), named on its own
+        // branch: drop this filter once it is merged.
+        let assigned = |id: &u32| *id != 23;
         assert_eq!(ids, (0..SPEC_COUNT as u32).filter(|&id| is_feature(id) && assigned(&id)).collect::<Vec<_>>());
     }
 

@@ -81,7 +81,11 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
                     layout::TRACE_LIGHT_ADDED => format!("adds {term} (no shadow rays)"),
                     _ => format!("would add {term}; its shadow ray decides"),
                 };
-                lines.push(format!("  {}, toward {}: {what}", light(scene, s.light), v3(s.direction)));
+                // An area light's point: trace.glsl puts it in origin, its index in w.
+                let area = scene.lights.get(s.light as usize).is_some_and(|l| l.kind == LightKind::Area);
+                let point =
+                    if area { format!(" (its point {} at {})", s.origin[3], v3(s.origin)) } else { String::new() };
+                lines.push(format!("  {}{point}, toward {}: {what}", light(scene, s.light), v3(s.direction)));
             }
             layout::TRACE_SHADOW => {
                 // T_FAR (raycast.glsl), the largest float: a directional light's.

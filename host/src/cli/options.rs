@@ -47,6 +47,16 @@ pub struct RenderOptions {
     /// Turn texture mapping off
     #[arg(long, help_heading = "Picture")]
     pub no_textures: bool,
+    /// Turn depth of field off (the pinhole camera)
+    #[arg(long, help_heading = "Picture")]
+    pub no_dof: bool,
+    /// Points on each area light a sample, 1 to 1024
+    ///
+    /// Points on each area light a sample, 1 to 1024 [default: 16]: the
+    /// soft shadows converge with these and with --spp.
+    #[arg(long, default_value_t = crate::frame::DEFAULT_LIGHT_SAMPLES, value_name = "N",
+          value_parser = parse_light_samples, help_heading = "Quality", hide_default_value = true)]
+    pub light_samples: u32,
     /// Mirror bounces, 0 to 16 (alias --depth)
     #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = parse_bounces, help_heading = "Picture")]
     pub bounces: u32,
@@ -183,6 +193,8 @@ impl RenderOptions {
             texture_filter: self.texture_filter,
             depth_range: self.depth_range,
             cost_max: self.cost_max,
+            dof: !self.no_dof,
+            light_samples: self.light_samples,
         }
     }
 

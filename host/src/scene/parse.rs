@@ -891,6 +891,7 @@ impl<'a> Ctx<'a> {
         let mut seen = HashMap::new();
         let mut aim: Option<(XNode, DVec3)> = None; // <focus> or <look>, value as written
         let mut up_node = None;
+        let mut aperture_node = None;
         for c in self.elements(n) {
             let name = c.tag_name().name();
             match name {
@@ -945,18 +946,38 @@ impl<'a> Ctx<'a> {
                     let msg = "raycast takes the aspect ratio from the picture's size (--width and --height); <aspectratio> is ignored";
                     self.warn(self.nloc(c), msg.to_string());
                 }
-                // Depth of field is an extra of the format that the course's
-                // own renders do not draw either (recursiveSpheres4 and
-                // texture_sphere carry an aperture): raycast's pinhole picture
-                // is the expected one, so these are kept without a word.
-                "aperture" => cam.aperture = Some(self.v(c)?),
-                "focallength" => cam.focal_length = Some(self.v(c)?),
+                // Depth of field (docs/scene-format.md#depth-of-field): a thin
+                // lens, drawn where a sample has lens points (--spp above 1).
+                "aperture" | "focallength" => {
+                    let v = self.v(c)?;
+                    let aperture = name == "aperture";
+                    // An aperture may be 0 (a pinhole); the distance in focus may not.
+                    if !(v.is_finite() && (v > 0.0 || (aperture && v == 0.0)) && v < f64::from(f32::MAX)) {
+                        let a = self.req_attr(c, "v", &["v"], "v")?;
+                        let expected = if aperture {
+                            "expected a lens size of 0 or more, 0 for a pinhole"
+                        } else {
+                            "expected the positive distance in focus, in world units"
+                        };
+                        return Err(self.err(self.aloc(&a), format!("<{name}> is {} ({expected})", fmt_number(v))));
+                    }
+                    if aperture {
+                        cam.aperture = Some(v);
+                        aperture_node = Some(c);
+                    } else {
+                        cam.focal_length = Some(v);
+                    }
+                }
                 _ => {
                     self.unknown_element(c, "cameradata", CAMERA_ELEMENTS);
                     continue;
                 }
             }
             self.dup(&mut seen, c, "cameradata");
+        }
+        if let (Some(c), None) = (aperture_node.filter(|_| cam.aperture > Some(0.0)), cam.focal_length) {
+            let msg = "<aperture> without a <focallength>: a lens needs the distance in focus (add <focallength v=\"D\"/>, or give an aperture of 0 for a pinhole)";
+            return Err(self.err(self.nloc(c), msg.to_string()));
         }
         let mut look_node = None;
         if let Some((c, v)) = aim {
@@ -1020,6 +1041,7 @@ impl<'a> Ctx<'a> {
         };
         let mut seen = HashMap::new();
         let mut dir_node = None;
+        let mut size_nodes = [None, None]; // <width>, <height>
         let mut has_angle = false;
         for c in self.elements(n) {
             match c.tag_name().name() {
@@ -1080,8 +1102,14 @@ impl<'a> Ctx<'a> {
                     has_angle = true;
                 }
                 "penumbra" => light.penumbra_deg = self.v32(c)?,
-                "width" => light.width = self.v32(c)?,
-                "height" => light.height = self.v32(c)?,
+                "width" => {
+                    light.width = self.v32(c)?;
+                    size_nodes[0] = Some(c);
+                }
+                "height" => {
+                    light.height = self.v32(c)?;
+                    size_nodes[1] = Some(c);
+                }
                 _ => {
                     self.unknown_element(c, "lightdata", LIGHT_ELEMENTS);
                     continue;
@@ -1089,24 +1117,55 @@ impl<'a> Ctx<'a> {
             }
             self.dup(&mut seen, c, "lightdata");
         }
-        if matches!(light.kind, LightKind::Directional | LightKind::Spot) && unit(light.direction).is_none() {
-            let kind = if light.kind == LightKind::Spot { "spot" } else { "directional" };
+        if matches!(light.kind, LightKind::Directional | LightKind::Spot | LightKind::Area)
+            && unit(light.direction).is_none()
+        {
+            let kind = match light.kind {
+                LightKind::Spot => "a spot",
+                LightKind::Area => "an area",
+                _ => "a directional",
+            };
             return Err(match dir_node {
                 Some(d) => self.err(
                     self.nloc(d),
-                    format!("a {kind} light's <direction> is the zero vector (expected the direction the light travels)"),
+                    format!("{kind} light's <direction> is the zero vector (expected the direction the light travels)"),
                 ),
                 None => self.err(
                     self.nloc(n),
-                    format!("a {kind} light has no <direction> (expected <direction x y z/>: the direction the light travels)"),
+                    format!("{kind} light has no <direction> (expected <direction x y z/>: the direction the light travels)"),
                 ),
             });
+        }
+        if light.kind == LightKind::Area {
+            self.area_light_size(n, &light, size_nodes)?;
         }
         if light.kind == LightKind::Spot && !has_angle {
             let msg = "spot light has no <angle>; using 0 degrees, so it lights nothing".to_string();
             self.warn(self.nloc(n), msg);
         }
         Ok(light)
+    }
+
+    /// An area light's `<width>` and `<height>`: both given, each a
+    /// positive finite size (docs/scene-format.md#area-lights); `nodes`
+    /// are the elements that gave them.
+    fn area_light_size(&self, n: XNode, light: &Light, nodes: [Option<XNode>; 2]) -> R<()> {
+        for ((name, v), node) in [("width", light.width), ("height", light.height)].into_iter().zip(nodes) {
+            let Some(c) = node else {
+                return Err(self.err(
+                    self.nloc(n),
+                    format!("an area light has no <{name}> (expected <{name} v=\"S\"/>: the rectangle's size in world units)"),
+                ));
+            };
+            if !(v.is_finite() && v > 0.0) {
+                let a = self.req_attr(c, "v", &["v"], "v")?;
+                return Err(self.err(
+                    self.aloc(&a),
+                    format!("an area light's <{name}> is {} (expected a positive size in world units)", fmt_number(v)),
+                ));
+            }
+        }
+        Ok(())
     }
 
     // -- object trees -----------------------------------------------------
@@ -1903,7 +1962,9 @@ mod tests {
             ("spot", LightKind::Spot),
             ("area", LightKind::Area),
         ] {
-            let f = light(&format!("<type v=\"{v}\"/><direction x=\"1\" y=\"0\" z=\"0\"/><angle v=\"1\"/>")).unwrap();
+            let size = "<width v=\"1\"/><height v=\"1\"/>"; // an area light's; the others ignore it
+            let f =
+                light(&format!("<type v=\"{v}\"/><direction x=\"1\" y=\"0\" z=\"0\"/><angle v=\"1\"/>{size}")).unwrap();
             assert_eq!(f.lights[0].kind, k);
         }
         // Non-unique ids are fine; more than 8 lights are fine.
@@ -2785,5 +2846,61 @@ mod tests {
         warned_at(&f, 2, 13, "raycast's ray caster has no transparency; <transparentcoeff> is ignored");
         let f = ok(&with_top("<globaldata><transparentcoeff v=\"0\"/></globaldata>"));
         assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+    }
+
+    #[test]
+    fn an_area_light_needs_a_positive_width_height_and_direction() {
+        let area = |rest: &str| light(&format!("<type v=\"area\"/>\n{rest}"));
+        let f = area("<direction x=\"0\" y=\"-1\" z=\"0\"/><width v=\"2\"/><height v=\"0.5\"/>").unwrap();
+        let l = &f.lights[0];
+        assert_eq!((l.kind, l.width, l.height), (LightKind::Area, 2.0, 0.5));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+        // Missing: named at the <lightdata>.
+        for (rest, missing) in [
+            ("<direction x=\"0\" y=\"-1\" z=\"0\"/><height v=\"1\"/>", "<width>"),
+            ("<direction x=\"0\" y=\"-1\" z=\"0\"/><width v=\"1\"/>", "<height>"),
+            ("<width v=\"1\"/><height v=\"1\"/>", "<direction>"),
+        ] {
+            let e = area(rest).unwrap_err();
+            assert_eq!(at(&e), (2, 1), "{e}");
+            assert!(e.message.contains(&format!("an area light has no {missing}")), "{e}");
+        }
+        let e = area("<direction x=\"0\" y=\"0\" z=\"0\"/><width v=\"1\"/><height v=\"1\"/>").unwrap_err();
+        assert!(e.message.contains("an area light's <direction> is the zero vector"), "{e}");
+        // Bad sizes: named at the value.
+        for (v, says) in [
+            ("-1", "an area light's <width> is -1 (expected a positive size in world units)"),
+            ("0", "an area light's <width> is 0 (expected a positive size in world units)"),
+            ("nan", "is \"nan\" (expected a finite number)"),
+            ("1e39", "too large"),
+        ] {
+            let e = area(&format!("<direction x=\"0\" y=\"-1\" z=\"0\"/>\n<width v=\"{v}\"/><height v=\"1\"/>"))
+                .unwrap_err();
+            assert_eq!(at(&e), (5, 8), "{v}: {e}");
+            assert!(e.message.contains(says), "{v}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_lens_needs_a_size_of_0_or_more_and_a_distance_in_focus() {
+        let f = camera("<aperture v=\"0.008\"/>\n<focallength v=\"3\"/>").unwrap();
+        assert_eq!((f.camera.aperture, f.camera.focal_length), (Some(0.008), Some(3.0)));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+        // An aperture of 0 is a pinhole and needs no focal length.
+        let f = camera("<aperture v=\"0\"/>").unwrap();
+        assert_eq!(f.camera.aperture, Some(0.0));
+        let e = camera("<aperture v=\"0.1\"/>").unwrap_err();
+        assert_eq!(at(&e), (3, 1), "{e}");
+        assert!(e.message.contains("<aperture> without a <focallength>"), "{e}");
+        for (element, v, says) in [
+            ("aperture", "-0.5", "<aperture> is -0.5 (expected a lens size of 0 or more, 0 for a pinhole)"),
+            ("focallength", "0", "<focallength> is 0 (expected the positive distance in focus, in world units)"),
+            ("focallength", "-2", "<focallength> is -2 (expected the positive distance in focus"),
+            ("focallength", "nan", "is \"nan\" (expected a finite number)"),
+        ] {
+            let e = camera(&format!("<aperture v=\"1\"/>\n<{element} v=\"{v}\"/>")).unwrap_err();
+            assert_eq!(at(&e).0, 4, "{element} {v}: {e}");
+            assert!(e.message.contains(says), "{element} {v}: {e}");
+        }
     }
 }
