@@ -2688,3 +2688,57 @@ fn every_commands_short_help_fits_80_columns() {
         assert!(wrapped.is_none(), "{command} -h: a short line wraps ({wrapped:?}):\n{out}");
     }
 }
+
+/// `--supersample course` (course_sampling.glsl): a pixel whose 4 first
+/// samples agree takes those 4, at its quadrant centres; one on an edge is
+/// refined, its quadrants' squares sampled the same way, at most 84
+/// samples in 3 levels (`trace --json`'s course_samples, on the embedded
+/// default scene: (0, 0) is sky, (216, 148) the edge of the tall cube).
+/// Then the device and the CPU build agree on it bit for bit (`check`,
+/// rule: every buffer identical), in colour and `--aov samples`, with the
+/// course's texture filter, on scenes of every kind; and it refuses --spp.
+#[test]
+fn course_supersampling_refines_where_the_samples_differ() {
+    let samples = |pixel: &str| -> Vec<serde_json::Value> {
+        let o = raycast(&["trace", "--json", "--supersample", "course", "--pixel", pixel], &[]);
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{out}{err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"));
+        assert_eq!(v["spp"].as_u64(), v["course_samples"].as_array().map(|a| a.len() as u64), "{out}");
+        v["course_samples"].as_array().unwrap().clone()
+    };
+    let offset = |s: &serde_json::Value| [s["offset"][0].as_f64().unwrap(), s["offset"][1].as_f64().unwrap()];
+    let quadrants = [[-0.25, -0.25], [0.25, -0.25], [-0.25, 0.25], [0.25, 0.25]];
+    let flat = samples("0,0");
+    assert_eq!(flat.iter().map(offset).collect::<Vec<_>>(), quadrants, "{flat:?}");
+    assert!(flat.iter().all(|s| s["level"] == 0), "{flat:?}");
+    let edge = samples("216,148");
+    assert!(edge.len() > 4 && edge.len() <= 84, "{} samples: {edge:?}", edge.len());
+    assert_eq!(edge[..4].iter().map(offset).collect::<Vec<_>>(), quadrants, "{edge:?}");
+    assert!(edge[4..].iter().all(|s| s["level"] == 1 || s["level"] == 2), "{edge:?}");
+    assert!(edge.iter().flat_map(offset).all(|c| c.abs() < 0.5), "{edge:?}");
+    // Past the samples the scheme took there, --sample is a usage error.
+    let o = raycast(&["trace", "--supersample", "course", "--pixel", "216,148", "--sample", "84"], &[]);
+    assert_fails(&o, 2, "is not one of the");
+
+    let torus = repo().join("tests/scenes/torus.xml");
+    let lens = repo().join("tests/scenes/lens/area_shadows.xml");
+    let dof = repo().join("tests/scenes/lens/dof_spheres.xml");
+    for scene in [None, Some(&torus), Some(&lens), Some(&dof)] {
+        for aov in ["color", "samples"] {
+            let mut args = vec!["check", "--supersample", "course", "--texture-filter", "course", "--aov", aov];
+            args.extend(["--width", "96", "--height", "72"]);
+            if let Some(s) = scene {
+                args.push(s.to_str().unwrap());
+            }
+            let o = raycast(&args, &[]);
+            let (out, err) = text(&o);
+            assert!(o.status.success() && out.contains("identical"), "{args:?}:\n{out}{err}");
+        }
+    }
+    assert_fails(
+        &raycast(&["render", "--supersample", "course", "--spp", "4", "-o", "-"], &[]),
+        2,
+        "--spp 4 and --supersample course are two ways to place samples",
+    );
+}

@@ -247,3 +247,38 @@ fn json_of_one_pair_parses() {
     assert_eq!(j["passes"], true);
     assert!(j.get("name").is_none(), "{j}");
 }
+
+/// `--min-psnr DB`: the rule for sampled pictures. 12 pixels of 512x384 off
+/// by the amount with_differing gives are a PSNR the test computes here
+/// from the pictures; a bound just below it passes, one just above fails
+/// (exit 4, naming the PSNR), the verdict line and the JSON carry it, and
+/// identical pictures pass any bound.
+#[test]
+fn min_psnr_is_a_rule_of_its_own() {
+    let d = dir("psnr");
+    let expected = gradient(512, 384);
+    let actual = with_differing(&expected, 12);
+    let squares: f64 =
+        actual.data.iter().zip(&expected.data).map(|(&a, &e)| (f64::from(a) - f64::from(e)).powi(2)).sum();
+    let db = 10.0 * (255.0f64.powi(2) / (squares / actual.data.len() as f64)).log10();
+    let (a, e) = (save(&d.join("actual.png"), &actual), save(&d.join("expected.png"), &expected));
+    let below = format!("{:.2}", db - 0.01);
+    let o = raycast(&["compare", &a, &e, "--min-psnr", &below], &[]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{out}{err}");
+    let verdict = out.lines().last().unwrap_or("");
+    assert!(verdict.starts_with("PASS: ") && verdict.contains(&format!("PSNR {db:.2} dB")), "{out}");
+    assert!(verdict.ends_with(&format!("(rule: at most 0.1%, PSNR at least {below} dB)")), "{out}");
+    let above = format!("{:.2}", db + 0.01);
+    let o = raycast(&["compare", &a, &e, "--min-psnr", &above, "--json"], &[]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(4), "{out}{err}");
+    assert!(err.contains(&format!("PSNR {db:.2} dB, below --min-psnr {above}")), "{err}");
+    let v: Value = serde_json::from_str(out.trim()).unwrap();
+    assert!((v["psnr_db"].as_f64().unwrap() - db).abs() < 0.006, "{v}");
+    assert_eq!(v["passes"], false, "{v}");
+    let o = raycast(&["compare", &e, &e, "--min-psnr", "200"], &[]);
+    assert_eq!(o.status.code(), Some(0), "{:?}", text(&o));
+    assert!(text(&o).0.contains(", identical (rule"), "{:?}", text(&o));
+    assert_eq!(raycast(&["compare", &a, &e, "--min-psnr", "NaN"], &[]).status.code(), Some(2));
+}

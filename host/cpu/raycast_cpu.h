@@ -33,6 +33,13 @@ void raycast_cpu_preview_rows(const void* const* buffers, uint32_t row_begin, ui
 uint32_t raycast_cpu_trace_sample(const void* const* buffers, uint32_t x, uint32_t y, uint32_t sample, void* out,
                                   uint32_t capacity);
 
+/* Under FLAG_COURSE_SAMPLING: the samples the course's adaptive scheme takes
+ * at pixel (x, y), in the order it takes them (course_sampling.glsl). For
+ * each, 6 floats to out: its offset from the pixel centre (x, y), its
+ * square's level, its colour (r, g, b). out holds COURSE_MAX_SAMPLES of
+ * them; returns how many there are. */
+uint32_t raycast_cpu_course_samples(const void* const* buffers, uint32_t x, uint32_t y, float* out);
+
 /* The C++ layout of struct `type` (e.g. "Material"): its size when member is
  * NULL, else the member's offset; -1 when unknown. */
 int64_t raycast_cpu_field_offset(const char* type, const char* member);

@@ -13,7 +13,7 @@
 //! the render's size, with the bound and the measured figure beside it.
 
 use crate::error::Error;
-use crate::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
+use crate::frame::{self, Aov, FrameData, RenderSettings, Supersample, TextureFilter};
 use crate::image_io::{self, Rgb8};
 use crate::render::Picture;
 use crate::scene::{self, FlattenLimits, ParseOptions};
@@ -54,6 +54,8 @@ const ALLOWANCES: &[(&str, f64, &str)] = &[
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sampled {
     pub spp: u32,
+    /// The fixed pattern of `spp` samples, or the course's adaptive scheme.
+    pub supersample: Supersample,
     pub texture_filter: TextureFilter,
     /// The reference's side over the render's: each shrink x shrink block
     /// of the reference is averaged into one pixel.
@@ -62,30 +64,57 @@ pub struct Sampled {
     pub min_psnr: f64,
     /// The reference's settings and the figures measured when the bound was set.
     pub why: &'static str,
+    /// The corpus folder of the scene file, where it is not the reference's group's.
+    pub scene_in: Option<&'static str>,
 }
 
 /// The sampled references of bench/Illuminate (1024x768): (group, scene, rule).
-const SAMPLED: &[(&str, &str, Sampled)] = &[(
-    "test_dof",
-    "dof",
-    Sampled {
-        spp: 16,
-        texture_filter: TextureFilter::Bilinear,
-        shrink: 2,
-        min_psnr: 40.0,
-        why: "the course's thin lens, 8 lens samples a pixel (its blurred edges step in eighths); measured 41.55 dB \
+const SAMPLED: &[(&str, &str, Sampled)] = &[
+    (
+        "test_dof",
+        "dof",
+        Sampled {
+            spp: 16,
+            supersample: Supersample::Pattern,
+            texture_filter: TextureFilter::Bilinear,
+            shrink: 2,
+            min_psnr: 40.0,
+            scene_in: None,
+            why:
+                "the course's thin lens, 8 lens samples a pixel (its blurred edges step in eighths); measured 41.55 dB \
               at 512x384 --spp 16, against 37.02 dB for the pinhole (--no-dof) at the same settings",
-    },
-)];
-
-/// Peak signal-to-noise ratio of `a` against `b` (same size), in dB over
-/// their R, G and B values: 10 log10(255^2 / mean squared difference);
-/// infinite for equal pictures.
-pub fn psnr(a: &Rgb8, b: &Rgb8) -> f64 {
-    let squares: f64 = a.data.iter().zip(&b.data).map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2)).sum();
-    let mse = squares / a.data.len().max(1) as f64;
-    10.0 * (255.0f64 * 255.0 / mse).log10()
-}
+        },
+    ),
+    (
+        "test_fun",
+        "robot",
+        Sampled {
+            spp: 1,
+            supersample: Supersample::Course,
+            texture_filter: TextureFilter::Course,
+            shrink: 1,
+            min_psnr: 64.0,
+            scene_in: None,
+            why: "the course's adaptive supersampling; measured 66.92 dB (0.025% of pixels off by more than 2/255) \
+                  on 2026-11-29, against 42.30 dB at one sample a pixel",
+        },
+    ),
+    (
+        // The same file as test_efficiency's, rendered in the course's test_take_forever group.
+        "test_take_forever",
+        "recursiveSpheres1",
+        Sampled {
+            spp: 1,
+            supersample: Supersample::Course,
+            texture_filter: TextureFilter::Course,
+            shrink: 1,
+            min_psnr: 70.0,
+            scene_in: Some("test_efficiency"),
+            why: "the course's adaptive supersampling and texture filter; measured 73.77 dB (0.0043% of pixels off by \
+                  more than 2/255) on 2026-11-29, against 50.76 dB with --texture-filter bilinear and 48.90 dB nearest",
+        },
+    ),
+];
 
 /// `image` with each `f` x `f` block averaged into one pixel (rounded to
 /// nearest); a partial block at the right or bottom edge is left out.
@@ -149,9 +178,16 @@ impl Case {
 
     fn picture_text(&self) -> String {
         if let Some(s) = &self.sampled {
+            let samples = match s.supersample {
+                Supersample::Course => "--supersample course".to_string(),
+                Supersample::Pattern => format!("--spp {}", s.spp),
+            };
+            let shrunk = if s.shrink > 1 { format!(", the reference shrunk {}x", s.shrink) } else { String::new() };
             return format!(
-                "colour {}x{} --spp {}, the reference shrunk {}x",
-                self.width, self.height, s.spp, s.shrink
+                "colour {}x{} {samples} --texture-filter {}{shrunk}",
+                self.width,
+                self.height,
+                format!("{:?}", s.texture_filter).to_lowercase()
             );
         }
         match self.aov {
@@ -167,7 +203,8 @@ impl Case {
 
     /// The case's scene file in `corpus` (absent where `generated` stands in).
     fn scene_file(&self, corpus: &Path) -> PathBuf {
-        corpus.join(self.group).join(format!("{}.xml", self.name))
+        let folder = self.sampled.and_then(|s| s.scene_in).unwrap_or(self.group);
+        corpus.join(folder).join(format!("{}.xml", self.name))
     }
 
     /// The scene loaded from `corpus` (or generated) and packed as its reference was rendered.
@@ -194,6 +231,7 @@ impl Case {
             reflections: self.features,
             textures: self.features,
             spp: self.sampled.map_or(1, |s| s.spp),
+            supersample: self.sampled.map_or(Supersample::default(), |s| s.supersample),
             texture_filter: self.sampled.map_or(TextureFilter::default(), |s| s.texture_filter),
             ..RenderSettings::default()
         };
@@ -289,7 +327,7 @@ pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, 
     let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
     let expected = image_io::read_picture(&case.reference)?;
     if let Some(s) = &case.sampled {
-        return judge_sampled(s, &actual, &shrink(&expected, s.shrink));
+        return judge_sampled(case, s, &actual, &shrink(&expected, s.shrink), out_dir);
     }
     let diff = image_io::compare(&actual, &expected, TOLERANCE)?;
 
@@ -342,19 +380,34 @@ pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, 
 }
 
 /// A render against a sampled reference already shrunk to its size: Ok
-/// (report, PSNR, bound) when the PSNR reaches the bound.
-fn judge_sampled(s: &Sampled, actual: &Rgb8, expected: &Rgb8) -> Result<(String, f64, f64), Error> {
+/// (report, PSNR, bound) when the PSNR reaches the bound; Err with the
+/// paths of the actual / expected / diff images written to `out_dir`.
+fn judge_sampled(
+    case: &Case,
+    s: &Sampled,
+    actual: &Rgb8,
+    expected: &Rgb8,
+    out_dir: &Path,
+) -> Result<(String, f64, f64), Error> {
     if (actual.width, actual.height) != (expected.width, expected.height) {
         let (w, h) = (expected.width, expected.height);
         return Err(Error::Failed(format!("the reference shrunk {}x is {w}x{h}, not the render's size", s.shrink)));
     }
-    let measured = psnr(actual, expected);
-    let report = format!("PSNR {measured:.2} dB (rule: at least {:.1} dB; {})", s.min_psnr, s.why);
+    let diff = image_io::compare(actual, expected, TOLERANCE)?;
+    let measured = diff.psnr().unwrap_or(f64::INFINITY);
+    let report = format!("PSNR {measured:.2} dB, {diff} (rule: at least {:.1} dB; {})", s.min_psnr, s.why);
+    let name = format!("{}_{}-sampled", case.group, case.name);
     if measured >= s.min_psnr {
-        Ok((report, measured, s.min_psnr))
-    } else {
-        Err(Error::Failed(report))
+        image_io::remove_stale(&image_io::diff_image_paths(out_dir, &name))?;
+        return Ok((report, measured, s.min_psnr));
     }
+    let paths = image_io::write_diff_images(out_dir, &name, actual, expected, &diff)?;
+    Err(Error::Failed(format!(
+        "{report}\n      actual:   {}\n      expected: {}\n      diff:     {}",
+        paths[0].display(),
+        paths[1].display(),
+        paths[2].display()
+    )))
 }
 
 /// What a whole run found.

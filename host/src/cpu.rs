@@ -25,6 +25,7 @@ extern "C" {
         accum: *mut c_void,
         pixels: *mut c_void,
     );
+    fn raycast_cpu_course_samples(buffers: *const *const c_void, x: u32, y: u32, out: *mut f32) -> u32;
     fn raycast_cpu_field_offset(ty: *const std::ffi::c_char, member: *const std::ffi::c_char) -> i64;
     fn raycast_cpu_trace_sample(
         buffers: *const *const c_void,
@@ -245,7 +246,11 @@ impl CpuRenderer {
                 frame.width, frame.height
             )));
         }
-        let spp = frame.spp.max(1);
+        let spp = if frame.flags & layout::FLAG_COURSE_SAMPLING != 0 {
+            self.course_samples(data, frame, x, y)?.len() as u32
+        } else {
+            frame.spp.max(1)
+        };
         if sample >= spp {
             return Err(Error::Failed(format!("sample {sample} is not one of the pixel's {spp} (0 to {})", spp - 1)));
         }
@@ -264,6 +269,31 @@ impl CpuRenderer {
             }
             steps.resize(n as usize, layout::TraceStep::default());
         }
+    }
+
+    /// The samples the course's adaptive scheme takes at pixel (x, y) of
+    /// `frame` (`--supersample course`), in the order it takes them.
+    pub fn course_samples(
+        &self,
+        data: &FrameData,
+        frame: &layout::Frame,
+        x: u32,
+        y: u32,
+    ) -> Result<Vec<CourseSample>, Error> {
+        if x >= frame.width || y >= frame.height {
+            let (w, h) = (frame.width, frame.height);
+            return Err(Error::Failed(format!("pixel ({x}, {y}) is outside the {w}x{h} picture")));
+        }
+        let mut buffers = buffer_pointers(data);
+        buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
+        let mut out = vec![0f32; 6 * layout::COURSE_MAX_SAMPLES as usize];
+        // SAFETY: as in `run`; `out` holds COURSE_MAX_SAMPLES records of 6 floats (raycast_cpu.h).
+        let n = unsafe { raycast_cpu_course_samples(buffers.0.as_ptr(), x, y, out.as_mut_ptr()) };
+        Ok(out
+            .chunks_exact(6)
+            .take(n as usize)
+            .map(|r| CourseSample { offset: [r[0], r[1]], level: r[2] as u32, color: [r[3], r[4], r[5]] })
+            .collect())
     }
 
     /// Runs the jobs (first row, end row, their pixels) on every thread,
@@ -358,6 +388,16 @@ impl CpuRenderer {
         });
         done.load(Ordering::Relaxed)
     }
+}
+
+/// One sample the course's adaptive scheme took (`CpuRenderer::course_samples`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CourseSample {
+    /// From the pixel centre, in pixels.
+    pub offset: [f32; 2],
+    /// Its square's level: 0 the pixel's 4, 1 and 2 refined quadrants.
+    pub level: u32,
+    pub color: [f32; 3],
 }
 
 /// The CPU build drawing the preview's samples (`raycast preview --backend

@@ -49,6 +49,9 @@ struct Traced {
     spp: u32,
     rays: usize,
     steps: Vec<crate::trace::Step>,
+    /// Under --supersample course: every sample the scheme took at the pixel.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    course_samples: Option<Vec<crate::cpu::CourseSample>>,
     render: Option<RenderedPixel>,
 }
 
@@ -85,7 +88,8 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
     if x >= o.width || y >= o.height {
         return Err(Error::usage(format!("--pixel {x},{y} is outside the {}x{} picture", o.width, o.height)));
     }
-    if args.sample >= o.spp.max(1) {
+    let course = o.supersample == crate::frame::Supersample::Course;
+    if !course && args.sample >= o.spp.max(1) {
         return Err(Error::usage(format!(
             "--sample {} is not one of the pixel's {} (0 to {})",
             args.sample,
@@ -98,8 +102,17 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
         outln!("{}", scene_line(&p));
     }
     let cpu = CpuRenderer::new()?;
+    // The course's scheme: the samples it took decide how many there are.
+    let course_samples = if course { Some(cpu.course_samples(&p.data, &p.data.frame, x, y)?) } else { None };
+    let spp = course_samples.as_ref().map_or(p.data.frame.spp.max(1), |c| c.len() as u32);
+    if args.sample >= spp {
+        return Err(Error::usage(format!(
+            "--sample {} is not one of the {spp} samples the course's scheme took at this pixel (0 to {})",
+            args.sample,
+            spp - 1
+        )));
+    }
     let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample)?;
-    let spp = p.data.frame.spp.max(1);
     // At one sample a pixel, the render's pixel: the same 8-bit colour, rays and first hit.
     let render = (spp == 1).then(|| cpu.render_rows(&p.data, &[y])[0][x as usize]);
     let rays = steps.iter().filter(|s| s.is_ray()).count();
@@ -120,6 +133,7 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
             spp,
             rays,
             steps: crate::trace::json(&p.scene, &steps),
+            course_samples: course_samples.clone(),
             render: render.map(|pixel| RenderedPixel {
                 rgba8: pixel.rgba.to_le_bytes(),
                 rays: pixel.rays,
@@ -132,7 +146,15 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
         for line in crate::trace::describe(&p.scene, &steps) {
             outln!("{line}");
         }
-        if spp > 1 {
+        if let Some(samples) = &course_samples {
+            outln!("the course's adaptive supersampling took {spp} samples at this pixel (offsets from its centre):");
+            for (k, c) in samples.iter().enumerate() {
+                let [r, g, b] = c.color;
+                let [dx, dy] = c.offset;
+                outln!("  {k:2}: ({dx:+.4}, {dy:+.4}) level {}  colour ({r:.4}, {g:.4}, {b:.4})", c.level);
+            }
+            outln!("(the pixel is the mean of its squares' means: `--sample S` traces another)");
+        } else if spp > 1 {
             outln!("(the pixel is the mean of its {spp} samples: `--sample S` traces another)");
         }
     }
