@@ -135,6 +135,9 @@ pub struct RenderSettings {
     /// Aov::Cost and CostAll: the passes drawn at the hot end; None for
     /// `Aov::default_cost_max`.
     pub cost_max: Option<u32>,
+    /// Refracted rays through transparent materials (FLAG_REFRACTION, set
+    /// only where the scene has one: `transmits`).
+    pub refraction: bool,
 }
 
 impl Default for RenderSettings {
@@ -152,6 +155,7 @@ impl Default for RenderSettings {
             texture_filter: TextureFilter::Nearest,
             depth_range: None,
             cost_max: None,
+            refraction: true,
         }
     }
 }
@@ -596,6 +600,9 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
     if settings.textures {
         flags |= layout::FLAG_TEXTURES;
     }
+    if settings.refraction && transmits(&materials, scene.globals.kt) {
+        flags |= layout::FLAG_REFRACTION;
+    }
     let mut frame = layout::Frame {
         k: [g.ka, g.kd, g.ks, g.kt],
         width: settings.width,
@@ -643,6 +650,13 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
         build_time,
         notes,
     })
+}
+
+/// Whether a material lets light through: k_t O_t, the refracted ray's
+/// weight (lighting.glsl surface_at), has a channel other than 0. Without
+/// one FLAG_REFRACTION stays off and the picture is an opaque scene's.
+pub fn transmits(materials: &[layout::Material], kt: f32) -> bool {
+    materials.iter().any(|m| m.transparent[..3].iter().any(|&t| kt * t != 0.0))
 }
 
 /// Scenes of one group with at most this many primitives skip the hierarchy.

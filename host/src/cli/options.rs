@@ -44,6 +44,9 @@ pub struct RenderOptions {
     /// Turn mirror reflections off
     #[arg(long, help_heading = "Picture")]
     pub no_reflections: bool,
+    /// Turn refraction off: transparent materials drawn opaque
+    #[arg(long, help_heading = "Picture")]
+    pub no_refraction: bool,
     /// Turn texture mapping off
     #[arg(long, help_heading = "Picture")]
     pub no_textures: bool,
@@ -177,6 +180,7 @@ impl RenderOptions {
             texture_filter: self.texture_filter,
             depth_range: self.depth_range,
             cost_max: self.cost_max,
+            refraction: !self.no_refraction,
         }
     }
 
