@@ -8,7 +8,8 @@
 //! otherwise); each in colour and with the normal AOV at 512x384, with
 //! shadows, reflections and textures on. Our scenes and the corpus's
 //! test_feature scenes also with 4 samples per pixel and bilinear texture
-//! filtering. And the hierarchy changes nothing: every scene rendered on
+//! filtering. The refraction scenes (tests/scenes/refract and the corpus's
+//! test_refract) likewise, and at 8 bounces and with --no-refraction. And the hierarchy changes nothing: every scene rendered on
 //! the CPU with --no-bvh (every primitive tested) has the same bits as with
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
 //! build's bits, as does its render without shadows (160x120); the stress
@@ -134,11 +135,15 @@ fn main() -> ExitCode {
     for f in xml_files(&repo.join("tests/scenes/stress")) {
         scenes.push((f, &[(512, 384), (511, 383)]));
     }
+    // Refraction: total internal reflection, nested media, the eye inside glass.
+    for f in xml_files(&repo.join("tests/scenes/refract")) {
+        scenes.push((f, &[(512, 384)]));
+    }
     let corpus = common::corpus("the corpus scenes");
     let mut assets = Vec::new();
     if let Some(c) = &corpus {
         assets.push(c.clone());
-        for group in ["test_unit", "test_intersect", "test_light", "test_efficiency", "test_feature"] {
+        for group in ["test_unit", "test_intersect", "test_light", "test_efficiency", "test_feature", "test_refract"] {
             for f in xml_files(&c.join(group)) {
                 scenes.push((f, &[(512, 384)]));
             }
@@ -183,7 +188,8 @@ fn main() -> ExitCode {
                 continue;
             }
         };
-        let supersample = path.starts_with(repo.join("scenes")) || name.starts_with("test_feature");
+        let refracts = name.contains("refract");
+        let supersample = path.starts_with(repo.join("scenes")) || name.starts_with("test_feature") || refracts;
         let mut variants: Vec<(u32, u32, Aov, u32, TextureFilter)> = Vec::new();
         for &(width, height) in *sizes {
             variants.push((width, height, Aov::Color, 1, TextureFilter::Nearest));
@@ -257,6 +263,17 @@ fn main() -> ExitCode {
                     Some(band_bytes),
                 ),
             ];
+            if refracts {
+                // Refracted and mirror rays sharing 8 bounces; and the
+                // scene drawn opaque (--no-refraction).
+                for (what, settings) in [
+                    ("160x120 8 bounces", RenderSettings { max_depth: 8, ..RenderSettings::default() }),
+                    ("160x120 --no-refraction", RenderSettings { refraction: false, ..RenderSettings::default() }),
+                ] {
+                    let settings = RenderSettings { width: 160, height: 120, ..settings };
+                    checks.push((what.to_string(), settings, SceneBuffers::Auto, None));
+                }
+            }
             if path.ends_with("tests/scenes/stress/divergent_lanes.xml") {
                 // Lanes held apart (the scene's comment): every combination
                 // of shadows, mirrors, bounces (1 with nearest texels, 5

@@ -343,6 +343,24 @@ pub fn compare(actual: &Rgb8, expected: &Rgb8, tolerance: u8) -> Result<ImageDif
     Ok(diff)
 }
 
+/// The peak signal-to-noise ratio of `actual` against `expected` in dB:
+/// 10 log10(255² / the mean squared channel difference over every red, green
+/// and blue sample); infinity for identical pictures. The measure for a
+/// reference that is supersampled where raycast traces a few samples, which
+/// no per-pixel rule can match (corpus README: bench/Illuminate). Errors if
+/// the sizes differ.
+pub fn psnr(actual: &Rgb8, expected: &Rgb8) -> Result<f64, Error> {
+    if (actual.width, actual.height) != (expected.width, expected.height) {
+        return Err(Error::Failed(format!(
+            "sizes differ: actual {}x{}, expected {}x{}",
+            actual.width, actual.height, expected.width, expected.height
+        )));
+    }
+    let squares: u64 = actual.data.iter().zip(&expected.data).map(|(&a, &e)| u64::from(a.abs_diff(e)).pow(2)).sum();
+    let mse = squares as f64 / actual.data.len().max(1) as f64;
+    Ok(10.0 * (255.0 * 255.0 / mse).log10())
+}
+
 /// How far `highlight_diff` fades the reference towards white: a pixel's
 /// grey `g` is drawn as `255 - FADE * (255 - g)` (pixelmatch's alpha 0.1),
 /// so every pixel of the background is 229 or lighter and a red one shows.
@@ -421,6 +439,20 @@ mod tests {
 
     fn solid(w: u32, h: u32, c: [u8; 3]) -> Rgb8 {
         Rgb8 { width: w, height: h, data: c.iter().copied().cycle().take((w * h * 3) as usize).collect() }
+    }
+
+    /// PSNR by its definition: identical pictures infinite; one channel of
+    /// one pixel in four off by 255 (MSE 255²/12) is 10 log10(12) dB.
+    #[test]
+    fn psnr_is_ten_log_of_peak_over_mean_square() {
+        let a = solid(2, 2, [0, 0, 0]);
+        assert_eq!(psnr(&a, &a).unwrap(), f64::INFINITY);
+        let mut c = a.clone();
+        c.data[0] = 255;
+        assert!((psnr(&c, &a).unwrap() - 10.0 * 12f64.log10()).abs() < 1e-12);
+        c.data[5] = 255;
+        assert!((psnr(&c, &a).unwrap() - 10.0 * 6f64.log10()).abs() < 1e-12);
+        assert!(psnr(&solid(1, 2, [0; 3]), &a).is_err());
     }
 
     /// A picture is written whole: over an old one by renaming a finished

@@ -490,12 +490,12 @@ mod tests {
         let file = parse_str(xml, Path::new("t.xml"), &ParseOptions::default()).unwrap_or_else(|e| panic!("{e}"));
         let settings = RenderSettings { reflections: false, ..RenderSettings::default() };
         let e = export(&file, &settings, "t.xml");
-        assert!(e.sdl.contains("pigment { color rgbt <0.2, 0.4, 0.6, 0.3> } finish { ambient 0 diffuse 1 } } interior { ior 1.5 }"), "{}", e.sdl);
+        assert!(e.sdl.contains("pigment { color rgbt <0.2, 0.4, 0.6, 0.3> } finish { ambient rgb <0, 0, 0> diffuse 1 } } interior { ior 1.5 }"), "{}", e.sdl);
         assert!(e.sdl.contains("max_trace_level 5"), "{}", e.sdl);
         assert!(e.notes.iter().any(|n| n.starts_with("transparency is POV-Ray's")), "{:?}", e.notes);
         let opaque = RenderSettings { refraction: false, ..settings };
         let e = export(&file, &opaque, "t.xml");
-        assert!(e.sdl.contains("pigment { color rgb <0.2, 0.4, 0.6> } finish { ambient 0 diffuse 1 } }"), "{}", e.sdl);
+        assert!(e.sdl.contains("pigment { color rgb <0.2, 0.4, 0.6> } finish { ambient rgb <0, 0, 0> diffuse 1 } }"), "{}", e.sdl);
         assert!(!e.sdl.contains("interior") && e.sdl.contains("max_trace_level 1"), "{}", e.sdl);
         assert!(e.notes.is_empty(), "{:?}", e.notes);
     }

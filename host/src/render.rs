@@ -858,7 +858,7 @@ mod tests {
             Specialization::of(&d, &d.frame).describe(),
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
-             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs; \
+             mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, refraction; \
              the walk's 2 levels in registers"
         );
         // An AOV other than colour keeps its code.
@@ -892,6 +892,32 @@ mod tests {
         let elsewhere = [21, 22, 24, 25];
         let features = (0..FEATURES as u32).filter(|id| !WALK_FORM.contains(id) && !elsewhere.contains(id));
         assert_eq!(ids, features.collect::<Vec<_>>());
+    }
+
+    /// FLAG_REFRACTION and SPEC_REFRACTION: on only where a material lets
+    /// light through (k_t O_t has a channel other than 0) and refraction is
+    /// not turned off; a transparent colour with k_t = 0, or k_t with no
+    /// transparent colour, keeps the opaque kernel.
+    #[test]
+    fn refraction_is_kept_only_where_a_material_transmits() {
+        let scene = |kt: &str, transparent: &str| {
+            format!(
+                r#"<scenefile><globaldata><transparentcoeff v="{kt}"/></globaldata><object type="tree" name="root">
+                  <transblock><object type="primitive" name="sphere"><transparent r="{transparent}" g="0" b="0"/><ior v="1.5"/></object></transblock>
+                  </object></scenefile>"#
+            )
+        };
+        for (kt, transparent, settings, want) in [
+            ("0.5", "0.8", RenderSettings::default(), true),
+            ("0.5", "0.8", RenderSettings { refraction: false, ..RenderSettings::default() }, false),
+            ("0", "0.8", RenderSettings::default(), false),
+            ("0.5", "0", RenderSettings::default(), false),
+        ] {
+            let d = data(&scene(kt, transparent), &settings);
+            assert_eq!(d.frame.flags & layout::FLAG_REFRACTION != 0, want, "k_t {kt}, O_t {transparent}, {settings:?}");
+            let s = on(Specialization::of(&d, &d.frame));
+            assert_eq!(s.contains(&layout::SPEC_REFRACTION), want, "k_t {kt}, O_t {transparent}: {s:?}");
+        }
     }
 
     /// A kernel specialised for a scene keeps the walk's levels in

@@ -2764,12 +2764,12 @@ mod tests {
         for v in ["NaN", "inf", "1e39"] {
             let xml = prim("sphere", &format!("<ior v=\"{v}\"/>"));
             let e = bad(&xml);
-            assert_eq!(at(&e).0, 4, "{e}");
+            assert_eq!(at(&e).0, 5, "{e}");
         }
         // The course's empty number reads as 0, which no index can be.
         let xml = prim("sphere", "<ior v=\"\"/>");
         bad_at_str(&xml, "v=\"\"", "<ior> is 0");
         let e = bad(&prim("sphere", "<transparent r=\"0.5\" g=\"x\" b=\"0.5\"/>"));
-        assert_eq!(at(&e).0, 4, "{e}");
+        assert_eq!(at(&e).0, 5, "{e}");
     }
 }
