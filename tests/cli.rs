@@ -1701,7 +1701,7 @@ fn no_refraction_draws_transparent_materials_opaque() {
     let xml = std::fs::read_to_string(&scene).unwrap();
     let opaque_xml: String =
         xml.split("<transparent ").enumerate().map(|(k, part)| if k == 0 { part } else { &part[part.find("/>").unwrap() + 2..] }).collect();
-    assert!(!opaque_xml.contains("<transparent") && opaque_xml.len() < xml.len());
+    assert!(!opaque_xml.contains("<transparent ") && opaque_xml.len() < xml.len());
     let opaque = out_dir().join("refraction-opaque.xml");
     std::fs::write(&opaque, opaque_xml).unwrap();
     // The texture's relative path is found from the original's folder.
