@@ -1699,8 +1699,11 @@ fn feature_flags_change_the_picture() {
 fn no_refraction_draws_transparent_materials_opaque() {
     let scene = repo().join("tests/scenes/refract/refract_nested.xml");
     let xml = std::fs::read_to_string(&scene).unwrap();
-    let opaque_xml: String =
-        xml.split("<transparent ").enumerate().map(|(k, part)| if k == 0 { part } else { &part[part.find("/>").unwrap() + 2..] }).collect();
+    let opaque_xml: String = xml
+        .split("<transparent ")
+        .enumerate()
+        .map(|(k, part)| if k == 0 { part } else { &part[part.find("/>").unwrap() + 2..] })
+        .collect();
     assert!(!opaque_xml.contains("<transparent ") && opaque_xml.len() < xml.len());
     let opaque = out_dir().join("refraction-opaque.xml");
     std::fs::write(&opaque, opaque_xml).unwrap();

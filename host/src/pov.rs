@@ -495,7 +495,11 @@ mod tests {
         assert!(e.notes.iter().any(|n| n.starts_with("transparency is POV-Ray's")), "{:?}", e.notes);
         let opaque = RenderSettings { refraction: false, ..settings };
         let e = export(&file, &opaque, "t.xml");
-        assert!(e.sdl.contains("pigment { color rgb <0.2, 0.4, 0.6> } finish { ambient rgb <0, 0, 0> diffuse 1 } }"), "{}", e.sdl);
+        assert!(
+            e.sdl.contains("pigment { color rgb <0.2, 0.4, 0.6> } finish { ambient rgb <0, 0, 0> diffuse 1 } }"),
+            "{}",
+            e.sdl
+        );
         assert!(!e.sdl.contains("interior") && e.sdl.contains("max_trace_level 1"), "{}", e.sdl);
         assert!(e.notes.is_empty(), "{:?}", e.notes);
     }

@@ -259,7 +259,6 @@ pub struct Specialization {
 /// and those that turn a feature's code on or off.
 const FEATURES: usize = layout::SPEC_COUNT as usize;
 
-
 impl Specialization {
     /// Everything kept, the levels in arrays: the shaders' defaults, what the CPU build runs.
     pub const ALL: Specialization = Specialization { keeps: [true; FEATURES], register_levels: None };
@@ -804,7 +803,10 @@ mod tests {
 
     /// The features' constants that are on, by SPEC_* name.
     fn on(s: Specialization) -> Vec<u32> {
-        (0..FEATURES as u32).filter(|id| !WALK_FORM.contains(id)).filter(|&id| s.constants()[id as usize] == 1).collect()
+        (0..FEATURES as u32)
+            .filter(|id| !WALK_FORM.contains(id))
+            .filter(|&id| s.constants()[id as usize] == 1)
+            .collect()
     }
 
     /// A constant is on exactly when the scene and the flags can reach its

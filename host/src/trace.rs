@@ -112,7 +112,11 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
                 } else {
                     format!("; its refracted weight {}", v3(s.origin))
                 };
-                lines.push(format!("  this hit's colour {}; its mirror weight {}{refracted}", v3(s.value), v3(s.extra)));
+                lines.push(format!(
+                    "  this hit's colour {}; its mirror weight {}{refracted}",
+                    v3(s.value),
+                    v3(s.extra)
+                ));
             }
             layout::TRACE_PIXEL => {
                 let rgba = s.id.to_le_bytes();

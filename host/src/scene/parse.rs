@@ -2759,7 +2759,11 @@ mod tests {
         assert_eq!(first_prim(&ok(&prim("sphere", "<ior v=\"0.5\"/>"))).1.ior, 0.5);
         for (v, shown) in [("0", "0"), ("-1.5", "-1.5"), ("-0", "-0"), ("1e-50", "0")] {
             let xml = prim("sphere", &format!("<ior v=\"{v}\"/>"));
-            bad_at_str(&xml, &format!("v=\"{v}\""), &format!("<ior> is {shown} (expected an index of refraction above 0"));
+            bad_at_str(
+                &xml,
+                &format!("v=\"{v}\""),
+                &format!("<ior> is {shown} (expected an index of refraction above 0"),
+            );
         }
         for v in ["NaN", "inf", "1e39"] {
             let xml = prim("sphere", &format!("<ior v=\"{v}\"/>"));
