@@ -1694,7 +1694,8 @@ fn feature_flags_change_the_picture() {
 
 /// `--no-refraction` draws transparent materials opaque: the picture of the
 /// same scene with its `<transparent>` elements taken out, byte for byte;
-/// with refraction on the picture differs, and `trace` shows refracted rays.
+/// with refraction on the picture differs, `trace` shows refracted rays and
+/// `info` counts transparent materials.
 #[test]
 fn no_refraction_draws_transparent_materials_opaque() {
     let scene = repo().join("tests/scenes/refract/refract_nested.xml");
@@ -1728,6 +1729,9 @@ fn no_refraction_draws_transparent_materials_opaque() {
     assert!(o.status.success(), "{:?}", text(&o));
     assert!(text(&o).0.contains("refracted ray 2 from"), "{}", text(&o).0);
     assert!(text(&o).0.contains("its refracted weight (0.71999997, 0.71999997, 0.71999997)"), "{}", text(&o).0);
+    // info counts the materials that let light through.
+    let o = raycast(&["info", scene.to_str().unwrap()], &[]);
+    assert!(text(&o).0.contains("materials: 6 (1 textured, 1 mirror, 4 transparent)"), "{:?}", text(&o));
 }
 
 #[test]
