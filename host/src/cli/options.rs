@@ -45,7 +45,7 @@ pub struct RenderOptions {
     #[arg(long, help_heading = "Picture")]
     pub no_reflections: bool,
     /// Turn refraction off: transparent materials drawn opaque
-    #[arg(long, help_heading = "Picture")]
+    #[arg(long, help_heading = "Picture", hide_short_help = true)]
     pub no_refraction: bool,
     /// Turn texture mapping off
     #[arg(long, help_heading = "Picture")]

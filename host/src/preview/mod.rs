@@ -138,7 +138,9 @@ pub struct PreviewArgs {
     /// Start with mirror reflections off (M)
     #[arg(long, help_heading = "Picture")]
     pub no_reflections: bool,
-    /// Start with refraction off (G): transparent materials opaque
+    /// Start with refraction off (G)
+    ///
+    /// Start with refraction off (G turns it on and off): transparent materials drawn opaque.
     #[arg(long, help_heading = "Picture")]
     pub no_refraction: bool,
     /// Start with texture mapping off (T)
