@@ -109,8 +109,9 @@
 #define SPEC_REGISTER_LEVELS 20     // a count: the levels the walk keeps, 1 to MAX_LEVELS
 #define SPEC_TORI 21              // a torus (SHAPE_TORUS)
 #define SPEC_MESHES 22            // a mesh primitive (SHAPE_MESH)
-#define SPEC_AREA_LIGHTS 24      // an area light (LIGHT_AREA): its samples over the rectangle
-#define SPEC_DOF 25              // FLAG_DOF: the thin lens (camera.glsl)
+#define SPEC_REFRACTION 23        // FLAG_REFRACTION and a transparent material (k_t O_t not 0)
+#define SPEC_AREA_LIGHTS 24       // an area light (LIGHT_AREA): its samples over the rectangle
+#define SPEC_DOF 25               // FLAG_DOF: the thin lens (camera.glsl)
 #define SPEC_COURSE_SAMPLING 26   // FLAG_COURSE_SAMPLING
 #define SPEC_COUNT 27
 
@@ -143,8 +144,9 @@
 #define FLAG_REFLECTIONS 2u
 #define FLAG_TEXTURES 4u
 #define FLAG_NO_BVH 8u // test every primitive: the hierarchy's boxes are ignored
-#define FLAG_COURSE_SAMPLING 64u // the course's adaptive supersampling (course_sampling.glsl), not frame.spp
+#define FLAG_REFRACTION 16u // refracted rays through transparent materials, and their shadows
 #define FLAG_DOF 32u   // a thin lens: Frame.lens_radius and focal_distance (camera.glsl)
+#define FLAG_COURSE_SAMPLING 64u // the course's adaptive supersampling (course_sampling.glsl), not frame.spp
 
 // Frame.texture_filter
 #define FILTER_NEAREST 0u
@@ -341,9 +343,10 @@ struct PixelOut {
 #define TRACE_MIRROR 1u  // a mirror ray of bounce `level`: the same
 #define TRACE_SHADOW 2u  // light `light`'s shadow ray: the same (id: what blocks it)
 #define TRACE_LIGHT 3u   // light `light`'s term at `level`: value; id: TRACE_LIGHT_*
-#define TRACE_LEVEL 4u   // the level's own colour (value) and mirror weight (extra)
+#define TRACE_LEVEL 4u   // the level's own colour (value) and mirror weight (extra); origin: its refracted weight
 #define TRACE_PIXEL 5u   // the sample's colour (value), the levels folded; id: as 8-bit RGBA
 #define TRACE_SURFACE 6u // a hit's surface: point (origin), ambient + emissive (value), diffuse (extra)
+#define TRACE_REFRACT 7u // a refracted ray of bounce `level` (inside reflection where total): as TRACE_MIRROR
 #define TRACE_LIGHT_ADDED 0u   // added, no shadow ray (shadows off)
 #define TRACE_LIGHT_SHADOW 1u  // a shadow ray decides (the next step)
 #define TRACE_LIGHT_NOTHING 2u // every channel 0 or subnormal: skipped

@@ -66,6 +66,8 @@ struct Surface {
     vec3 specular;
     float shininess;
     vec3 mirror;   // the mirror ray's weight k_s O_r
+    vec3 transmit; // the refracted ray's weight k_t O_t (0 without FLAG_REFRACTION)
+    float ior;
 };
 
 // The surface at `hit`, seen along ray r: everything its shading reads of
@@ -91,6 +93,12 @@ Surface surface_at(Ray r, SceneHit hit) {
     s.shininess = m.shininess;
     precise vec3 mirror = frame.k.z * xyz(m.reflective);
     s.mirror = mirror;
+    s.transmit = vec3(0.0f, 0.0f, 0.0f);
+    s.ior = m.ior;
+    if (HAS_REFRACTION && (frame.flags & FLAG_REFRACTION) != 0u) {
+        precise vec3 transmit = frame.k.w * xyz(m.transparent);
+        s.transmit = transmit;
+    }
     return s;
 }
 

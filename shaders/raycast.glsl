@@ -28,6 +28,7 @@
 #include "traversal.glsl"
 #include "textures.glsl"
 #include "lighting.glsl"
+#include "refraction.glsl"
 #include "aov.glsl"
 #include "trace.glsl"
 #include "course_sampling.glsl"

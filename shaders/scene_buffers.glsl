@@ -131,6 +131,7 @@ layout(constant_id = SPEC_DOF) const bool HAS_DOF = true;
 // a variable, for naga's sake as above).
 layout(constant_id = SPEC_LEVELS_IN_REGISTERS) const bool LEVELS_IN_REGISTERS = false;
 layout(constant_id = SPEC_REGISTER_LEVELS) const uint REGISTER_LEVELS = 1u;
+layout(constant_id = SPEC_REFRACTION) const bool HAS_REFRACTION = true;
 
 // Arrays of one uint would take 16 bytes an element in std140: always storage.
 layout(std430, binding = BINDING_TEXTURES) readonly buffer TextureBlock { Texture textures[]; };

@@ -23,7 +23,17 @@ struct PixelSample {
 // and that no shadow ray finds blocked, its diffuse (textured: blended
 // with the texel) and specular term. Not clamped until the fold.
 //
-// Every ray, camera, shadow or mirror, goes through the one walk call at
+// With refraction (FLAG_REFRACTION) a level may have a second child, the
+// refracted ray with weight k_t O_t (refraction.glsl): the levels form a
+// tree, walked depth first without recursion. A level keeps its refracted
+// ray until the path below it ends; then the levels below are folded as
+// above into c = local + weight c_mirror, kept as the level's local colour,
+// and the refracted ray is traced as the next level, its weight in the
+// mirror's place, so that c_k = clamp((local_k + k_s O_r c_mirror) +
+// k_t O_t c_refracted). Mirror and refracted rays share the bounce budget
+// (frame.max_depth); without refraction the arithmetic is the chain's.
+//
+// Every ray, camera, shadow, mirror or refracted, goes through the one walk call at
 // the top of the loop: each pass traces the pixel's next ray, then goes on
 // from its answer to the next ray, the next light's shadow ray or the
 // level's mirror ray. Lavapipe turns every copy of the walk into code on
@@ -60,6 +70,15 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
     uint depth = min(frame.max_depth, uint(MAX_DEPTH));
     bool reflections = HAS_REFLECTIONS && (frame.flags & FLAG_REFLECTIONS) != 0u;
     bool shadows = HAS_SHADOWS && (frame.flags & FLAG_SHADOWS) != 0u;
+    // Refraction (refraction.glsl): a level with a refracted ray still to
+    // trace has its bit in `refract_pending`, the ray and its weight k_t O_t
+    // kept here until its mirror path is folded into local_at.
+    bool refraction = HAS_REFRACTION && (frame.flags & FLAG_REFRACTION) != 0u;
+    vec3 refract_origin_at[MAX_DEPTH + 1];
+    vec3 refract_direction_at[MAX_DEPTH + 1];
+    vec3 refract_weight_at[MAX_DEPTH + 1];
+    uint refract_pending = 0u;
+    bool refracted = false; // the level's ray is a refracted one (TRACE_REFRACT)
     uint levels = 0u;
     uint level = 0u;
     // The ray traced next: the level's ray, or (shadow) the shadow ray of
@@ -90,11 +109,12 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
     while (true) {
         SceneHit h = walk(next, next_t_max, shadow);
         s.rays = s.rays + 1u;
-        TRACE(shadow ? TRACE_SHADOW : (level == 0u ? TRACE_CAMERA : TRACE_MIRROR), level, li, h.id, h.passes,
-              vec4(next.origin, 0.0f), vec4(next.direction, next_t_max), vec4(h.normal, h.t), vec4(0.0f));
+        TRACE(shadow ? TRACE_SHADOW : (level == 0u ? TRACE_CAMERA : (refracted ? TRACE_REFRACT : TRACE_MIRROR)), level, li,
+              h.id, h.passes, vec4(next.origin, 0.0f), vec4(next.direction, next_t_max), vec4(h.normal, h.t), vec4(0.0f));
         if (HAS_AOVS) {
             passes = passes + h.passes;
         }
+        bool path_ends = false;
         if (shadow) {
             if (h.id == NO_HIT) {
                 color = color + pending;
@@ -116,19 +136,27 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
                 break;
             }
             if (h.id == NO_HIT) {
-                break;
+                if (refract_pending == 0u) {
+                    break;
+                }
+                path_ends = true;
+            } else {
+                surface = surface_at(ray, h);
+                li = 0u;
+                lk = 0u;
+                if (refraction && leaves_medium(surface)) {
+                    surface = passing_out(surface);
+                    li = frame.light_count;
+                }
+                color = surface.base;
+                TRACE(TRACE_SURFACE, level, 0u, h.id, 0u, vec4(surface.p, 1.0f), vec4(0.0f), vec4(surface.base, 0.0f),
+                      vec4(surface.diffuse, 0.0f));
             }
-            surface = surface_at(ray, h);
-            color = surface.base;
-            TRACE(TRACE_SURFACE, level, 0u, h.id, 0u, vec4(surface.p, 1.0f), vec4(0.0f), vec4(surface.base, 0.0f),
-                  vec4(surface.diffuse, 0.0f));
-            li = 0u;
-            lk = 0u;
         }
         // The lights from li on: each adds its term, up to the first that
         // needs a shadow ray.
         shadow = false;
-        while (li < frame.light_count) {
+        while (!path_ends && li < frame.light_count) {
             Light l = light_at(li);
             precise vec3 to_light = xyz(l.direction_to_light);
             precise float dist = 0.0f;
@@ -179,24 +207,70 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
         if (shadow) {
             continue;
         }
-        local_at[level] = color;
-        levels = level + 1u;
-        precise vec3 w = surface.mirror;
-        weight_at[level] = w;
-        TRACE(TRACE_LEVEL, level, 0u, 0u, 0u, vec4(0.0f), vec4(0.0f), vec4(color, 0.0f), vec4(w, 0.0f));
-        if (!reflections || level == depth || negligible(w)) {
-            break;
+        if (!path_ends) {
+            local_at[level] = color;
+            levels = level + 1u;
+            precise vec3 w = surface.mirror;
+            weight_at[level] = w;
+            TRACE(TRACE_LEVEL, level, 0u, 0u, 0u, vec4(surface.transmit, 0.0f), vec4(0.0f), vec4(color, 0.0f), vec4(w, 0.0f));
+            precise vec3 d = -surface.v;
+            if (refraction && level != depth && !negligible(surface.transmit)) {
+                // The refracted ray, from 0.001 (ray_offset) along it, traced
+                // once the mirror path below this level is folded.
+                precise vec3 bent = refracted_direction(d, surface.n, surface.ior);
+                precise vec3 bent_origin = surface.p + ray_offset(surface.p, ray.origin) * bent;
+                refract_origin_at[level] = bent_origin;
+                refract_direction_at[level] = bent;
+                refract_weight_at[level] = surface.transmit;
+                refract_pending = refract_pending | (1u << level);
+            }
+            if (!reflections || level == depth || negligible(w)) {
+                if (refract_pending == 0u) {
+                    break;
+                }
+            } else {
+                // Mirror direction of the unit ray direction about N, from 0.001
+                // (ray_offset) along it.
+                precise vec3 mirror = d - (2.0f * dot3(surface.n, d)) * surface.n;
+                precise vec3 mirror_origin = surface.p + ray_offset(surface.p, ray.origin) * mirror;
+                ray.origin = mirror_origin;
+                ray.direction = mirror;
+                next = ray;
+                next_t_max = T_FAR;
+                level = level + 1u;
+                refracted = false;
+                continue;
+            }
         }
-        // Mirror direction of the unit ray direction about N, from 0.001
-        // (ray_offset) along it.
-        precise vec3 d = -surface.v;
-        precise vec3 mirror = d - (2.0f * dot3(surface.n, d)) * surface.n;
-        precise vec3 mirror_origin = surface.p + ray_offset(surface.p, ray.origin) * mirror;
-        ray.origin = mirror_origin;
-        ray.direction = mirror;
+        // The path ends with a refracted ray still to trace: fold the levels
+        // below the deepest such level k as the end does, add the result to
+        // local_at[k] with its mirror weight, and trace k's refracted ray as
+        // level k + 1, its weight taking the mirror's place in the fold.
+        uint k = levels - 1u;
+        bool folded = false;
+        precise vec3 below = vec3(0.0f, 0.0f, 0.0f);
+        while ((refract_pending & (1u << k)) == 0u) {
+            if (folded) {
+                below = clamp3(local_at[k] + weight_at[k] * below);
+            } else {
+                below = clamp3(local_at[k]);
+            }
+            folded = true;
+            k = k - 1u;
+        }
+        if (folded) {
+            precise vec3 with_mirror = local_at[k] + weight_at[k] * below;
+            local_at[k] = with_mirror;
+        }
+        refract_pending = refract_pending & ~(1u << k);
+        weight_at[k] = refract_weight_at[k];
+        ray.origin = refract_origin_at[k];
+        ray.direction = refract_direction_at[k];
         next = ray;
         next_t_max = T_FAR;
-        level = level + 1u;
+        level = k + 1u;
+        levels = level;
+        refracted = true;
     }
     if (levels > 0u) {
         precise vec3 c = vec3(0.0f, 0.0f, 0.0f);

@@ -11,7 +11,8 @@
 //! shadows, reflections and textures on. Our scenes, the torus scenes and
 //! the corpus's test_feature scenes also with 4 samples per pixel and bilinear texture
 //! filtering; so are the corpus's test_dof and test_area_light and
-//! tests/scenes/lens (depth of field, area lights) at 160x120. And the hierarchy changes nothing: every scene rendered on
+//! tests/scenes/lens (depth of field, area lights) at 160x120. The refraction scenes (tests/scenes/refract and the corpus's
+//! test_refract) likewise, and at 8 bounces and with --no-refraction. And the hierarchy changes nothing: every scene rendered on
 //! the CPU with --no-bvh (every primitive tested) has the same bits as with
 //! the hierarchy, and the device's --no-bvh render (64x48) has the CPU
 //! build's bits, as does its render without shadows (160x120); the stress
@@ -149,6 +150,10 @@ fn main() -> ExitCode {
     for f in xml_files(&repo.join("tests/scenes/lens")) {
         scenes.push((f, &[(160, 120)]));
     }
+    // Refraction: total internal reflection, nested media, the eye inside glass.
+    for f in xml_files(&repo.join("tests/scenes/refract")) {
+        scenes.push((f, &[(512, 384)]));
+    }
     let corpus = common::corpus("the corpus scenes");
     let mut assets = Vec::new();
     if let Some(c) = &corpus {
@@ -161,6 +166,7 @@ fn main() -> ExitCode {
             "test_feature",
             "test_dof",
             "test_area_light",
+            "test_refract",
         ] {
             for f in xml_files(&c.join(group)) {
                 scenes.push((f, &[(512, 384)]));
@@ -213,12 +219,14 @@ fn main() -> ExitCode {
             }
         };
         let mesh = path.starts_with(repo.join("tests/scenes/mesh"));
+        let refracts = name.contains("refract");
         // The lens and area lights converge with the samples: 1 and 4 (and 2 in bands).
         let sampled = ["test_dof", "test_area_light", "tests/scenes/lens"];
         let supersample = path.starts_with(repo.join("scenes"))
             || name.starts_with("test_feature")
             || torus_scenes.contains(path)
             || mesh
+            || refracts
             || sampled.iter().any(|s| name.starts_with(s));
         let mut variants: Vec<(u32, u32, Aov, u32, TextureFilter)> = Vec::new();
         for &(width, height) in *sizes {
@@ -298,6 +306,17 @@ fn main() -> ExitCode {
                     Some(band_bytes),
                 ),
             ];
+            if refracts {
+                // Refracted and mirror rays sharing 8 bounces; and the
+                // scene drawn opaque (--no-refraction).
+                for (what, settings) in [
+                    ("160x120 8 bounces", RenderSettings { max_depth: 8, ..RenderSettings::default() }),
+                    ("160x120 --no-refraction", RenderSettings { refraction: false, ..RenderSettings::default() }),
+                ] {
+                    let settings = RenderSettings { width: 160, height: 120, ..settings };
+                    checks.push((what.to_string(), settings, SceneBuffers::Auto, None));
+                }
+            }
             if path.ends_with("tests/scenes/stress/divergent_lanes.xml") {
                 // Lanes held apart (the scene's comment): every combination
                 // of shadows, mirrors, bounces (1 with nearest texels, 5

@@ -1692,6 +1692,48 @@ fn feature_flags_change_the_picture() {
     assert_eq!(differing(&render("no-refl", &["--no-reflections"])), 0, "the default scene has no mirrors");
 }
 
+/// `--no-refraction` draws transparent materials opaque: the picture of the
+/// same scene with its `<transparent>` elements taken out, byte for byte;
+/// with refraction on the picture differs, `trace` shows refracted rays and
+/// `info` counts transparent materials.
+#[test]
+fn no_refraction_draws_transparent_materials_opaque() {
+    let scene = repo().join("tests/scenes/refract/refract_nested.xml");
+    let xml = std::fs::read_to_string(&scene).unwrap();
+    let opaque_xml: String = xml
+        .split("<transparent ")
+        .enumerate()
+        .map(|(k, part)| if k == 0 { part } else { &part[part.find("/>").unwrap() + 2..] })
+        .collect();
+    assert!(!opaque_xml.contains("<transparent ") && opaque_xml.len() < xml.len());
+    let opaque = out_dir().join("refraction-opaque.xml");
+    std::fs::write(&opaque, opaque_xml).unwrap();
+    // The texture's relative path is found from the original's folder.
+    let assets = scene.parent().unwrap().to_str().unwrap().to_string();
+    let render = |name: &str, scene: &Path, extra: &[&str]| {
+        let png = out_dir().join(format!("refraction-{name}.png"));
+        let mut args = vec!["render", scene.to_str().unwrap(), "--assets", &assets, "--width", "96", "--height", "72"];
+        args.extend_from_slice(&["-o", png.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        let o = raycast(&args, &[]);
+        assert!(o.status.success(), "{:?}", text(&o));
+        raycast::image_io::read_picture(&png).unwrap()
+    };
+    let without = render("no-refraction", &scene, &["--no-refraction"]);
+    let stripped = render("stripped", &opaque, &[]);
+    let with = render("with", &scene, &[]);
+    let differing = |a: &raycast::image_io::Rgb8, b| raycast::image_io::compare(a, b, 0).unwrap().differing;
+    assert_eq!(without, stripped, "--no-refraction against the scene without <transparent>");
+    assert!(differing(&with, &without) > 500, "{} pixels differ with refraction", differing(&with, &without));
+    let o = raycast(&["trace", scene.to_str().unwrap(), "--pixel", "170,200"], &[]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(text(&o).0.contains("refracted ray 2 from"), "{}", text(&o).0);
+    assert!(text(&o).0.contains("its refracted weight (0.71999997, 0.71999997, 0.71999997)"), "{}", text(&o).0);
+    // info counts the materials that let light through.
+    let o = raycast(&["info", scene.to_str().unwrap()], &[]);
+    assert!(text(&o).0.contains("materials: 6 (1 textured, 1 mirror, 4 transparent)"), "{:?}", text(&o));
+}
+
 #[test]
 fn compare_reports_and_fails_beyond_the_threshold() {
     let (a, b) = (out_dir().join("cmp-a.png"), out_dir().join("cmp-b.png"));

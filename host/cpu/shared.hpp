@@ -167,12 +167,15 @@ const bool HAS_DOF = true;
 // (`raycast check`).
 const bool LEVELS_IN_REGISTERS = false;
 const uint REGISTER_LEVELS = 1u;
+const bool HAS_REFRACTION = true;
 
 // Internal linkage: each translation unit has its own copy, so GCC may
 // inline a function called once (sphere_hit in walk) without keeping an
 // outside copy's worth of growth against it; each unit uses only some.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wunused-function"
+// A variable only TRACE reads (trace.glsl), where TRACE is nothing.
+#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
 namespace {
 #include "raycast.glsl"
 } // namespace

@@ -86,6 +86,21 @@ const SAMPLED: &[(&str, &str, Sampled)] = &[
         },
     ),
     (
+        "test_refract",
+        "refract",
+        Sampled {
+            spp: 1,
+            supersample: Supersample::Course,
+            texture_filter: TextureFilter::Course,
+            shrink: 1,
+            min_psnr: 57.0,
+            scene_in: None,
+            why: "refraction (docs/scene-format.md#refraction) with the course's adaptive supersampling and texture \
+                  filter; measured 60.35 dB (0.22% of pixels off by more than 2/255) on 2026-11-29, against 32.96 dB \
+                  at --spp 4 with --texture-filter bilinear and 27.04 dB drawn opaque",
+        },
+    ),
+    (
         "test_fun",
         "robot",
         Sampled {

@@ -583,7 +583,8 @@ mod tests {
 
     /// `trace` follows the render: for every pixel of the mirrors (every
     /// ray bouncing to the depth limit, two shadowed lights) and of the
-    /// embedded default scene (shadows cast, a spot light), at one sample a
+    /// embedded default scene (shadows cast, a spot light) and of glass (a
+    /// refracting sphere and cube, total internal reflection), at one sample a
     /// pixel its last step holds the pixel's 8-bit colour, its ray steps are
     /// the pixel's ray count and its camera ray's hit is the pixel's (id and
     /// t bits); at two, the samples' rays add up to the pixel's. Each light
@@ -595,7 +596,18 @@ mod tests {
         let renderer = CpuRenderer::new().unwrap();
         let point = r#"<lightdata><id v="1"/><type v="point"/><color r="1" g="1" b="1"/><position x="0" y="-2" z="0"/></lightdata>"#;
         let default = crate::scene::from_xml(crate::source::DEFAULT_SCENE, "default.xml");
-        for (name, scene) in [("mirrors", mirrors(point)), ("default", default)] {
+        let glass = crate::scene::from_xml(
+            r#"<scenefile><globaldata><transparentcoeff v="0.9"/></globaldata>
+              <cameradata><pos x="0" y="1" z="3"/><focus x="0" y="0" z="0"/></cameradata>
+              <lightdata><type v="directional"/><direction x="-1" y="-2" z="-1"/></lightdata>
+              <object type="tree" name="root">
+                <transblock><translate x="0" y="-1" z="0"/><scale x="6" y="0.2" z="6"/><object type="primitive" name="cube"><diffuse r="0.8" g="0.5" b="0.2"/><reflective r="0.3" g="0.3" b="0.3"/></object></transblock>
+                <transblock><translate x="-0.6" y="0" z="0"/><object type="primitive" name="sphere"><diffuse r="0.1" g="0.1" b="0.2"/><reflective r="0.2" g="0.2" b="0.2"/><transparent r="0.9" g="0.9" b="1"/><ior v="1.5"/></object></transblock>
+                <transblock><translate x="0.6" y="0" z="0"/><rotate x="0" y="1" z="0" angle="30"/><object type="primitive" name="cube"><diffuse r="0" g="0.2" b="0"/><transparent r="0.8" g="1" b="0.8"/><ior v="2"/></object></transblock>
+              </object></scenefile>"#,
+            "glass.xml",
+        );
+        for (name, scene) in [("mirrors", mirrors(point)), ("default", default), ("glass", glass)] {
             for spp in [1, 2] {
                 let settings = crate::frame::RenderSettings { width: 24, height: 18, spp, ..Default::default() };
                 let data = crate::frame::build(&scene, &settings).unwrap();

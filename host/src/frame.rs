@@ -164,6 +164,9 @@ pub struct RenderSettings {
     pub dof: bool,
     /// Points on each area light a sample (`--light-samples`).
     pub light_samples: u32,
+    /// Refracted rays through transparent materials (FLAG_REFRACTION, set
+    /// only where the scene has one: `transmits`).
+    pub refraction: bool,
 }
 
 impl Default for RenderSettings {
@@ -184,6 +187,7 @@ impl Default for RenderSettings {
             cost_max: None,
             dof: true,
             light_samples: DEFAULT_LIGHT_SAMPLES,
+            refraction: true,
         }
     }
 }
@@ -697,6 +701,9 @@ pub fn build(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Erro
     if lens.is_some() {
         flags |= layout::FLAG_DOF;
     }
+    if settings.refraction && transmits(&materials, scene.globals.kt) {
+        flags |= layout::FLAG_REFRACTION;
+    }
     let mut frame = layout::Frame {
         k: [g.ka, g.kd, g.ks, g.kt],
         width: settings.width,
@@ -840,6 +847,13 @@ fn pack_meshes(scene: &Scene) -> Result<PackedMeshes, Error> {
         )));
     }
     Ok(out)
+}
+
+/// Whether a material lets light through: k_t O_t, the refracted ray's
+/// weight (lighting.glsl surface_at), has a channel other than 0. Without
+/// one FLAG_REFRACTION stays off and the picture is an opaque scene's.
+pub fn transmits(materials: &[layout::Material], kt: f32) -> bool {
+    materials.iter().any(|m| m.transparent[..3].iter().any(|&t| kt * t != 0.0))
 }
 
 /// Scenes of one group with at most this many primitives skip the hierarchy.

@@ -439,6 +439,21 @@ mod tests {
         Rgb8 { width: w, height: h, data: c.iter().copied().cycle().take((w * h * 3) as usize).collect() }
     }
 
+    /// PSNR by its definition: none for identical pictures; one channel of
+    /// one pixel in four off by 255 (MSE 255²/12) is 10 log10(12) dB.
+    #[test]
+    fn psnr_is_ten_log_of_peak_over_mean_square() {
+        let psnr = |a: &Rgb8, b: &Rgb8| compare(a, b, 0).map(|d| d.psnr());
+        let a = solid(2, 2, [0, 0, 0]);
+        assert_eq!(psnr(&a, &a).unwrap(), None);
+        let mut c = a.clone();
+        c.data[0] = 255;
+        assert!((psnr(&c, &a).unwrap().unwrap() - 10.0 * 12f64.log10()).abs() < 1e-12);
+        c.data[5] = 255;
+        assert!((psnr(&c, &a).unwrap().unwrap() - 10.0 * 6f64.log10()).abs() < 1e-12);
+        assert!(psnr(&solid(1, 2, [0; 3]), &a).is_err());
+    }
+
     /// A picture is written whole: over an old one by renaming a finished
     /// temporary file (none left behind), through a link as a link, and to
     /// a device as it is.

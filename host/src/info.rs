@@ -94,6 +94,8 @@ pub struct Info {
     pub materials: usize,
     pub textured: usize,
     pub mirrors: usize,
+    /// Materials that let light through (k_t O_t not 0: refraction).
+    pub transparent: usize,
     pub bounds: Option<Bounds>,
     pub build_ms: f64,
     /// The device's scene buffers (frame::FrameData::scene_buffers): what, bytes.
@@ -164,6 +166,11 @@ impl Info {
             materials: scene.materials.len(),
             textured: scene.materials.iter().filter(|m| m.texture.is_some()).count(),
             mirrors: scene.materials.iter().filter(|m| m.reflective.iter().any(|&r| r != 0.0)).count(),
+            transparent: scene
+                .materials
+                .iter()
+                .filter(|m| m.transparent.iter().any(|&t| scene.globals.kt * t != 0.0))
+                .count(),
             bounds: scene_bounds(scene),
             build_ms: data.build_time.as_secs_f64() * 1e3,
             buffers: data.scene_buffers().iter().map(|(_, what, bytes)| (*what, bytes.len() as u64)).collect(),
@@ -204,11 +211,12 @@ impl Info {
             if self.groups.len() == 1 { "" } else { "s" }
         );
         out += &format!(
-            "  lights: {}; materials: {} ({} textured, {} mirror)\n",
+            "  lights: {}; materials: {} ({} textured, {} mirror{})\n",
             if self.lights.is_empty() { "none".to_string() } else { list(&self.lights) },
             self.materials,
             self.textured,
-            self.mirrors
+            self.mirrors,
+            if self.transparent > 0 { format!(", {} transparent", self.transparent) } else { String::new() }
         );
         match &self.bounds {
             Some(b) => {
@@ -284,6 +292,7 @@ impl Info {
             materials: self.materials,
             textured: self.textured,
             mirrors: self.mirrors,
+            transparent: self.transparent,
             bounds: self.bounds.as_ref().map(|b| [b.min.to_array(), b.max.to_array()]),
             build_ms: crate::units::rounded(self.build_ms, 3),
             buffers: Pairs(&self.buffers),
@@ -308,6 +317,7 @@ struct InfoJson<'a> {
     materials: usize,
     textured: usize,
     mirrors: usize,
+    transparent: usize,
     bounds: Option<[[f64; 3]; 2]>,
     build_ms: f64,
     buffers: Pairs<'a, u64>,

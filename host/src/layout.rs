@@ -417,9 +417,9 @@ pub struct TraceStep {
 }
 
 impl TraceStep {
-    /// A ray's step (camera, mirror or shadow): one of the pixel's traced rays.
+    /// A ray's step (camera, mirror, refracted or shadow): one of the pixel's traced rays.
     pub fn is_ray(&self) -> bool {
-        matches!(self.kind, TRACE_CAMERA | TRACE_MIRROR | TRACE_SHADOW)
+        matches!(self.kind, TRACE_CAMERA | TRACE_MIRROR | TRACE_REFRACT | TRACE_SHADOW)
     }
 
     pub fn layout() -> StructLayout {

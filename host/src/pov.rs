@@ -42,7 +42,7 @@ pub fn povray_command(pov: &str, png: &str, settings: &RenderSettings, threads: 
 /// 3.7's language, for a picture rendered with `settings` (size, shadows,
 /// mirror depth, textures). `source` names the scene in the file's head.
 pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Export {
-    let mut w = Writer { globals: file.globals, settings, notes: Vec::new(), declared: Vec::new() };
+    let mut w = Writer { globals: file.globals, settings, notes: Vec::new(), declared: Vec::new(), refracts: false };
     let mut body = String::new();
     // Every tree the root reaches, each after the masters it places (the
     // format declares a master before its use, so there are no cycles).
@@ -102,7 +102,7 @@ pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Expo
     let _ = writeln!(head, "\n#version 3.7;");
     // POV-Ray counts the camera ray as the first level; raycast's depth
     // counts the bounces after it.
-    let trace_level = if settings.reflections { settings.max_depth + 1 } else { 1 };
+    let trace_level = if settings.reflections || w.refracts { settings.max_depth + 1 } else { 1 };
     let _ = writeln!(
         head,
         "global_settings {{ assumed_gamma 1.0 ambient_light rgb 1 max_trace_level {} }}",
@@ -210,6 +210,8 @@ struct Writer<'a> {
     notes: Vec<String>,
     /// Which trees have been declared (a tree that draws nothing is not).
     declared: Vec<bool>,
+    /// Whether a transparent material was written (refracted rays need trace levels).
+    refracts: bool,
 }
 
 impl Writer<'_> {
@@ -305,6 +307,23 @@ impl Writer<'_> {
         if self.settings.reflections && mirror.iter().any(|&c| c > 0.0) {
             let _ = write!(finish, " reflection {{ {} }}", rgb(mirror));
         }
+        // Refraction: k_t O_t as POV-Ray's transmit, one number (their
+        // mean), and the index of refraction as the object's interior.
+        let transmit = m.transparent.map(|c| g.kt * c);
+        let see_through = if self.settings.refraction && transmit.iter().any(|&c| c > 0.0) {
+            self.refracts = true;
+            self.note("transparency is POV-Ray's: transmit (the mean of k_t O_t) through the pigment, filtered shadows, no colour of its own left out".into());
+            (transmit[0] + transmit[1] + transmit[2]) / 3.0
+        } else {
+            0.0
+        };
+        let color = |c: [f32; 3]| {
+            if see_through > 0.0 {
+                format!("rgbt <{}, {}, {}, {}>", num32(c[0]), num32(c[1]), num32(c[2]), num32(see_through))
+            } else {
+                rgb(c)
+            }
+        };
         let pigment = match (&m.texture, textured) {
             (Some(t), true) => match (&t.resolved, image_kind(&t.file)) {
                 (Some(path), Some(kind)) => {
@@ -319,10 +338,12 @@ impl Writer<'_> {
                         num32(1.0 / t.repeat_u.max(1e-6)),
                         num32(1.0 / t.repeat_v.max(1e-6))
                     );
+                    let transmit_all =
+                        if see_through > 0.0 { format!(" transmit all {}", num32(see_through)) } else { String::new() };
                     format!(
-                        "pigment {{ average pigment_map {{ [{} color {}] [{} image_map {{ {kind} \"{}\" gamma 1.0 map_type {map_type} }}{repeat}{place}] }} }}",
+                        "pigment {{ average pigment_map {{ [{} color {}] [{} image_map {{ {kind} \"{}\" gamma 1.0 map_type {map_type}{transmit_all} }}{repeat}{place}] }} }}",
                         num32(1.0 - m.blend),
-                        rgb(d),
+                        color(d),
                         num32(m.blend),
                         // Absolute: POV-Ray resolves a file against its own working folder.
                         pov_string(&std::path::absolute(path).unwrap_or_else(|_| path.clone()).to_string_lossy())
@@ -330,12 +351,13 @@ impl Writer<'_> {
                 }
                 _ => {
                     self.note(format!("a texture POV-Ray cannot read or that was not found ({}) is left out", t.file));
-                    format!("pigment {{ color {} }}", rgb(d))
+                    format!("pigment {{ color {} }}", color(d))
                 }
             },
-            _ => format!("pigment {{ color {} }}", rgb(base)),
+            _ => format!("pigment {{ color {} }}", color(base)),
         };
-        format!("texture {{ {pigment} finish {{ {finish} }} }}")
+        let interior = if see_through > 0.0 { format!(" interior {{ ior {} }}", num32(m.ior)) } else { String::new() };
+        format!("texture {{ {pigment} finish {{ {finish} }} }}{interior}")
     }
 
     fn light(&mut self, l: &Light) -> String {
@@ -481,5 +503,35 @@ mod tests {
         );
         assert_eq!(e.notes.len(), 1, "{:?}", e.notes);
         assert!(e.notes[0].starts_with("an ambient or emissive channel"), "{:?}", e.notes);
+    }
+
+    /// A transparent material: k_t O_t's mean as the pigment's transmit, its
+    /// ior as the interior, and trace levels for the refracted rays even
+    /// without mirrors; opaque (and said nothing of) under --no-refraction.
+    #[test]
+    fn transparency_as_transmit_and_interior() {
+        let xml = r#"<scenefile>
+              <globaldata><diffusecoeff v="1"/><transparentcoeff v="0.5"/></globaldata>
+              <object type="tree" name="root">
+                <transblock><object type="primitive" name="sphere">
+                  <diffuse r="0.2" g="0.4" b="0.6"/><transparent r="0.8" g="0.6" b="0.4"/><ior v="1.5"/>
+                </object></transblock>
+              </object>
+            </scenefile>"#;
+        let file = parse_str(xml, Path::new("t.xml"), &ParseOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let settings = RenderSettings { reflections: false, ..RenderSettings::default() };
+        let e = export(&file, &settings, "t.xml");
+        assert!(e.sdl.contains("pigment { color rgbt <0.2, 0.4, 0.6, 0.3> } finish { ambient rgb <0, 0, 0> diffuse 1 } } interior { ior 1.5 }"), "{}", e.sdl);
+        assert!(e.sdl.contains("max_trace_level 5"), "{}", e.sdl);
+        assert!(e.notes.iter().any(|n| n.starts_with("transparency is POV-Ray's")), "{:?}", e.notes);
+        let opaque = RenderSettings { refraction: false, ..settings };
+        let e = export(&file, &opaque, "t.xml");
+        assert!(
+            e.sdl.contains("pigment { color rgb <0.2, 0.4, 0.6> } finish { ambient rgb <0, 0, 0> diffuse 1 } }"),
+            "{}",
+            e.sdl
+        );
+        assert!(!e.sdl.contains("interior") && e.sdl.contains("max_trace_level 1"), "{}", e.sdl);
+        assert!(e.notes.is_empty(), "{:?}", e.notes);
     }
 }

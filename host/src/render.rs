@@ -359,6 +359,7 @@ const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_AOVS, "the normal, depth, id and cost AOVs"),
     (layout::SPEC_TORI, "tori"),
     (layout::SPEC_MESHES, "meshes"),
+    (layout::SPEC_REFRACTION, "refraction"),
     (layout::SPEC_AREA_LIGHTS, "area lights"),
     (layout::SPEC_DOF, "depth of field"),
     (layout::SPEC_COURSE_SAMPLING, "the course's adaptive supersampling"),
@@ -466,6 +467,8 @@ impl SceneFeatures {
             (layout::SPEC_TORI, self.tori),
             (layout::SPEC_MESHES, self.meshes),
             (layout::SPEC_COURSE_SAMPLING, flag(layout::FLAG_COURSE_SAMPLING)),
+            // frame.rs sets FLAG_REFRACTION only where a material transmits.
+            (layout::SPEC_REFRACTION, flag(layout::FLAG_REFRACTION)),
             (layout::SPEC_AREA_LIGHTS, self.area_lights),
             (layout::SPEC_DOF, flag(layout::FLAG_DOF)),
         ] {
@@ -926,7 +929,7 @@ mod tests {
             "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
              leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
              mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori, meshes, \
-             area lights, depth of field, the course's adaptive supersampling; the walk's 2 levels in registers"
+             refraction, area lights, depth of field, the course's adaptive supersampling; the walk's 2 levels in registers"
         );
         // An AOV other than colour keeps its code.
         for aov in [Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost, Aov::CostAll] {
@@ -954,10 +957,33 @@ mod tests {
         // Every feature's constant has its name, once.
         let mut ids: Vec<u32> = SPEC_NAMES.iter().map(|(id, _)| *id).collect();
         ids.sort();
-        // Id 23 is issue 44's refraction's (layout.h), named on its own
-        // branch: drop this filter once it is merged.
-        let assigned = |id: &u32| *id != 23;
-        assert_eq!(ids, (0..SPEC_COUNT as u32).filter(|&id| is_feature(id) && assigned(&id)).collect::<Vec<_>>());
+        assert_eq!(ids, (0..SPEC_COUNT as u32).filter(|&id| is_feature(id)).collect::<Vec<_>>());
+    }
+
+    /// FLAG_REFRACTION and SPEC_REFRACTION: on only where a material lets
+    /// light through (k_t O_t has a channel other than 0) and refraction is
+    /// not turned off; a transparent colour with k_t = 0, or k_t with no
+    /// transparent colour, keeps the opaque kernel.
+    #[test]
+    fn refraction_is_kept_only_where_a_material_transmits() {
+        let scene = |kt: &str, transparent: &str| {
+            format!(
+                r#"<scenefile><globaldata><transparentcoeff v="{kt}"/></globaldata><object type="tree" name="root">
+                  <transblock><object type="primitive" name="sphere"><transparent r="{transparent}" g="0" b="0"/><ior v="1.5"/></object></transblock>
+                  </object></scenefile>"#
+            )
+        };
+        for (kt, transparent, settings, want) in [
+            ("0.5", "0.8", RenderSettings::default(), true),
+            ("0.5", "0.8", RenderSettings { refraction: false, ..RenderSettings::default() }, false),
+            ("0", "0.8", RenderSettings::default(), false),
+            ("0.5", "0", RenderSettings::default(), false),
+        ] {
+            let d = data(&scene(kt, transparent), &settings);
+            assert_eq!(d.frame.flags & layout::FLAG_REFRACTION != 0, want, "k_t {kt}, O_t {transparent}, {settings:?}");
+            let s = on(Specialization::of(&d, &d.frame));
+            assert_eq!(s.contains(&layout::SPEC_REFRACTION), want, "k_t {kt}, O_t {transparent}: {s:?}");
+        }
     }
 
     /// A kernel specialised for a scene keeps the walk's levels in

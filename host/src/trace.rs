@@ -41,11 +41,11 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
     let mut lines = Vec::new();
     for s in steps {
         match s.kind {
-            layout::TRACE_CAMERA | layout::TRACE_MIRROR => {
-                let what = if s.kind == layout::TRACE_CAMERA {
-                    "camera ray".to_string()
-                } else {
-                    format!("mirror ray {}", s.level)
+            layout::TRACE_CAMERA | layout::TRACE_MIRROR | layout::TRACE_REFRACT => {
+                let what = match s.kind {
+                    layout::TRACE_CAMERA => "camera ray".to_string(),
+                    layout::TRACE_MIRROR => format!("mirror ray {}", s.level),
+                    _ => format!("refracted ray {}", s.level),
                 };
                 lines.push(format!("{what} from {} along {}", v3(s.origin), v3(s.direction)));
                 if s.id == NO_HIT {
@@ -111,12 +111,22 @@ pub fn describe(scene: &Scene, steps: &[TraceStep]) -> Vec<String> {
                 }
             }
             layout::TRACE_LEVEL => {
-                lines.push(format!("  this hit's colour {}; its mirror weight {}", v3(s.value), v3(s.extra)));
+                let refracted = if s.origin[..3] == [0.0; 3] {
+                    String::new()
+                } else {
+                    format!("; its refracted weight {}", v3(s.origin))
+                };
+                lines.push(format!(
+                    "  this hit's colour {}; its mirror weight {}{refracted}",
+                    v3(s.value),
+                    v3(s.extra)
+                ));
             }
             layout::TRACE_PIXEL => {
                 let rgba = s.id.to_le_bytes();
                 lines.push(format!(
-                    "sample colour {} (from the last hit back: each hit's colour plus its mirror weight times the next, clamped to [0, 1]): \
+                    "sample colour {} (from the last hit back: each hit's colour plus its mirror weight times the mirror ray's colour \
+                     and its refracted weight times the refracted ray's, clamped to [0, 1]): \
                      8-bit ({}, {}, {}); every walk {}",
                     v3(s.value),
                     rgba[0],
@@ -150,7 +160,7 @@ pub struct Hit {
     normal: Option<[f32; 3]>,
 }
 
-/// A camera or mirror ray.
+/// A camera, mirror or refracted ray.
 #[derive(Serialize)]
 pub struct Ray {
     level: u32,
@@ -160,14 +170,15 @@ pub struct Ray {
     passes: u32,
 }
 
-/// One step as JSON: an object whose `kind` is camera, mirror, shadow,
-/// surface, light, level or pixel (unknown, with its code, for a kind this
+/// One step as JSON: an object whose `kind` is camera, mirror, refracted,
+/// shadow, surface, light, level or pixel (unknown, with its code, for a kind this
 /// build does not know).
 #[derive(Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Step {
     Camera(Ray),
     Mirror(Ray),
+    Refracted(Ray),
     Shadow {
         level: u32,
         light: u32,
@@ -199,6 +210,8 @@ pub enum Step {
         level: u32,
         colour: [f32; 3],
         mirror_weight: [f32; 3],
+        /// k_t O_t where the level sends a refracted ray (1 leaving a transparent object), else 0.
+        refracted_weight: [f32; 3],
     },
     Pixel {
         colour: [f32; 3],
@@ -231,7 +244,7 @@ pub fn json(scene: &Scene, steps: &[TraceStep]) -> Vec<Step> {
     steps
         .iter()
         .map(|s| match s.kind {
-            layout::TRACE_CAMERA | layout::TRACE_MIRROR => {
+            layout::TRACE_CAMERA | layout::TRACE_MIRROR | layout::TRACE_REFRACT => {
                 let ray = Ray {
                     level: s.level,
                     origin: xyz(s.origin),
@@ -239,10 +252,10 @@ pub fn json(scene: &Scene, steps: &[TraceStep]) -> Vec<Step> {
                     hit: hit(scene, s, Some(xyz(s.value))),
                     passes: s.passes,
                 };
-                if s.kind == layout::TRACE_CAMERA {
-                    Step::Camera(ray)
-                } else {
-                    Step::Mirror(ray)
+                match s.kind {
+                    layout::TRACE_CAMERA => Step::Camera(ray),
+                    layout::TRACE_MIRROR => Step::Mirror(ray),
+                    _ => Step::Refracted(ray),
                 }
             }
             layout::TRACE_SHADOW => Step::Shadow {
@@ -279,7 +292,12 @@ pub fn json(scene: &Scene, steps: &[TraceStep]) -> Vec<Step> {
                     },
                 }
             }
-            layout::TRACE_LEVEL => Step::Level { level: s.level, colour: xyz(s.value), mirror_weight: xyz(s.extra) },
+            layout::TRACE_LEVEL => Step::Level {
+                level: s.level,
+                colour: xyz(s.value),
+                mirror_weight: xyz(s.extra),
+                refracted_weight: xyz(s.origin),
+            },
             layout::TRACE_PIXEL => {
                 let [r, g, b, _] = s.id.to_le_bytes();
                 Step::Pixel { colour: xyz(s.value), rgb8: [r, g, b], passes: s.passes }

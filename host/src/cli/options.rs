@@ -44,18 +44,21 @@ pub struct RenderOptions {
     /// Turn mirror reflections off
     #[arg(long, help_heading = "Picture")]
     pub no_reflections: bool,
+    /// Turn refraction off: transparent materials drawn opaque
+    #[arg(long, help_heading = "Picture", hide_short_help = true)]
+    pub no_refraction: bool,
     /// Turn texture mapping off
     #[arg(long, help_heading = "Picture")]
     pub no_textures: bool,
     /// Turn depth of field off (the pinhole camera)
-    #[arg(long, help_heading = "Picture")]
+    #[arg(long, help_heading = "Picture", hide_short_help = true)]
     pub no_dof: bool,
     /// Points on each area light a sample, 1 to 1024
     ///
     /// Points on each area light a sample, 1 to 1024 [default: 16]: the
     /// soft shadows converge with these and with --spp.
     #[arg(long, default_value_t = crate::frame::DEFAULT_LIGHT_SAMPLES, value_name = "N",
-          value_parser = parse_light_samples, help_heading = "Quality", hide_default_value = true)]
+          value_parser = parse_light_samples, help_heading = "Quality", hide_default_value = true, hide_short_help = true)]
     pub light_samples: u32,
     /// Mirror bounces, 0 to 16 (alias --depth)
     #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = parse_bounces, help_heading = "Picture")]
@@ -195,6 +198,7 @@ impl RenderOptions {
             cost_max: self.cost_max,
             dof: !self.no_dof,
             light_samples: self.light_samples,
+            refraction: !self.no_refraction,
         }
     }
 

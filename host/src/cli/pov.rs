@@ -45,6 +45,9 @@ pub struct PovArgs {
     /// No mirror reflections, as `render --no-reflections`
     #[arg(long, help_heading = "Picture")]
     no_reflections: bool,
+    /// Transparent materials opaque, as `render --no-refraction`
+    #[arg(long, help_heading = "Picture")]
+    no_refraction: bool,
     /// No textures, as `render --no-textures`
     #[arg(long, help_heading = "Picture")]
     no_textures: bool,
@@ -65,6 +68,7 @@ pub fn run(args: &PovArgs) -> Result<(), Error> {
         height: args.height,
         shadows: !args.no_shadows,
         reflections: !args.no_reflections,
+        refraction: !args.no_refraction,
         textures: !args.no_textures,
         max_depth: args.bounces,
         ..RenderSettings::default()

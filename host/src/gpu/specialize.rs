@@ -243,11 +243,7 @@ mod tests {
     fn freeze_makes_the_given_constants_ordinary_and_leaves_the_rest() {
         let words = render_words();
         let before = spec_constants(&words);
-        // Every constant_id below SPEC_COUNT but 23, issue 44's refraction's
-        // (layout.h), declared on its own branch: drop the subtraction once
-        // it is merged.
-        let unassigned = 1;
-        assert_eq!(before.len(), crate::layout::SPEC_COUNT as usize - unassigned, "{before:?}");
+        assert_eq!(before.len(), crate::layout::SPEC_COUNT as usize, "{before:?}");
         // The first three given (true, false, true), the rest left to the driver.
         let frozen = freeze(&words, &[1, 0, 7]).unwrap();
         let after = spec_constants(&frozen);

@@ -111,6 +111,7 @@ preview controls:
   C               print the camera as a <cameradata> block
   1 to 6          show colour, normal, depth, object id, walk cost (camera ray, all rays)
   H M T           toggle shadows, mirror reflections, textures
+  G               toggle refraction (transparent materials opaque)
   B               switch who draws: the device or the CPU build (the same pixels)
   K               recompile the shaders now, as an edit does (the device draws after)
   F1              this help                    Esc           quit";
@@ -300,6 +301,7 @@ pub fn run(args: &PreviewArgs) -> Result<(), Error> {
     preview.aov = args.aov;
     preview.shadows = !args.no_shadows;
     preview.reflections = !args.no_reflections;
+    preview.refraction = !args.no_refraction;
     preview.textures = !args.no_textures;
     preview.textures_loaded = !args.no_textures;
     if args.screenshot.is_none() && args.frames.is_none() {
@@ -469,6 +471,8 @@ struct Preview {
     aov: Aov,
     shadows: bool,
     reflections: bool,
+    /// Refraction (G): FLAG_REFRACTION where the scene's frame has it.
+    refraction: bool,
     textures: bool,
     /// Whether the scene's textures were loaded (not with --no-textures): T can turn them on.
     textures_loaded: bool,
@@ -618,6 +622,7 @@ impl Preview {
             aov: Aov::Color,
             shadows: true,
             reflections: true,
+            refraction: true,
             textures: true,
             textures_loaded: true,
             sample: 0,
@@ -843,7 +848,8 @@ impl Preview {
         f.aov_scale = frame::aov_scale(frame::depth_range(self.bounds, eye), self.aov.default_cost_max());
         f.flags = (if self.shadows { layout::FLAG_SHADOWS } else { 0 })
             | (if self.reflections { layout::FLAG_REFLECTIONS } else { 0 })
-            | (if self.textures { layout::FLAG_TEXTURES } else { 0 });
+            | (if self.textures { layout::FLAG_TEXTURES } else { 0 })
+            | (if self.refraction { self.data.frame.flags & layout::FLAG_REFRACTION } else { 0 });
         f
     }
 
@@ -1055,6 +1061,10 @@ impl Preview {
             }
             Key::M => {
                 self.reflections = !self.reflections;
+                self.restart();
+            }
+            Key::G => {
+                self.refraction = !self.refraction;
                 self.restart();
             }
             Key::T if !self.textures_loaded => {

@@ -138,6 +138,11 @@ pub struct PreviewArgs {
     /// Start with mirror reflections off (M)
     #[arg(long, help_heading = "Picture")]
     pub no_reflections: bool,
+    /// Start with refraction off (G)
+    ///
+    /// Start with refraction off (G turns it on and off): transparent materials drawn opaque.
+    #[arg(long, help_heading = "Picture")]
+    pub no_refraction: bool,
     /// Start with texture mapping off (T)
     #[arg(long, help_heading = "Picture")]
     pub no_textures: bool,
@@ -164,7 +169,7 @@ pub struct PreviewArgs {
 
 /// The keys `--keys` may press (the window's controls that print or
 /// switch something), by the character that names them.
-const SCRIPTED_KEYS: [(char, glfw::Key); 14] = [
+const SCRIPTED_KEYS: [(char, glfw::Key); 15] = [
     ('1', glfw::Key::Num1),
     ('2', glfw::Key::Num2),
     ('3', glfw::Key::Num3),
@@ -173,6 +178,7 @@ const SCRIPTED_KEYS: [(char, glfw::Key); 14] = [
     ('6', glfw::Key::Num6),
     ('H', glfw::Key::H),
     ('M', glfw::Key::M),
+    ('G', glfw::Key::G),
     ('T', glfw::Key::T),
     ('R', glfw::Key::R),
     ('F', glfw::Key::F),

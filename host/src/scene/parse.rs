@@ -712,6 +712,19 @@ impl<'a> Ctx<'a> {
         self.to_f32(n, "v", v)
     }
 
+    /// `<ior v/>`: an index of refraction, above 0 (Snell's law divides by it).
+    fn ior(&mut self, n: XNode) -> R<f32> {
+        let v = self.v32(n)?;
+        if v > 0.0 {
+            return Ok(v);
+        }
+        let a = self.req_attr(n, "v", &["v"], "v")?;
+        Err(self.err(
+            self.aloc(&a),
+            format!("<ior> is {} (expected an index of refraction above 0; 1 is air)", fmt_number(v)),
+        ))
+    }
+
     /// An element whose values come in one of several spellings, e.g.
     /// `v1 v2 v3` or `x y z` or `a b c`.
     fn families(&mut self, n: XNode, fams: &[&[&str]]) -> R<Vec<f64>> {
@@ -875,11 +888,6 @@ impl<'a> Ctx<'a> {
                 }
             };
             *slot = self.v32(c)?;
-            // k_t scales transparency, which is not drawn; zero changes nothing.
-            if c.tag_name().name() == "transparentcoeff" && g.kt != 0.0 {
-                let msg = "raycast's ray caster has no transparency; <transparentcoeff> is ignored";
-                self.warn(self.nloc(c), msg.to_string());
-            }
             self.dup(&mut seen, c, "globaldata");
         }
         Ok(g)
@@ -1527,19 +1535,10 @@ impl<'a> Ctx<'a> {
                 "ambient" => m.ambient = self.rgb(c)?,
                 "specular" => m.specular = self.rgb(c)?,
                 "reflective" => m.reflective = self.rgb(c)?,
-                "transparent" => {
-                    m.transparent = self.rgb(c)?;
-                    // Zero is what the renderer draws anyway; <ior> alone
-                    // changes nothing without transparency, so it is not
-                    // warned about.
-                    if m.transparent != [0.0; 3] {
-                        let msg = "raycast's ray caster has no transparency or refraction; <transparent> is ignored (the surface is drawn opaque)";
-                        self.warn(self.nloc(c), msg.to_string());
-                    }
-                }
+                "transparent" => m.transparent = self.rgb(c)?,
                 "emissive" => m.emissive = self.rgb(c)?,
                 "shininess" => m.shininess = self.v32(c)?,
-                "ior" => m.ior = self.v32(c)?,
+                "ior" => m.ior = self.ior(c)?,
                 "blend" => m.blend = self.v32(c)?,
                 "texture" => m.texture = Some(self.texture(c, true)?),
                 "bumpmap" => {
@@ -2826,9 +2825,9 @@ mod tests {
             "sphere",
             "<transparent r=\"0.5\" g=\"0.5\" b=\"0.5\"/>\n<ior v=\"1.5\"/>\n<bumpmap file=\"bump.png\"/>",
         ));
-        warned_at(&f, 5, 1, "raycast's ray caster has no transparency or refraction; <transparent> is ignored (the surface is drawn opaque)");
+        // Transparency and refraction are drawn (docs/scene-format.md#refraction).
         warned_at(&f, 7, 1, "raycast does no bump mapping; <bumpmap> is ignored");
-        assert_eq!(f.warnings.len(), 2, "{:?}", f.warnings);
+        assert_eq!(f.warnings.len(), 1, "{:?}", f.warnings);
         // Values that change nothing are not worth a word.
         let f = ok(&prim("sphere", "<transparent r=\"0\" g=\"0\" b=\"0\"/><ior v=\"1.33\"/>"));
         assert!(f.warnings.is_empty(), "{:?}", f.warnings);
@@ -2843,9 +2842,40 @@ mod tests {
         // files carry an aperture), so no word.
         assert_eq!(f.warnings.len(), 1, "{:?}", f.warnings);
         let f = ok(&with_top("<globaldata><transparentcoeff v=\"0.3\"/></globaldata>"));
-        warned_at(&f, 2, 13, "raycast's ray caster has no transparency; <transparentcoeff> is ignored");
-        let f = ok(&with_top("<globaldata><transparentcoeff v=\"0\"/></globaldata>"));
         assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+        assert_eq!(f.globals.kt, 0.3);
+    }
+
+    /// Refraction's inputs: `<transparent>`, `<ior>` and `<transparentcoeff>`
+    /// are read as written; an index of refraction must be above 0 (NaN,
+    /// infinity and a number 32-bit floats cannot hold are refused as for
+    /// every number).
+    #[test]
+    fn refraction_inputs_and_bad_indices_of_refraction() {
+        let f = ok(&prim("sphere", "<transparent r=\"0.8\" g=\"0.6\" b=\"0.4\"/><ior v=\"1.5\"/>"));
+        assert!(f.warnings.is_empty(), "{:?}", f.warnings);
+        let (_, m) = first_prim(&f);
+        assert_eq!((m.transparent, m.ior), ([0.8, 0.6, 0.4], 1.5));
+        // An index below 1 (a medium faster than air) is taken.
+        assert_eq!(first_prim(&ok(&prim("sphere", "<ior v=\"0.5\"/>"))).1.ior, 0.5);
+        for (v, shown) in [("0", "0"), ("-1.5", "-1.5"), ("-0", "-0"), ("1e-50", "0")] {
+            let xml = prim("sphere", &format!("<ior v=\"{v}\"/>"));
+            bad_at_str(
+                &xml,
+                &format!("v=\"{v}\""),
+                &format!("<ior> is {shown} (expected an index of refraction above 0"),
+            );
+        }
+        for v in ["NaN", "inf", "1e39"] {
+            let xml = prim("sphere", &format!("<ior v=\"{v}\"/>"));
+            let e = bad(&xml);
+            assert_eq!(at(&e).0, 5, "{e}");
+        }
+        // The course's empty number reads as 0, which no index can be.
+        let xml = prim("sphere", "<ior v=\"\"/>");
+        bad_at_str(&xml, "v=\"\"", "<ior> is 0");
+        let e = bad(&prim("sphere", "<transparent r=\"0.5\" g=\"x\" b=\"0.5\"/>"));
+        assert_eq!(at(&e).0, 5, "{e}");
     }
 
     #[test]
