@@ -185,8 +185,10 @@ fn camera(c: &Camera, s: &RenderSettings) -> String {
     let m = crate::frame::world_from_film(c, s.width, s.height);
     // The thin lens (docs/scene-format.md#depth-of-field): POV-Ray's
     // aperture is the lens's diameter, its focal point a point in focus,
-    // its blur samples the rays a pixel (raycast's --spp).
-    let lens = match crate::frame::lens(c).filter(|_| s.dof) {
+    // its blur samples the rays a pixel (raycast's --spp). At one sample
+    // raycast's lens point is the lens's centre, the pinhole picture, and
+    // so is POV-Ray's without focal blur.
+    let lens = match crate::frame::lens(c).filter(|_| s.dof && s.spp > 1) {
         Some((radius, focal)) => format!(
             "  aperture {}\n  focal_point {}\n  blur_samples {}\n",
             num32(2.0 * radius),

@@ -244,7 +244,7 @@ fn ms_f(d: Duration) -> f64 {
 fn settings_text(s: &RenderSettings) -> String {
     let on = |b: bool| if b { "on" } else { "off" };
     format!(
-        "{}x{}, {}, shadows {}, reflections {} ({} bounces), textures {}, {} spp, {}",
+        "{}x{}, {}, shadows {}, reflections {} ({} bounces), textures {}, {}, {}",
         s.width,
         s.height,
         match s.aov {
@@ -255,7 +255,10 @@ fn settings_text(s: &RenderSettings) -> String {
         on(s.reflections),
         s.max_depth,
         on(s.textures),
-        s.spp,
+        match s.supersample {
+            crate::frame::Supersample::Course => "the course's adaptive supersampling".to_string(),
+            crate::frame::Supersample::Pattern => format!("{} spp", s.spp),
+        },
         if s.bvh { "BVH" } else { "no BVH (--no-bvh)" }
     )
 }
