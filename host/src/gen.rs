@@ -606,7 +606,7 @@ pub fn count_primitives(file: &SceneFile) -> PrimitiveCounts {
                 Node::Primitive { shape, .. } => {
                     *own += u64::from(matches!(
                         shape,
-                        Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere | Shape::Torus
+                        Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere | Shape::Torus | Shape::Mesh { .. }
                     ))
                 }
                 Node::Tree { blocks, .. } => walk(blocks, own, masters),
