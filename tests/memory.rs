@@ -32,6 +32,7 @@
 //!   and pack (`measure::reset_peak_host` first) at most
 //!   MESH_HOST_PER_FILE_BYTE = 32 times the OBJ file's size.
 //!   Measured: 4.6 times (4.1 MiB).
+//!
 //! Skipped without the corpus. Well under a second, no device. It runs
 //! first: the spheres' host bound is on the whole process's peak.
 
