@@ -20,7 +20,7 @@ pub struct GenArgs {
     #[arg(long, alias = "depth", value_name = "N", value_parser = clap::value_parser!(u32).range(i64::from(gen::MIN_DEPTH)..=i64::from(gen::MAX_DEPTH)),
           required_unless_present = "triangles", help_heading = "Picture")]
     pub levels: Option<u32>,
-    /// mesh-sphere: at least N triangles (with -o FILE.xml; FILE.obj beside it)
+    /// mesh-sphere: N triangles or more (and -o FILE.xml)
     ///
     /// mesh-sphere: a sphere of at least N triangles (8 to 16,000,000), written as FILE.obj beside the scene
     /// -o FILE.xml names.
