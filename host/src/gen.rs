@@ -73,6 +73,129 @@ impl Family {
     }
 }
 
+/// What `raycast gen` writes: a recursive family's scene, or a mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum GenKind {
+    /// recursiveSpheres1..4: masters, each level rotated to grow outwards.
+    RecursiveSpheres,
+    /// recursiveCones4: the same placements, every cone upright.
+    RecursiveCones,
+    /// recursiveCubes4: the same placements, every cube axis-aligned.
+    RecursiveCubes,
+    /// A sphere of radius 0.5 tessellated into --triangles N (an OBJ file beside the scene).
+    MeshSphere,
+}
+
+impl GenKind {
+    /// The recursive family, None for a mesh.
+    pub fn family(self) -> Option<Family> {
+        match self {
+            GenKind::RecursiveSpheres => Some(Family::RecursiveSpheres),
+            GenKind::RecursiveCones => Some(Family::RecursiveCones),
+            GenKind::RecursiveCubes => Some(Family::RecursiveCubes),
+            GenKind::MeshSphere => None,
+        }
+    }
+}
+
+/// Triangles `gen mesh-sphere` accepts: 8 (an octahedron's count) to 16
+/// million (an OBJ file of about 1.2 GB).
+pub const MIN_MESH_TRIANGLES: u64 = 8;
+pub const MAX_MESH_TRIANGLES: u64 = 16_000_000;
+
+/// The mesh sphere's latitude bands for at least `triangles` triangles:
+/// with s bands and 2s meridians it has 4s(s − 1) triangles (2s at each
+/// pole, two a quad between).
+pub fn mesh_sphere_bands(triangles: u64) -> u32 {
+    let mut s = ((triangles as f64 / 4.0).sqrt() as u32).max(2);
+    while 4 * u64::from(s) * u64::from(s - 1) < triangles {
+        s += 1;
+    }
+    while s > 2 && 4 * u64::from(s - 1) * u64::from(s - 2) >= triangles {
+        s -= 1;
+    }
+    s
+}
+
+/// A sphere of radius 0.5 about the origin (the canonical sphere's size)
+/// as an OBJ file of at least `triangles` triangles: `bands` =
+/// `mesh_sphere_bands` latitude bands of equal angle, 2·bands meridians, a
+/// vertex at each pole; smooth (each vertex's `vn` is its direction from
+/// the centre), counter-clockwise from outside, every edge shared by two
+/// triangles. Returns the file's text and its triangle count.
+pub fn mesh_sphere_obj(triangles: u64) -> Result<(String, u64), Error> {
+    if !(MIN_MESH_TRIANGLES..=MAX_MESH_TRIANGLES).contains(&triangles) {
+        return Err(Error::Usage(format!(
+            "--triangles {triangles} is out of range: {MIN_MESH_TRIANGLES} to {MAX_MESH_TRIANGLES}"
+        )));
+    }
+    let bands = mesh_sphere_bands(triangles);
+    let meridians = 2 * bands;
+    let count = 4 * u64::from(bands) * u64::from(bands - 1);
+    let mut obj = String::with_capacity(75 * count as usize);
+    let _ = writeln!(
+        obj,
+        "# raycast gen mesh-sphere --triangles {triangles}: radius 0.5, {bands} bands, {meridians} meridians, {count} triangles"
+    );
+    let mut vertex = |d: [f64; 3]| {
+        let unit = d.map(|c| c as f32);
+        let p = d.map(|c| (0.5 * c) as f32);
+        let _ = writeln!(obj, "v {} {} {}\nvn {} {} {}", p[0], p[1], p[2], unit[0], unit[1], unit[2]);
+    };
+    // Vertex 1 the north pole, then each ring from the north, then the south pole.
+    vertex([0.0, 1.0, 0.0]);
+    for i in 1..bands {
+        let theta = std::f64::consts::PI * f64::from(i) / f64::from(bands);
+        for j in 0..meridians {
+            let phi = 2.0 * std::f64::consts::PI * f64::from(j) / f64::from(meridians);
+            vertex([theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin()]);
+        }
+    }
+    vertex([0.0, -1.0, 0.0]);
+    let ring = |i: u32, j: u32| 2 + (i - 1) * meridians + j % meridians;
+    let south = 2 + (bands - 1) * meridians;
+    let mut face = |a: u32, b: u32, c: u32| {
+        let _ = writeln!(obj, "f {a}//{a} {b}//{b} {c}//{c}");
+    };
+    for j in 0..meridians {
+        face(1, ring(1, j), ring(1, j + 1));
+    }
+    for i in 1..bands - 1 {
+        for j in 0..meridians {
+            let (a, b, c, d) = (ring(i, j), ring(i + 1, j), ring(i + 1, j + 1), ring(i, j + 1));
+            face(a, b, c);
+            face(a, c, d);
+        }
+    }
+    for j in 0..meridians {
+        face(ring(bands - 1, j), south, ring(bands - 1, j + 1));
+    }
+    Ok((obj, count))
+}
+
+/// The scene of `gen mesh-sphere`: the mesh file `obj` (as the XML names
+/// it, beside the scene) at the origin, lit by a point and a directional
+/// light, seen from above and to the side.
+pub fn mesh_sphere_xml(obj: &str, triangles: u64) -> String {
+    format!(
+        "<scenefile>\n\
+         \t<!-- raycast gen mesh-sphere: {triangles} triangles, radius 0.5 (the canonical sphere's size) -->\n\
+         \t<globaldata>\n\t\t<diffusecoeff v=\"0.7\"/>\n\t\t<specularcoeff v=\"0.5\"/>\n\t\t<ambientcoeff v=\"0.3\"/>\n\t</globaldata>\n\
+         \t<cameradata>\n\t\t<pos x=\"1.2\" y=\"0.9\" z=\"1.6\"/>\n\t\t<focus x=\"0\" y=\"0\" z=\"0\"/>\n\
+         \t\t<up x=\"0\" y=\"1\" z=\"0\"/>\n\t\t<heightangle v=\"35\"/>\n\t</cameradata>\n\
+         \t<lightdata>\n\t\t<id v=\"0\"/>\n\t\t<type v=\"point\"/>\n\t\t<color r=\"1\" g=\"1\" b=\"1\"/>\n\
+         \t\t<position x=\"2\" y=\"3\" z=\"1\"/>\n\t\t<function v1=\"1\" v2=\"0\" v3=\"0\"/>\n\t</lightdata>\n\
+         \t<lightdata>\n\t\t<id v=\"1\"/>\n\t\t<type v=\"directional\"/>\n\t\t<color r=\"0.3\" g=\"0.3\" b=\"0.4\"/>\n\
+         \t\t<direction x=\"1\" y=\"-1\" z=\"-2\"/>\n\t</lightdata>\n\
+         \t<object type=\"tree\" name=\"root\">\n\t\t<transblock>\n\
+         \t\t\t<object type=\"primitive\" name=\"mesh\" meshfile=\"{}\">\n\
+         \t\t\t\t<diffuse r=\"0.3\" g=\"0.5\" b=\"0.9\"/>\n\t\t\t\t<ambient r=\"0.3\" g=\"0.5\" b=\"0.9\"/>\n\
+         \t\t\t\t<specular r=\"1\" g=\"1\" b=\"1\"/>\n\t\t\t\t<shininess v=\"30\"/>\n\
+         \t\t\t</object>\n\t\t</transblock>\n\t</object>\n</scenefile>\n",
+        escape_attr(obj)
+    )
+}
+
 /// How `gen` describes its construction (`raycast gen --help`).
 pub const CONSTRUCTION: &str = "\
 Construction (corpus test_efficiency/recursiveSpheres1..4.xml; --depth N has N levels):
@@ -102,7 +225,12 @@ Construction (corpus test_efficiency/recursiveSpheres1..4.xml; --depth N has N l
   children (every direction but back towards its parent, in the corpus's order +x, +y,
   +z, -x, -y, -z), and level k's material is the spheres' level k material. Depth 4
   has the corpus's 187 primitives with the same transforms in the same order; only the
-  materials differ.";
+  materials differ.
+
+  mesh-sphere --triangles N (with -o FILE.xml): FILE.obj, a sphere of radius 0.5 about
+  the origin in s latitude bands of equal angle and 2s meridians, the fewest with
+  4s(s-1) >= N triangles (10,000: 10,200; 1,000,000: 1,002,000), smooth normals, every
+  edge shared; and FILE.xml, that mesh lit by a point and a directional light.";
 
 /// What `generate` writes besides the construction itself.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -478,7 +606,7 @@ pub fn count_primitives(file: &SceneFile) -> PrimitiveCounts {
                 Node::Primitive { shape, .. } => {
                     *own += u64::from(matches!(
                         shape,
-                        Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere | Shape::Torus
+                        Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere | Shape::Torus | Shape::Mesh { .. }
                     ))
                 }
                 Node::Tree { blocks, .. } => walk(blocks, own, masters),
@@ -629,6 +757,52 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The mesh sphere: at least the triangles asked for and fewer than
+    /// the next band would give; every vertex at radius 0.5 (within 3e-8,
+    /// f32 rounding), its normal its direction; closed (every directed
+    /// edge once, its reverse once: watertight, consistently wound); every
+    /// face's normal (b − a) × (c − a) outward.
+    #[test]
+    fn mesh_spheres_are_closed_and_wound_outwards() {
+        let dir = std::env::temp_dir().join(format!("raycast-gen-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for asked in [8u64, 100, 10_000] {
+            let (obj, count) = mesh_sphere_obj(asked).unwrap();
+            let s = u64::from(mesh_sphere_bands(asked));
+            assert!(count >= asked && 4 * (s - 1) * (s - 2) < asked, "{asked}: {count}");
+            let path = dir.join(format!("s{asked}.obj"));
+            std::fs::write(&path, &obj).unwrap();
+            let at = crate::scene::SourceLoc { file: std::sync::Arc::new(dir.join("s.xml")), line: 1, col: 1 };
+            let mesh = crate::scene::mesh::load(&path, &at).unwrap();
+            assert_eq!(mesh.triangles.len() as u64, count);
+            assert!(mesh.smooth.iter().all(|&s| s));
+            for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
+                let r = p.iter().map(|&c| f64::from(c) * f64::from(c)).sum::<f64>().sqrt();
+                assert!((r - 0.5).abs() < 3e-8, "{asked}: radius {r}");
+                assert!((0..3).all(|k| (f64::from(n[k]) - f64::from(p[k]) / r).abs() < 1e-6), "{p:?} {n:?}");
+            }
+            let mut edges = std::collections::HashMap::new();
+            for t in &mesh.triangles {
+                let [a, b, c] = t.map(|i| glam::DVec3::from(mesh.positions[i as usize].map(f64::from)));
+                assert!((b - a).cross(c - a).dot(a + b + c) > 0.0, "{asked}: a face turned inwards");
+                for (u, v) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                    // tobj gives each position once here (v and vn share indices).
+                    *edges.entry((u, v)).or_insert(0) += 1;
+                }
+            }
+            for (&(u, v), &n) in &edges {
+                assert_eq!((n, edges.get(&(v, u))), (1, Some(&1)), "{asked}: edge {u}-{v}");
+            }
+        }
+        assert_eq!(mesh_sphere_obj(1_000_000).map(|(_, n)| n).ok(), Some(1_002_000));
+        assert!(matches!(mesh_sphere_obj(7), Err(Error::Usage(_))));
+        let xml = mesh_sphere_xml("s100.obj", 112);
+        std::fs::write(dir.join("s.xml"), &xml).unwrap();
+        let scene = crate::scene::load(&dir.join("s.xml"), &crate::scene::ParseOptions::default(), &Default::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.meshes.len(), 1);
     }
 
     #[test]

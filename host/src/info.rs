@@ -79,6 +79,25 @@ pub struct GroupInfo {
     pub tree: Option<TreeStats>,
 }
 
+/// One triangle mesh (an OBJ file, stored once however many primitives
+/// draw it; docs/scene-format.md#triangle-meshes).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MeshInfo {
+    /// The file as found.
+    pub file: String,
+    pub triangles: usize,
+    pub vertices: usize,
+    /// Triangles drawn smooth (their corners' normals interpolated); the others are flat.
+    pub smooth: usize,
+    /// Whether the file gives texture coordinates (`vt`).
+    pub uvs: bool,
+    pub file_bytes: u64,
+    /// Primitives written in the scene that draw it.
+    pub primitives: usize,
+    /// Its own hierarchy over its triangles.
+    pub tree: TreeStats,
+}
+
 /// What `raycast info` says about a scene.
 #[derive(Clone, Debug)]
 pub struct Info {
@@ -90,6 +109,7 @@ pub struct Info {
     /// shapes, those with none left out).
     pub shapes: Vec<(&'static str, usize)>,
     pub groups: Vec<GroupInfo>,
+    pub meshes: Vec<MeshInfo>,
     pub lights: Vec<(&'static str, usize)>,
     pub materials: usize,
     pub textured: usize,
@@ -155,6 +175,32 @@ impl Info {
                     .map(|&root| tree_stats(&data.nodes, root)),
             })
             .collect();
+        // Each mesh's nodes follow the one before's (frame.rs's pack_meshes), its root first.
+        let mut root = 0u32;
+        let meshes = scene
+            .meshes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let tree = tree_stats(&data.mesh_nodes, root);
+                root += tree.nodes;
+                MeshInfo {
+                    file: m.path.display().to_string(),
+                    triangles: m.triangles.len(),
+                    vertices: m.positions.len(),
+                    smooth: m.smooth.iter().filter(|&&s| s).count(),
+                    uvs: !m.uvs.is_empty(),
+                    file_bytes: m.file_bytes,
+                    primitives: scene
+                        .groups
+                        .iter()
+                        .flat_map(|g| &g.primitives)
+                        .filter(|p| scene.mesh_index(&p.shape) == Some(i))
+                        .count(),
+                    tree,
+                }
+            })
+            .collect();
         Info {
             scene: name.to_string(),
             camera: scene.camera.clone(),
@@ -162,6 +208,7 @@ impl Info {
             unique: scene.groups.iter().map(|g| g.primitives.len()).sum(),
             shapes: tally(scene.groups.iter().flat_map(|g| g.primitives.iter().map(|p| p.shape.name()))),
             groups,
+            meshes,
             lights: tally(scene.lights.iter().map(|l| l.kind.name())),
             materials: scene.materials.len(),
             textured: scene.materials.iter().filter(|m| m.texture.is_some()).count(),
@@ -210,6 +257,26 @@ impl Info {
             self.groups.len(),
             if self.groups.len() == 1 { "" } else { "s" }
         );
+        for m in &self.meshes {
+            let t = &m.tree;
+            out += &format!(
+                "  mesh: {}, {}: {} triangles ({} smooth, {} flat), {} vertices, {}; named by {} primitive{} of the file; \
+                 its hierarchy {} nodes, {} leaves, depth {}, SAH cost {:.2}\n",
+                m.file,
+                fmt_bytes(m.file_bytes),
+                thousands(m.triangles as u64),
+                thousands(m.smooth as u64),
+                thousands((m.triangles - m.smooth) as u64),
+                thousands(m.vertices as u64),
+                if m.uvs { "texture coordinates" } else { "no texture coordinates" },
+                m.primitives,
+                if m.primitives == 1 { "" } else { "s" },
+                thousands(u64::from(t.nodes)),
+                thousands(u64::from(t.leaves)),
+                t.depth,
+                t.sah
+            );
+        }
         out += &format!(
             "  lights: {}; materials: {} ({} textured, {} mirror{})\n",
             if self.lights.is_empty() { "none".to_string() } else { list(&self.lights) },
@@ -288,6 +355,7 @@ impl Info {
             unique: self.unique,
             shapes: Pairs(&self.shapes),
             groups: &self.groups,
+            meshes: &self.meshes,
             lights: Pairs(&self.lights),
             materials: self.materials,
             textured: self.textured,
@@ -313,6 +381,7 @@ struct InfoJson<'a> {
     unique: usize,
     shapes: Pairs<'a, usize>,
     groups: &'a [GroupInfo],
+    meshes: &'a [MeshInfo],
     lights: Pairs<'a, usize>,
     materials: usize,
     textured: usize,
@@ -437,5 +506,42 @@ mod tests {
         let info = Info::of("default", &scene, &data);
         assert!(info.groups.iter().all(|g| g.tree.is_none()));
         assert!(info.text().contains("hierarchy: none: 5 primitives tested in order"), "{}", info.text());
+    }
+
+    /// A mesh drawn by two primitives is one mesh: its triangles (a quad
+    /// fanned into two, flat; a smooth triangle with normals), its vertices,
+    /// the two primitives, its own tree over its three triangles, in text
+    /// and JSON.
+    #[test]
+    fn info_shows_meshes_and_their_triangles() {
+        let dir = std::env::temp_dir().join(format!("raycast-info-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\no smooth\nv 0 0 1\nv 1 0 1\nv 0 1 1\nvn 0 0 1\n\
+                   f 5//1 6//1 7//1\n";
+        std::fs::write(dir.join("two.obj"), obj).unwrap();
+        let placed = |x: i32| {
+            format!(
+                "<transblock><translate x=\"{x}\" y=\"0\" z=\"0\"/>\
+                 <object type=\"primitive\" name=\"mesh\" meshfile=\"two.obj\"/></transblock>"
+            )
+        };
+        let xml =
+            format!("<scenefile><object type=\"tree\" name=\"root\">{}{}</object></scenefile>", placed(0), placed(3));
+        let scene = crate::scene::from_xml(xml, dir.join("s.xml").to_str().unwrap());
+        let data = pack(&scene).unwrap();
+        let info = Info::of("s.xml", &scene, &data);
+        assert_eq!(info.meshes.len(), 1, "one file, stored once");
+        let m = &info.meshes[0];
+        assert_eq!((m.triangles, m.smooth, m.vertices, m.uvs, m.primitives), (3, 1, 7, false, 2));
+        assert_eq!((m.tree.items, m.file_bytes), (3, obj.len() as u64));
+        assert!(m.file.ends_with("two.obj"), "{}", m.file);
+        let text = info.text();
+        assert!(text.contains("two.obj") && text.contains(": 3 triangles (1 smooth, 2 flat), 7 vertices"), "{text}");
+        assert!(text.contains("named by 2 primitives of the file"), "{text}");
+        let json: serde_json::Value = serde_json::from_str(&info.json()).unwrap();
+        let mesh = &json["meshes"][0];
+        assert_eq!((mesh["triangles"].as_u64(), mesh["primitives"].as_u64()), (Some(3), Some(2)), "{json}");
+        assert_eq!(mesh["tree"]["items"].as_u64(), Some(3), "{json}");
+        assert_eq!(json["shapes"]["mesh"].as_u64(), Some(2), "{json}");
     }
 }

@@ -19,7 +19,8 @@
 //! render's settings, so both renderers trace the same kinds of rays.
 
 use crate::frame::RenderSettings;
-use crate::scene::{Camera, Globals, Light, LightKind, Material, Node, SceneFile, Shape, TransBlock};
+use crate::scene::mesh::Mesh;
+use crate::scene::{Camera, Globals, Light, LightKind, Material, Node, SceneFile, Shape, SourceLoc, TransBlock};
 use glam::{DMat4, DVec3};
 use std::fmt::Write as _;
 
@@ -42,7 +43,15 @@ pub fn povray_command(pov: &str, png: &str, settings: &RenderSettings, threads: 
 /// 3.7's language, for a picture rendered with `settings` (size, shadows,
 /// mirror depth, textures). `source` names the scene in the file's head.
 pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Export {
-    let mut w = Writer { globals: file.globals, settings, notes: Vec::new(), declared: Vec::new(), refracts: false };
+    let mut w = Writer {
+        globals: file.globals,
+        settings,
+        notes: Vec::new(),
+        declared: Vec::new(),
+        meshes: Vec::new(),
+        mesh_decls: String::new(),
+        refracts: false,
+    };
     let mut body = String::new();
     // Every tree the root reaches, each after the masters it places (the
     // format declares a master before its use, so there are no cycles).
@@ -112,7 +121,7 @@ pub fn export(file: &SceneFile, settings: &RenderSettings, source: &str) -> Expo
     head.push_str(&camera(&file.camera, settings));
     head.push_str(&lights);
     head.push('\n');
-    Export { sdl: head + &body, notes: w.notes }
+    Export { sdl: head + &w.mesh_decls + &body, notes: w.notes }
 }
 
 /// Past this many expanded primitives the notes say what POV-Ray's
@@ -212,8 +221,61 @@ struct Writer<'a> {
     notes: Vec<String>,
     /// Which trees have been declared (a tree that draws nothing is not).
     declared: Vec<bool>,
+    /// Each mesh file met (as the parser found it), declared once as a
+    /// `mesh2` in `mesh_decls`: its number, None where it cannot be read.
+    meshes: Vec<(std::path::PathBuf, Option<usize>)>,
+    mesh_decls: String,
     /// Whether a transparent material was written (refracted rays need trace levels).
     refracts: bool,
+}
+
+/// A mesh's triangles as POV-Ray's `mesh2`: its vertices, its normals
+/// where the file gives them (a flat triangle of a file with normals gets
+/// its face's normal, (b − a) × (c − a), as raycast draws it), its texture
+/// coordinates where the file gives them (POV-Ray's v runs up as OBJ's
+/// does), its faces.
+pub fn mesh2(mesh: &Mesh) -> String {
+    let v3 = |p: [f32; 3]| format!("<{}, {}, {}>", num32(p[0]), num32(p[1]), num32(p[2]));
+    let list =
+        |name: &str, items: Vec<String>| format!("  {name} {{ {},\n    {}\n  }}\n", items.len(), items.join(",\n    "));
+    let mut out = String::from("mesh2 {\n");
+    out += &list("vertex_vectors", mesh.positions.iter().map(|&p| v3(p)).collect());
+    let faces = || mesh.triangles.iter().map(|t| format!("<{}, {}, {}>", t[0], t[1], t[2]));
+    if !mesh.normals.is_empty() {
+        let mut normals: Vec<String> = mesh.normals.iter().map(|&n| v3(n)).collect();
+        let mut indices = Vec::new();
+        for (t, &smooth) in mesh.triangles.iter().zip(&mesh.smooth) {
+            if smooth {
+                indices.push(format!("<{}, {}, {}>", t[0], t[1], t[2]));
+            } else {
+                let [a, b, c] = t.map(|i| glam::Vec3::from(mesh.positions[i as usize]));
+                let k = normals.len();
+                normals.push(v3((b - a).cross(c - a).to_array()));
+                indices.push(format!("<{k}, {k}, {k}>"));
+            }
+        }
+        out += &list("normal_vectors", normals);
+        if !mesh.uvs.is_empty() {
+            out += &list(
+                "uv_vectors",
+                mesh.uvs.iter().map(|uv| format!("<{}, {}>", num32(uv[0]), num32(uv[1]))).collect(),
+            );
+        }
+        out += &list("face_indices", faces().collect());
+        if mesh.smooth.iter().any(|&s| !s) {
+            out += &list("normal_indices", indices);
+        }
+    } else {
+        if !mesh.uvs.is_empty() {
+            out += &list(
+                "uv_vectors",
+                mesh.uvs.iter().map(|uv| format!("<{}, {}>", num32(uv[0]), num32(uv[1]))).collect(),
+            );
+        }
+        out += &list("face_indices", faces().collect());
+    }
+    out.push('}');
+    out
 }
 
 impl Writer<'_> {
@@ -245,19 +307,16 @@ impl Writer<'_> {
         match &b.object {
             Node::Primitive { shape, material, loc } => {
                 let geometry = match shape {
-                    Shape::Cube => "box { <-0.5, -0.5, -0.5>, <0.5, 0.5, 0.5>",
-                    Shape::Sphere => "sphere { <0, 0, 0>, 0.5",
-                    Shape::Cylinder => "cylinder { <0, -0.5, 0>, <0, 0.5, 0>, 0.5",
-                    Shape::Cone => "cone { <0, -0.5, 0>, 0.5, <0, 0.5, 0>, 0",
+                    Shape::Cube => "box { <-0.5, -0.5, -0.5>, <0.5, 0.5, 0.5>".to_string(),
+                    Shape::Sphere => "sphere { <0, 0, 0>, 0.5".to_string(),
+                    Shape::Cylinder => "cylinder { <0, -0.5, 0>, <0, 0.5, 0>, 0.5".to_string(),
+                    Shape::Cone => "cone { <0, -0.5, 0>, 0.5, <0, 0.5, 0>, 0".to_string(),
                     // POV-Ray's torus lies about y too: major radius (the ring), then minor (the tube).
-                    Shape::Torus => "torus { 0.375, 0.125",
-                    Shape::Mesh { .. } => {
-                        self.note(format!(
-                            "a {} is left out (at {loc} and any others), as raycast leaves it out",
-                            shape.name()
-                        ));
-                        return None;
-                    }
+                    Shape::Torus => "torus { 0.375, 0.125".to_string(),
+                    Shape::Mesh { file, resolved } => match self.mesh(file, resolved.as_deref(), loc) {
+                        Some(k) => format!("object {{ Raycast_mesh_{k}"),
+                        None => return None,
+                    },
                 };
                 let texture = self.texture(shape, material);
                 let transform =
@@ -270,6 +329,37 @@ impl Writer<'_> {
                 declared.then(|| placed(tree_name(*tree)))
             }
         }
+    }
+
+    /// The number of the `mesh2` declared for a mesh file, declaring it the
+    /// first time; None (with a note) where it cannot be read.
+    fn mesh(&mut self, file: &str, resolved: Option<&std::path::Path>, loc: &SourceLoc) -> Option<usize> {
+        let Some(path) = resolved else {
+            self.note(format!("a mesh whose file ({file}) was not found is left out (at {loc})"));
+            return None;
+        };
+        if let Some((_, k)) = self.meshes.iter().find(|(p, _)| p == path) {
+            return *k;
+        }
+        let k = match crate::scene::mesh::load(path, loc) {
+            Ok(mesh) => {
+                let k = self.meshes.iter().filter(|(_, k)| k.is_some()).count();
+                let _ = writeln!(
+                    self.mesh_decls,
+                    "// {} ({} triangles)\n#declare Raycast_mesh_{k} = {}\n",
+                    file.replace('\n', " "),
+                    mesh.triangles.len(),
+                    mesh2(&mesh)
+                );
+                Some(k)
+            }
+            Err(e) => {
+                self.note(format!("a mesh that cannot be read is left out ({e})"));
+                None
+            }
+        };
+        self.meshes.push((path.to_path_buf(), k));
+        k
     }
 
     /// The course's `k_a·O_a + emissive + Σ I·(D·N·L + k_s·O_s·(R·V)^n)` and
@@ -332,6 +422,8 @@ impl Writer<'_> {
                     self.note("textures are projected by POV-Ray's image maps (spherical, cylindrical or planar), near the format's u, v but not the same".into());
                     let (map_type, place) = match shape {
                         Shape::Sphere => (1, String::new()),
+                        // The mesh's own texture coordinates (uv_vectors).
+                        Shape::Mesh { .. } => (0, String::new()),
                         Shape::Cylinder | Shape::Cone => (2, " translate <0, -0.5, 0>".to_string()),
                         _ => (0, " translate <-0.5, -0.5, 0>".to_string()),
                     };
@@ -343,10 +435,11 @@ impl Writer<'_> {
                     let transmit_all =
                         if see_through > 0.0 { format!(" transmit all {}", num32(see_through)) } else { String::new() };
                     format!(
-                        "pigment {{ average pigment_map {{ [{} color {}] [{} image_map {{ {kind} \"{}\" gamma 1.0 map_type {map_type}{transmit_all} }}{repeat}{place}] }} }}",
+                        "pigment {{ average pigment_map {{ [{} color {}] [{} {}image_map {{ {kind} \"{}\" gamma 1.0 map_type {map_type}{transmit_all} }}{repeat}{place}] }} }}",
                         num32(1.0 - m.blend),
                         color(d),
                         num32(m.blend),
+                        if matches!(shape, Shape::Mesh { .. }) { "uv_mapping " } else { "" },
                         // Absolute: POV-Ray resolves a file against its own working folder.
                         pov_string(&std::path::absolute(path).unwrap_or_else(|_| path.clone()).to_string_lossy())
                     )
@@ -462,6 +555,53 @@ mod tests {
         assert!(e.sdl.contains("object { Raycast_tree_0 matrix <1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 2, 3> }"), "{}", e.sdl);
         assert!(e.sdl.contains("object { Raycast_tree_1 matrix <2, 0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0> }"), "{}", e.sdl);
         assert!(e.notes.is_empty(), "{:?}", e.notes);
+    }
+
+    /// A mesh is one `mesh2`, declared once however many primitives draw
+    /// it: its vertices, faces, texture coordinates, and normals where the
+    /// file gives them (the flat quad's two triangles get their face's
+    /// normal, (b − a) × (c − a) = (0, 0, 1), through normal_indices; the
+    /// smooth triangle its corners').
+    #[test]
+    fn a_mesh_is_one_declared_mesh2() {
+        let dir = std::env::temp_dir().join(format!("raycast-pov-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\no smooth\nv 0 0 1\nv 1 0 1\nv 0 1 1\n\
+                   vn 0 0.6 0.8\nvt 0.25 0.75\nf 5/1/1 6/1/1 7/1/1\n";
+        std::fs::write(dir.join("m.obj"), obj).unwrap();
+        let xml = r#"<scenefile><object type="tree" name="root">
+              <transblock><object type="primitive" name="mesh" meshfile="m.obj"/></transblock>
+              <transblock><translate x="2" y="0" z="0"/><object type="primitive" name="mesh" meshfile="m.obj"/></transblock>
+            </object></scenefile>"#;
+        let file = parse_str(xml, &dir.join("t.xml"), &ParseOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = export(&file, &RenderSettings::default(), "t.xml");
+        let sdl = &e.sdl;
+        assert_eq!(sdl.matches("= mesh2 {").count(), 1, "{sdl}");
+        assert_eq!(sdl.matches("object { Raycast_mesh_0 texture {").count(), 2, "{sdl}");
+        assert!(sdl.find("#declare Raycast_mesh_0").unwrap() < sdl.find("object { Raycast_mesh_0").unwrap());
+        assert!(sdl.contains("matrix <1, 0, 0, 0, 1, 0, 0, 0, 1, 2, 0, 0> }"), "{sdl}");
+        let mesh = crate::scene::mesh::load(
+            &dir.join("m.obj"),
+            &SourceLoc { file: std::sync::Arc::new(dir.join("t.xml")), line: 1, col: 1 },
+        )
+        .unwrap();
+        let m = mesh2(&mesh);
+        for want in [
+            "vertex_vectors { 7,\n    <0, 0, 0>,",
+            "normal_vectors { 9,",
+            "<0, 0.6, 0.8>,\n    <0, 0, 1>,\n    <0, 0, 1>\n  }",
+            "uv_vectors { 7,",
+            "<0.25, 0.75>",
+            "face_indices { 3,\n    <0, 1, 2>,\n    <0, 2, 3>,\n    <4, 5, 6>\n  }",
+            "normal_indices { 3,\n    <7, 7, 7>,\n    <8, 8, 8>,\n    <4, 5, 6>\n  }",
+        ] {
+            assert!(m.contains(want), "{want:?} not in\n{m}");
+        }
+        // Without normals in the file: no normal_vectors (POV-Ray draws flat triangles).
+        std::fs::write(dir.join("flat.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let loc = SourceLoc { file: std::sync::Arc::new(dir.join("t.xml")), line: 1, col: 1 };
+        let m = mesh2(&crate::scene::mesh::load(&dir.join("flat.obj"), &loc).unwrap());
+        assert!(!m.contains("normal") && !m.contains("uv_vectors") && m.contains("face_indices { 1,"), "{m}");
     }
 
     /// POV-Ray's torus lies about y as raycast's does: ring radius, then tube radius, placed by the matrix.

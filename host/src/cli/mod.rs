@@ -76,7 +76,7 @@ pub enum Command {
     Info(info::InfoArgs),
     /// List the Vulkan devices.
     Devices,
-    /// Write a scale-test scene: the corpus's recursive spheres, cones or cubes, N levels deep.
+    /// Write a scale-test scene: the corpus's recursive spheres, cones or cubes, N levels deep, or a mesh sphere.
     Gen(gen::GenArgs),
     /// Time scenes per backend: median frame time, ray rates, primitives, memory.
     Bench(bench::BenchArgs),

@@ -2192,6 +2192,30 @@ mod tests {
         bad_at(&block("<object name=\"cube\"/>"), 4, 1, "<object> is missing attribute `type`");
     }
 
+    /// The mesh element: meshfile= or filename=, both (a warning, meshfile
+    /// wins), neither (an error at the element), a misspelt attribute, and
+    /// meshfile= on another shape (ignored with a warning).
+    #[test]
+    fn mesh_element_cases() {
+        let f = ok(&block("<object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\" filename=\"b.obj\"/>"));
+        assert_eq!(*first_prim(&f).0, Shape::Mesh { file: "a.obj".into(), resolved: None });
+        warned_at(&f, 4, 1, "mesh has both meshfile= and filename=; using meshfile");
+        let e = bad_at(&block("<object type=\"primitive\" name=\"mesh\"/>"), 4, 1, "needs meshfile=\"file.obj\"");
+        assert!(e.to_string().contains("test.xml:4:1: error:"), "{e}");
+        bad_at(&block("<object type=\"primitive\" name=\"mesh\" meshfle=\"a.obj\"/>"), 4, 1, "needs meshfile=");
+        let xml = block("<object type=\"primitive\" name=\"mesh\" meshfile=\"a.obj\" meshfle=\"b.obj\"/>");
+        let (line, col) = pos_of(&xml, "meshfle=");
+        warned_at(&ok(&xml), line, col, "unknown attribute `meshfle` on <object> (did you mean `meshfile`?)");
+        let xml = block("<object type=\"primitive\" name=\"sphere\" meshfile=\"a.obj\"/>");
+        let f = ok(&xml);
+        assert_eq!(*first_prim(&f).0, Shape::Sphere);
+        let (line, col) = pos_of(&xml, "meshfile=");
+        warned_at(&f, line, col, "unknown attribute `meshfile` on <object>");
+        // An empty name parses; flatten() refuses it as a file not found.
+        let f = ok(&block("<object type=\"primitive\" name=\"mesh\" meshfile=\"\"/>"));
+        assert_eq!(*first_prim(&f).0, Shape::Mesh { file: String::new(), resolved: None });
+    }
+
     #[test]
     fn transforms_parse() {
         let f = ok(&block(
