@@ -405,7 +405,8 @@ fn main() -> ExitCode {
                 .map_err(Error::scene)
                 .and_then(|s| frame::build(&s, &settings))
         });
-        let label = "tests/scenes/stress/ties.xml: the cap and the decal win their ties (id view 128x96, device and cpu)";
+        let label =
+            "tests/scenes/stress/ties.xml: the cap and the decal win their ties (id view 128x96, device and cpu)";
         let outcome = match frames {
             [Ok(whole), Ok(over)] => device_against_cpu(&gpu, &cpu, &whole).map_err(|(p, _)| p).and_then(|()| {
                 let (whole, over) = (cpu.render(&whole).map_err(|e| e.to_string())?, cpu.render(&over).map_err(|e| e.to_string())?);
