@@ -27,6 +27,8 @@ struct SceneHit {
     uint shape;
     uint item;     // the hit primitive's index in `primitives`
     uint passes;   // the walk's passes (AOV_COST; 0 in a kernel without HAS_AOVS)
+    float tie_t;   // the walk's tie window (traversal.glsl, tie_add): the least t of its hits
+    uvec3 tie_ids; // and 1 + the highest id at it and at each of the 2 floats above it (0: none)
 };
 
 ShapeHit no_hit() {

@@ -75,20 +75,85 @@ bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
 
 #include "shape_mesh.glsl"
 
-// best, or the hit of ray lr (in the space of the primitive's group) with
-// primitive `item` when it is nearer (on equal t, when its id, first_id
-// plus its offset, is lower): its t, id, item and object-space point and
-// normal. The walk finishes the hit it keeps after its loop (the world
-// normal, material and shape).
+// Ties (docs/scene-format.md#ties). Two hits whose t are at most TIE_ULPS
+// floats apart (their bit patterns, both t > 0, differ by at most
+// TIE_ULPS: integer arithmetic, the same in both builds) are a tie, and the
+// later-listed primitive, the higher id, wins: the course draws a cap
+// placed exactly on a surface, and two coincident quadrics with different
+// transforms solve to t a float or so apart. The rule: the nearest hit's
+// t, t_min, then the highest id among the hits within TIE_ULPS above it:
+// a chain a ~ b ~ c whose ends are further apart has one answer whatever
+// order the walk meets them in, so --no-bvh gives the same bits.
+const uint TIE_ULPS = 2u;
+
+// tie_add keeps in a walk's best (rays.glsl, SceneHit) what it knows of
+// the rule's answer so far: tie_t, the least t of its hits, and tie_ids,
+// for it and each of the TIE_ULPS floats above it, 1 + the highest id of
+// the hits at exactly that t (0: none; tie_ids.x is 0 only before the
+// first hit). A nearer hit moves the window down, dropping what falls out.
+// The hit (t, id) added to best's window: a hit only with t < t_max (a
+// miss is T_FAR); within the window, or below it, it counts.
+SceneHit tie_add(SceneHit best, float t, uint id, float t_max) {
+    if (!(t < t_max)) {
+        return best;
+    }
+    uint bt = floatBitsToUint(t);
+    uint bm = floatBitsToUint(best.tie_t);
+    uint mark = id + 1u;
+    uvec3 ids = best.tie_ids;
+    if (ids.x == 0u || bt < bm) {
+        // The new least t: the slots within TIE_ULPS of it move up.
+        uint shift = (ids.x == 0u) ? TIE_ULPS + 1u : bm - bt;
+        best.tie_t = t;
+        best.tie_ids = uvec3(mark, (shift == 1u) ? ids.x : 0u, (shift == 1u) ? ids.y : ((shift == 2u) ? ids.x : 0u));
+        return best;
+    }
+    uint k = bt - bm;
+    if (k == 0u && mark > ids.x) {
+        best.tie_ids.x = mark;
+    } else if (k == 1u && mark > ids.y) {
+        best.tie_ids.y = mark;
+    } else if (k == 2u && mark > ids.z) {
+        best.tie_ids.z = mark;
+    }
+    return best;
+}
+
+// The rule's answer over the hits added: the highest id in the window
+// (NO_HIT when there is none: 0 - 1).
+uint tie_winner(SceneHit best) {
+    uvec3 ids = best.tie_ids;
+    uint m = (ids.y > ids.x) ? ids.y : ids.x;
+    m = (ids.z > m) ? ids.z : m;
+    return m - 1u;
+}
+
+// How far a hit can lie and still count: TIE_ULPS floats past tie_t once
+// there is a hit (never past t_max). The walk's box and bound tests and a
+// mesh's own walk reach this far, so no box that holds a tie is passed by.
+precise float tie_reach(SceneHit best, float t_max) {
+    if (best.tie_ids.x == 0u) {
+        return t_max;
+    }
+    precise float past = uintBitsToFloat(floatBitsToUint(best.tie_t) + TIE_ULPS);
+    return min_f(past, t_max);
+}
+
+// best with the hit of ray lr (in the space of the primitive's group)
+// with primitive `item` added to its tie window (tie_add) and kept when it
+// is the window's winner: its t, id (first_id plus its offset), item and
+// object-space point and normal. A mesh looks no further than tie_reach.
+// The walk finishes the hit it keeps after its loop (the world normal,
+// material and shape).
 // A mesh's hit keeps its texture coordinates (u, v, 0) where the others
 // keep their point (surface_uv reads them back).
-SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id) {
+SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id, float t_max) {
     Ray local = ray_through(primitive_at(item).object_from_world, lr);
     ShapeHit h;
     bool mesh = HAS_MESHES && primitive_at(item).shape == SHAPE_MESH;
     vec2 mesh_uv = vec2(0.0f, 0.0f);
     if (mesh) {
-        MeshHit m = intersect_mesh(primitive_at(item).mesh, local, best.t);
+        MeshHit m = intersect_mesh(primitive_at(item).mesh, local, tie_reach(best, t_max));
         h.t = m.t;
         h.normal = m.normal;
         mesh_uv = m.uv;
@@ -96,7 +161,8 @@ SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id) {
         h = intersect_shape(primitive_at(item).shape, local);
     }
     uint id = first_id + primitive_at(item).id_offset;
-    if (h.t < best.t || (h.t == best.t && best.id != NO_HIT && id < best.id)) {
+    best = tie_add(best, h.t, id, t_max);
+    if (h.t < t_max && id == tie_winner(best)) {
         precise vec3 p_object = mesh ? vec3(mesh_uv, 0.0f) : local.origin + h.t * local.direction;
         best.t = h.t;
         best.id = id;
@@ -114,8 +180,9 @@ uint stack_word(uint entry, uint level) {
 }
 
 // The nearest hit of ray r with 0 < t < t_max (or, with any_hit, the first
-// one found, its t and id only): on equal t the lowest primitive id, so the
-// answer does not depend on the order things are tested in.
+// one found, its t and id only): of hits that tie (TIE_ULPS above), the
+// highest primitive id, so the answer does not depend on the order things
+// are tested in.
 //
 // The scene is a two-level (in general, nested) hierarchy: each group (the
 // root tree, each master tree) has a BVH over its primitives and its
@@ -155,6 +222,8 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     best.shape = 0u;
     best.item = 0u;
     best.passes = 0u;
+    best.tie_t = T_FAR;
+    best.tie_ids = uvec3(0u, 0u, 0u);
     bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
     vec3 level_origin[MAX_LEVELS];
     vec3 level_direction[MAX_LEVELS];
@@ -178,7 +247,29 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     }
     // Without a hierarchy: primitive `next` of primitive_count, in order.
     uint next = (frame.node_count > 0u) ? frame.primitive_count : 0u;
-    while (top > 0 || next < frame.primitive_count) {
+    // How far a box may begin and still hold a hit that counts (tie_reach).
+    // `best` is its tie window's winner but where
+    // a nearer hit moved the window past it and left an earlier hit the
+    // winner (a chain of three within 2 TIE_ULPS): then, at the end, the
+    // walk goes once more, the window as it is, and keeps that one.
+    float reach = t_max;
+    bool again = false;
+    while (true) {
+        if (top == 0 && next >= frame.primitive_count) {
+            if (again || tie_winner(best) == best.id) {
+                break;
+            }
+            again = true;
+            best.id = NO_HIT;
+            best_level = 0u;
+            unsaved = 0u;
+            if (frame.node_count > 0u) {
+                stack[0] = frame.root_node;
+                top = 1;
+            } else {
+                next = 0u;
+            }
+        }
         if (HAS_AOVS) {
             best.passes = best.passes + 1u;
         }
@@ -274,12 +365,12 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 vec4 hi0 = node_at(c0).hi;
                 vec4 lo1 = node_at(c1).lo;
                 vec4 hi1 = node_at(c1).hi;
-                if (!use_boxes || box_hit(lr, lo0, hi0, best.t)) {
+                if (!use_boxes || box_hit(lr, lo0, hi0, reach)) {
                     stack[top] = stack_word(c0, level);
                     top = top + 1;
                     pushed = c0;
                 }
-                if (!use_boxes || box_hit(lr, lo1, hi1, best.t)) {
+                if (!use_boxes || box_hit(lr, lo1, hi1, reach)) {
                     stack[top] = stack_word(c1, level);
                     top = top + 1;
                     pushed = c1;
@@ -307,15 +398,16 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         uint best_before = best.id;
         if (HAS_SEVERAL_PRIMITIVE_LEAVES) {
             for (uint n = 0u; n < prim_count; n++) {
-                best = primitive_hit(best, direct ? first_item : leaf_item(first_item + n), lr, first_id);
+                best = primitive_hit(best, direct ? first_item : leaf_item(first_item + n), lr, first_id, t_max);
             }
         } else if (prim_count > 0u) {
             // At most one: an `if`, not a loop (12% of recursiveSpheres4's
             // dispatch: a lavapipe loop costs far more than its body).
-            best = primitive_hit(best, direct ? first_item : first_primitive, lr, first_id);
+            best = primitive_hit(best, direct ? first_item : first_primitive, lr, first_id, t_max);
         }
+        reach = tie_reach(best, t_max);
         if (best.id != best_before) {
-            // A nearer hit in this leaf (ids are unique, so it has another
+            // A new winner in this leaf (ids are unique, so it has another
             // one): its normal is mapped to the world after the walk,
             // through the instances of levels 1 to `level`, which are
             // kept as the walk moves on (entering an instance above).
@@ -351,11 +443,11 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 bool sphere = HAS_SPHERE_RECORDS && (HAS_BOX_RECORDS ? (record.w & RECORD_SPHERE) != 0u : true);
                 bool meets = !use_boxes;
                 if (sphere) {
-                    meets = meets || sphere_hit(lr, lo, uintBitsToFloat(record.z), best.t);
+                    meets = meets || sphere_hit(lr, lo, uintBitsToFloat(record.z), reach);
                 } else if (HAS_BOX_RECORDS) {
                     precise vec3 q_hi = vec3(float(record.y >> 16u), float(record.z & 0xffffu), float(record.z >> 16u));
                     precise vec3 hi = xyz(leaf_hi) - q_hi * step;
-                    meets = meets || box_hit(lr, vec4(lo, 0.0f), vec4(hi, 0.0f), best.t);
+                    meets = meets || box_hit(lr, vec4(lo, 0.0f), vec4(hi, 0.0f), reach);
                 }
                 if (meets) {
                     stack[top] = stack_word(record.w & ~RECORD_SPHERE, level);

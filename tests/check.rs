@@ -405,6 +405,58 @@ fn main() -> ExitCode {
             }
         }
     }
+    // Ties (docs/scene-format.md#ties): in tests/scenes/stress/ties.xml a
+    // cap cone lies on a cone's tip and a decal cube on a cube's face, each
+    // listed after what it lies on. Rule: wherever the cap and the decal
+    // alone (the scene without the two under them) are hit, the whole scene
+    // shows them, not what lies under, on both backends (their bits alike).
+    {
+        let path = repo.join("tests/scenes/stress/ties.xml");
+        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        // Blocks 1 and 3 are the cone and the cube; 2 and 4 the cap and the decal.
+        let blocks: Vec<&str> = text.split("<transblock>").collect();
+        let alone = [blocks[0], blocks[2], blocks[4]].join("<transblock>");
+        let settings = RenderSettings { width: 128, height: 96, aov: Aov::Id, ..RenderSettings::default() };
+        let parse = ParseOptions { assets: assets.clone(), ..ParseOptions::default() };
+        let frames = [text.as_str(), alone.as_str()].map(|t| {
+            scene::parse_str(t, &path, &parse)
+                .and_then(|f| scene::flatten(&f, &FlattenLimits::default()))
+                .map_err(Error::scene)
+                .and_then(|s| frame::build(&s, &settings))
+        });
+        let label =
+            "tests/scenes/stress/ties.xml: the cap and the decal win their ties (id view 128x96, device and cpu)";
+        let outcome = match frames {
+            [Ok(whole), Ok(over)] => device_against_cpu(&gpu, &cpu, &whole).map_err(|(p, _)| p).and_then(|()| {
+                let (whole, over) = (cpu.render(&whole).map_err(|e| e.to_string())?, cpu.render(&over).map_err(|e| e.to_string())?);
+                // Alone, the cap is id 0 and the decal 1; in the whole scene 1 and 3.
+                let (mut covered, mut lost) = (0usize, 0usize);
+                for (w, o) in whole.pixels.iter().zip(&over.pixels) {
+                    if o.id != raycast::layout::NO_HIT {
+                        covered += 1;
+                        lost += usize::from(w.id != 2 * o.id + 1);
+                    }
+                }
+                println!("       the cap and the decal cover {covered} pixels; {lost} show what lies under them (allowed: 0)");
+                if lost == 0 && covered > 0 {
+                    Ok(())
+                } else {
+                    Err(format!("{lost} of {covered} pixels show the cone or the cube under the cap or the decal"))
+                }
+            }),
+            [a, b] => Err(format!("{:?} {:?}", a.err(), b.err())),
+        };
+        match outcome {
+            Ok(()) => {
+                passed += 1;
+                println!("ok     {label}");
+            }
+            Err(problem) => {
+                failed += 1;
+                print_failure(label, &problem);
+            }
+        }
+    }
     // Mutated scenes (raycast::scene::mutate from a fixed seed: numbers
     // swapped for ordinary ones; one in four also lines deleted, duplicated
     // or moved, words swapped, bytes changed) under random settings
