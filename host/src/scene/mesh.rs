@@ -9,41 +9,13 @@
 //! triangles.
 
 use std::io::BufRead;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 use crate::bvh::Aabb;
+pub use crate::scene::model::Mesh;
 use crate::scene::model::{SceneError, SourceLoc};
 use glam::DVec3;
-
-/// One OBJ file's triangles.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Mesh {
-    /// Canonical path: a file drawn by many primitives is loaded once.
-    pub path: PathBuf,
-    pub positions: Vec<[f32; 3]>,
-    /// One a position where the file gives normals, else empty.
-    pub normals: Vec<[f32; 3]>,
-    /// One a position where the file gives texture coordinates, else empty.
-    pub uvs: Vec<[f32; 2]>,
-    /// Corners (indices into `positions`), counter-clockwise from outside.
-    pub triangles: Vec<[u32; 3]>,
-    /// Per triangle: its corners' normals are interpolated.
-    pub smooth: Vec<bool>,
-    /// The box of its positions (empty without triangles).
-    pub bounds: Aabb,
-    /// The file's size in bytes.
-    pub file_bytes: u64,
-}
-
-impl Mesh {
-    /// The canonical shapes' radius-about-the-centre equivalent: the box's
-    /// centre and the distance to its farthest corner.
-    pub fn bounding_sphere(&self) -> (DVec3, f64) {
-        let c = self.bounds.centroid();
-        (c, (self.bounds.hi - c).length())
-    }
-}
 
 /// A problem with an OBJ file at `line` (0: the file as a whole).
 fn obj_error(path: &Path, line: u32, message: String) -> SceneError {
@@ -189,6 +161,7 @@ fn scan(path: &Path, text: &[u8], used_at: &SourceLoc) -> Result<(), SceneError>
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     fn at() -> SourceLoc {
         SourceLoc { file: Arc::new(PathBuf::from("s.xml")), line: 3, col: 5 }

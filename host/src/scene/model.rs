@@ -402,7 +402,7 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Each mesh file its primitives draw, loaded once (`Shape::Mesh`'s
     /// canonical `resolved` path names it).
-    pub meshes: Vec<Arc<super::mesh::Mesh>>,
+    pub meshes: Vec<Arc<Mesh>>,
     pub warnings: Vec<Warning>,
 }
 
@@ -583,6 +583,35 @@ pub(crate) fn check_invertible(m: &DMat4) -> Result<DMat4, NotInvertible> {
         return Err(NotInvertible::OutOfRange);
     }
     Ok(inverse)
+}
+
+/// One OBJ file's triangles (read by `mesh::load`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    /// Canonical path: a file drawn by many primitives is loaded once.
+    pub path: PathBuf,
+    pub positions: Vec<[f32; 3]>,
+    /// One a position where the file gives normals, else empty.
+    pub normals: Vec<[f32; 3]>,
+    /// One a position where the file gives texture coordinates, else empty.
+    pub uvs: Vec<[f32; 2]>,
+    /// Corners (indices into `positions`), counter-clockwise from outside.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per triangle: its corners' normals are interpolated.
+    pub smooth: Vec<bool>,
+    /// The box of its positions (empty without triangles).
+    pub bounds: crate::bvh::Aabb,
+    /// The file's size in bytes.
+    pub file_bytes: u64,
+}
+
+impl Mesh {
+    /// The canonical shapes' radius-about-the-centre equivalent: the box's
+    /// centre and the distance to its farthest corner.
+    pub fn bounding_sphere(&self) -> (DVec3, f64) {
+        let c = self.bounds.centroid();
+        (c, (self.bounds.hi - c).length())
+    }
 }
 
 #[cfg(test)]
