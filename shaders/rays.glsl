@@ -16,6 +16,14 @@ struct ShapeHit {
     vec3 normal; // object-space, not unit
 };
 
+// What a walk knows of the tie rule's answer so far (traversal.glsl,
+// tie_add): the least t of its hits, and 1 + the highest id at it and at
+// each of the 2 floats above it (0: none).
+struct TieWindow {
+    float t;
+    uvec3 ids;
+};
+
 // Nearest hit over the scene.
 struct SceneHit {
     float t;       // T_FAR on a miss
@@ -27,8 +35,7 @@ struct SceneHit {
     uint shape;
     uint item;     // the hit primitive's index in `primitives`
     uint passes;   // the walk's passes (AOV_COST; 0 in a kernel without HAS_AOVS)
-    float tie_t;   // the walk's tie window (traversal.glsl, tie_add): the least t of its hits
-    uvec3 tie_ids; // and 1 + the highest id at it and at each of the 2 floats above it (0: none)
+    TieWindow tie; // the walk's tie window (traversal.glsl, tie_add)
 };
 
 ShapeHit no_hit() {

@@ -86,56 +86,56 @@ bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
 // order the walk meets them in, so --no-bvh gives the same bits.
 const uint TIE_ULPS = 2u;
 
-// tie_add keeps in a walk's best (rays.glsl, SceneHit) what it knows of
-// the rule's answer so far: tie_t, the least t of its hits, and tie_ids,
-// for it and each of the TIE_ULPS floats above it, 1 + the highest id of
-// the hits at exactly that t (0: none; tie_ids.x is 0 only before the
-// first hit). A nearer hit moves the window down, dropping what falls out.
-// The hit (t, id) added to best's window: a hit only with t < t_max (a
-// miss is T_FAR); within the window, or below it, it counts.
-SceneHit tie_add(SceneHit best, float t, uint id, float t_max) {
+// tie_add keeps in a walk's window (rays.glsl, TieWindow) what it knows
+// of the rule's answer so far: t, the least t of its hits, and ids, for it
+// and each of the TIE_ULPS floats above it, 1 + the highest id of the hits
+// at exactly that t (0: none; ids.x is 0 only before the first hit). A
+// nearer hit moves the window down, dropping what falls out.
+// The hit (t, id) added to window w: a hit only with t < t_max (a miss is
+// T_FAR); within the window, or below it, it counts.
+TieWindow tie_add(TieWindow w, float t, uint id, float t_max) {
     if (!(t < t_max)) {
-        return best;
+        return w;
     }
     uint bt = floatBitsToUint(t);
-    uint bm = floatBitsToUint(best.tie_t);
+    uint bm = floatBitsToUint(w.t);
     uint mark = id + 1u;
-    uvec3 ids = best.tie_ids;
+    uvec3 ids = w.ids;
     if (ids.x == 0u || bt < bm) {
         // The new least t: the slots within TIE_ULPS of it move up.
         uint shift = (ids.x == 0u) ? TIE_ULPS + 1u : bm - bt;
-        best.tie_t = t;
-        best.tie_ids = uvec3(mark, (shift == 1u) ? ids.x : 0u, (shift == 1u) ? ids.y : ((shift == 2u) ? ids.x : 0u));
-        return best;
+        w.t = t;
+        w.ids = uvec3(mark, (shift == 1u) ? ids.x : 0u, (shift == 1u) ? ids.y : ((shift == 2u) ? ids.x : 0u));
+        return w;
     }
     uint k = bt - bm;
     if (k == 0u && mark > ids.x) {
-        best.tie_ids.x = mark;
+        w.ids.x = mark;
     } else if (k == 1u && mark > ids.y) {
-        best.tie_ids.y = mark;
+        w.ids.y = mark;
     } else if (k == 2u && mark > ids.z) {
-        best.tie_ids.z = mark;
+        w.ids.z = mark;
     }
-    return best;
+    return w;
 }
 
 // The rule's answer over the hits added: the highest id in the window
 // (NO_HIT when there is none: 0 - 1).
-uint tie_winner(SceneHit best) {
-    uvec3 ids = best.tie_ids;
+uint tie_winner(TieWindow w) {
+    uvec3 ids = w.ids;
     uint m = (ids.y > ids.x) ? ids.y : ids.x;
     m = (ids.z > m) ? ids.z : m;
     return m - 1u;
 }
 
-// How far a hit can lie and still count: TIE_ULPS floats past tie_t once
+// How far a hit can lie and still count: TIE_ULPS floats past w.t once
 // there is a hit (never past t_max). The walk's box and bound tests and a
 // mesh's own walk reach this far, so no box that holds a tie is passed by.
-precise float tie_reach(SceneHit best, float t_max) {
-    if (best.tie_ids.x == 0u) {
+precise float tie_reach(TieWindow w, float t_max) {
+    if (w.ids.x == 0u) {
         return t_max;
     }
-    precise float past = uintBitsToFloat(floatBitsToUint(best.tie_t) + TIE_ULPS);
+    precise float past = uintBitsToFloat(floatBitsToUint(w.t) + TIE_ULPS);
     return min_f(past, t_max);
 }
 
@@ -153,7 +153,7 @@ SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id, float t_
     bool mesh = HAS_MESHES && primitive_at(item).shape == SHAPE_MESH;
     vec2 mesh_uv = vec2(0.0f, 0.0f);
     if (mesh) {
-        MeshHit m = intersect_mesh(primitive_at(item).mesh, local, tie_reach(best, t_max));
+        MeshHit m = intersect_mesh(primitive_at(item).mesh, local, tie_reach(best.tie, t_max));
         h.t = m.t;
         h.normal = m.normal;
         mesh_uv = m.uv;
@@ -161,8 +161,8 @@ SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id, float t_
         h = intersect_shape(primitive_at(item).shape, local);
     }
     uint id = first_id + primitive_at(item).id_offset;
-    best = tie_add(best, h.t, id, t_max);
-    if (h.t < t_max && id == tie_winner(best)) {
+    best.tie = tie_add(best.tie, h.t, id, t_max);
+    if (h.t < t_max && id == tie_winner(best.tie)) {
         precise vec3 p_object = mesh ? vec3(mesh_uv, 0.0f) : local.origin + h.t * local.direction;
         best.t = h.t;
         best.id = id;
@@ -222,8 +222,8 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     best.shape = 0u;
     best.item = 0u;
     best.passes = 0u;
-    best.tie_t = T_FAR;
-    best.tie_ids = uvec3(0u, 0u, 0u);
+    best.tie.t = T_FAR;
+    best.tie.ids = uvec3(0u, 0u, 0u);
     bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
     vec3 level_origin[MAX_LEVELS];
     vec3 level_direction[MAX_LEVELS];
@@ -256,7 +256,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     bool again = false;
     while (true) {
         if (top == 0 && next >= frame.primitive_count) {
-            if (again || tie_winner(best) == best.id) {
+            if (again || tie_winner(best.tie) == best.id) {
                 break;
             }
             again = true;
@@ -405,7 +405,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             // dispatch: a lavapipe loop costs far more than its body).
             best = primitive_hit(best, direct ? first_item : first_primitive, lr, first_id, t_max);
         }
-        reach = tie_reach(best, t_max);
+        reach = tie_reach(best.tie, t_max);
         if (best.id != best_before) {
             // A new winner in this leaf (ids are unique, so it has another
             // one): its normal is mapped to the world after the walk,
@@ -484,7 +484,11 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     } else {
         best.t = T_FAR;
     }
-    return best;
+    // A copy: `best` then stays the walk's own (the CPU build keeps it in
+    // registers, where as the return slot itself every hit kept was a copy
+    // through memory).
+    SceneHit found = best;
+    return found;
 }
 
 // The nearest hit of ray r with t > 0 (T_FAR and NO_HIT on a miss).
