@@ -22,6 +22,9 @@ pub fn run() -> Result<(), Error> {
         if d.corrects_division {
             outln!("   {}", division_line(d.index));
         }
+        if d.fast_by_default() {
+            outln!("   kernel: the fast one by default (FAST_MATH, not the CPU build's bits); --exact for the exact one");
+        }
         if d.shader_objects {
             let kept = match gpu::cache_dir() {
                 Some(dir) => format!("their binaries kept in {}", dir.display()),
@@ -64,8 +67,9 @@ pub fn run() -> Result<(), Error> {
 /// correction, which the fma probe decides once the device is open
 /// (`GpuContext::division`).
 fn division_line(index: usize) -> String {
-    let ctx =
-        match gpu::GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Index(index)), ..Default::default() }) {
+    let options =
+        GpuOptions { device: Some(DeviceSelector::Index(index)), kernel: gpu::KernelChoice::Exact, ..Default::default() };
+    let ctx = match gpu::GpuContext::new(&options) {
             Ok(ctx) => ctx,
             Err(e) => return format!("division correction: residuals not known, the device does not open ({e})"),
         };
