@@ -33,13 +33,14 @@
 //!
 //! Elsewhere (a lent GPU, ci/gpu-checks.sh): RAYCAST_REPO names the
 //! repository whose scenes it reads; the device is the default one (a
-//! discrete GPU before a CPU one, as `--device` unset picks).
+//! discrete GPU before a CPU one, as `--device` unset picks), running the
+//! exact kernel (`--kernel exact`: a GPU's default is the fast one).
 
 use raycast::check;
 use raycast::cpu::CpuRenderer;
 use raycast::error::Error;
 use raycast::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
-use raycast::gpu::GpuOptions;
+use raycast::gpu::{GpuOptions, KernelChoice};
 use raycast::image_io::{self, Rgb8};
 use raycast::render::{GpuRenderer, SceneBuffers};
 use raycast::scene::mutate::{mutate, mutate_numbers, Rng, ORDINARY};
@@ -179,7 +180,9 @@ fn main() -> ExitCode {
         }
     }
 
-    let mut gpu = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
+    // The exact kernel even on a GPU (ci/gpu-checks.sh), where `auto` would run the fast one.
+    let exact = GpuOptions { validation: true, kernel: KernelChoice::Exact, ..GpuOptions::default() };
+    let mut gpu = match GpuRenderer::new(&exact) {
         Ok(r) => r,
         Err(e) => {
             println!("FAILED: cannot start the Vulkan device: {e}\n0 passed, 1 failed");
