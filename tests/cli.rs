@@ -238,7 +238,10 @@ fn the_fast_kernel_is_within_its_rule_of_the_cpu_build() {
         let actual = raycast::image_io::read_picture(&fast.join(&file)).unwrap_or_else(|e| panic!("{e}"));
         let expected = raycast::image_io::read_picture(&cpu.join(&file)).unwrap_or_else(|e| panic!("{e}"));
         let diff = raycast::image_io::compare(&actual, &expected, 2).unwrap_or_else(|e| panic!("{stem}: {e}"));
-        println!("{stem}: {} pixels differ by more than 2/255 (rule: at most {FAST_KERNEL_MAX_PIXELS})", diff.differing);
+        println!(
+            "{stem}: {} pixels differ by more than 2/255 (rule: at most {FAST_KERNEL_MAX_PIXELS})",
+            diff.differing
+        );
         if diff.differing > worst.0 {
             worst = (diff.differing, stem.clone());
         }

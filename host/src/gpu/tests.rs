@@ -338,7 +338,8 @@ void main() {
 "#;
     let spv = compile("spin", &src);
     let bindings = vec![BindingLayout::single(0, params_layout()), BindingLayout::array(2, item_layout()).writable()];
-    let opts = GpuOptions { device: lavapipe(), validation: true, timeout: Duration::from_millis(1) };
+    let opts =
+        GpuOptions { device: lavapipe(), validation: true, timeout: Duration::from_millis(1), ..Default::default() };
     let ctx = GpuContext::new(&opts).unwrap();
     let kernel = Kernel::new(&ctx, "spin", &spv, &bindings).unwrap();
     let p = params(2_000_000);
