@@ -153,14 +153,14 @@ pub struct KernelOptions {
 pub struct KernelChoiceArgs {
     /// auto (default), exact or fast
     #[arg(long = "kernel", value_enum, default_value_t = KernelChoice::Auto, value_name = "K", help_heading = "Device",
-          hide_possible_values = true, hide_default_value = true, long_help = crate::args::with_values::<KernelChoice>(
+          hide_possible_values = true, hide_default_value = true, hide_short_help = true, long_help = crate::args::with_values::<KernelChoice>(
               "Which kernel the device runs: exact (the CPU build's bits on every device), fast (the device's own \
                division, square root and transcendentals: faster on GPUs, within 2/255 of the CPU build on all but \
                a few pixels), or auto: fast on a discrete or integrated GPU, exact on every other device (lavapipe). \
                [default: auto]"))]
     pub kernel: KernelChoice,
     /// The exact kernel on any device: --kernel exact
-    #[arg(long, conflicts_with = "kernel", help_heading = "Device")]
+    #[arg(long, conflicts_with = "kernel", help_heading = "Device", hide_short_help = true)]
     pub exact: bool,
 }
 
