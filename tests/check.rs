@@ -159,16 +159,7 @@ fn main() -> ExitCode {
     let mut assets = Vec::new();
     if let Some(c) = &corpus {
         assets.push(c.clone());
-        for group in [
-            "test_unit",
-            "test_intersect",
-            "test_light",
-            "test_efficiency",
-            "test_feature",
-            "test_dof",
-            "test_area_light",
-            "test_refract",
-        ] {
+        for group in common::CHECKED_CORPUS_GROUPS {
             for f in xml_files(&c.join(group)) {
                 scenes.push((f, &[(512, 384)]));
             }

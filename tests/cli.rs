@@ -195,18 +195,8 @@ fn the_fast_kernel_is_within_its_rule_of_the_cpu_build() {
     let Some(corpus) = common::corpus("the_fast_kernel_is_within_its_rule_of_the_cpu_build") else {
         return;
     };
-    let groups = [
-        "test_unit",
-        "test_intersect",
-        "test_light",
-        "test_efficiency",
-        "test_feature",
-        "test_dof",
-        "test_area_light",
-        "test_refract",
-    ];
     let mut scenes: Vec<PathBuf> = Vec::new();
-    for group in groups {
+    for group in common::CHECKED_CORPUS_GROUPS {
         let mut found: Vec<PathBuf> = std::fs::read_dir(corpus.join(group))
             .unwrap_or_else(|e| panic!("RAYCAST_CORPUS={}: {group}: {e}", corpus.display()))
             .map(|e| e.unwrap().path())
