@@ -42,9 +42,10 @@
 #                                       most), against ln N; with --all (`--aov cost-all`)
 #                                       every ray's of the pixel summed. Counts, not times.
 #   ci/benchmarks.sh division [--device NAME] [--spp N] [--rounds N] SCENE...
-#                                       `build/raycast render` dispatch medians of the GPU's
-#                                       division correction: residuals as the fma probe
-#                                       chose, Dekker's, and no correction, in turn.
+#                                       `build/raycast render` dispatch medians of the exact
+#                                       kernel's division correction: residuals as the fma
+#                                       probe chose, Dekker's, and no correction; and of the
+#                                       fast kernel (--kernel fast), in turn.
 #   ci/benchmarks.sh checks [--device NAME] SCENE...
 #                                       `build/raycast check` per scene: how many pixels
 #                                       differ between the device and the CPU build, per
@@ -388,22 +389,23 @@ division() {
     if [ "$1" = --rounds ]; then rounds="$2"; else opts+=("$1" "$2"); fi
     shift 2
   done
-  echo "\`ci/benchmarks.sh division ${opts[*]}${opts:+ }--rounds $rounds SCENE...\`: \`$RAYCAST render SCENE --assets $CORPUS${opts:+ }${opts[*]}\` under three settings in turn, $rounds rounds after one untimed: the GPU kernels' division correction with the residuals the fma probe chose (by \`fma\` where the device's rounds once, docs/exactness.md, \"Division\"), with Dekker's residuals (\`RAYCAST_FMA_RESIDUALS=0\`), and without the correction (\`RAYCAST_INEXACT_DIVISION=0\`, which gives up the CPU build's bits); the median of \`render\`'s dispatch time, and each against the last."
+  echo "\`ci/benchmarks.sh division ${opts[*]}${opts:+ }--rounds $rounds SCENE...\`: \`$RAYCAST render SCENE --assets $CORPUS${opts:+ }${opts[*]}\` under four settings in turn, $rounds rounds after one untimed: the exact kernel (\`--exact\`) with the GPU's division correction and the residuals the fma probe chose (by \`fma\` where the device's rounds once, docs/exactness.md, \"Division\"), with Dekker's residuals (\`RAYCAST_FMA_RESIDUALS=0\`), and without the correction (\`RAYCAST_INEXACT_DIVISION=0\`, which gives up the CPU build's bits); and the fast kernel (\`--kernel fast\`: the device's own division, square root and transcendentals, no \`precise\`; docs/exactness.md, \"The fast kernel\"); the median of \`render\`'s dispatch time, and each against the fast kernel's."
   echo
-  echo "| scene | the probe's kernel | dispatch: the probe's | Dekker's | no correction | the probe's ÷ none | Dekker's ÷ none |"
-  echo "|---|---|---|---|---|---|---|"
+  echo "| scene | the probe's kernel | dispatch: the probe's | Dekker's | no correction | fast kernel | the probe's ÷ fast | Dekker's ÷ fast | none ÷ fast |"
+  echo "|---|---|---|---|---|---|---|---|---|"
   for s in "$@"; do
     local -A times=()
     kernel=""
     # Round -1 is not timed: each kernel built once (Mesa and the drivers cache them).
     for ((r = -1; r < rounds; r++)); do
-      for v in probe dekker none; do
-        local setting=()
+      for v in probe dekker none fast; do
+        local setting=() which=(--exact)
         case $v in
           dekker) setting=(RAYCAST_FMA_RESIDUALS=0) ;;
           none) setting=(RAYCAST_INEXACT_DIVISION=0) ;;
+          fast) which=(--kernel fast) ;;
         esac
-        out="$(env "${setting[@]}" "$RAYCAST" render -v "$s" --assets "$CORPUS" "${opts[@]}" -o /dev/null 2>&1)" || { echo "$out" >&2; exit 1; }
+        out="$(env "${setting[@]}" "$RAYCAST" render -v "$s" --assets "$CORPUS" "${which[@]}" "${opts[@]}" -o /dev/null 2>&1)" || { echo "$out" >&2; exit 1; }
         line="$(sed -n 's/^time: .*dispatch \([0-9.]*\) ms.*/\1/p' <<<"$out")"
         [ "$r" -lt 0 ] || times[$v]+="$line "
         if [ $v = probe ] && [ -z "$kernel" ]; then
@@ -413,10 +415,12 @@ division() {
       done
     done
     local median=() v2
-    for v2 in probe dekker none; do
+    for v2 in probe dekker none fast; do
       median+=("$(median_of "${times[$v2]}")")
     done
-    echo "| ${s##*/} | ${kernel:-as given (no correction)} | ${median[0]} ms | ${median[1]} ms | ${median[2]} ms | $(awk -v a="${median[0]}" -v b="${median[2]}" 'BEGIN { printf "%.2f", a / b }') | $(awk -v a="${median[1]}" -v b="${median[2]}" 'BEGIN { printf "%.2f", a / b }') |"
+    local ratio=() i
+    for i in 0 1 2; do ratio+=("$(awk -v a="${median[$i]}" -v b="${median[3]}" 'BEGIN { printf "%.2f", a / b }')"); done
+    echo "| ${s##*/} | ${kernel:-as given (no correction)} | ${median[0]} ms | ${median[1]} ms | ${median[2]} ms | ${median[3]} ms | ${ratio[0]} | ${ratio[1]} | ${ratio[2]} |"
   done
 }
 

@@ -25,6 +25,11 @@
 #   orbit        `render --orbit 6` of recursiveSpheres4 on the device and the CPU build: the
 #                same PNG files byte for byte
 #   conformance  the course's reference renders, under each case's stated rule
+#   fast         the fast kernel (--kernel fast) against the CPU build on every test_* scene at
+#                512x384: at most k pixels a scene off by more than 2/255, k the cli suite's
+#                FAST_KERNEL_MAX_PIXELS (tests/cli.rs, measured on lavapipe; read from there)
+# Every step but `fast` runs the exact kernel (`check` always does; the others say --exact),
+# as a GPU's default (--kernel auto) is the fast one.
 #   preview-xvfb the preview under an Xvfb of its own (where Xvfb is installed or carried;
 #                skipped and said so otherwise): a window (the device drawing apart from it
 #                where another device, say a carried lavapipe, shows it), or the refusal of a
@@ -77,7 +82,7 @@ step check-suite check_suite
 orbit() {
   local dir; dir="$(mktemp -d)"
   "$raycast" render "$corpus/test_efficiency/recursiveSpheres4.xml" --assets "$corpus" --device "$device" \
-    --orbit 6 -o "$dir/gpu.png" &&
+    --exact --orbit 6 -o "$dir/gpu.png" &&
   "$raycast" render "$corpus/test_efficiency/recursiveSpheres4.xml" --assets "$corpus" --backend cpu \
     --orbit 6 -o "$dir/cpu.png" || return 1
   local i differ=0
@@ -97,7 +102,7 @@ preview_xvfb() {
   local xvfb=$!
   read -r -t 10 display <"$fifo"; rm -f "$fifo"
   [ -n "$display" ] || { kill $xvfb 2>/dev/null; echo "preview-xvfb: Xvfb did not start"; return 1; }
-  out="$(DISPLAY=":$display" timeout 60 "$raycast" preview --device "$device" --frames 2 2>&1)"; rc=$?
+  out="$(DISPLAY=":$display" timeout 60 "$raycast" preview --device "$device" --exact --frames 2 2>&1)"; rc=$?
   kill $xvfb 2>/dev/null; wait $xvfb 2>/dev/null
   echo "$out" | tail -3
   if [ $rc = 0 ]; then echo "preview-xvfb: the window showed the picture"; return 0; fi
@@ -107,7 +112,32 @@ preview_xvfb() {
   echo "preview-xvfb: exit $rc (a crash is 128 + its signal)"; return 1
 }
 step preview-xvfb preview_xvfb
-step conformance "$raycast" conformance "$corpus" --device "$device" --validate --out-dir "$logs/conformance"
+step conformance "$raycast" conformance "$corpus" --device "$device" --exact --validate --out-dir "$logs/conformance"
+fast() {
+  local k dir scene stem n worst=0 over=0
+  k="$(sed -n 's/^const FAST_KERNEL_MAX_PIXELS: usize = \([0-9]*\);.*/\1/p' tests/cli.rs)"
+  [ -n "$k" ] || { echo "fast: no FAST_KERNEL_MAX_PIXELS in tests/cli.rs"; return 1; }
+  dir="$logs/fast"; rm -rf "$dir"; mkdir -p "$dir"
+  local fast_scenes=()
+  for g in unit intersect light efficiency feature dof area_light refract; do fast_scenes+=("$corpus/test_$g"/*.xml); done
+  "$raycast" render -v --device "$device" --kernel fast --assets "$corpus" --out-dir "$dir/fast" "${fast_scenes[@]}" &&
+  "$raycast" render --backend cpu --assets "$corpus" --out-dir "$dir/cpu" "${fast_scenes[@]}" || return 1
+  for scene in "${fast_scenes[@]}"; do
+    stem="$(basename "$scene" .xml)"
+    n="$("$raycast" compare "$dir/fast/$stem.png" "$dir/cpu/$stem.png" --tolerance 2 --max-percent 100 --json |
+      sed -n 's/.*"differing":\([0-9]*\).*/\1/p')"
+    [ -n "$n" ] || { echo "fast: $stem: no comparison"; return 1; }
+    echo "fast: $stem: $n pixels differ by more than 2/255 (rule: at most $k)"
+    [ "$n" -gt "$worst" ] && worst=$n
+    if [ "$n" -gt "$k" ]; then
+      over=$((over + 1))
+      "$raycast" compare "$dir/fast/$stem.png" "$dir/cpu/$stem.png" --tolerance 2 --max-percent 0 -o "$dir/$stem-diff.png"
+    fi
+  done
+  echo "fast: worst $worst pixels; $over scenes over the rule (at most $k)"
+  [ "$over" = 0 ]
+}
+step fast fast
 
 if [ ${#failed[@]} = 0 ]; then
   echo "gpu-checks: every step passed on $device"

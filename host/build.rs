@@ -35,7 +35,7 @@ fn main() {
             continue;
         }
         let stem = path.file_stem().unwrap().to_str().unwrap().to_string();
-        // As it is, and corrected for GPUs (STEM_gpu, STEM_gpu_fma): Division.
+        // As it is, corrected for GPUs (STEM_gpu, STEM_gpu_fma), and fast (STEM_fast): Division.
         for division in Division::ALL {
             let name = format!("{stem}{}", division.suffix());
             let spv = out.join(format!("{name}.spv"));

@@ -4,6 +4,16 @@
 // to nearest (div_rn, sqrt_rn, corrected on GPUs), and log2, exp2, pow,
 // acos, asin, atan and atan2 built from + - * / and sqrt.
 
+// FAST_MATH (the fast kernel, `_fast` SPIR-V; docs/exactness.md "The fast
+// kernel"): the device's own division, square root and transcendentals
+// (pow, acos, asin, atan), and no `precise`, so the GPU's compiler may
+// contract a * b + c into one fma and reorder. Not the CPU build's bits:
+// the host runs it on GPUs only (never for `check`), and the C++ build is
+// never compiled with it. glslang takes `precise` as a macro name.
+#ifdef FAST_MATH
+#define precise
+#endif
+
 const float PI = 3.14159265f;
 const float DEGREES_PER_RADIAN = 57.2957795f;
 
@@ -196,9 +206,13 @@ precise float sqrt_rn(float x) {
 }
 
 precise vec3 unit(vec3 v) {
+#ifdef FAST_MATH
+    return v * inversesqrt(dot3(v, v));
+#else
     precise float len = sqrt_rn(dot3(v, v));
     precise vec3 r = div_rn(v, len);
     return r;
+#endif
 }
 
 // m * (p, 1), summed in one fixed order.
@@ -268,14 +282,21 @@ precise float pow_portable(float x, float n) {
     if (x <= 0.0f) {
         return 0.0f;
     }
+#ifdef FAST_MATH
+    return pow(x, n);
+#else
     precise float r = exp2_portable(n * log2_portable(x));
     return r;
+#endif
 }
 
 // acos(x) in radians, Abramowitz & Stegun 4.4.46: |error| <= 2e-8 on [0, 1],
 // acos(-x) = pi - acos(x). x is clamped to [-1, 1].
 precise float acos_portable(float x) {
     precise float c = min_f(max_f(x, -1.0f), 1.0f);
+#ifdef FAST_MATH
+    return acos(c);
+#else
     precise float a = abs(c);
     precise float p = ((((((-0.0012624911f * a + 0.0066700901f) * a - 0.0170881256f) * a + 0.0308918810f) * a - 0.0501743046f) * a + 0.0889789874f) * a - 0.2145988016f) * a + 1.57079630f;
     precise float r = sqrt_rn(1.0f - a) * p;
@@ -284,18 +305,26 @@ precise float acos_portable(float x) {
         r = (3.14159274f - r) - 8.74227766e-8f;
     }
     return r;
+#endif
 }
 
 // asin(x) = pi/2 - acos(x), radians.
 precise float asin_portable(float x) {
+#ifdef FAST_MATH
+    return asin(min_f(max_f(x, -1.0f), 1.0f));
+#else
     precise float r = 1.57079637f - acos_portable(x);
     return r;
+#endif
 }
 
 // atan(x) in radians: |x| > 1 through pi/2 - atan(1/x); |x| > tan(pi/12)
 // through atan(x) = pi/6 + atan((x sqrt(3) - 1) / (x + sqrt(3))); then the
 // odd series to x^11 on |x| <= 0.268 (error below 3e-9 before rounding).
 precise float atan_portable(float x) {
+#ifdef FAST_MATH
+    return atan(x);
+#else
     precise float a = abs(x);
     bool invert = a > 1.0f;
     if (invert) {
@@ -313,10 +342,17 @@ precise float atan_portable(float x) {
         r = 1.57079637f - r;
     }
     return (x < 0.0f) ? -r : r;
+#endif
 }
 
 // atan2(y, x) in (-pi, pi], radians; atan2(0, 0) = 0.
 precise float atan2_portable(float y, float x) {
+#ifdef FAST_MATH
+    // atan(y, x) is undefined at (0, 0), which stays 0 below.
+    if (x != 0.0f || y != 0.0f) {
+        return atan(y, x);
+    }
+#endif
     if (x > 0.0f) {
         return atan_portable(div_rn(y, x));
     }

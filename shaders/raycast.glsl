@@ -11,7 +11,7 @@
 //   - `precise` on every float temporary and float-returning function;
 //   - min / max / clamp as ternaries in GLM's operand order;
 //   - no fma(), no transcendental built-ins: pow and acos are built here
-//     from + - * / and sqrt;
+//     from + - * / and sqrt (the fast kernel aside: exact.glsl, FAST_MATH);
 //   - literals with the f suffix, at most 9 significant digits;
 //   - no swizzles on the left of =, no out/inout, no struct constructors.
 //

@@ -33,13 +33,14 @@
 //!
 //! Elsewhere (a lent GPU, ci/gpu-checks.sh): RAYCAST_REPO names the
 //! repository whose scenes it reads; the device is the default one (a
-//! discrete GPU before a CPU one, as `--device` unset picks).
+//! discrete GPU before a CPU one, as `--device` unset picks), running the
+//! exact kernel (`--kernel exact`: a GPU's default is the fast one).
 
 use raycast::check;
 use raycast::cpu::CpuRenderer;
 use raycast::error::Error;
 use raycast::frame::{self, Aov, FrameData, RenderSettings, TextureFilter};
-use raycast::gpu::GpuOptions;
+use raycast::gpu::{GpuOptions, KernelChoice};
 use raycast::image_io::{self, Rgb8};
 use raycast::render::{GpuRenderer, SceneBuffers};
 use raycast::scene::mutate::{mutate, mutate_numbers, Rng, ORDINARY};
@@ -158,16 +159,7 @@ fn main() -> ExitCode {
     let mut assets = Vec::new();
     if let Some(c) = &corpus {
         assets.push(c.clone());
-        for group in [
-            "test_unit",
-            "test_intersect",
-            "test_light",
-            "test_efficiency",
-            "test_feature",
-            "test_dof",
-            "test_area_light",
-            "test_refract",
-        ] {
+        for group in common::CHECKED_CORPUS_GROUPS {
             for f in xml_files(&c.join(group)) {
                 scenes.push((f, &[(512, 384)]));
             }
@@ -179,7 +171,9 @@ fn main() -> ExitCode {
         }
     }
 
-    let mut gpu = match GpuRenderer::new(&GpuOptions { validation: true, ..GpuOptions::default() }) {
+    // The exact kernel even on a GPU (ci/gpu-checks.sh), where `auto` would run the fast one.
+    let exact = GpuOptions { validation: true, kernel: KernelChoice::Exact, ..GpuOptions::default() };
+    let mut gpu = match GpuRenderer::new(&exact) {
         Ok(r) => r,
         Err(e) => {
             println!("FAILED: cannot start the Vulkan device: {e}\n0 passed, 1 failed");

@@ -168,6 +168,111 @@ fn fma_residuals_where_fma_is_not_fused_change_the_picture() {
     assert!(!o.status.success() && err.contains("pixels differ between the device and the CPU build"), "{stdout}{err}");
 }
 
+/// The fast kernel's rule (`the_fast_kernel_is_within_its_rule_of_the_cpu_build`,
+/// and ci/gpu-checks.sh's `fast` step, which reads this line): in each scene
+/// at most this many pixels of 512x384 differ from the CPU build's by more
+/// than 2/255 in a channel. Measured on lavapipe (Mesa 22.3.6, LLVM 15.0.6,
+/// 2026-11-29) over the 40 scenes: worst recursiveSpheres4, 221 pixels
+/// (0.11%); then recursiveSpheres3 200, recursiveSpheres2 122, texture_uv 92,
+/// shadow_test 89, refract 77, recursiveSpheres1 55, dof 7, recursiveCones4
+/// 3, three scenes 1 and 28 scenes 0 (silhouettes and shadow edges seen
+/// through mirrors, where a hit's last bit decides). k = 250, a little above.
+const FAST_KERNEL_MAX_PIXELS: usize = 250;
+
+/// The fast kernel (FAST_MATH: the device's own division, square root and
+/// transcendentals, no `precise`; docs/exactness.md, "The fast kernel"),
+/// forced on lavapipe with `--kernel fast`, against the CPU build
+/// (`--backend cpu`), over the corpus scenes the check suite renders (every
+/// scene of test_unit, test_intersect, test_light, test_efficiency,
+/// test_feature, test_dof, test_area_light and test_refract) at 512x384, 1
+/// sample. Rule: in each scene at most FAST_KERNEL_MAX_PIXELS pixels differ
+/// by more than 2/255 in any channel (the figures printed for every scene).
+/// On failure: each failing scene's count, first and worst pixel, and its
+/// actual / expected / diff PNGs. `render -v` names the kernel that ran.
+/// Without RAYCAST_CORPUS: skipped, and said so.
+#[test]
+fn the_fast_kernel_is_within_its_rule_of_the_cpu_build() {
+    let Some(corpus) = common::corpus("the_fast_kernel_is_within_its_rule_of_the_cpu_build") else {
+        return;
+    };
+    let mut scenes: Vec<PathBuf> = Vec::new();
+    for group in common::CHECKED_CORPUS_GROUPS {
+        let mut found: Vec<PathBuf> = std::fs::read_dir(corpus.join(group))
+            .unwrap_or_else(|e| panic!("RAYCAST_CORPUS={}: {group}: {e}", corpus.display()))
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+            .collect();
+        found.sort();
+        scenes.extend(found);
+    }
+    assert!(scenes.len() >= 40, "{} scenes in the corpus's test_* folders", scenes.len());
+    let dir = empty_dir("fast-kernel");
+    let corpus_arg = corpus.to_str().unwrap();
+    let render = |name: &str, how: &[&str]| {
+        let out = dir.join(name);
+        let mut args = vec!["render", "-v", "--assets", corpus_arg, "--out-dir", out.to_str().unwrap()];
+        args.extend(how);
+        args.extend(scenes.iter().map(|s| s.to_str().unwrap()));
+        let o = raycast(&args, &[]);
+        let (stdout, err) = text(&o);
+        assert!(o.status.success(), "render {how:?}\n{stdout}{err}");
+        (out, err)
+    };
+    let (fast, err) = render("fast", &["--kernel", "fast"]);
+    assert_eq!(kernel_name(&err), Some("render_uniform with FAST_MATH"), "{err}");
+    let (cpu, _) = render("cpu", &["--backend", "cpu"]);
+    let (mut worst, mut failures) = ((0, String::new()), Vec::new());
+    for scene in &scenes {
+        let stem = scene.file_stem().unwrap().to_string_lossy().into_owned();
+        let file = format!("{stem}.png");
+        let actual = raycast::image_io::read_picture(&fast.join(&file)).unwrap_or_else(|e| panic!("{e}"));
+        let expected = raycast::image_io::read_picture(&cpu.join(&file)).unwrap_or_else(|e| panic!("{e}"));
+        let diff = raycast::image_io::compare(&actual, &expected, 2).unwrap_or_else(|e| panic!("{stem}: {e}"));
+        println!(
+            "{stem}: {} pixels differ by more than 2/255 (rule: at most {FAST_KERNEL_MAX_PIXELS})",
+            diff.differing
+        );
+        if diff.differing > worst.0 {
+            worst = (diff.differing, stem.clone());
+        }
+        if diff.differing > FAST_KERNEL_MAX_PIXELS {
+            let paths = raycast::image_io::write_diff_images(&dir.join("diff"), &stem, &actual, &expected, &diff)
+                .unwrap_or_else(|e| panic!("{e}"));
+            failures.push(format!(
+                "{stem}: {diff}\n  actual {}\n  expected {}\n  diff {}",
+                paths[0].display(),
+                paths[1].display(),
+                paths[2].display()
+            ));
+        }
+    }
+    println!("worst: {} ({} pixels); rule: at most {FAST_KERNEL_MAX_PIXELS}", worst.1, worst.0);
+    assert!(
+        failures.is_empty(),
+        "the fast kernel is off the CPU build's pictures by more than 2/255 on more than \
+         {FAST_KERNEL_MAX_PIXELS} pixels:\n{}",
+        failures.join("\n")
+    );
+}
+
+/// `--kernel fast` where the exact kernel or the CPU build must run:
+/// `check` (which compares bits) and `--backend cpu` refuse it with a usage
+/// error; `--exact` conflicts with `--kernel`.
+#[test]
+fn the_fast_kernel_is_refused_where_bits_are_compared() {
+    let o = raycast(&["check", "--kernel", "fast", "--width", "8", "--height", "8"], &[]);
+    assert_fails(&o, 2, "only the exact kernel gives: drop --kernel fast");
+    let o = raycast(&["render", "--backend", "cpu", "--kernel", "fast", "-o", "/dev/null"], &[]);
+    assert_fails(&o, 2, "--kernel fast is for a Vulkan device");
+    let o = raycast(&["render", "--exact", "--kernel", "fast", "-o", "/dev/null"], &[]);
+    assert_fails(&o, 2, "--exact");
+    // check --exact is check as it always was.
+    let o = raycast(&["check", "--exact", "-v", "--width", "32", "--height", "24"], &[]);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success() && stdout.contains("identical"), "{stdout}{err}");
+    assert_eq!(kernel_name(&err), Some("render_uniform"), "{err}");
+}
+
 #[test]
 fn missing_scene_file() {
     let o = raycast(&["render", "no/such/scene.xml", "-o", "/dev/null"], &[]);

@@ -29,6 +29,19 @@ pub fn skip(reason: &str) {
     }
 }
 
+/// The corpus folders whose every scene the check suite renders (and the
+/// cli suite's fast-kernel rule with it).
+pub const CHECKED_CORPUS_GROUPS: [&str; 8] = [
+    "test_unit",
+    "test_intersect",
+    "test_light",
+    "test_efficiency",
+    "test_feature",
+    "test_dof",
+    "test_area_light",
+    "test_refract",
+];
+
 /// The cs1230 corpus (RAYCAST_CORPUS), or None where it is unset or empty,
 /// after `skip` says that `what` needs it. Set to something that is not a
 /// folder, it fails: a relative path is taken from host/, where cargo runs

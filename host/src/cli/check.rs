@@ -185,6 +185,7 @@ pub fn run(args: &CheckArgs) -> Result<(), Error> {
             "--json writes to standard output, and so does -o -: write the diff image to a file".into(),
         ));
     }
+    args.render.kernel.refuse_fast("check")?;
     status_beside(&args.output);
     let scenes = scene_list(&args.scenes);
     if !args.pixel.is_empty() && scenes.len() > 1 {
@@ -208,7 +209,7 @@ pub fn run(args: &CheckArgs) -> Result<(), Error> {
         &diffs,
         &args.render,
         &mut backends,
-        || Ok(CheckBackends { gpu: args.render.kernel.renderer()?, cpu: CpuRenderer::new()? }),
+        || Ok(CheckBackends { gpu: args.render.kernel.exact_renderer()?, cpu: CpuRenderer::new()? }),
         |backends, p, diff| {
             let (checked, gpu, cpu) = check_scene(args, backends, &p, diff)?;
             if !args.pixel.is_empty() {

@@ -22,6 +22,11 @@ pub fn run() -> Result<(), Error> {
         if d.corrects_division {
             outln!("   {}", division_line(d.index));
         }
+        if d.fast_by_default() {
+            outln!(
+                "   kernel: the fast one by default (FAST_MATH, not the CPU build's bits); --exact for the exact one"
+            );
+        }
         if d.shader_objects {
             let kept = match gpu::cache_dir() {
                 Some(dir) => format!("their binaries kept in {}", dir.display()),
@@ -64,11 +69,15 @@ pub fn run() -> Result<(), Error> {
 /// correction, which the fma probe decides once the device is open
 /// (`GpuContext::division`).
 fn division_line(index: usize) -> String {
-    let ctx =
-        match gpu::GpuContext::new(&GpuOptions { device: Some(DeviceSelector::Index(index)), ..Default::default() }) {
-            Ok(ctx) => ctx,
-            Err(e) => return format!("division correction: residuals not known, the device does not open ({e})"),
-        };
+    let options = GpuOptions {
+        device: Some(DeviceSelector::Index(index)),
+        kernel: gpu::KernelChoice::Exact,
+        ..Default::default()
+    };
+    let ctx = match gpu::GpuContext::new(&options) {
+        Ok(ctx) => ctx,
+        Err(e) => return format!("division correction: residuals not known, the device does not open ({e})"),
+    };
     let why = |probe: &str| match gpu::forced_residuals() {
         Some(_) => "as RAYCAST_FMA_RESIDUALS says".to_string(),
         None => format!("the fma probe saw this device's fma() {probe}"),

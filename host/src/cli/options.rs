@@ -5,7 +5,7 @@ use crate::args::*;
 use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, validation_wanted, Error};
 use crate::frame::{Aov, RenderSettings, Supersample, TextureFilter};
-use crate::gpu::{DeviceSelector, GpuOptions};
+use crate::gpu::{DeviceSelector, GpuOptions, KernelChoice};
 use crate::render::{GpuRenderer, Renderer, SceneBuffers};
 use crate::scene::{FlattenLimits, ParseOptions};
 use clap::Args;
@@ -104,7 +104,7 @@ pub struct RenderOptions {
 
 /// The device and the kernel of the commands that render on a device
 /// (`render`, `check`, `bench`, `conformance`).
-#[derive(Args, Debug)]
+#[derive(Args, Clone, Debug)]
 pub struct KernelOptions {
     /// From `raycast devices`: an index or part of a name
     #[arg(long, value_name = "NAME|INDEX", help_heading = "Device")]
@@ -141,6 +141,38 @@ pub struct KernelOptions {
     /// [default: 600]
     #[arg(long, value_name = "SECONDS", value_parser = parse_timeout, help_heading = "Device", hide_short_help = true)]
     pub timeout: Option<Duration>,
+    #[command(flatten)]
+    pub choice: KernelChoiceArgs,
+}
+
+/// `--kernel` and its shorthand `--exact`: the device's exact kernel or its
+/// fast one (docs/exactness.md, "The fast kernel"), for every command that
+/// runs the render kernel on a device (`render`, `bench`, `conformance`,
+/// `preview`; `check` runs the exact one only).
+#[derive(Args, Clone, Copy, Debug, Default)]
+pub struct KernelChoiceArgs {
+    /// auto (default), exact or fast
+    #[arg(long = "kernel", value_enum, default_value_t = KernelChoice::Auto, value_name = "K", help_heading = "Device",
+          hide_possible_values = true, hide_default_value = true, hide_short_help = true, long_help = crate::args::with_values::<KernelChoice>(
+              "Which kernel the device runs: exact (the CPU build's bits on every device), fast (the device's own \
+               division, square root and transcendentals: faster on GPUs, within 2/255 of the CPU build on all but \
+               a few pixels), or auto: fast on a discrete or integrated GPU, exact on every other device (lavapipe). \
+               [default: auto]"))]
+    pub kernel: KernelChoice,
+    /// The exact kernel on any device: --kernel exact
+    #[arg(long, conflicts_with = "kernel", help_heading = "Device", hide_short_help = true)]
+    pub exact: bool,
+}
+
+impl KernelChoiceArgs {
+    /// The choice `--kernel` or `--exact` made.
+    pub fn choice(&self) -> KernelChoice {
+        if self.exact {
+            KernelChoice::Exact
+        } else {
+            self.kernel
+        }
+    }
 }
 
 impl KernelOptions {
@@ -158,6 +190,7 @@ impl KernelOptions {
             ("--scene-buffers", self.scene_buffers != SceneBuffers::Auto),
             ("--validate", self.validate),
             ("--timeout", self.timeout.is_some()),
+            ("--kernel fast", self.choice.choice() == KernelChoice::Fast),
         ]
         .into_iter()
         .filter_map(|(flag, given)| given.then_some(flag))
@@ -167,6 +200,24 @@ impl KernelOptions {
     /// The render kernel on the device these options name (`open_renderer`).
     pub(crate) fn renderer(&self) -> Result<GpuRenderer, Error> {
         open_renderer(self, self.shaders.as_deref())
+    }
+
+    /// `--kernel fast` given to `command`, which compares bits (`check`): a
+    /// usage error, as only the exact kernel gives the CPU build's.
+    pub(crate) fn refuse_fast(&self, command: &str) -> Result<(), Error> {
+        if self.choice.choice() != KernelChoice::Fast {
+            return Ok(());
+        }
+        Err(Error::Usage(format!(
+            "{command} compares the device's pixels with the CPU build's bits, which only the exact kernel gives: \
+             drop --kernel fast (`raycast compare` weighs two pictures within a tolerance)"
+        )))
+    }
+
+    /// `renderer` with the exact kernel, whatever `--kernel` said (`refuse_fast`): `check`'s.
+    pub(crate) fn exact_renderer(&self) -> Result<GpuRenderer, Error> {
+        let exact = KernelChoiceArgs { kernel: KernelChoice::Exact, exact: false };
+        KernelOptions { choice: exact, ..self.clone() }.renderer()
     }
 
     /// Which kernel, for the commands' first line.
@@ -236,8 +287,12 @@ pub(crate) fn parse_depth_range(s: &str) -> Result<[f32; 2], String> {
 /// asked, with `--timeout`), built in or compiled from `shaders`, reading
 /// the scene as `--scene-buffers` says: for `render`, `check` and `bench`.
 pub(crate) fn open_renderer(k: &KernelOptions, shaders: Option<&Path>) -> Result<GpuRenderer, Error> {
-    let options =
-        GpuOptions { device: k.device.clone(), validation: validation_wanted(k.validate), timeout: k.timeout() };
+    let options = GpuOptions {
+        device: k.device.clone(),
+        validation: validation_wanted(k.validate),
+        timeout: k.timeout(),
+        kernel: k.choice.choice(),
+    };
     let mut renderer = match shaders {
         Some(dir) => GpuRenderer::from_shaders(&options, dir)?,
         None => GpuRenderer::new(&options)?,

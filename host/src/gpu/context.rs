@@ -64,14 +64,19 @@ impl GpuContext {
     }
 
     /// How kernels for this device compile division and square root
-    /// (glslang_args.rs): as given on a CPU device, corrected on every other
-    /// (unless RAYCAST_INEXACT_DIVISION says), and there with residuals by
+    /// (glslang_args.rs): fast where `GpuOptions::kernel` chose the fast
+    /// kernels (`KernelChoice::fast_on`); else as given on a CPU device,
+    /// corrected on every other (unless RAYCAST_INEXACT_DIVISION says, which
+    /// only the exact kernels heed), and there with residuals by
     /// fma() where the device's fma was seen to round once (fma_probe.rs,
     /// run on the first call; a probe that cannot run leaves Dekker's
     /// residuals, exact on any device, and says so on stderr).
     /// RAYCAST_FMA_RESIDUALS=0 or 1 overrides the probe, to measure the
     /// difference or to show what an unfused fma does to the pictures.
     pub fn division(&self) -> Division {
+        if self.inner.fast {
+            return Division::Fast;
+        }
         if !self.inner.inexact_division {
             return Division::AsGiven;
         }

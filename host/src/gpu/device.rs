@@ -59,11 +59,39 @@ pub struct GpuOptions {
     pub validation: bool,
     /// How long `run` waits for a dispatch.
     pub timeout: Duration,
+    /// The exact kernels or the fast ones (`GpuContext::division`).
+    pub kernel: KernelChoice,
 }
 
 impl Default for GpuOptions {
     fn default() -> Self {
-        GpuOptions { device: None, validation: false, timeout: Duration::from_secs(600) }
+        GpuOptions { device: None, validation: false, timeout: Duration::from_secs(600), kernel: KernelChoice::Auto }
+    }
+}
+
+/// Which kernels a device runs (`--kernel`; docs/exactness.md, "The fast
+/// kernel").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum KernelChoice {
+    /// The fast kernels on a discrete or integrated GPU, the exact ones on
+    /// every other device (lavapipe and other CPU devices).
+    #[default]
+    Auto,
+    /// The exact kernels: the CPU build's bits on every device.
+    Exact,
+    /// The fast kernels (FAST_MATH): the device's own division, square
+    /// root and transcendentals; within a stated rule of the CPU build.
+    Fast,
+}
+
+impl KernelChoice {
+    /// Whether a device runs the fast kernels under this choice.
+    pub fn fast_on(self, device: &DeviceInfo) -> bool {
+        match self {
+            KernelChoice::Auto => device.fast_by_default(),
+            KernelChoice::Exact => false,
+            KernelChoice::Fast => true,
+        }
     }
 }
 
@@ -104,6 +132,11 @@ impl DeviceInfo {
     /// CPU build instead.
     pub fn runs_on_cpu(&self) -> bool {
         self.kind == "cpu"
+    }
+
+    /// A discrete or integrated GPU: `--kernel auto` runs the fast kernels here.
+    pub fn fast_by_default(&self) -> bool {
+        self.kind == "discrete GPU" || self.kind == "integrated GPU"
     }
 
     /// "llvmpipe (LLVM 15.0.6, 256 bits) (cpu, Vulkan 1.3.230)": the
@@ -170,6 +203,8 @@ pub(crate) struct Inner {
     pub(crate) float_modes: float_controls::Modes,
     /// Kernels for this device correct its division (`division`).
     pub(crate) inexact_division: bool,
+    /// This device runs the fast kernels (`GpuOptions::kernel`, `division`).
+    pub(crate) fast: bool,
     /// `division`, once decided (its probe runs on the first call).
     pub(crate) division: OnceLock<Division>,
     /// Kernels are shader objects on this device (shader_object.rs); None: pipelines.
@@ -418,6 +453,7 @@ impl Inner {
             shader_objects.then(|| shader_object::ShaderObjects::new(instance, physical.handle, &device));
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let specialise_ahead = physical.info.specialises_ahead;
+        let fast = opts.kernel.fast_on(&physical.info);
 
         Ok(Inner {
             abandoned: Mutex::new(Vec::new()),
@@ -431,6 +467,7 @@ impl Inner {
             timeout: opts.timeout,
             float_modes: physical.float_modes,
             inexact_division: physical.inexact_division,
+            fast,
             division: OnceLock::new(),
             shader_objects,
             specialise_ahead,

@@ -21,19 +21,31 @@ pub enum Division {
     /// Corrected, the residuals by `fma()`: for a device whose `fma` was
     /// seen to round once (shaders/fma_probe.comp), where it is cheaper.
     CorrectedFma,
+    /// The fast kernel (FAST_MATH, docs/exactness.md "The fast kernel"):
+    /// the device's own division, square root and transcendentals, and no
+    /// `precise`; not the CPU build's bits, so never for `check`.
+    Fast,
 }
 
 impl Division {
-    pub const ALL: [Division; 3] = [Division::AsGiven, Division::Corrected, Division::CorrectedFma];
+    pub const ALL: [Division; 4] = [Division::AsGiven, Division::Corrected, Division::CorrectedFma, Division::Fast];
 
     /// The macros the kernels are compiled with: CORRECT_DIVISION for a
-    /// correction, FUSED_FMA for its residuals by fma().
+    /// correction, FUSED_FMA for its residuals by fma(), FAST_MATH for the
+    /// fast kernel.
     pub fn defines(self) -> &'static [&'static str] {
         match self {
             Division::AsGiven => &[],
             Division::Corrected => &["CORRECT_DIVISION"],
             Division::CorrectedFma => &["CORRECT_DIVISION", "FUSED_FMA"],
+            Division::Fast => &["FAST_MATH"],
         }
+    }
+
+    /// Whether kernels compiled this way give the CPU build's bits (on a
+    /// device whose +, - and * are IEEE's): every way but `Fast`.
+    pub fn exact(self) -> bool {
+        self != Division::Fast
     }
 
     /// The file stem suffix of an embedded kernel compiled this way
@@ -43,6 +55,7 @@ impl Division {
             Division::AsGiven => "",
             Division::Corrected => "_gpu",
             Division::CorrectedFma => "_gpu_fma",
+            Division::Fast => "_fast",
         }
     }
 
@@ -52,6 +65,7 @@ impl Division {
             Division::AsGiven => "",
             Division::Corrected => " with CORRECT_DIVISION",
             Division::CorrectedFma => " with CORRECT_DIVISION and FUSED_FMA",
+            Division::Fast => " with FAST_MATH",
         }
     }
 

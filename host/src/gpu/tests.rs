@@ -152,6 +152,34 @@ fn doubles_u32_and_f32_on_lavapipe_with_no_validation_messages() {
 /// on lavapipe the allocator hands that memory back, and without the clear
 /// the doubled words read 0xfffffffe), in device-only memory; and it
 /// is a binding like any other: given twice, or as an image, it is refused.
+/// `GpuOptions::kernel` on lavapipe, a CPU device: `auto` and `exact` run
+/// the exact kernels (as given: lavapipe divides as IEEE does), `fast` the
+/// FAST_MATH ones; `auto` is fast on discrete and integrated GPUs only.
+/// Rule: exact.
+#[test]
+fn the_kernel_choice_picks_the_fast_kernels_only_where_asked_or_on_a_gpu() {
+    for (kernel, division) in [
+        (KernelChoice::Auto, Division::AsGiven),
+        (KernelChoice::Exact, Division::AsGiven),
+        (KernelChoice::Fast, Division::Fast),
+    ] {
+        let ctx = GpuContext::new(&GpuOptions { device: lavapipe(), kernel, ..Default::default() })
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(ctx.division(), division, "{kernel:?}");
+        assert_eq!(division.exact(), kernel != KernelChoice::Fast);
+        assert!(!ctx.info().fast_by_default(), "{} taken for a GPU", ctx.info().name);
+    }
+    let mut info = GpuContext::new(&GpuOptions { device: lavapipe(), ..Default::default() })
+        .unwrap_or_else(|e| panic!("{e}"))
+        .info()
+        .clone();
+    for (kind, fast) in [("discrete GPU", true), ("integrated GPU", true), ("virtual GPU", false), ("other", false)] {
+        info.kind = kind.to_string();
+        assert_eq!(KernelChoice::Auto.fast_on(&info), fast, "{kind}");
+        assert!(KernelChoice::Fast.fast_on(&info) && !KernelChoice::Exact.fast_on(&info), "{kind}");
+    }
+}
+
 /// The fma probe (fma_probe.rs) on lavapipe, whose fma() rounds the
 /// product first: not fused, so kernels forced to correct its division
 /// keep Dekker's residuals; a CPU device corrects nothing and runs no
@@ -338,7 +366,8 @@ void main() {
 "#;
     let spv = compile("spin", &src);
     let bindings = vec![BindingLayout::single(0, params_layout()), BindingLayout::array(2, item_layout()).writable()];
-    let opts = GpuOptions { device: lavapipe(), validation: true, timeout: Duration::from_millis(1) };
+    let opts =
+        GpuOptions { device: lavapipe(), validation: true, timeout: Duration::from_millis(1), ..Default::default() };
     let ctx = GpuContext::new(&opts).unwrap();
     let kernel = Kernel::new(&ctx, "spin", &spv, &bindings).unwrap();
     let p = params(2_000_000);

@@ -303,10 +303,12 @@ impl Harness {
             std::process::id(),
             COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
         ));
+        // The exact kernels: the harness compares the GLSL's bits with the CPU build's.
         let ctx = GpuContext::new(&GpuOptions {
             device: opts.device.clone(),
             validation: opts.validation,
             timeout: opts.timeout,
+            kernel: gpu::KernelChoice::Exact,
         })?;
         if let Err(e) = copy_shaders(&dir, &work) {
             let _ = std::fs::remove_dir_all(&work);

@@ -15,7 +15,9 @@ use crate::args::Backend;
 use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, validation_wanted, Error};
 use crate::frame::{self, Aov, FrameData, RenderSettings};
-use crate::gpu::{DeviceInfo, DeviceSelector, FrameStatus, GpuContext, GpuError, GpuOptions, PresentMode};
+use crate::gpu::{
+    DeviceInfo, DeviceSelector, FrameStatus, GpuContext, GpuError, GpuOptions, KernelChoice, PresentMode,
+};
 use crate::image_io::{self, Rgb8};
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
@@ -146,6 +148,13 @@ pub fn run(args: &PreviewArgs) -> Result<(), Error> {
         errln!("raycast: note: {note}");
     }
     crate::args::cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.shaders)?;
+    if args.backend == Backend::Cpu && args.choice.choice() == KernelChoice::Fast {
+        return Err(Error::Usage(
+            "--kernel fast runs on a Vulkan device, and --backend cpu draws with the CPU build, which is exact: \
+             drop one"
+                .into(),
+        ));
+    }
     let (shaders, compile_at_start) = shader_folder(args.shaders.as_deref())?;
 
     // The window. GLFW reports its errors through the callback.
@@ -181,8 +190,12 @@ pub fn run(args: &PreviewArgs) -> Result<(), Error> {
         .ok_or_else(|| Error::from(format!("cannot open a window: {}", last_glfw_error())))?;
     window.set_all_polling(true);
 
-    let options =
-        GpuOptions { device: args.device.clone(), validation: validation_wanted(args.validate), timeout: args.timeout };
+    let options = GpuOptions {
+        device: args.device.clone(),
+        validation: validation_wanted(args.validate),
+        timeout: args.timeout,
+        kernel: args.choice.choice(),
+    };
     let refused = std::cell::RefCell::new(Vec::new());
     let veto = |device: &DeviceInfo| {
         let why = window_refuses(device)?;
@@ -220,8 +233,14 @@ pub fn run(args: &PreviewArgs) -> Result<(), Error> {
     let candidate = apart.as_ref().map_or(&info, |a| a.info());
     let cpu_why = match args.backend {
         Backend::Cpu => Some(String::new()),
-        // A device named to draw (--device) draws, as render's auto takes it.
-        Backend::Auto if !compile_at_start && args.device.is_none() && candidate.runs_on_cpu() => {
+        // A device named to draw (--device) draws, as render's auto takes
+        // it; so does one asked for the fast kernel (the CPU build has none).
+        Backend::Auto
+            if !compile_at_start
+                && args.device.is_none()
+                && args.choice.choice() != KernelChoice::Fast
+                && candidate.runs_on_cpu() =>
+        {
             Some(format!("; --backend auto: {} runs on the CPU", candidate.name))
         }
         Backend::Gpu | Backend::Auto => None,

@@ -165,6 +165,8 @@ pub struct PreviewArgs {
     #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::args::parse_timeout,
           help_heading = "Device", hide_short_help = true)]
     pub timeout: std::time::Duration,
+    #[command(flatten)]
+    pub choice: crate::cli::KernelChoiceArgs,
 }
 
 /// The keys `--keys` may press (the window's controls that print or
