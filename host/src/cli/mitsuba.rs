@@ -15,7 +15,7 @@ pub struct MitsubaArgs {
     /// A scene file (XML) or a generated scene (gen:FAMILY:DEPTH) [default: the embedded default scene].
     #[arg(value_name = "SCENE")]
     scene: Option<String>,
-    /// Write the scene to FILE.xml [default: standard output]
+    /// Write the scene to FILE [default: standard output]
     ///
     /// Write the Mitsuba scene to FILE.xml [default: standard output]; the meshes it generates (cones, tori,
     /// spheres and cylinders under a non-uniform scale) go beside it, named FILE-cone.obj and so on.
@@ -38,11 +38,11 @@ pub struct MitsubaArgs {
     #[arg(long, default_value_t = 384, value_name = "H", value_parser = crate::args::parse_height,
           help_heading = "Picture")]
     height: u32,
-    /// Samples a pixel, 1 to 4096 (the sampler's sample_count)
+    /// Samples a pixel (the sampler's sample_count)
     #[arg(long, default_value_t = 1, value_name = "N", value_parser = crate::args::parse_spp,
           help_heading = "Picture")]
     spp: u32,
-    /// Most primitives in one shapegroup (the split of nested masters)
+    /// Most primitives a shape group holds
     ///
     /// Mitsuba cannot nest instances: each master that expands to at most N primitives becomes one shapegroup,
     /// placed by instances; the levels above are expanded (docs/cli.md#mitsuba).
