@@ -21,23 +21,8 @@ pub struct MitsubaArgs {
     /// spheres and cylinders under a non-uniform scale) go beside it, named FILE-cone.obj and so on.
     #[arg(short, long, value_name = "FILE", help_heading = "Output")]
     output: Option<PathBuf>,
-    /// Extra folder to find meshes and textures in (repeatable)
-    ///
-    /// Extra folder to find meshes and textures in, after the scene file's folder (repeatable).
-    #[arg(long, value_name = "DIR", help_heading = "Picture")]
-    assets: Vec<PathBuf>,
-    /// Picture width in pixels (1 to 16384)
-    ///
-    /// The picture's width, for the film.
-    #[arg(long, default_value_t = 512, value_name = "W", value_parser = crate::args::parse_width,
-          help_heading = "Picture")]
-    width: u32,
-    /// Picture height in pixels (1 to 16384)
-    ///
-    /// The picture's height, for the film.
-    #[arg(long, default_value_t = 384, value_name = "H", value_parser = crate::args::parse_height,
-          help_heading = "Picture")]
-    height: u32,
+    #[command(flatten)]
+    picture: super::options::ExportOptions,
     /// Samples a pixel (the sampler's sample_count)
     #[arg(long, default_value_t = 1, value_name = "N", value_parser = crate::args::parse_spp,
           help_heading = "Picture")]
@@ -55,8 +40,12 @@ pub struct MitsubaArgs {
 /// warnings on stderr, its errors located), written in Mitsuba 3's format
 /// (crate::mitsuba); what Mitsuba draws otherwise said as notes.
 pub fn run(args: &MitsubaArgs) -> Result<(), Error> {
-    let settings =
-        RenderSettings { width: args.width, height: args.height, spp: args.spp, ..RenderSettings::default() };
+    let settings = RenderSettings {
+        width: args.picture.width,
+        height: args.picture.height,
+        spp: args.spp,
+        ..RenderSettings::default()
+    };
     settings.validate().map_err(Error::usage)?;
     let name = args.scene.as_deref();
     if let Some(out) = &args.output {
@@ -65,7 +54,7 @@ pub fn run(args: &MitsubaArgs) -> Result<(), Error> {
         }
         refuse_overwriting(out, name.map(Path::new))?;
     }
-    let parse = ParseOptions { assets: args.assets.clone(), skip_textures: true };
+    let parse = ParseOptions { assets: args.picture.assets.clone(), skip_textures: true };
     let (_, scene) = load_scene_file(name.map(Path::new), &parse, &FlattenLimits::default())?;
     let stem = match &args.output {
         Some(out) => out.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned()),
