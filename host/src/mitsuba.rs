@@ -38,7 +38,9 @@
 //! π·I·a(d)·d² for d its distance to the centre of the scene's box, so the
 //! two agree there; a directional light's irradiance is π·I; an area light
 //! is a one-sided, visible `rectangle` facing the scene's centre, of
-//! radiance π·I·a(d)·d²/(w·h). The integrator is `direct` with
+//! radiance π·I·a(d)·d²/(w·h); point, spot and directional lights are
+//! divided by the number of emitter samples (Mitsuba adds each sample of
+//! a delta light at full weight). The integrator is `direct` with
 //! `emitter_samples` = the number of lights and `bsdf_samples` = 0: each
 //! hit casts about one shadow ray a light, as raycast does with mirrors
 //! off (Mitsuba picks a light at random for each sample).
@@ -399,7 +401,15 @@ impl Writer<'_> {
             }
         };
         let pi = std::f64::consts::PI;
+        // Mitsuba 3.9's `direct` integrator adds every emitter sample that
+        // lands on a delta light (point, spot, directional) at full weight,
+        // not 1/emitter_samples of it (measured: 1, 2, 3 and 6 samples
+        // draw a pixel 1, 2, 3 and 6 times as bright): so those lights are
+        // divided by the number of samples, as if each were one sample.
+        let samples = self.scene.lights.len().max(1) as f64;
+        let delta = if l.kind == LightKind::Area { 1.0 } else { 1.0 / samples };
         let scaled = |k: f64| {
+            let k = k * delta;
             let c = l.color.map(|c| f64::from(c) * k);
             format!("{}, {}, {}", num(c[0]), num(c[1]), num(c[2]))
         };
