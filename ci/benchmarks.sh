@@ -35,6 +35,17 @@
 #                                       and POV-Ray 3.7 on the scene `raycast pov` writes, in
 #                                       turn, N rounds (5): median wall times, their ratios, peak
 #                                       RSS. The peer issue 7 names, measured beside raycast.
+#   ci/benchmarks.sh mitsuba [--rounds N] SCENE...
+#                                       raycast's CPU build beside Mitsuba 3 scalar_rgb on the
+#                                       scene `raycast mitsuba` writes, 512x384, 1 spp, shadows
+#                                       on, mirrors and textures off, the same thread count:
+#                                       warm frames (N timed after 1 untimed, medians, rays a
+#                                       pixel each side) and N whole commands in turn (median
+#                                       wall times), the ratios Mitsuba / raycast. Mitsuba runs
+#                                       from build/mitsuba-venv (made with pip the first time;
+#                                       MITSUBA_PYTHON names another python with mitsuba).
+#   ci/benchmarks.sh peers [--rounds N] SCENE...
+#                                       the povray table, then the mitsuba table, in one run.
 #   ci/benchmarks.sh passes [--all] SCENE...
 #                                       `build/raycast render SCENE --aov cost --backend cpu`:
 #                                       the passes of each camera ray's walk through the
@@ -199,6 +210,63 @@ povray_side() {
     done
     echo "| ${s##*/} | $(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n") | ${med[0]} s | ${med[1]} s | ${med[2]} s | $(awk -v a="${med[0]}" -v b="${med[2]}" 'BEGIN { printf "%.1f", b / a }') | $(awk -v a="${med[1]}" -v b="${med[2]}" 'BEGIN { printf "%.1f", b / a }') | $((rss[device] / 1024)), $((rss[cpu] / 1024)), $((rss[povray] / 1024)) MiB |"
     unset walls rss runs
+  done
+  rm -rf "$tmp"
+}
+
+# Mitsuba 3 (pip's `mitsuba`, variant scalar_rgb), issue 45's second peer,
+# beside raycast's CPU build on the same scenes in one run: the warm frames
+# each side (raycast's `bench`, ci/mitsuba_bench.py's mi.render) and the
+# whole commands, in turn, N rounds.
+mitsuba_python() {
+  if [ -n "${MITSUBA_PYTHON:-}" ]; then echo "$MITSUBA_PYTHON"; return; fi
+  if ! build/mitsuba-venv/bin/python -c 'import mitsuba' 2>/dev/null; then
+    echo "benchmarks: making build/mitsuba-venv (python3 -m venv, pip install mitsuba)" >&2
+    python3 -m venv build/mitsuba-venv >&2 && build/mitsuba-venv/bin/pip install -q mitsuba >&2 \
+      || { echo "benchmarks: cannot install mitsuba into build/mitsuba-venv (set MITSUBA_PYTHON to a python with it)" >&2; exit 1; }
+  fi
+  echo build/mitsuba-venv/bin/python
+}
+
+mitsuba_side() {
+  local rounds=5 tmp s file n i py threads version json out t m counts
+  if [ "${1:-}" = --rounds ]; then rounds="$2"; shift 2; fi
+  py="$(mitsuba_python)"
+  threads="$(nproc)"
+  version="$("$py" -c 'import mitsuba; print(mitsuba.__version__)')"
+  tmp="$(mktemp -d)"
+  local picture=(--no-reflections --no-textures)
+  echo "\`ci/benchmarks.sh mitsuba --rounds $rounds $*\`: raycast's CPU build beside Mitsuba $version (\`pip install mitsuba\`, variant scalar_rgb) on the scene \`$RAYCAST mitsuba SCENE --assets $CORPUS -o scene.xml\` writes (nested masters split into one shape group of at most 4,096 primitives placed by instances; the \`direct\` integrator, one emitter sample a light, no BSDF samples), 512x384, 1 spp, shadows on, mirrors and textures off, $threads threads each side. Warm frame: the median of $rounds frames after 1 untimed, \`$RAYCAST bench SCENE --assets $CORPUS --backend cpu ${picture[*]} --frames $rounds --warmup 1\` and \`ci/mitsuba_bench.py --frames $rounds --threads $threads scene.xml\` (mi.render). Rays a pixel: raycast's bench counts its camera and shadow rays (a shadow ray only where the light is in front of the surface); Mitsuba's are 1 + emitter samples x the camera rays' hits (an aov render counts them). Whole command, $rounds rounds in turn: \`$RAYCAST render SCENE --assets $CORPUS --backend cpu ${picture[*]}\` and \`ci/mitsuba_bench.py --frames 0 --threads $threads --png out.png scene.xml\` (Python's start, the import, the load, one frame, the PNG); the median wall time (\`/usr/bin/time\`)."
+  echo
+  echo "| scene | primitives | Mitsuba's scene: shapes, shape groups, instances | raycast cpu, warm frame | rays a pixel | Mitsuba, warm frame | rays a pixel | Mitsuba ÷ raycast, frame | Mitsuba ÷ raycast, a ray | raycast cpu, whole command | Mitsuba, whole command | Mitsuba ÷ raycast, whole |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
+  for s in "$@"; do
+    file="$(scene_file "$s" "$tmp")"
+    out="$("$RAYCAST" mitsuba "$file" --assets "$CORPUS" -o "$tmp/scene.xml" 2>&1)" || { echo "$out" >&2; exit 1; }
+    counts="$(sed -n 's/.*bytes: \([0-9]*\) shapes, \([0-9]*\) shape groups, \([0-9]*\) instances.*/\1, \2, \3/p' <<<"$out")"
+    json="$("$RAYCAST" bench "$file" --assets "$CORPUS" --backend cpu "${picture[@]}" --frames "$rounds" --warmup 1 --json 2>/dev/null)" \
+      || { "$RAYCAST" bench "$file" --assets "$CORPUS" --backend cpu "${picture[@]}" --frames 1 --warmup 0 >&2; exit 1; }
+    local rc_frame rc_rays mi_frame mi_rays
+    n="$(sed -n 's/.*"primitives_expanded":\([0-9]*\).*/\1/p' <<<"$json")"
+    rc_frame="$(sed -n 's/.*"frame_ms_median":\([0-9.]*\).*/\1/p' <<<"$json")"
+    rc_rays="$(awk -v r="$(sed -n 's/.*"all_rays_per_frame":\([0-9]*\).*/\1/p' <<<"$json")" 'BEGIN { printf "%.3f", r / (512 * 384) }')"
+    out="$("$py" ci/mitsuba_bench.py --frames "$rounds" --threads "$threads" "$tmp/scene.xml" 2>&1)" || { echo "$out" >&2; exit 1; }
+    mi_frame="$(sed -n 's/^mitsuba: frame median \([0-9.]*\) s.*/\1/p' <<<"$out")"
+    mi_rays="$(sed -n 's/.*rays per pixel \([0-9.]*\).*/\1/p' <<<"$out")"
+    local -A walls=()
+    for ((i = 0; i < rounds; i++)); do
+      out="$( { /usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" --backend cpu "${picture[@]}" -o "$tmp/out.png"; } 2>&1)" || { echo "$out" >&2; exit 1; }
+      read -r _ t m <<<"$(grep '^TIME' <<<"$out" | tail -1)"
+      walls[raycast]+="$t "
+      out="$( { /usr/bin/time -f 'TIME %e %M' "$py" ci/mitsuba_bench.py --frames 0 --threads "$threads" --png "$tmp/out-mitsuba.png" "$tmp/scene.xml"; } 2>&1)" || { echo "$out" >&2; exit 1; }
+      read -r _ t m <<<"$(grep '^TIME' <<<"$out" | tail -1)"
+      walls[mitsuba]+="$t "
+    done
+    local rc_wall mi_wall
+    rc_wall="$(median_of "${walls[raycast]}")"
+    mi_wall="$(median_of "${walls[mitsuba]}")"
+    echo "| ${s##*/} | $(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n") | $counts | $(awk -v f="$rc_frame" 'BEGIN { printf "%.3f", f / 1000 }') s | $rc_rays | $mi_frame s | $mi_rays | $(awk -v a="$rc_frame" -v b="$mi_frame" 'BEGIN { printf "%.2f", b * 1000 / a }') | $(awk -v a="$rc_frame" -v b="$mi_frame" -v ra="$rc_rays" -v rb="$mi_rays" 'BEGIN { printf "%.2f", (b * 1000 / rb) / (a / ra) }') | $rc_wall s | $mi_wall s | $(awk -v a="$rc_wall" -v b="$mi_wall" 'BEGIN { printf "%.1f", b / a }') |"
+    unset walls
   done
   rm -rf "$tmp"
 }
@@ -436,6 +504,8 @@ case "${1:-}" in
   passes) shift; passes "$@"; exit ;;
   preview) shift; preview_rates "$@"; exit ;;
   povray) shift; povray_side "$@"; exit ;;
+  mitsuba) shift; mitsuba_side "$@"; exit ;;
+  peers) shift; povray_side "$@"; echo; mitsuba_side "$@"; exit ;;
 esac
 
 build=1 only="" skip=""

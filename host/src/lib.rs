@@ -119,6 +119,7 @@ pub mod image_io;
 pub mod info;
 pub mod layout;
 pub mod measure;
+pub mod mitsuba;
 pub mod output;
 pub mod pov;
 pub mod preview;

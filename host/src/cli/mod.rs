@@ -13,6 +13,7 @@ mod conformance;
 mod devices;
 mod gen;
 mod info;
+mod mitsuba;
 mod options;
 mod output;
 mod pov;
@@ -87,6 +88,8 @@ pub enum Command {
     Conformance(conformance::ConformanceArgs),
     /// Write a scene in POV-Ray 3.7's scene language (masters as declared objects), to time or view it beside POV-Ray.
     Pov(pov::PovArgs),
+    /// Write a scene in Mitsuba 3's XML format (nested masters split into shape groups and instances), to time or view it beside Mitsuba 3.
+    Mitsuba(mitsuba::MitsubaArgs),
 }
 
 /// Runs the command `cli` names.
@@ -109,5 +112,6 @@ pub fn run(cli: Cli) -> Result<(), crate::error::Error> {
         Command::Bench(args) => bench::run(&args),
         Command::Conformance(args) => conformance::run(&args),
         Command::Pov(args) => pov::run(&args),
+        Command::Mitsuba(args) => mitsuba::run(&args),
     }
 }

@@ -12,6 +12,27 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+/// The options the exporters (`pov`, `mitsuba`) share, the scene and the
+/// output aside: where to find the scene's files, the picture's size.
+#[derive(Args, Debug)]
+pub struct ExportOptions {
+    /// Extra folder to find textures and meshes in (repeatable)
+    ///
+    /// Extra folder to find textures and meshes in, after the scene file's folder (repeatable).
+    #[arg(long, value_name = "DIR", help_heading = "Picture")]
+    pub assets: Vec<PathBuf>,
+    /// Picture width in pixels (1 to 16384)
+    ///
+    /// The picture's width, for the camera's film (and, in `pov`, the command line in the file's head).
+    #[arg(long, default_value_t = 512, value_name = "W", value_parser = parse_width, help_heading = "Picture")]
+    pub width: u32,
+    /// Picture height in pixels (1 to 16384)
+    ///
+    /// The picture's height.
+    #[arg(long, default_value_t = 384, value_name = "H", value_parser = parse_height, help_heading = "Picture")]
+    pub height: u32,
+}
+
 /// The options of every command that renders frames (`render`, `check`,
 /// `bench`), the scene aside.
 #[derive(Args, Debug)]

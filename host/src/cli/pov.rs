@@ -20,23 +20,8 @@ pub struct PovArgs {
     /// Write the POV-Ray scene to FILE [default: standard output].
     #[arg(short, long, value_name = "FILE", help_heading = "Output")]
     output: Option<PathBuf>,
-    /// Extra folder to find textures in (repeatable)
-    ///
-    /// Extra folder to find textures in, after the scene file's folder (repeatable).
-    #[arg(long, value_name = "DIR", help_heading = "Picture")]
-    assets: Vec<PathBuf>,
-    /// Picture width in pixels (1 to 16384)
-    ///
-    /// The picture's width, for the camera's film and the command line in the file's head.
-    #[arg(long, default_value_t = 512, value_name = "W", value_parser = crate::args::parse_width,
-          help_heading = "Picture")]
-    width: u32,
-    /// Picture height in pixels (1 to 16384)
-    ///
-    /// The picture's height.
-    #[arg(long, default_value_t = 384, value_name = "H", value_parser = crate::args::parse_height,
-          help_heading = "Picture")]
-    height: u32,
+    #[command(flatten)]
+    picture: super::options::ExportOptions,
     /// Lights cast no shadows (`shadowless`)
     ///
     /// Lights that cast no shadows (`shadowless`), as `render --no-shadows`.
@@ -64,8 +49,8 @@ pub struct PovArgs {
 /// what POV-Ray draws otherwise said as notes.
 pub fn run(args: &PovArgs) -> Result<(), Error> {
     let settings = RenderSettings {
-        width: args.width,
-        height: args.height,
+        width: args.picture.width,
+        height: args.picture.height,
         shadows: !args.no_shadows,
         reflections: !args.no_reflections,
         refraction: !args.no_refraction,
@@ -81,7 +66,7 @@ pub fn run(args: &PovArgs) -> Result<(), Error> {
         }
         refuse_overwriting(out, name.map(Path::new))?;
     }
-    let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
+    let parse = ParseOptions { assets: args.picture.assets.clone(), skip_textures: args.no_textures };
     let (file, _) = load_scene_file(name.map(Path::new), &parse, &FlattenLimits::default())?;
     let export = crate::pov::export(&file, &settings, &scene_label(name));
     for note in &export.notes {
