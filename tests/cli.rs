@@ -2784,3 +2784,40 @@ fn course_supersampling_refines_where_the_samples_differ() {
         "--spp 4 and --supersample course are two ways to place samples",
     );
 }
+
+/// `bench --json` reports the device's phases by its timestamps (lavapipe
+/// has them): each present and at least 0, and, of one timed frame, the
+/// phases' sum at most the frame the host measured around the whole
+/// render call (a timestamp outside that call would break it).
+#[test]
+fn bench_reports_the_device_phases_by_timestamps() {
+    let args = [
+        "bench",
+        "gen:recursive-spheres:3",
+        "--no-textures",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--frames",
+        "1",
+        "--json",
+    ];
+    let o = raycast(&args, &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "stdout:\n{out}\nstderr:\n{err}");
+    let row: serde_json::Value = serde_json::from_str(out.lines().next().unwrap_or("")).unwrap();
+    let field = |name: &str| row[name].as_f64().unwrap_or_else(|| panic!("{name} missing or null: {row}"));
+    let phases: Vec<f64> =
+        ["device_clear_ms_median", "device_dispatch_ms_median", "device_readback_ms_median"].map(field).to_vec();
+    let frame = field("frame_ms_median");
+    eprintln!(
+        "rule: every phase >= 0 and their sum <= the host's frame; measured phases {phases:?} ms, frame {frame} ms"
+    );
+    assert!(phases.iter().all(|&p| p >= 0.0), "{row}");
+    assert!(field("device_dispatch_ms_median") > 0.0, "a dispatch takes time: {row}");
+    assert!(phases.iter().sum::<f64>() <= frame, "phases {phases:?} sum past the frame {frame}: {row}");
+    // The human form says them too.
+    let o = raycast(&args[..args.len() - 1], &[]);
+    assert!(text(&o).0.contains("device timestamps (medians): clears and data-image copies "), "{}", text(&o).0);
+}

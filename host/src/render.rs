@@ -168,6 +168,9 @@ pub struct GpuTimings {
     pub upload: Duration,
     pub dispatch: Duration,
     pub readback: Duration,
+    /// The device's own times of its phases, summed over the bands
+    /// (`RunTimings::device`); None where its queue has no timestamps.
+    pub device: Option<crate::gpu::DevicePhases>,
     /// The dispatches' bands of rows (`GpuRenderer::band_rows`): how many, and the rows of each but the last.
     pub bands: u32,
     pub band_rows: u32,
@@ -798,6 +801,14 @@ impl GpuRenderer {
             timings.upload += t.upload;
             timings.dispatch += t.dispatch;
             timings.readback += t.readback;
+            timings.device = match (band, timings.device, t.device) {
+                (0, _, d) => d,
+                (_, Some(mut sum), Some(d)) => {
+                    sum += d;
+                    Some(sum)
+                }
+                _ => None,
+            };
             timings.bands += 1;
         }
         timings.band_rows = band_rows.min(f.height);

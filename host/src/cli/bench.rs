@@ -16,7 +16,7 @@ use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, Error};
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gen::{count_primitives, PrimitiveCounts};
-use crate::gpu::GpuError;
+use crate::gpu::{DevicePhases, GpuError};
 use crate::layout::PixelOut;
 use crate::measure::{device_bytes, peak_host_bytes, reset_peak_host};
 use crate::render::{Picture, Renderer};
@@ -177,6 +177,9 @@ struct Row {
     frames: Vec<Duration>,
     /// The device's dispatch alone, sorted (GPU only).
     dispatch: Vec<Duration>,
+    /// The device's phases by its timestamps, one per timed frame (GPU
+    /// rows where the queue has timestamps).
+    phases: Vec<DevicePhases>,
     primary_rays: u64,
     /// Every ray of one frame (camera, shadow and mirror), as the pixels count them.
     all_rays: u64,
@@ -213,6 +216,16 @@ impl Row {
 
     fn all_mrays(&self) -> f64 {
         self.all_rays as f64 / self.median().as_secs_f64().max(1e-12) / 1e6
+    }
+
+    /// The median of each device phase over the timed frames (each phase's
+    /// own median); None where the device wrote no timestamps.
+    fn phase_medians(&self) -> Option<DevicePhases> {
+        if self.phases.is_empty() {
+            return None;
+        }
+        let of = |f: fn(&DevicePhases) -> Duration| median_time(&self.phases.iter().map(f).collect::<Vec<_>>());
+        Some(DevicePhases { clear: of(|p| p.clear), dispatch: of(|p| p.dispatch), readback: of(|p| p.readback) })
     }
 }
 
@@ -303,6 +316,11 @@ struct RowJson<'a> {
     frame_ms_min: f64,
     frame_ms_max: f64,
     dispatch_ms_median: Option<f64>,
+    /// The device's phases by its timestamps (`DevicePhases`), medians;
+    /// null where the queue has no timestamps (and on the CPU build).
+    device_clear_ms_median: Option<f64>,
+    device_dispatch_ms_median: Option<f64>,
+    device_readback_ms_median: Option<f64>,
     primary_rays_per_frame: u64,
     primary_mrays_per_s: f64,
     all_rays_per_frame: u64,
@@ -342,6 +360,9 @@ impl Row {
             frame_ms_min: ms_f(self.frames[0]),
             frame_ms_max: ms_f(*self.frames.last().unwrap()),
             dispatch_ms_median: d(&self.dispatch, median_time),
+            device_clear_ms_median: self.phase_medians().map(|p| ms_f(p.clear)),
+            device_dispatch_ms_median: self.phase_medians().map(|p| ms_f(p.dispatch)),
+            device_readback_ms_median: self.phase_medians().map(|p| ms_f(p.readback)),
             primary_rays_per_frame: self.primary_rays,
             primary_mrays_per_s: rounded(self.mrays(), 4),
             all_rays_per_frame: self.all_rays,
@@ -367,6 +388,19 @@ impl Row {
         );
         if !self.dispatch.is_empty() {
             let _ = write!(s, ", dispatch {} median", ms(median_time(&self.dispatch)));
+        }
+        if let Some(p) = self.phase_medians() {
+            let _ = write!(
+                s,
+                "\n       device timestamps (medians): clears and data-image copies {}, dispatch {}, readback copy {}",
+                ms(p.clear),
+                ms(p.dispatch),
+                if p.readback.is_zero() {
+                    "none (the kernel writes host-visible memory)".to_string()
+                } else {
+                    ms(p.readback)
+                }
+            );
         }
         let _ = write!(
             s,
@@ -788,6 +822,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             build: loaded.build,
             frames: Vec::new(),
             dispatch: Vec::new(),
+            phases: Vec::new(),
             primary_rays,
             all_rays: 0,
             host_peak: None,
@@ -820,6 +855,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
                     let (picture, t) = g.render(&loaded.data)?;
                     row.frames.push(start.elapsed());
                     row.dispatch.push(t.dispatch);
+                    row.phases.extend(t.device);
                     row.all_rays = picture.rays();
                     gpu_picture = Some(picture);
                 }
@@ -1033,6 +1069,7 @@ mod tests {
             frames: vec![Duration::from_millis(ms)],
             // The device's dispatch: a fifth of its frame (none on the CPU).
             dispatch: if backend == "cpu" { Vec::new() } else { vec![Duration::from_millis(ms) / 5] },
+            phases: Vec::new(),
             primary_rays: 1,
             // Twice the rays in the deeper scene.
             all_rays: if n > 100 { 40 } else { 20 },
@@ -1095,6 +1132,7 @@ mod tests {
             build: Duration::from_micros(250),
             frames: vec![Duration::from_millis(10), Duration::from_millis(20), Duration::from_millis(40)],
             dispatch: vec![Duration::from_millis(9)],
+            phases: Vec::new(),
             primary_rays: 1_000_000,
             all_rays: 4_000_000,
             host_peak: Some(3 << 20),

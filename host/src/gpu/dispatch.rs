@@ -50,7 +50,39 @@ pub struct RunTimings {
     pub dispatch: Duration,
     /// Copying the output to host memory.
     pub readback: Duration,
+    /// The device's own times of the run's phases, by its timestamps;
+    /// None where the queue has none.
+    pub device: Option<DevicePhases>,
 }
+
+/// The device's times of one run's phases (`RunTimings::device`), from
+/// timestamps written before and after each: what the device spent, not
+/// counting recording, submission or the host's waits.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DevicePhases {
+    /// Clearing the cleared buffers and the output, and copying the data
+    /// images from their upload buffers (the inputs' bytes themselves are
+    /// written by the host into memory the device reads in place).
+    pub clear: Duration,
+    /// The dispatches: every submission's, summed (from the end of the
+    /// clears in the first).
+    pub dispatch: Duration,
+    /// Copying the output into memory the host reads, where the run does
+    /// (zero where the kernel writes that memory itself).
+    pub readback: Duration,
+}
+
+impl std::ops::AddAssign for DevicePhases {
+    fn add_assign(&mut self, o: DevicePhases) {
+        self.clear += o.clear;
+        self.dispatch += o.dispatch;
+        self.readback += o.readback;
+    }
+}
+
+/// Timestamps of a run's submission (`record_run`): the clears' start and
+/// end (first submission only), the dispatches' start and end.
+const RUN_QUERIES: u32 = 4;
 
 /// What a run binds: every binding of its kernel exactly once.
 pub struct RunBuffers<'a> {
@@ -115,8 +147,15 @@ impl Inner {
         self.refuse_if_still_running()?;
 
         let start = Instant::now();
-        let (res, set) = self.prepare_run(kernel, buffers)?;
+        let (mut res, set) = self.prepare_run(kernel, buffers)?;
+        let stamps = self.timestamp_ticks()?;
+        if stamps.is_some() {
+            let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(RUN_QUERIES);
+            res.queries =
+                unsafe { self.device.create_query_pool(&info, None) }.map_err(GpuError::vk("vkCreateQueryPool"))?;
+        }
         let upload = start.elapsed();
+        let mut phases = DevicePhases::default();
 
         // Clear, fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
         let start = Instant::now();
@@ -133,6 +172,17 @@ impl Inner {
             res = self.submit_once(res, |d, cmd, res| unsafe {
                 record_run(d, cmd, res, kernel, set, groups, units.clone())
             })?;
+            if let Some(tick) = &stamps {
+                let mut t = [0u64; RUN_QUERIES as usize];
+                unsafe { self.device.get_query_pool_results(res.queries, 0, &mut t, vk::QueryResultFlags::TYPE_64) }
+                    .map_err(GpuError::vk("vkGetQueryPoolResults"))?;
+                if units.start == 0 {
+                    phases.clear += tick(t[0], t[1]);
+                    phases.dispatch += tick(t[1], t[3]);
+                } else {
+                    phases.dispatch += tick(t[2], t[3]);
+                }
+            }
             let (n, took) = (units.end - units.start, began.elapsed().as_nanos().max(1));
             finished = units.end;
             done(finished as f64 / rows as f64);
@@ -156,7 +206,21 @@ impl Inner {
         unsafe { d.unmap_memory(memory) };
         let readback = start.elapsed();
         drop(res);
-        Ok((out, RunTimings { upload, dispatch, readback }))
+        Ok((out, RunTimings { upload, dispatch, readback, device: stamps.map(|_| phases) }))
+    }
+
+    /// Where the queue writes timestamps: how to turn two of them into
+    /// the time between (ticks masked to the valid bits, times the period).
+    #[allow(clippy::type_complexity)]
+    fn timestamp_ticks(&self) -> Result<Option<impl Fn(u64, u64) -> Duration>, GpuError> {
+        let families = unsafe { self.parts.instance.get_physical_device_queue_family_properties(self.physical) };
+        let bits = families.get(self.queue_family as usize).map_or(0, |q| q.timestamp_valid_bits);
+        let period = f64::from(self.limits.timestamp_period);
+        if bits == 0 || period <= 0.0 {
+            return Ok(None);
+        }
+        let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+        Ok(Some(move |a: u64, b: u64| Duration::from_secs_f64((b.wrapping_sub(a) & mask) as f64 * period * 1e-9)))
     }
 
     /// Checks a run against the kernel and the device limits before anything is allocated.
@@ -431,13 +495,26 @@ unsafe fn record_run(
     units: std::ops::Range<u64>,
 ) {
     let rows = u64::from(groups[1].max(1));
+    let stamp = |stage, query| {
+        if res.queries != vk::QueryPool::null() {
+            // SAFETY: the caller's; the pool has RUN_QUERIES queries.
+            unsafe { d.cmd_write_timestamp(cmd, stage, res.queries, query) };
+        }
+    };
     // SAFETY: the caller's; every handle lives as long as the run.
     unsafe {
+        if res.queries != vk::QueryPool::null() {
+            d.cmd_reset_query_pool(cmd, res.queries, 0, RUN_QUERIES);
+        }
         if units.start == 0 {
+            stamp(vk::PipelineStageFlags::TOP_OF_PIPE, 0);
             record_run_start(d, cmd, res);
+            stamp(vk::PipelineStageFlags::BOTTOM_OF_PIPE, 1);
         }
         kernel.bind(cmd);
         d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
+        // The first submission's dispatches are timed from the clears' end (query 1).
+        stamp(vk::PipelineStageFlags::TOP_OF_PIPE, 2);
         // Unit u: row u % rows of work groups of pass u / rows; each pass's
         // rows of the range in one dispatch.
         let mut u = units.start;
@@ -454,6 +531,7 @@ unsafe fn record_run(
             d.cmd_dispatch_base(cmd, 0, row as u32, 0, groups[0], (end - u) as u32, groups[2]);
             u = end;
         }
+        stamp(vk::PipelineStageFlags::BOTTOM_OF_PIPE, 3);
         shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
     }
 }

@@ -229,6 +229,8 @@ pub(crate) struct RunResources {
     pub(crate) descriptor_pool: vk::DescriptorPool,
     pub(crate) command_pool: vk::CommandPool,
     pub(crate) fence: vk::Fence,
+    /// The run's timestamps (`dispatch::RUN_QUERIES`); null where the queue has none.
+    pub(crate) queries: vk::QueryPool,
 }
 
 impl RunResources {
@@ -243,6 +245,7 @@ impl RunResources {
             descriptor_pool: vk::DescriptorPool::null(),
             command_pool: vk::CommandPool::null(),
             fence: vk::Fence::null(),
+            queries: vk::QueryPool::null(),
         }
     }
 }
@@ -255,6 +258,7 @@ impl Drop for RunResources {
             d.destroy_fence(self.fence, None);
             d.destroy_command_pool(self.command_pool, None);
             d.destroy_descriptor_pool(self.descriptor_pool, None);
+            d.destroy_query_pool(self.queries, None);
             for image in self.images.drain(..) {
                 destroy_image(d, (image.image, image.memory, image.view));
             }

@@ -48,7 +48,7 @@ pub use cache::cache_dir;
 pub use compile::{compile_kernel, compile_kernel_pair};
 pub use context::{forced_residuals, GpuContext};
 pub use device::{list_devices, list_devices_with_default, DeviceInfo, DeviceSelector, GpuOptions};
-pub use dispatch::{device_left_running, RunBuffers, RunTimings};
+pub use dispatch::{device_left_running, DevicePhases, RunBuffers, RunTimings};
 pub(crate) use environment::switch;
 pub(crate) use environment::{own_driver_choice, user_disabled_drivers, DRIVER_CHOICE_VARS};
 pub use environment::{prepare_process, DRM_DRIVER_MANIFESTS};
