@@ -2821,3 +2821,30 @@ fn bench_reports_the_device_phases_by_timestamps() {
     let o = raycast(&args[..args.len() - 1], &[]);
     assert!(text(&o).0.contains("device timestamps (medians): clears and data-image copies "), "{}", text(&o).0);
 }
+
+/// `bench --kernel-stats` on lavapipe (Mesa 22.3 offers no
+/// VK_KHR_pipeline_executable_properties): it runs, exits 0, and says the
+/// driver reports none, in words and in the JSON row; a driver that does
+/// report them (NVIDIA) lists its executables there instead.
+#[test]
+fn bench_kernel_stats_says_when_the_driver_reports_none() {
+    let args =
+        ["bench", "gen:recursive-spheres:2", "--no-textures", "--width", "16", "--height", "12", "--frames", "1"];
+    let o = raycast(&[&args[..], &["--kernel-stats"]].concat(), &[]);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "stdout:\n{out}\nstderr:\n{err}");
+    let device = out.lines().next().unwrap_or("");
+    if !device.contains("llvmpipe") {
+        eprintln!("skipped: the default device is not lavapipe ({device}); its statistics are not predictable here");
+        return;
+    }
+    assert!(out.contains("kernel statistics: not reported by this driver"), "{out}");
+    let o = raycast(&[&args[..], &["--kernel-stats", "--json"]].concat(), &[]);
+    let row: serde_json::Value = serde_json::from_str(text(&o).0.lines().next().unwrap_or("")).unwrap();
+    let said = row["kernel_statistics"].as_str().unwrap_or_else(|| panic!("{row}"));
+    assert!(said.starts_with("not reported by this driver"), "{row}");
+    // Without the flag, no such field.
+    let o = raycast(&[&args[..], &["--json"]].concat(), &[]);
+    assert!(!text(&o).0.contains("kernel_statistics"), "{}", text(&o).0);
+    assert_fails(&raycast(&[&args[..], &["--kernel-stats", "--markdown"]].concat(), &[]), 2, "cannot be used with");
+}

@@ -16,7 +16,7 @@ use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, Error};
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gen::{count_primitives, PrimitiveCounts};
-use crate::gpu::{DevicePhases, GpuError};
+use crate::gpu::{DevicePhases, Executable, GpuError};
 use crate::layout::PixelOut;
 use crate::measure::{device_bytes, peak_host_bytes, reset_peak_host};
 use crate::render::{Picture, Renderer};
@@ -83,7 +83,20 @@ pub struct BenchArgs {
     /// told by its `growth_against`, and a line a fit, by its `growth_fit`.
     #[arg(long, help_heading = "Timing")]
     pub growth: bool,
+    /// The driver's statistics of each scene's kernel (registers, occupancy)
+    ///
+    /// Per scene, the device driver's statistics of the kernel it ran
+    /// (registers, shared memory, occupancy: whatever the driver names,
+    /// through VK_KHR_pipeline_executable_properties, as NVIDIA's offers),
+    /// from the pipeline built again to keep them; where the driver reports
+    /// none (lavapipe), says so. With --json, a row's `kernel_statistics`.
+    #[arg(long, conflicts_with_all = ["markdown", "versus"], help_heading = "Output")]
+    pub kernel_stats: bool,
 }
+
+/// What `--kernel-stats` says where the driver reports no statistics.
+const NO_KERNEL_STATS: &str =
+    "not reported by this driver (it lacks VK_KHR_pipeline_executable_properties or its pipelineExecutableInfo)";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum BenchBackend {
@@ -192,6 +205,9 @@ struct Row {
     /// object; zero where an earlier scene's is the same) and how it was
     /// built (`Kernel::how_built`).
     kernel_build: Option<(Duration, Option<String>)>,
+    /// GPU rows with --kernel-stats: the driver's statistics of the
+    /// kernel's executables, None where it reports none.
+    kernel_stats: Option<Option<Vec<Executable>>>,
 }
 
 /// `median` of durations (none: zero).
@@ -330,6 +346,10 @@ struct RowJson<'a> {
     cpu_over_gpu: Option<f64>,
     identical_to_gpu: Option<bool>,
     kernel_build_ms: Option<f64>,
+    /// With --kernel-stats: the executables and their statistics, or the
+    /// words `NO_KERNEL_STATS`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kernel_statistics: Option<serde_json::Value>,
     host_cpu: String,
     host_threads: usize,
 }
@@ -372,6 +392,10 @@ impl Row {
             cpu_over_gpu: self.cpu_over_gpu.map(|r| rounded(r, 3)),
             identical_to_gpu: self.identical,
             kernel_build_ms: self.kernel_build.as_ref().map(|(t, _)| ms_f(*t)),
+            kernel_statistics: self.kernel_stats.as_ref().map(|stats| match stats {
+                Some(executables) => serde_json::to_value(executables).unwrap_or_default(),
+                None => serde_json::Value::from(NO_KERNEL_STATS),
+            }),
             host_cpu: crate::cpu::host_cpu(),
             host_threads: crate::cpu::host_threads(),
         })
@@ -416,6 +440,24 @@ impl Row {
             Some((t, how)) => {
                 let how = how.as_ref().map(|h| format!(" ({h})")).unwrap_or_default();
                 let _ = write!(s, "\n       kernel built in {}{how}", ms(*t));
+            }
+            None => {}
+        }
+        match &self.kernel_stats {
+            Some(None) => {
+                let _ = write!(s, "\n       kernel statistics: {NO_KERNEL_STATS}");
+            }
+            Some(Some(executables)) => {
+                for e in executables {
+                    let _ = write!(
+                        s,
+                        "\n       kernel statistics of executable {} ({}; subgroup size {}):",
+                        e.name, e.description, e.subgroup_size
+                    );
+                    for stat in &e.statistics {
+                        let _ = write!(s, "\n         {}: {} ({})", stat.name, stat.value, stat.description);
+                    }
+                }
             }
             None => {}
         }
@@ -830,6 +872,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             cpu_over_gpu: None,
             identical: None,
             kernel_build: None,
+            kernel_stats: None,
         };
         let peak = |since_reset: Option<u64>| match (load_peak, since_reset) {
             (Some(a), Some(b)) => Some(a.max(b)),
@@ -845,6 +888,9 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             let backend = if uniform { "gpu uniform" } else { "gpu storage" };
             let mut row = row(backend, device);
             row.kernel_build = Some((g.compile_time() - compiled_before, kernel.how_built()));
+            if args.kernel_stats {
+                row.kernel_stats = Some(g.kernel_statistics(&loaded.data)?);
+            }
             reset_peak_host();
             let timed = (|| {
                 for _ in 0..args.warmup {
@@ -1078,6 +1124,7 @@ mod tests {
             cpu_over_gpu: None,
             identical: None,
             kernel_build: None,
+            kernel_stats: None,
         };
         let rows = [
             row("a", "gpu uniform", 100, 10),
@@ -1140,6 +1187,7 @@ mod tests {
             cpu_over_gpu: None,
             identical: None,
             kernel_build: Some((Duration::from_micros(43_500), Some("SPIR-V specialised ahead".into()))),
+            kernel_stats: None,
         };
         let j = row.json(&RenderSettings::default(), 1);
         assert!(j.starts_with("{\"scene\":\"a \\\"b\\\"\",\"backend\":\"gpu\""), "{j}");

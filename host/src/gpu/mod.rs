@@ -56,7 +56,7 @@ pub use error::{GpuError, LESS_DATA};
 pub use fma_probe::fma_rounds_once;
 pub use frames::{FrameLoop, FrameStatus};
 pub use image::{DataImage, ImageBinding, ImageFormat, StorageImage};
-pub use kernel::Kernel;
+pub use kernel::{Executable, Kernel, Statistic, StatisticValue};
 pub use present::{PresentMode, Swapchain};
 pub(crate) use shader_object::ShaderSource;
 pub(crate) use specialize::Specialised;
