@@ -2848,3 +2848,32 @@ fn bench_kernel_stats_says_when_the_driver_reports_none() {
     assert!(!text(&o).0.contains("kernel_statistics"), "{}", text(&o).0);
     assert_fails(&raycast(&[&args[..], &["--kernel-stats", "--markdown"]].concat(), &[]), 2, "cannot be used with");
 }
+
+/// RAYCAST_OUTPUT_COPY=1 keeps a run's output where a discrete GPU keeps
+/// it (device-local, copied for the host after the last pass) on lavapipe
+/// too: the pictures keep every bit, with validation on, in one submission
+/// and in several (a picture of more than 4,096 work groups is split), and
+/// bench times the copy (a readback phase above 0 ms).
+#[test]
+fn a_device_local_output_copied_back_keeps_every_bit() {
+    let dir = empty_dir("output-copy");
+    for (size, scene) in [(["64", "48"], "gen:recursive-spheres:3"), (["1024", "520"], "gen:recursive-spheres:2")] {
+        let picture = |name: &str, copy: &str| {
+            let path = dir.join(name);
+            let args = ["render", scene, "--no-textures", "--width", size[0], "--height", size[1], "-o"];
+            let o = raycast(&[&args[..], &[path.to_str().unwrap()]].concat(), &[("RAYCAST_OUTPUT_COPY", copy)]);
+            assert!(o.status.success(), "{:?}", text(&o));
+            std::fs::read(path).unwrap()
+        };
+        let (direct, copied) = (picture("direct.png", "0"), picture("copied.png", "1"));
+        eprintln!("rule: identical bytes; {}x{}: {} and {} bytes", size[0], size[1], direct.len(), copied.len());
+        assert!(direct == copied, "{scene} at {size:?}: the copied output's picture differs");
+    }
+    let args =
+        ["bench", "gen:recursive-spheres:2", "--no-textures", "--width", "64", "--height", "48", "--frames", "1"];
+    let o = raycast(&[&args[..], &["--json"]].concat(), &[("RAYCAST_OUTPUT_COPY", "1")]);
+    let row: serde_json::Value = serde_json::from_str(text(&o).0.lines().next().unwrap_or("")).unwrap();
+    let copy = row["device_readback_ms_median"].as_f64().unwrap_or_else(|| panic!("{row}"));
+    eprintln!("rule: the copy takes device time > 0; measured {copy} ms");
+    assert!(copy > 0.0, "{row}");
+}

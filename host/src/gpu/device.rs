@@ -176,6 +176,12 @@ pub(crate) struct Inner {
     pub(crate) shader_objects: Option<shader_object::ShaderObjects>,
     /// Pipelines are built from SPIR-V specialised ahead (specialize.rs).
     pub(crate) specialise_ahead: bool,
+    /// A run's output lives in device-local memory, and is copied to memory
+    /// the host reads after the last pass (`dispatch::record_run`): where
+    /// the device has device-local memory the host cannot map (a discrete
+    /// GPU), so the kernel's writes stay on the device; RAYCAST_OUTPUT_COPY
+    /// = 0 or 1 overrides (1 tests the copy on lavapipe).
+    pub(crate) output_copy: bool,
     /// VK_KHR_pipeline_executable_properties, where the device offers it
     /// (`Kernel::statistics`); None: its driver reports no statistics.
     pub(crate) executables: Option<ash::khr::pipeline_executable_properties::Device>,
@@ -442,6 +448,11 @@ impl Inner {
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let specialise_ahead = physical.info.specialises_ahead;
         let executables = executables.then(|| ash::khr::pipeline_executable_properties::Device::new(instance, &device));
+        let apart = memory.memory_types[..memory.memory_type_count as usize].iter().any(|t| {
+            t.property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL)
+                && !t.property_flags.contains(vk::MemoryPropertyFlags::HOST_VISIBLE)
+        });
+        let output_copy = environment::switch("RAYCAST_OUTPUT_COPY").unwrap_or(apart);
 
         Ok(Inner {
             abandoned: Mutex::new(Vec::new()),
@@ -458,6 +469,7 @@ impl Inner {
             division: OnceLock::new(),
             shader_objects,
             specialise_ahead,
+            output_copy,
             executables,
             physical: physical.handle,
             surface: window.map(|(surface, _)| surface),

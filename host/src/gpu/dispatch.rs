@@ -81,8 +81,9 @@ impl std::ops::AddAssign for DevicePhases {
 }
 
 /// Timestamps of a run's submission (`record_run`): the clears' start and
-/// end (first submission only), the dispatches' start and end.
-const RUN_QUERIES: u32 = 4;
+/// end (first submission only), the dispatches' start and end, the output
+/// copy's start and end (last submission, where the output is copied).
+const RUN_QUERIES: u32 = 6;
 
 /// What a run binds: every binding of its kernel exactly once.
 pub struct RunBuffers<'a> {
@@ -169,18 +170,30 @@ impl Inner {
         while finished < total {
             let units = finished..(finished + chunk).min(total);
             let began = Instant::now();
+            let last = units.end == total;
             res = self.submit_once(res, |d, cmd, res| unsafe {
-                record_run(d, cmd, res, kernel, set, groups, units.clone())
+                record_run(d, cmd, res, kernel, set, groups, units.clone(), last)
             })?;
             if let Some(tick) = &stamps {
-                let mut t = [0u64; RUN_QUERIES as usize];
-                unsafe { self.device.get_query_pool_results(res.queries, 0, &mut t, vk::QueryResultFlags::TYPE_64) }
-                    .map_err(GpuError::vk("vkGetQueryPoolResults"))?;
+                // Only the queries this submission wrote: the others are not available.
+                let read = |first: u32| {
+                    let mut t = [0u64; 2];
+                    let flags = vk::QueryResultFlags::TYPE_64;
+                    unsafe { self.device.get_query_pool_results(res.queries, first, &mut t, flags) }
+                        .map(|()| t)
+                        .map_err(GpuError::vk("vkGetQueryPoolResults"))
+                };
+                let [start, end] = read(2)?;
                 if units.start == 0 {
-                    phases.clear += tick(t[0], t[1]);
-                    phases.dispatch += tick(t[1], t[3]);
+                    let [clear, cleared] = read(0)?;
+                    phases.clear += tick(clear, cleared);
+                    phases.dispatch += tick(cleared, end);
                 } else {
-                    phases.dispatch += tick(t[2], t[3]);
+                    phases.dispatch += tick(start, end);
+                }
+                if last && res.output_copy.is_some() {
+                    let [copy, copied] = read(4)?;
+                    phases.readback += tick(copy, copied);
                 }
             }
             let (n, took) = (units.end - units.start, began.elapsed().as_nanos().max(1));
@@ -317,16 +330,19 @@ impl Inner {
             res.fills.push((buffer, 0));
         }
         let (out_binding, out_len) = buffers.output;
-        let (buffer, memory) = create_buffer(
-            &self.device,
-            &self.memory,
-            &mut res,
-            buffer_size(out_len),
-            Place::Readback,
-            &kernel.binding_label(out_binding),
-        )?;
+        let place = if self.output_copy { Place::Device } else { Place::Readback };
+        let what = kernel.binding_label(out_binding);
+        let size = buffer_size(out_len);
+        let (buffer, mut memory) = create_buffer(&self.device, &self.memory, &mut res, size, place, &what)?;
         res.bindings.push((out_binding, buffer));
         res.fills.push((buffer, buffers.fill));
+        if self.output_copy {
+            // The host reads a copy, made after the last pass.
+            let copy = format!("{what}, its copy for the host");
+            let host;
+            (host, memory) = create_buffer(&self.device, &self.memory, &mut res, size, Place::Readback, &copy)?;
+            res.output_copy = Some((buffer, host, size));
+        }
         res.output = memory;
         let set = self.run_descriptor_set(&mut res, kernel)?;
         Ok((res, set))
@@ -480,11 +496,13 @@ impl Inner {
 /// Records a run: the device's fills (`RunResources::fills`) and the data
 /// images' copies, then `passes` dispatches of `groups`, each seeing the
 /// writes of the one before, then a barrier that makes the writes visible
-/// to the host.
+/// to the host; in the `last` submission, where the output is device-local,
+/// its copy to the host's buffer first (`RunResources::output_copy`).
 ///
 /// # Safety
 /// `cmd` is a command buffer of `d` in the recording state; `res` and
 /// `set` were made for `kernel` (`Inner::prepare_run`).
+#[allow(clippy::too_many_arguments)]
 unsafe fn record_run(
     d: &ash::Device,
     cmd: vk::CommandBuffer,
@@ -493,6 +511,7 @@ unsafe fn record_run(
     set: vk::DescriptorSet,
     groups: [u32; 3],
     units: std::ops::Range<u64>,
+    last: bool,
 ) {
     let rows = u64::from(groups[1].max(1));
     let stamp = |stage, query| {
@@ -532,6 +551,25 @@ unsafe fn record_run(
             u = end;
         }
         stamp(vk::PipelineStageFlags::BOTTOM_OF_PIPE, 3);
+        if let (true, Some((output, host, size))) = (last, res.output_copy) {
+            shader_writes_barrier(d, cmd, vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ);
+            stamp(vk::PipelineStageFlags::TOP_OF_PIPE, 4);
+            d.cmd_copy_buffer(cmd, output, host, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
+            stamp(vk::PipelineStageFlags::BOTTOM_OF_PIPE, 5);
+            let copied = [vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ)];
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &copied,
+                &[],
+                &[],
+            );
+            return;
+        }
         shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
     }
 }

@@ -225,6 +225,10 @@ pub(crate) struct RunResources {
     pub(crate) fills: Vec<(vk::Buffer, u32)>,
     /// The memory of the buffer read back.
     pub(crate) output: vk::DeviceMemory,
+    /// Where the kernel's output is device-local (`Inner::output_copy`):
+    /// it, the host-visible buffer it is copied to after the last pass,
+    /// and the bytes copied.
+    pub(crate) output_copy: Option<(vk::Buffer, vk::Buffer, u64)>,
     pub(crate) images: Vec<RunImage>,
     pub(crate) descriptor_pool: vk::DescriptorPool,
     pub(crate) command_pool: vk::CommandPool,
@@ -241,6 +245,7 @@ impl RunResources {
             bindings: Vec::new(),
             fills: Vec::new(),
             output: vk::DeviceMemory::null(),
+            output_copy: None,
             images: Vec::new(),
             descriptor_pool: vk::DescriptorPool::null(),
             command_pool: vk::CommandPool::null(),
