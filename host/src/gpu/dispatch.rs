@@ -556,18 +556,8 @@ unsafe fn record_run(
             stamp(vk::PipelineStageFlags::TOP_OF_PIPE, 4);
             d.cmd_copy_buffer(cmd, output, host, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
             stamp(vk::PipelineStageFlags::BOTTOM_OF_PIPE, 5);
-            let copied = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)];
-            d.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &copied,
-                &[],
-                &[],
-            );
+            let transfer = (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE);
+            memory_barrier(d, cmd, transfer, (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ));
             return;
         }
         shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
@@ -585,18 +575,9 @@ unsafe fn record_run_start(d: &ash::Device, cmd: vk::CommandBuffer, res: &RunRes
         for &(buffer, value) in &res.fills {
             d.cmd_fill_buffer(cmd, buffer, 0, vk::WHOLE_SIZE, value);
         }
-        let filled = [vk::MemoryBarrier::default()
-            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-            .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
-        d.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::COMPUTE_SHADER,
-            vk::DependencyFlags::empty(),
-            &filled,
-            &[],
-            &[],
-        );
+        let shader = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+        let transfer = (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE);
+        memory_barrier(d, cmd, transfer, (vk::PipelineStageFlags::COMPUTE_SHADER, shader));
         for image in &res.images {
             record_image_upload(d, cmd, image.source, image.image, image.texels);
         }
@@ -614,20 +595,25 @@ unsafe fn shader_writes_barrier(
     dst_stage: vk::PipelineStageFlags,
     dst_access: vk::AccessFlags,
 ) {
-    let barrier =
-        [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(dst_access)];
+    let src = (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE);
     // SAFETY: the caller's.
-    unsafe {
-        d.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::COMPUTE_SHADER,
-            dst_stage,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        )
-    };
+    unsafe { memory_barrier(d, cmd, src, (dst_stage, dst_access)) };
+}
+
+/// Records a barrier on all memory: `src`'s accesses at its stage made
+/// visible to `dst`'s (each a stage and its accesses).
+///
+/// # Safety
+/// `cmd` is a command buffer of `d` in the recording state.
+unsafe fn memory_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = [vk::MemoryBarrier::default().src_access_mask(src.1).dst_access_mask(dst.1)];
+    // SAFETY: the caller's.
+    unsafe { d.cmd_pipeline_barrier(cmd, src.0, dst.0, vk::DependencyFlags::empty(), &barrier, &[], &[]) };
 }
 
 impl Inner {
