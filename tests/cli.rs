@@ -2699,7 +2699,7 @@ fn check_json_describes_each_scene() {
 
 /// Every command's `-h` is one line a flag under headings: at 80 columns
 /// no line is wider and none runs past 45 lines (measured when written:
-/// render 40, check 41, bench 43, preview 38, trace 33, pov 26, info 24,
+/// render 40, check 41, bench 44, preview 38, trace 33, pov 26, info 24,
 /// conformance 24, compare 23, gen 23, shader-test 21, devices 10), and
 /// every flag's short line fits beside it (none wraps onto a line of its own).
 #[test]

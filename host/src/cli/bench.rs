@@ -83,7 +83,7 @@ pub struct BenchArgs {
     /// told by its `growth_against`, and a line a fit, by its `growth_fit`.
     #[arg(long, help_heading = "Timing")]
     pub growth: bool,
-    /// The driver's statistics of each scene's kernel (registers, occupancy)
+    /// The driver's statistics of each scene's kernel
     ///
     /// Per scene, the device driver's statistics of the kernel it ran
     /// (registers, shared memory, occupancy: whatever the driver names,
