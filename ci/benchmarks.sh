@@ -57,6 +57,17 @@
 #                                       kernel's division correction: residuals as the fma
 #                                       probe chose, Dekker's, and no correction; and of the
 #                                       fast kernel (--kernel fast), in turn.
+#   ci/benchmarks.sh profile [--device NAME] [--frames N] SCENE...
+#                                       `build/raycast bench --json` per scene at 1920x1080 and
+#                                       512x384 under five settings (the exact kernel, all on;
+#                                       the fast kernel; no shadows; no mirrors; neither, the
+#                                       last three on the fast kernel): the frame, the host's dispatch and
+#                                       the device's timestamps per phase (clears, dispatch,
+#                                       readback copy), rays a second by frame and by the
+#                                       device's dispatch; then each scene's kernel statistics
+#                                       (`bench --kernel-stats`).
+#                                       PROFILE_SIZES="W1xH1 ..." replaces the two sizes (a dry run
+#                                       on lavapipe).
 #   ci/benchmarks.sh checks [--device NAME] SCENE...
 #                                       `build/raycast check` per scene: how many pixels
 #                                       differ between the device and the CPU build, per
@@ -492,8 +503,59 @@ division() {
   done
 }
 
+# A number field of one `bench --json` line ("null" where absent).
+json_field() {
+  sed -n "s/.*\"$2\":\([^,}]*\).*/\1/p" <<<"$1"
+}
+
+profile() {
+  local opts=() frames=10 s size v line out
+  while [[ "${1:-}" == --* ]]; do
+    if [ "$1" = --frames ]; then frames="$2"; else opts+=("$1" "$2"); fi
+    shift 2
+  done
+  echo "\`ci/benchmarks.sh profile ${opts[*]}${opts:+ }--frames $frames SCENE...\`: \`$RAYCAST bench SCENE --json --frames $frames --warmup 2 --assets $CORPUS${opts:+ }${opts[*]}\` at each size under five settings: all on with the exact kernel (\`--exact\`), all on with the fast kernel (\`--kernel fast\`), then on the fast kernel \`--no-shadows\`, \`--no-reflections\`, and both. frame: the whole render call (median); host dispatch: recording, submission and the wait; device: the queue's timestamps (clears of the buffers and the data images' copies; the dispatches; the output's copy for the host, none where the kernel writes host-visible memory); Mrays/s: every ray (camera, shadow, mirror) over the frame, and over the device's dispatch."
+  echo
+  echo "| scene | size | setting | frame | host dispatch | device clears | device dispatch | device readback copy | all Mrays/s (frame) | all Mrays/s (device dispatch) |"
+  echo "|---|---|---|---|---|---|---|---|---|---|"
+  for s in "$@"; do
+    for size in ${PROFILE_SIZES:-1920x1080 512x384}; do
+      for v in all fast no-shadows no-reflections neither; do
+        local args=()
+        case $v in
+          all) args=(--exact) ;;
+          fast) args=(--kernel fast) ;;
+          no-shadows) args=(--kernel fast --no-shadows) ;;
+          no-reflections) args=(--kernel fast --no-reflections) ;;
+          neither) args=(--kernel fast --no-shadows --no-reflections) ;;
+        esac
+        out="$("$RAYCAST" bench "$s" --json --frames "$frames" --warmup 2 --assets "$CORPUS" \
+          --width "${size%x*}" --height "${size#*x}" "${opts[@]}" "${args[@]}" 2>/dev/null)" || { echo "| ${s##*/} | $size | $v | failed |"; continue; }
+        line="$(grep -m1 '"frame_ms_median"' <<<"$out")"
+        if [ -z "$line" ]; then
+          echo "| ${s##*/} | $size | $v | $(sed -n 's/.*"skipped":"\([^"]*\)".*/\1/p' <<<"$out" | head -1) |"
+          continue
+        fi
+        local rays dd
+        rays="$(json_field "$line" all_rays_per_frame)"
+        dd="$(json_field "$line" device_dispatch_ms_median)"
+        echo "| ${s##*/} | $size | $v | $(json_field "$line" frame_ms_median) ms | $(json_field "$line" dispatch_ms_median) ms | $(json_field "$line" device_clear_ms_median) ms | $dd ms | $(json_field "$line" device_readback_ms_median) ms | $(json_field "$line" all_mrays_per_s) | $(awk -v r="$rays" -v t="$dd" 'BEGIN { if (t > 0) printf "%.1f", r / t / 1e3; else print "–" }') |"
+      done
+    done
+  done
+  echo
+  echo "Kernel statistics (\`$RAYCAST bench SCENE --kernel-stats --frames 1 --warmup 0 --width 1920 --height 1080${opts:+ }${opts[*]}\`), as the driver names them:"
+  echo
+  for s in "$@"; do
+    echo "- ${s##*/}:"
+    "$RAYCAST" bench "$s" --kernel-stats --frames 1 --warmup 0 --assets "$CORPUS" --width 1920 --height 1080 "${opts[@]}" 2>/dev/null \
+      | sed -n '/kernel statistics/,$p' | grep -v 'cpu/gpu' | sed 's/^ */  - /'
+  done
+}
+
 case "${1:-}" in
   machine) machine; exit ;;
+  profile) shift; profile "$@"; exit ;;
   division) shift; division "$@"; exit ;;
   wall) shift; wall "$@"; exit ;;
   checks) shift; checks "$@"; exit ;;

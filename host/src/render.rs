@@ -168,6 +168,9 @@ pub struct GpuTimings {
     pub upload: Duration,
     pub dispatch: Duration,
     pub readback: Duration,
+    /// The device's own times of its phases, summed over the bands
+    /// (`RunTimings::device`); None where its queue has no timestamps.
+    pub device: Option<crate::gpu::DevicePhases>,
     /// The dispatches' bands of rows (`GpuRenderer::band_rows`): how many, and the rows of each but the last.
     pub bands: u32,
     pub band_rows: u32,
@@ -665,20 +668,42 @@ impl GpuRenderer {
         if let Some((_, k)) = kernels.iter().find(|(k, _)| *k == key) {
             return Ok(k.clone());
         }
-        let (name, spirv, bindings) = if want_uniform {
-            let Some(u) = &self.uniform else {
-                return Err(uniform_error("there is no render_uniform.comp (in the --shaders folder)".into()));
-            };
-            (UNIFORM_KERNEL, u, layout::render_uniform_bindings())
-        } else {
-            ("render", &self.storage, layout::render_bindings())
-        };
-        let images = if want_uniform { layout::uniform_kernel_images() } else { Vec::new() };
+        let (name, spirv, bindings, images) = self.kernel_source(want_uniform)?;
         let start = Instant::now();
         let k = Arc::new(Kernel::specialized(&self.context, name, spirv, &bindings, &images, &key.1.constants())?);
         *self.compile_time.lock().unwrap_or_else(|p| p.into_inner()) += start.elapsed();
         kernels.push((key, k.clone()));
         Ok(k)
+    }
+
+    /// What the kernel is built from: its name, SPIR-V, buffer bindings
+    /// and images (render_uniform.comp's where `want_uniform`).
+    #[allow(clippy::type_complexity)]
+    fn kernel_source(
+        &self,
+        want_uniform: bool,
+    ) -> Result<(&'static str, &[u8], Vec<crate::layout::BindingLayout>, Vec<crate::gpu::ImageBinding>), GpuError> {
+        if !want_uniform {
+            return Ok(("render", &self.storage, layout::render_bindings(), Vec::new()));
+        }
+        let Some(u) = &self.uniform else {
+            return Err(uniform_error("there is no render_uniform.comp (in the --shaders folder)".into()));
+        };
+        Ok((UNIFORM_KERNEL, u, layout::render_uniform_bindings(), layout::uniform_kernel_images()))
+    }
+
+    /// The driver's statistics of the kernel `kernel_for` chooses for
+    /// `data` (registers, shared memory, occupancy: as the driver names
+    /// them), from a pipeline built again to keep them
+    /// (`Kernel::for_statistics`); None where the device reports none.
+    pub fn kernel_statistics(&self, data: &FrameData) -> Result<Option<Vec<crate::gpu::Executable>>, GpuError> {
+        let want_uniform = self.wants_uniform(data)?;
+        let (name, spirv, bindings, images) = self.kernel_source(want_uniform)?;
+        let constants = Specialization::of(data, &data.frame).constants();
+        let Some(kernel) = Kernel::for_statistics(&self.context, name, spirv, &bindings, &images, &constants)? else {
+            return Ok(None);
+        };
+        kernel.statistics().map(Some)
     }
 
     /// Whether `data` is drawn by render_uniform.comp (the choice made,
@@ -798,6 +823,14 @@ impl GpuRenderer {
             timings.upload += t.upload;
             timings.dispatch += t.dispatch;
             timings.readback += t.readback;
+            timings.device = match (band, timings.device, t.device) {
+                (0, _, d) => d,
+                (_, Some(mut sum), Some(d)) => {
+                    sum += d;
+                    Some(sum)
+                }
+                _ => None,
+            };
             timings.bands += 1;
         }
         timings.band_rows = band_rows.min(f.height);

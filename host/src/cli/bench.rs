@@ -16,7 +16,7 @@ use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, Error};
 use crate::frame::{self, Aov, FrameData, RenderSettings};
 use crate::gen::{count_primitives, PrimitiveCounts};
-use crate::gpu::GpuError;
+use crate::gpu::{DevicePhases, Executable, GpuError};
 use crate::layout::PixelOut;
 use crate::measure::{device_bytes, peak_host_bytes, reset_peak_host};
 use crate::render::{Picture, Renderer};
@@ -83,7 +83,20 @@ pub struct BenchArgs {
     /// told by its `growth_against`, and a line a fit, by its `growth_fit`.
     #[arg(long, help_heading = "Timing")]
     pub growth: bool,
+    /// The driver's statistics of each scene's kernel
+    ///
+    /// Per scene, the device driver's statistics of the kernel it ran
+    /// (registers, shared memory, occupancy: whatever the driver names,
+    /// through VK_KHR_pipeline_executable_properties, as NVIDIA's offers),
+    /// from the pipeline built again to keep them; where the driver reports
+    /// none (lavapipe), says so. With --json, a row's `kernel_statistics`.
+    #[arg(long, conflicts_with_all = ["markdown", "versus"], help_heading = "Output")]
+    pub kernel_stats: bool,
 }
+
+/// What `--kernel-stats` says where the driver reports no statistics.
+const NO_KERNEL_STATS: &str =
+    "not reported by this driver (it lacks VK_KHR_pipeline_executable_properties or its pipelineExecutableInfo)";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum BenchBackend {
@@ -177,6 +190,9 @@ struct Row {
     frames: Vec<Duration>,
     /// The device's dispatch alone, sorted (GPU only).
     dispatch: Vec<Duration>,
+    /// The device's phases by its timestamps, one per timed frame (GPU
+    /// rows where the queue has timestamps).
+    phases: Vec<DevicePhases>,
     primary_rays: u64,
     /// Every ray of one frame (camera, shadow and mirror), as the pixels count them.
     all_rays: u64,
@@ -189,6 +205,9 @@ struct Row {
     /// object; zero where an earlier scene's is the same) and how it was
     /// built (`Kernel::how_built`).
     kernel_build: Option<(Duration, Option<String>)>,
+    /// GPU rows with --kernel-stats: the driver's statistics of the
+    /// kernel's executables, None where it reports none.
+    kernel_stats: Option<Option<Vec<Executable>>>,
 }
 
 /// `median` of durations (none: zero).
@@ -213,6 +232,16 @@ impl Row {
 
     fn all_mrays(&self) -> f64 {
         self.all_rays as f64 / self.median().as_secs_f64().max(1e-12) / 1e6
+    }
+
+    /// The median of each device phase over the timed frames (each phase's
+    /// own median); None where the device wrote no timestamps.
+    fn phase_medians(&self) -> Option<DevicePhases> {
+        if self.phases.is_empty() {
+            return None;
+        }
+        let of = |f: fn(&DevicePhases) -> Duration| median_time(&self.phases.iter().map(f).collect::<Vec<_>>());
+        Some(DevicePhases { clear: of(|p| p.clear), dispatch: of(|p| p.dispatch), readback: of(|p| p.readback) })
     }
 }
 
@@ -303,6 +332,11 @@ struct RowJson<'a> {
     frame_ms_min: f64,
     frame_ms_max: f64,
     dispatch_ms_median: Option<f64>,
+    /// The device's phases by its timestamps (`DevicePhases`), medians;
+    /// null where the queue has no timestamps (and on the CPU build).
+    device_clear_ms_median: Option<f64>,
+    device_dispatch_ms_median: Option<f64>,
+    device_readback_ms_median: Option<f64>,
     primary_rays_per_frame: u64,
     primary_mrays_per_s: f64,
     all_rays_per_frame: u64,
@@ -312,6 +346,10 @@ struct RowJson<'a> {
     cpu_over_gpu: Option<f64>,
     identical_to_gpu: Option<bool>,
     kernel_build_ms: Option<f64>,
+    /// With --kernel-stats: the executables and their statistics, or the
+    /// words `NO_KERNEL_STATS`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kernel_statistics: Option<serde_json::Value>,
     host_cpu: String,
     host_threads: usize,
 }
@@ -342,6 +380,9 @@ impl Row {
             frame_ms_min: ms_f(self.frames[0]),
             frame_ms_max: ms_f(*self.frames.last().unwrap()),
             dispatch_ms_median: d(&self.dispatch, median_time),
+            device_clear_ms_median: self.phase_medians().map(|p| ms_f(p.clear)),
+            device_dispatch_ms_median: self.phase_medians().map(|p| ms_f(p.dispatch)),
+            device_readback_ms_median: self.phase_medians().map(|p| ms_f(p.readback)),
             primary_rays_per_frame: self.primary_rays,
             primary_mrays_per_s: rounded(self.mrays(), 4),
             all_rays_per_frame: self.all_rays,
@@ -351,6 +392,10 @@ impl Row {
             cpu_over_gpu: self.cpu_over_gpu.map(|r| rounded(r, 3)),
             identical_to_gpu: self.identical,
             kernel_build_ms: self.kernel_build.as_ref().map(|(t, _)| ms_f(*t)),
+            kernel_statistics: self.kernel_stats.as_ref().map(|stats| match stats {
+                Some(executables) => serde_json::to_value(executables).unwrap_or_default(),
+                None => serde_json::Value::from(NO_KERNEL_STATS),
+            }),
             host_cpu: crate::cpu::host_cpu(),
             host_threads: crate::cpu::host_threads(),
         })
@@ -368,6 +413,19 @@ impl Row {
         if !self.dispatch.is_empty() {
             let _ = write!(s, ", dispatch {} median", ms(median_time(&self.dispatch)));
         }
+        if let Some(p) = self.phase_medians() {
+            let _ = write!(
+                s,
+                "\n       device timestamps (medians): clears and data-image copies {}, dispatch {}, readback copy {}",
+                ms(p.clear),
+                ms(p.dispatch),
+                if p.readback.is_zero() {
+                    "none (the kernel writes host-visible memory)".to_string()
+                } else {
+                    ms(p.readback)
+                }
+            );
+        }
         let _ = write!(
             s,
             "\n       {:.3} M primary rays/s, {:.3} M rays/s in all ({:.2} rays per camera ray)\n       host peak {}, device {}",
@@ -382,6 +440,24 @@ impl Row {
             Some((t, how)) => {
                 let how = how.as_ref().map(|h| format!(" ({h})")).unwrap_or_default();
                 let _ = write!(s, "\n       kernel built in {}{how}", ms(*t));
+            }
+            None => {}
+        }
+        match &self.kernel_stats {
+            Some(None) => {
+                let _ = write!(s, "\n       kernel statistics: {NO_KERNEL_STATS}");
+            }
+            Some(Some(executables)) => {
+                for e in executables {
+                    let _ = write!(
+                        s,
+                        "\n       kernel statistics of executable {} ({}; subgroup size {}):",
+                        e.name, e.description, e.subgroup_size
+                    );
+                    for stat in &e.statistics {
+                        let _ = write!(s, "\n         {}: {} ({})", stat.name, stat.value, stat.description);
+                    }
+                }
             }
             None => {}
         }
@@ -788,6 +864,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             build: loaded.build,
             frames: Vec::new(),
             dispatch: Vec::new(),
+            phases: Vec::new(),
             primary_rays,
             all_rays: 0,
             host_peak: None,
@@ -795,6 +872,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             cpu_over_gpu: None,
             identical: None,
             kernel_build: None,
+            kernel_stats: None,
         };
         let peak = |since_reset: Option<u64>| match (load_peak, since_reset) {
             (Some(a), Some(b)) => Some(a.max(b)),
@@ -810,6 +888,9 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             let backend = if uniform { "gpu uniform" } else { "gpu storage" };
             let mut row = row(backend, device);
             row.kernel_build = Some((g.compile_time() - compiled_before, kernel.how_built()));
+            if args.kernel_stats {
+                row.kernel_stats = Some(g.kernel_statistics(&loaded.data)?);
+            }
             reset_peak_host();
             let timed = (|| {
                 for _ in 0..args.warmup {
@@ -820,6 +901,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
                     let (picture, t) = g.render(&loaded.data)?;
                     row.frames.push(start.elapsed());
                     row.dispatch.push(t.dispatch);
+                    row.phases.extend(t.device);
                     row.all_rays = picture.rays();
                     gpu_picture = Some(picture);
                 }
@@ -1033,6 +1115,7 @@ mod tests {
             frames: vec![Duration::from_millis(ms)],
             // The device's dispatch: a fifth of its frame (none on the CPU).
             dispatch: if backend == "cpu" { Vec::new() } else { vec![Duration::from_millis(ms) / 5] },
+            phases: Vec::new(),
             primary_rays: 1,
             // Twice the rays in the deeper scene.
             all_rays: if n > 100 { 40 } else { 20 },
@@ -1041,6 +1124,7 @@ mod tests {
             cpu_over_gpu: None,
             identical: None,
             kernel_build: None,
+            kernel_stats: None,
         };
         let rows = [
             row("a", "gpu uniform", 100, 10),
@@ -1095,6 +1179,7 @@ mod tests {
             build: Duration::from_micros(250),
             frames: vec![Duration::from_millis(10), Duration::from_millis(20), Duration::from_millis(40)],
             dispatch: vec![Duration::from_millis(9)],
+            phases: Vec::new(),
             primary_rays: 1_000_000,
             all_rays: 4_000_000,
             host_peak: Some(3 << 20),
@@ -1102,6 +1187,7 @@ mod tests {
             cpu_over_gpu: None,
             identical: None,
             kernel_build: Some((Duration::from_micros(43_500), Some("SPIR-V specialised ahead".into()))),
+            kernel_stats: None,
         };
         let j = row.json(&RenderSettings::default(), 1);
         assert!(j.starts_with("{\"scene\":\"a \\\"b\\\"\",\"backend\":\"gpu\""), "{j}");

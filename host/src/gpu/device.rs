@@ -211,6 +211,15 @@ pub(crate) struct Inner {
     pub(crate) shader_objects: Option<shader_object::ShaderObjects>,
     /// Pipelines are built from SPIR-V specialised ahead (specialize.rs).
     pub(crate) specialise_ahead: bool,
+    /// A run's output lives in device-local memory, and is copied to memory
+    /// the host reads after the last pass (`dispatch::record_run`): where
+    /// the device has device-local memory the host cannot map (a discrete
+    /// GPU), so the kernel's writes stay on the device; RAYCAST_OUTPUT_COPY
+    /// = 0 or 1 overrides (1 tests the copy on lavapipe).
+    pub(crate) output_copy: bool,
+    /// VK_KHR_pipeline_executable_properties, where the device offers it
+    /// (`Kernel::statistics`); None: its driver reports no statistics.
+    pub(crate) executables: Option<ash::khr::pipeline_executable_properties::Device>,
     pub(crate) physical: vk::PhysicalDevice,
     /// The window surface of `GpuContext::with_surface`; destroyed after the
     /// device, before the instance (field order).
@@ -437,6 +446,21 @@ impl Inner {
         if shader_objects {
             device_exts.extend(shader_object::DEVICE_EXTENSIONS);
         }
+        // Kernel statistics (`Kernel::statistics`), where the extension and its feature are offered.
+        let executables = props.api_version >= vk::API_VERSION_1_1
+            && physical
+                .extensions
+                .iter()
+                .any(|e| e.as_bytes() == ash::khr::pipeline_executable_properties::NAME.to_bytes())
+            && {
+                let mut feature = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
+                let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut feature);
+                unsafe { instance.get_physical_device_features2(physical.handle, &mut features) };
+                feature.pipeline_executable_info == vk::TRUE
+            };
+        if executables {
+            device_exts.push(ash::khr::pipeline_executable_properties::NAME);
+        }
         let ext_ptrs = cstrs(&device_exts);
         let priorities = [1.0f32];
         let queue_info =
@@ -447,6 +471,11 @@ impl Inner {
         if shader_objects {
             device_info = device_info.push_next(&mut shader_object_features);
         }
+        let mut executable_features =
+            vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default().pipeline_executable_info(true);
+        if executables {
+            device_info = device_info.push_next(&mut executable_features);
+        }
         let device = unsafe { instance.create_device(physical.handle, &device_info, None) }
             .map_err(GpuError::vk("vkCreateDevice"))?;
         let shader_objects =
@@ -454,6 +483,12 @@ impl Inner {
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let specialise_ahead = physical.info.specialises_ahead;
         let fast = opts.kernel.fast_on(&physical.info);
+        let executables = executables.then(|| ash::khr::pipeline_executable_properties::Device::new(instance, &device));
+        let apart = memory.memory_types[..memory.memory_type_count as usize].iter().any(|t| {
+            t.property_flags.contains(vk::MemoryPropertyFlags::DEVICE_LOCAL)
+                && !t.property_flags.contains(vk::MemoryPropertyFlags::HOST_VISIBLE)
+        });
+        let output_copy = environment::switch("RAYCAST_OUTPUT_COPY").unwrap_or(apart);
 
         Ok(Inner {
             abandoned: Mutex::new(Vec::new()),
@@ -471,6 +506,8 @@ impl Inner {
             division: OnceLock::new(),
             shader_objects,
             specialise_ahead,
+            output_copy,
+            executables,
             physical: physical.handle,
             surface: window.map(|(surface, _)| surface),
             parts: std::mem::ManuallyDrop::new(parts),

@@ -50,7 +50,40 @@ pub struct RunTimings {
     pub dispatch: Duration,
     /// Copying the output to host memory.
     pub readback: Duration,
+    /// The device's own times of the run's phases, by its timestamps;
+    /// None where the queue has none.
+    pub device: Option<DevicePhases>,
 }
+
+/// The device's times of one run's phases (`RunTimings::device`), from
+/// timestamps written before and after each: what the device spent, not
+/// counting recording, submission or the host's waits.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DevicePhases {
+    /// Clearing the cleared buffers and the output, and copying the data
+    /// images from their upload buffers (the inputs' bytes themselves are
+    /// written by the host into memory the device reads in place).
+    pub clear: Duration,
+    /// The dispatches: every submission's, summed (from the end of the
+    /// clears in the first).
+    pub dispatch: Duration,
+    /// Copying the output into memory the host reads, where the run does
+    /// (zero where the kernel writes that memory itself).
+    pub readback: Duration,
+}
+
+impl std::ops::AddAssign for DevicePhases {
+    fn add_assign(&mut self, o: DevicePhases) {
+        self.clear += o.clear;
+        self.dispatch += o.dispatch;
+        self.readback += o.readback;
+    }
+}
+
+/// Timestamps of a run's submission (`record_run`): the clears' start and
+/// end (first submission only), the dispatches' start and end, the output
+/// copy's start and end (last submission, where the output is copied).
+const RUN_QUERIES: u32 = 6;
 
 /// What a run binds: every binding of its kernel exactly once.
 pub struct RunBuffers<'a> {
@@ -115,8 +148,15 @@ impl Inner {
         self.refuse_if_still_running()?;
 
         let start = Instant::now();
-        let (res, set) = self.prepare_run(kernel, buffers)?;
+        let (mut res, set) = self.prepare_run(kernel, buffers)?;
+        let stamps = self.timestamp_ticks()?;
+        if stamps.is_some() {
+            let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(RUN_QUERIES);
+            res.queries =
+                unsafe { self.device.create_query_pool(&info, None) }.map_err(GpuError::vk("vkCreateQueryPool"))?;
+        }
         let upload = start.elapsed();
+        let mut phases = DevicePhases::default();
 
         // Clear, fill the data images, bind, dispatch, make the writes visible to the host, submit, wait.
         let start = Instant::now();
@@ -130,9 +170,32 @@ impl Inner {
         while finished < total {
             let units = finished..(finished + chunk).min(total);
             let began = Instant::now();
+            let last = units.end == total;
             res = self.submit_once(res, |d, cmd, res| unsafe {
-                record_run(d, cmd, res, kernel, set, groups, units.clone())
+                record_run(d, cmd, res, kernel, set, groups, units.clone(), last)
             })?;
+            if let Some(tick) = &stamps {
+                // Only the queries this submission wrote: the others are not available.
+                let read = |first: u32| {
+                    let mut t = [0u64; 2];
+                    let flags = vk::QueryResultFlags::TYPE_64;
+                    unsafe { self.device.get_query_pool_results(res.queries, first, &mut t, flags) }
+                        .map(|()| t)
+                        .map_err(GpuError::vk("vkGetQueryPoolResults"))
+                };
+                let [start, end] = read(2)?;
+                if units.start == 0 {
+                    let [clear, cleared] = read(0)?;
+                    phases.clear += tick(clear, cleared);
+                    phases.dispatch += tick(cleared, end);
+                } else {
+                    phases.dispatch += tick(start, end);
+                }
+                if last && res.output_copy.is_some() {
+                    let [copy, copied] = read(4)?;
+                    phases.readback += tick(copy, copied);
+                }
+            }
             let (n, took) = (units.end - units.start, began.elapsed().as_nanos().max(1));
             finished = units.end;
             done(finished as f64 / rows as f64);
@@ -156,7 +219,21 @@ impl Inner {
         unsafe { d.unmap_memory(memory) };
         let readback = start.elapsed();
         drop(res);
-        Ok((out, RunTimings { upload, dispatch, readback }))
+        Ok((out, RunTimings { upload, dispatch, readback, device: stamps.map(|_| phases) }))
+    }
+
+    /// Where the queue writes timestamps: how to turn two of them into
+    /// the time between (ticks masked to the valid bits, times the period).
+    #[allow(clippy::type_complexity)]
+    fn timestamp_ticks(&self) -> Result<Option<impl Fn(u64, u64) -> Duration>, GpuError> {
+        let families = unsafe { self.parts.instance.get_physical_device_queue_family_properties(self.physical) };
+        let bits = families.get(self.queue_family as usize).map_or(0, |q| q.timestamp_valid_bits);
+        let period = f64::from(self.limits.timestamp_period);
+        if bits == 0 || period <= 0.0 {
+            return Ok(None);
+        }
+        let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+        Ok(Some(move |a: u64, b: u64| Duration::from_secs_f64((b.wrapping_sub(a) & mask) as f64 * period * 1e-9)))
     }
 
     /// Checks a run against the kernel and the device limits before anything is allocated.
@@ -253,16 +330,19 @@ impl Inner {
             res.fills.push((buffer, 0));
         }
         let (out_binding, out_len) = buffers.output;
-        let (buffer, memory) = create_buffer(
-            &self.device,
-            &self.memory,
-            &mut res,
-            buffer_size(out_len),
-            Place::Readback,
-            &kernel.binding_label(out_binding),
-        )?;
+        let place = if self.output_copy { Place::Device } else { Place::Readback };
+        let what = kernel.binding_label(out_binding);
+        let size = buffer_size(out_len);
+        let (buffer, mut memory) = create_buffer(&self.device, &self.memory, &mut res, size, place, &what)?;
         res.bindings.push((out_binding, buffer));
         res.fills.push((buffer, buffers.fill));
+        if self.output_copy {
+            // The host reads a copy, made after the last pass.
+            let copy = format!("{what}, its copy for the host");
+            let host;
+            (host, memory) = create_buffer(&self.device, &self.memory, &mut res, size, Place::Readback, &copy)?;
+            res.output_copy = Some((buffer, host, size));
+        }
         res.output = memory;
         let set = self.run_descriptor_set(&mut res, kernel)?;
         Ok((res, set))
@@ -416,11 +496,13 @@ impl Inner {
 /// Records a run: the device's fills (`RunResources::fills`) and the data
 /// images' copies, then `passes` dispatches of `groups`, each seeing the
 /// writes of the one before, then a barrier that makes the writes visible
-/// to the host.
+/// to the host; in the `last` submission, where the output is device-local,
+/// its copy to the host's buffer first (`RunResources::output_copy`).
 ///
 /// # Safety
 /// `cmd` is a command buffer of `d` in the recording state; `res` and
 /// `set` were made for `kernel` (`Inner::prepare_run`).
+#[allow(clippy::too_many_arguments)]
 unsafe fn record_run(
     d: &ash::Device,
     cmd: vk::CommandBuffer,
@@ -429,15 +511,29 @@ unsafe fn record_run(
     set: vk::DescriptorSet,
     groups: [u32; 3],
     units: std::ops::Range<u64>,
+    last: bool,
 ) {
     let rows = u64::from(groups[1].max(1));
+    let stamp = |stage, query| {
+        if res.queries != vk::QueryPool::null() {
+            // SAFETY: the caller's; the pool has RUN_QUERIES queries.
+            unsafe { d.cmd_write_timestamp(cmd, stage, res.queries, query) };
+        }
+    };
     // SAFETY: the caller's; every handle lives as long as the run.
     unsafe {
+        if res.queries != vk::QueryPool::null() {
+            d.cmd_reset_query_pool(cmd, res.queries, 0, RUN_QUERIES);
+        }
         if units.start == 0 {
+            stamp(vk::PipelineStageFlags::TOP_OF_PIPE, 0);
             record_run_start(d, cmd, res);
+            stamp(vk::PipelineStageFlags::BOTTOM_OF_PIPE, 1);
         }
         kernel.bind(cmd);
         d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, kernel.pipeline_layout, 0, &[set], &[]);
+        // The first submission's dispatches are timed from the clears' end (query 1).
+        stamp(vk::PipelineStageFlags::TOP_OF_PIPE, 2);
         // Unit u: row u % rows of work groups of pass u / rows; each pass's
         // rows of the range in one dispatch.
         let mut u = units.start;
@@ -454,6 +550,16 @@ unsafe fn record_run(
             d.cmd_dispatch_base(cmd, 0, row as u32, 0, groups[0], (end - u) as u32, groups[2]);
             u = end;
         }
+        stamp(vk::PipelineStageFlags::BOTTOM_OF_PIPE, 3);
+        if let (true, Some((output, host, size))) = (last, res.output_copy) {
+            shader_writes_barrier(d, cmd, vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_READ);
+            stamp(vk::PipelineStageFlags::TOP_OF_PIPE, 4);
+            d.cmd_copy_buffer(cmd, output, host, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
+            stamp(vk::PipelineStageFlags::BOTTOM_OF_PIPE, 5);
+            let transfer = (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE);
+            memory_barrier(d, cmd, transfer, (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ));
+            return;
+        }
         shader_writes_barrier(d, cmd, vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ);
     }
 }
@@ -469,18 +575,9 @@ unsafe fn record_run_start(d: &ash::Device, cmd: vk::CommandBuffer, res: &RunRes
         for &(buffer, value) in &res.fills {
             d.cmd_fill_buffer(cmd, buffer, 0, vk::WHOLE_SIZE, value);
         }
-        let filled = [vk::MemoryBarrier::default()
-            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-            .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE)];
-        d.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::COMPUTE_SHADER,
-            vk::DependencyFlags::empty(),
-            &filled,
-            &[],
-            &[],
-        );
+        let shader = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+        let transfer = (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE);
+        memory_barrier(d, cmd, transfer, (vk::PipelineStageFlags::COMPUTE_SHADER, shader));
         for image in &res.images {
             record_image_upload(d, cmd, image.source, image.image, image.texels);
         }
@@ -498,20 +595,25 @@ unsafe fn shader_writes_barrier(
     dst_stage: vk::PipelineStageFlags,
     dst_access: vk::AccessFlags,
 ) {
-    let barrier =
-        [vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::SHADER_WRITE).dst_access_mask(dst_access)];
+    let src = (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE);
     // SAFETY: the caller's.
-    unsafe {
-        d.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::COMPUTE_SHADER,
-            dst_stage,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        )
-    };
+    unsafe { memory_barrier(d, cmd, src, (dst_stage, dst_access)) };
+}
+
+/// Records a barrier on all memory: `src`'s accesses at its stage made
+/// visible to `dst`'s (each a stage and its accesses).
+///
+/// # Safety
+/// `cmd` is a command buffer of `d` in the recording state.
+unsafe fn memory_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = [vk::MemoryBarrier::default().src_access_mask(src.1).dst_access_mask(dst.1)];
+    // SAFETY: the caller's.
+    unsafe { d.cmd_pipeline_barrier(cmd, src.0, dst.0, vk::DependencyFlags::empty(), &barrier, &[], &[]) };
 }
 
 impl Inner {

@@ -88,8 +88,39 @@ impl Kernel {
         images: &[ImageBinding],
         constants: &[u32],
     ) -> Result<Kernel, GpuError> {
+        Kernel::specialized_as(ctx, name, spirv, expected, images, constants, false)
+    }
+
+    /// [`Kernel::specialized`] built as a pipeline (never a shader object,
+    /// never specialised ahead) that keeps the driver's statistics of its
+    /// code, for [`Kernel::statistics`]; None where the device reports none
+    /// (no VK_KHR_pipeline_executable_properties: lavapipe in Mesa 22.3).
+    pub fn for_statistics(
+        ctx: &GpuContext,
+        name: &str,
+        spirv: &[u8],
+        expected: &[BindingLayout],
+        images: &[ImageBinding],
+        constants: &[u32],
+    ) -> Result<Option<Kernel>, GpuError> {
+        if ctx.inner.executables.is_none() {
+            return Ok(None);
+        }
+        Kernel::specialized_as(ctx, name, spirv, expected, images, constants, true).map(Some)
+    }
+
+    /// `specialized`; `capture`: as `for_statistics` builds it.
+    fn specialized_as(
+        ctx: &GpuContext,
+        name: &str,
+        spirv: &[u8],
+        expected: &[BindingLayout],
+        images: &[ImageBinding],
+        constants: &[u32],
+        capture: bool,
+    ) -> Result<Kernel, GpuError> {
         let check = || reflect::reflect(name, spirv, expected, images);
-        let build = || Kernel::build(ctx, name, spirv, expected, images, constants);
+        let build = || Kernel::build(ctx, name, spirv, expected, images, constants, capture);
         // The checks' error first; a kernel built from SPIR-V that failed them is destroyed as it drops.
         let finish = |reflection: Result<reflect::Reflection, GpuError>, built: Result<Kernel, GpuError>| {
             let reflection = reflection?;
@@ -115,7 +146,8 @@ impl Kernel {
     }
 
     /// The pipeline (or shader object) of `specialized`, before naga's
-    /// checks have said whether it may be used.
+    /// checks have said whether it may be used; `capture`: a pipeline
+    /// that keeps its statistics (`for_statistics`).
     fn build(
         ctx: &GpuContext,
         name: &str,
@@ -123,6 +155,7 @@ impl Kernel {
         expected: &[BindingLayout],
         images: &[ImageBinding],
         constants: &[u32],
+        capture: bool,
     ) -> Result<Kernel, GpuError> {
         // Mesa 25's lavapipe makes a shader object only once its queue is
         // idle: behind a run that timed out, that is never.
@@ -179,7 +212,7 @@ impl Kernel {
         let specialization =
             vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
 
-        if let Some(objects) = &ctx.inner.shader_objects {
+        if let Some(objects) = ctx.inner.shader_objects.as_ref().filter(|_| !capture) {
             let bindings: Vec<(u32, i32)> =
                 layout_bindings.iter().map(|b| (b.binding, b.descriptor_type.as_raw())).collect();
             let (shader, source) = objects.create(name, &words, constants, &specialization, &set_layouts, &bindings)?;
@@ -199,15 +232,20 @@ impl Kernel {
                 .name(c"main")
                 .specialization_info(&specialization);
             // DISPATCH_BASE: a run splits a pass by rows of work groups (dispatch.rs record_run).
+            let capture = if capture {
+                vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR
+            } else {
+                vk::PipelineCreateFlags::empty()
+            };
             let info = [vk::ComputePipelineCreateInfo::default()
-                .flags(vk::PipelineCreateFlags::DISPATCH_BASE)
+                .flags(vk::PipelineCreateFlags::DISPATCH_BASE | capture)
                 .stage(stage)
                 .layout(kernel.pipeline_layout)];
             let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
             unsafe { d.destroy_shader_module(module, None) };
             result.map(|p| p[0]).map_err(|(_, e)| GpuError::vk("vkCreateComputePipelines")(e))
         };
-        let ahead = if ctx.inner.specialise_ahead && !constants.is_empty() {
+        let ahead = if ctx.inner.specialise_ahead && !constants.is_empty() && !capture {
             Some(specialize::specialise(name, &words, constants))
         } else {
             None
@@ -238,6 +276,48 @@ impl Kernel {
 
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// The driver's statistics of each executable of the kernel's
+    /// pipeline (registers, shared memory, occupancy: whatever the driver
+    /// names), for a kernel built by `for_statistics`; empty for any other.
+    pub fn statistics(&self) -> Result<Vec<Executable>, GpuError> {
+        let Some(ext) = &self.inner.executables else { return Ok(Vec::new()) };
+        if self.pipeline == vk::Pipeline::null() {
+            return Ok(Vec::new());
+        }
+        let text = |c: Result<&std::ffi::CStr, _>| c.map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
+        let info = vk::PipelineInfoKHR::default().pipeline(self.pipeline);
+        let properties = unsafe { ext.get_pipeline_executable_properties(&info) }
+            .map_err(GpuError::vk("vkGetPipelineExecutablePropertiesKHR"))?;
+        let mut out = Vec::new();
+        for (index, p) in properties.iter().enumerate() {
+            let info = vk::PipelineExecutableInfoKHR::default().pipeline(self.pipeline).executable_index(index as u32);
+            let statistics = unsafe { ext.get_pipeline_executable_statistics(&info) }
+                .map_err(GpuError::vk("vkGetPipelineExecutableStatisticsKHR"))?
+                .iter()
+                .map(|s| Statistic {
+                    name: text(s.name_as_c_str()),
+                    description: text(s.description_as_c_str()),
+                    // SAFETY: `format` says which member of the union the driver wrote.
+                    value: unsafe {
+                        match s.format {
+                            vk::PipelineExecutableStatisticFormatKHR::BOOL32 => StatisticValue::Bool(s.value.b32 != 0),
+                            vk::PipelineExecutableStatisticFormatKHR::INT64 => StatisticValue::Int(s.value.i64),
+                            vk::PipelineExecutableStatisticFormatKHR::UINT64 => StatisticValue::Uint(s.value.u64),
+                            _ => StatisticValue::Float(s.value.f64),
+                        }
+                    },
+                })
+                .collect();
+            out.push(Executable {
+                name: text(p.name_as_c_str()),
+                description: text(p.description_as_c_str()),
+                subgroup_size: p.subgroup_size,
+                statistics,
+            });
+        }
+        Ok(out)
     }
 
     /// How it was built, where that is worth saying (`render`'s kernel line,
@@ -317,6 +397,46 @@ impl Kernel {
             .iter()
             .find(|b| b.binding == binding)
             .map_or(vk::DescriptorType::STORAGE_BUFFER, buffer_descriptor_type)
+    }
+}
+
+/// One executable of a pipeline (a compute pipeline has one, or a few
+/// where the driver compiles several variants) and the driver's statistics
+/// of it (`Kernel::statistics`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Executable {
+    pub name: String,
+    pub description: String,
+    pub subgroup_size: u32,
+    pub statistics: Vec<Statistic>,
+}
+
+/// One statistic of an executable, as the driver names and describes it.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Statistic {
+    pub name: String,
+    pub description: String,
+    pub value: StatisticValue,
+}
+
+/// A statistic's value in the driver's format (in JSON: a bare value).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(untagged)]
+pub enum StatisticValue {
+    Bool(bool),
+    Int(i64),
+    Uint(u64),
+    Float(f64),
+}
+
+impl std::fmt::Display for StatisticValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StatisticValue::Bool(b) => write!(f, "{b}"),
+            StatisticValue::Int(v) => write!(f, "{v}"),
+            StatisticValue::Uint(v) => write!(f, "{v}"),
+            StatisticValue::Float(v) => write!(f, "{v}"),
+        }
     }
 }
 

@@ -225,10 +225,16 @@ pub(crate) struct RunResources {
     pub(crate) fills: Vec<(vk::Buffer, u32)>,
     /// The memory of the buffer read back.
     pub(crate) output: vk::DeviceMemory,
+    /// Where the kernel's output is device-local (`Inner::output_copy`):
+    /// it, the host-visible buffer it is copied to after the last pass,
+    /// and the bytes copied.
+    pub(crate) output_copy: Option<(vk::Buffer, vk::Buffer, u64)>,
     pub(crate) images: Vec<RunImage>,
     pub(crate) descriptor_pool: vk::DescriptorPool,
     pub(crate) command_pool: vk::CommandPool,
     pub(crate) fence: vk::Fence,
+    /// The run's timestamps (`dispatch::RUN_QUERIES`); null where the queue has none.
+    pub(crate) queries: vk::QueryPool,
 }
 
 impl RunResources {
@@ -239,10 +245,12 @@ impl RunResources {
             bindings: Vec::new(),
             fills: Vec::new(),
             output: vk::DeviceMemory::null(),
+            output_copy: None,
             images: Vec::new(),
             descriptor_pool: vk::DescriptorPool::null(),
             command_pool: vk::CommandPool::null(),
             fence: vk::Fence::null(),
+            queries: vk::QueryPool::null(),
         }
     }
 }
@@ -255,6 +263,7 @@ impl Drop for RunResources {
             d.destroy_fence(self.fence, None);
             d.destroy_command_pool(self.command_pool, None);
             d.destroy_descriptor_pool(self.descriptor_pool, None);
+            d.destroy_query_pool(self.queries, None);
             for image in self.images.drain(..) {
                 destroy_image(d, (image.image, image.memory, image.view));
             }
