@@ -133,6 +133,11 @@ median_of() {
 }
 
 # The scene file of SCENE (a file, or gen:FAMILY:DEPTH written into folder TMP by `raycast gen`).
+# The scene's primitive count, expanded (`raycast info`: "primitives: 4,687 drawn").
+primitive_count() {
+  "$RAYCAST" info "$1" --assets "$CORPUS" 2>/dev/null | sed -n 's/^  primitives: \([0-9,]*\) drawn.*/\1/p' | tr -d ,
+}
+
 scene_file() {
   local s="$1" tmp="$2" family depth
   if [[ "$s" == gen:* ]]; then
@@ -168,7 +173,7 @@ wall() {
       read -r _ t m <<<"$(grep '^TIME' <<<"$out")"
       walls+=("$t")
       if [ "$m" -gt "$rss" ]; then rss="$m"; fi
-      n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
+      n="$(primitive_count "$file")"
     done
     if [ "$n" = skipped ]; then
       echo "| ${s##*/} | – | skipped: over the --max-primitives limit | – |"
@@ -209,7 +214,7 @@ povray_side() {
           # shellcheck disable=SC2086 # the backend option, two words or none
           out="$( { /usr/bin/time -f 'TIME %e %M' "$RAYCAST" render "$file" --assets "$CORPUS" ${runs[$v]} -o "$tmp/out.png"; } 2>&1)" || { echo "$out" >&2; exit 1; }
         fi
-        [ $v != device ] || n="$(sed -n 's/^scene: .* (\([0-9]*\) primitives.*/\1/p' <<<"$out")"
+        [ $v != device ] || n="$(primitive_count "$file")"
         read -r _ t m <<<"$(grep '^TIME' <<<"$out" | tail -1)"
         walls[$v]+="$t "
         if [ "$m" -gt "${rss[$v]:-0}" ]; then rss[$v]="$m"; fi

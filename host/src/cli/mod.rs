@@ -23,9 +23,6 @@ mod status;
 mod trace;
 mod versus;
 
-/// `--kernel` and `--exact`, which `preview` shares with the rendering commands.
-pub use options::KernelChoiceArgs;
-
 use clap::{Parser, Subcommand};
 
 /// `raycast`: the global flags and the command.

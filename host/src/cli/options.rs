@@ -166,36 +166,6 @@ pub struct KernelOptions {
     pub choice: KernelChoiceArgs,
 }
 
-/// `--kernel` and its shorthand `--exact`: the device's exact kernel or its
-/// fast one (docs/exactness.md, "The fast kernel"), for every command that
-/// runs the render kernel on a device (`render`, `bench`, `conformance`,
-/// `preview`; `check` runs the exact one only).
-#[derive(Args, Clone, Copy, Debug, Default)]
-pub struct KernelChoiceArgs {
-    /// auto (default), exact or fast
-    #[arg(long = "kernel", value_enum, default_value_t = KernelChoice::Auto, value_name = "K", help_heading = "Device",
-          hide_possible_values = true, hide_default_value = true, hide_short_help = true, long_help = crate::args::with_values::<KernelChoice>(
-              "Which kernel the device runs: exact (the CPU build's bits on every device), fast (the device's own \
-               division, square root and transcendentals: faster on GPUs, within 2/255 of the CPU build on all but \
-               a few pixels), or auto: fast on a discrete or integrated GPU, exact on every other device (lavapipe). \
-               [default: auto]"))]
-    pub kernel: KernelChoice,
-    /// The exact kernel on any device: --kernel exact
-    #[arg(long, conflicts_with = "kernel", help_heading = "Device", hide_short_help = true)]
-    pub exact: bool,
-}
-
-impl KernelChoiceArgs {
-    /// The choice `--kernel` or `--exact` made.
-    pub fn choice(&self) -> KernelChoice {
-        if self.exact {
-            KernelChoice::Exact
-        } else {
-            self.kernel
-        }
-    }
-}
-
 impl KernelOptions {
     /// `--timeout`, or its default.
     pub fn timeout(&self) -> Duration {

@@ -166,7 +166,7 @@ pub struct PreviewArgs {
           help_heading = "Device", hide_short_help = true)]
     pub timeout: std::time::Duration,
     #[command(flatten)]
-    pub choice: crate::cli::KernelChoiceArgs,
+    pub choice: crate::args::KernelChoiceArgs,
 }
 
 /// The keys `--keys` may press (the window's controls that print or
