@@ -22,6 +22,8 @@
 #               test_efficiency scenes and the texture they use with `preview`
 #               (all of it would pass the call's 64 MiB beside the window)
 #   raycast, shaders/   build/raycast stripped (7 MB where it is 42) and build/shaders
+#   raycast-old where OLD_RAYCAST names an older binary: it stripped, for
+#               ci/gpu-summary.sh --old build/raycast-old
 #   check-suite with `checks`, where ci/test.sh built it: the check suite's binary
 #               (tests/check.rs) stripped, for gpu-checks.sh's step of that name
 #   run.sh      there: unpacks, sets PATH, LD_LIBRARY_PATH, VK_DRIVER_FILES,
@@ -103,6 +105,8 @@ EOF
 fi
 
 strip -o "$dir/raycast" "$BUILD/raycast"
+# An older binary to measure beside this one (ci/gpu-summary.sh --old), where OLD_RAYCAST names one.
+if [ -n "${OLD_RAYCAST:-}" ]; then strip -o "$dir/raycast-old" "$OLD_RAYCAST"; fi
 cp -r "$BUILD/shaders" "$dir/shaders"
 if [ "$kind" = checks ]; then
   # The newest build of tests/check.rs (cargo names it check-HASH).
@@ -144,6 +148,7 @@ mkdir -p build
 cp "\$here/raycast" build/raycast
 rm -rf build/shaders && cp -r "\$here/shaders" build/shaders
 [ ! -f "\$here/check-suite" ] || cp "\$here/check-suite" build/check-suite
+[ ! -f "\$here/raycast-old" ] || cp "\$here/raycast-old" build/raycast-old
 "\$@"
 EOF
 chmod +x "$dir/run.sh"
