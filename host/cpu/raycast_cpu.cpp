@@ -8,7 +8,14 @@
 
 using namespace raycast_cpu;
 
-extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
+// The lean copy's entry points end in _lean (raycast_cpu_lean.cpp).
+#ifdef RAYCAST_CPU_LEAN
+#define RAYCAST_CPU_ENTRY(name) name##_lean
+#else
+#define RAYCAST_CPU_ENTRY(name) name
+#endif
+
+extern "C" void RAYCAST_CPU_ENTRY(raycast_cpu_render_rows)(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
                                         void* out) {
     Scene s = bind_buffers(buffers);
     PixelOut* pixels = static_cast<PixelOut*>(out);
@@ -19,7 +26,7 @@ extern "C" void raycast_cpu_render_rows(const void* const* buffers, uint32_t row
     }
 }
 
-extern "C" void raycast_cpu_preview_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
+extern "C" void RAYCAST_CPU_ENTRY(raycast_cpu_preview_rows)(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
                                          uint32_t sample_index, float jitter_x, float jitter_y, void* accum_out,
                                          void* out) {
     Scene s = bind_buffers(buffers);
@@ -46,6 +53,7 @@ extern "C" void raycast_cpu_preview_rows(const void* const* buffers, uint32_t ro
     }
 }
 
+#ifndef RAYCAST_CPU_LEAN
 namespace {
 struct Field {
     const char* type;
@@ -98,3 +106,4 @@ extern "C" int64_t raycast_cpu_field_offset(const char* type, const char* member
     }
     return -1;
 }
+#endif

@@ -27,6 +27,13 @@ void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uin
 void raycast_cpu_preview_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end, uint32_t sample_index,
                               float jitter_x, float jitter_y, void* accum, void* pixels);
 
+/* The two above, compiled with meshes, tori, the AOVs other than colour,
+ * the course's sampling, area lights and refraction left out
+ * (raycast_cpu_lean.cpp): for frames that reach none of them, the same bits. */
+void raycast_cpu_render_rows_lean(const void* const* buffers, uint32_t row_begin, uint32_t row_end, void* out);
+void raycast_cpu_preview_rows_lean(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
+                                   uint32_t sample_index, float jitter_x, float jitter_y, void* accum_out, void* out);
+
 /* Traces sample `sample` of pixel (x, y) as raycast_cpu_render_rows renders
  * it: writes its steps (layout.h TraceStep), up to `capacity`, to out and
  * returns how many there are. Safe to call from many threads at once. */

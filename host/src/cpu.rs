@@ -6,16 +6,41 @@ use crate::frame::FrameData;
 use crate::gpu::Buffer;
 use crate::layout::{self, PixelOut};
 use crate::preview::layout::{AccumPixel, PreviewFrame};
-use crate::render::{GpuTimings, Picture, Progress, Progressive, Renderer, Told};
+use crate::render::{GpuTimings, Picture, Progress, Progressive, Renderer, Specialization, Told};
 use std::ffi::{c_void, CString};
 use std::ops::Range;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+/// raycast_cpu_render_rows and its lean copy's (raycast_cpu.h).
+type RenderRows = unsafe extern "C" fn(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
+/// raycast_cpu_preview_rows and its lean copy's (raycast_cpu.h).
+type PreviewRows = unsafe extern "C" fn(
+    buffers: *const *const c_void,
+    row_begin: u32,
+    row_end: u32,
+    sample_index: u32,
+    jitter_x: f32,
+    jitter_y: f32,
+    accum: *mut c_void,
+    pixels: *mut c_void,
+);
+
 extern "C" {
     fn raycast_cpu_render_rows(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
+    fn raycast_cpu_render_rows_lean(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
     fn raycast_cpu_preview_rows(
+        buffers: *const *const c_void,
+        row_begin: u32,
+        row_end: u32,
+        sample_index: u32,
+        jitter_x: f32,
+        jitter_y: f32,
+        accum: *mut c_void,
+        pixels: *mut c_void,
+    );
+    fn raycast_cpu_preview_rows_lean(
         buffers: *const *const c_void,
         row_begin: u32,
         row_end: u32,
@@ -307,6 +332,11 @@ impl CpuRenderer {
     ) -> u32 {
         let buffers = buffer_pointers(data);
         let width = data.frame.width as usize;
+        let render_rows: RenderRows = if Specialization::of(data, &data.frame).cpu_lean() {
+            raycast_cpu_render_rows_lean
+        } else {
+            raycast_cpu_render_rows
+        };
         self.run_jobs(jobs, |(begin, end, slice)| {
             assert_eq!(slice.len(), (end - begin) as usize * width, "a job's pixels are its rows");
             // SAFETY: the buffers outlive the call and hold the structs of
@@ -316,7 +346,7 @@ impl CpuRenderer {
             // indexed by primitives, textures indexed by materials and
             // texels inside each texture's range (frame::build guarantees
             // all three).
-            unsafe { raycast_cpu_render_rows(buffers.as_ptr(), begin, end, slice.as_mut_ptr().cast()) };
+            unsafe { render_rows(buffers.as_ptr(), begin, end, slice.as_mut_ptr().cast()) };
             finished(end - begin);
             end - begin
         })
@@ -354,11 +384,16 @@ impl CpuRenderer {
                 (first, (first + ROWS_PER_JOB).min(end), a, p)
             });
         let (sample, [jx, jy, ..]) = (preview.sample_index, preview.jitter);
+        let preview_rows: PreviewRows = if Specialization::of(data, frame).cpu_lean() {
+            raycast_cpu_preview_rows_lean
+        } else {
+            raycast_cpu_preview_rows
+        };
         self.run_jobs(jobs, |(first, last, a, p)| {
             assert!(a.len() == p.len() && a.len() == (last - first) as usize * width, "a job's pixels are its rows");
             // SAFETY: as in `run`; `a` and `p` hold exactly the job's rows (asserted).
             unsafe {
-                raycast_cpu_preview_rows(
+                preview_rows(
                     buffers.as_ptr(),
                     first,
                     last,

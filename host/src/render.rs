@@ -311,6 +311,24 @@ impl Specialization {
         SceneFeatures::of(data).specialization(frame)
     }
 
+    /// Whether the CPU build's lean copy (raycast_cpu_lean.cpp) computes
+    /// the frame: it leaves out what host/cpu/shared.hpp turns off under
+    /// RAYCAST_CPU_LEAN (this list), so it runs only where the frame's
+    /// specialization leaves all of that out too; `check` compares its
+    /// bits with the device's.
+    pub fn cpu_lean(&self) -> bool {
+        [
+            layout::SPEC_AOVS,
+            layout::SPEC_TORI,
+            layout::SPEC_MESHES,
+            layout::SPEC_COURSE_SAMPLING,
+            layout::SPEC_AREA_LIGHTS,
+            layout::SPEC_REFRACTION,
+        ]
+        .iter()
+        .all(|&id| !self.keeps[id as usize])
+    }
+
     /// The constants' values for `Kernel::specialized`, by constant_id.
     pub fn constants(&self) -> [u32; SPEC_COUNT] {
         let mut values = [0u32; SPEC_COUNT];
@@ -964,10 +982,14 @@ mod tests {
              mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori, meshes, \
              refraction, area lights, depth of field, the course's adaptive supersampling; the walk's 2 levels in registers"
         );
-        // An AOV other than colour keeps its code.
+        // The CPU build's lean copy draws it; never everything.
+        assert!(Specialization::of(&d, &d.frame).cpu_lean());
+        assert!(!Specialization::ALL.cpu_lean());
+        // An AOV other than colour keeps its code, and the CPU build's whole copy draws it.
         for aov in [Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost, Aov::CostAll] {
             let d = data(rich, &RenderSettings { aov, ..RenderSettings::default() });
             assert!(on(Specialization::of(&d, &d.frame)).contains(&layout::SPEC_AOVS), "{aov:?}");
+            assert!(!Specialization::of(&d, &d.frame).cpu_lean(), "{aov:?}");
         }
         // Each group of `rich` fits one leaf; twenty cubes in a row do not.
         let d = data(&crate::scene::row_of_cubes_xml(20), &RenderSettings::default());
