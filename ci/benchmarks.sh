@@ -508,10 +508,6 @@ division() {
   done
 }
 
-# A number field of one `bench --json` line ("null" where absent).
-json_field() {
-  sed -n "s/.*\"$2\":\([^,}]*\).*/\1/p" <<<"$1"
-}
 
 profile() {
   local opts=() frames=10 s size v line out

@@ -37,3 +37,8 @@ build_raycast() {
   fi
   cmake --build "$BUILD" >&2
 }
+
+# A number field of one `bench --json` line ("null" where absent).
+json_field() {
+  sed -n "s/.*\"$2\":\([^,}]*\).*/\1/p" <<<"$1"
+}

@@ -34,7 +34,8 @@ CORPUS="${RAYCAST_CORPUS:-$ROOT/../shared/corpus/cs1230}"
 spheres4="$CORPUS/test_efficiency/recursiveSpheres4.xml"
 w="${size%x*}" h="${size#*x}"
 
-json_number() { sed -n "s/.*\"$2\": *\([-0-9.e+]*\).*/\1/p" <<<"$1" | head -1; }
+# Field $2 of bench's JSON line $1 as a number; empty where it is absent or null.
+json_number() { json_field "$1" "$2" | tr -d ' ' | sed 's/^null$//'; }
 
 # bench BINARY SCENE: its JSON line for the device at the size.
 bench() {

@@ -27,29 +27,42 @@ type PreviewRows = unsafe extern "C" fn(
     pixels: *mut c_void,
 );
 
+/// The row loops of each copy of the C++ build, the whole one and the
+/// lean one (raycast_cpu_lean.cpp): the same signatures, RenderRows' and
+/// PreviewRows'.
+macro_rules! row_loops {
+    ($($render:ident, $preview:ident);*) => {
+        extern "C" {
+            $(
+                fn $render(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
+                fn $preview(
+                    buffers: *const *const c_void,
+                    row_begin: u32,
+                    row_end: u32,
+                    sample_index: u32,
+                    jitter_x: f32,
+                    jitter_y: f32,
+                    accum: *mut c_void,
+                    pixels: *mut c_void,
+                );
+            )*
+        }
+    };
+}
+row_loops!(raycast_cpu_render_rows, raycast_cpu_preview_rows; raycast_cpu_render_rows_lean, raycast_cpu_preview_rows_lean);
+
+/// The copy of the C++ build that draws `frame` of `data`: the lean one
+/// where the frame's specialization leaves out all it leaves out
+/// (Specialization::cpu_lean), else the whole one.
+fn row_loops_for(data: &FrameData, frame: &layout::Frame) -> (RenderRows, PreviewRows) {
+    if Specialization::of(data, frame).cpu_lean() {
+        (raycast_cpu_render_rows_lean, raycast_cpu_preview_rows_lean)
+    } else {
+        (raycast_cpu_render_rows, raycast_cpu_preview_rows)
+    }
+}
+
 extern "C" {
-    fn raycast_cpu_render_rows(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
-    fn raycast_cpu_render_rows_lean(buffers: *const *const c_void, row_begin: u32, row_end: u32, out: *mut c_void);
-    fn raycast_cpu_preview_rows(
-        buffers: *const *const c_void,
-        row_begin: u32,
-        row_end: u32,
-        sample_index: u32,
-        jitter_x: f32,
-        jitter_y: f32,
-        accum: *mut c_void,
-        pixels: *mut c_void,
-    );
-    fn raycast_cpu_preview_rows_lean(
-        buffers: *const *const c_void,
-        row_begin: u32,
-        row_end: u32,
-        sample_index: u32,
-        jitter_x: f32,
-        jitter_y: f32,
-        accum: *mut c_void,
-        pixels: *mut c_void,
-    );
     fn raycast_cpu_course_samples(buffers: *const *const c_void, x: u32, y: u32, out: *mut f32) -> u32;
     fn raycast_cpu_field_offset(ty: *const std::ffi::c_char, member: *const std::ffi::c_char) -> i64;
     fn raycast_cpu_trace_sample(
@@ -332,11 +345,7 @@ impl CpuRenderer {
     ) -> u32 {
         let buffers = buffer_pointers(data);
         let width = data.frame.width as usize;
-        let render_rows: RenderRows = if Specialization::of(data, &data.frame).cpu_lean() {
-            raycast_cpu_render_rows_lean
-        } else {
-            raycast_cpu_render_rows
-        };
+        let (render_rows, _) = row_loops_for(data, &data.frame);
         self.run_jobs(jobs, |(begin, end, slice)| {
             assert_eq!(slice.len(), (end - begin) as usize * width, "a job's pixels are its rows");
             // SAFETY: the buffers outlive the call and hold the structs of
@@ -384,11 +393,7 @@ impl CpuRenderer {
                 (first, (first + ROWS_PER_JOB).min(end), a, p)
             });
         let (sample, [jx, jy, ..]) = (preview.sample_index, preview.jitter);
-        let preview_rows: PreviewRows = if Specialization::of(data, frame).cpu_lean() {
-            raycast_cpu_preview_rows_lean
-        } else {
-            raycast_cpu_preview_rows
-        };
+        let (_, preview_rows) = row_loops_for(data, frame);
         self.run_jobs(jobs, |(first, last, a, p)| {
             assert!(a.len() == p.len() && a.len() == (last - first) as usize * width, "a job's pixels are its rows");
             // SAFETY: as in `run`; `a` and `p` hold exactly the job's rows (asserted).
