@@ -73,6 +73,20 @@ bool sphere_hit(Ray r, vec3 c, float radius, float t_max) {
     return dot3(perp, perp) <= rr && (tc >= 0.0f || tc * tc * dd <= rr) && (past <= 0.0f || past * past * dd <= rr);
 }
 
+// An instance record's box corners (lo is also a bounding sphere's
+// centre): in steps of its leaf's box (layout.h, BvhNode).
+precise vec3 record_lo(uvec4 record, vec4 leaf_lo, vec3 step) {
+    precise vec3 q = vec3(float(record.x & 0xffffu), float(record.x >> 16u), float(record.y & 0xffffu));
+    precise vec3 lo = xyz(leaf_lo) + q * step;
+    return lo;
+}
+
+precise vec3 record_hi(uvec4 record, vec4 leaf_hi, vec3 step) {
+    precise vec3 q = vec3(float(record.y >> 16u), float(record.z & 0xffffu), float(record.z >> 16u));
+    precise vec3 hi = xyz(leaf_hi) - q * step;
+    return hi;
+}
+
 #include "shape_mesh.glsl"
 
 // Ties (docs/scene-format.md#ties). Two hits whose t are at most TIE_ULPS
@@ -432,28 +446,40 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             // of 4, each box in steps of the leaf's (layout.h, BvhNode).
             precise vec3 step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
             uint records = (first_item + prim_count + 3u) >> 2u;
+#ifdef RECORDS_MEET
+            // The CPU build's form (host/cpu/records_meet.hpp): the same
+            // tests, a leaf's spheres four at a time, then the met pushed
+            // in the loop's order.
+            for (uint base = 0u; base < item_count - prim_count; base += 32u) {
+                uint count = min(item_count - prim_count - base, 32u);
+                uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, step, records + base, count, reach) : (0xffffffffu >> (32u - count));
+                for (; met != 0u; met = met & (met - 1u)) {
+                    uint record_w = leaf_record(records + base + uint(findLSB(met))).w;
+                    stack[top] = stack_word(record_w & ~RECORD_SPHERE, level);
+                    top = top + 1;
+                }
+            }
+#else
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's bound: a
                 // missed instance costs no pass. The bound is a box or a
                 // sphere (RECORD_SPHERE; a scene's kernel keeps the tests
                 // its records need), whose centre is where a box's lo is.
                 uvec4 record = leaf_record(records + (n - prim_count));
-                precise vec3 q_lo = vec3(float(record.x & 0xffffu), float(record.x >> 16u), float(record.y & 0xffffu));
-                precise vec3 lo = xyz(leaf_lo) + q_lo * step;
+                precise vec3 lo = record_lo(record, leaf_lo, step);
                 bool sphere = HAS_SPHERE_RECORDS && (HAS_BOX_RECORDS ? (record.w & RECORD_SPHERE) != 0u : true);
                 bool meets = !use_boxes;
                 if (sphere) {
                     meets = meets || sphere_hit(lr, lo, uintBitsToFloat(record.z), reach);
                 } else if (HAS_BOX_RECORDS) {
-                    precise vec3 q_hi = vec3(float(record.y >> 16u), float(record.z & 0xffffu), float(record.z >> 16u));
-                    precise vec3 hi = xyz(leaf_hi) - q_hi * step;
-                    meets = meets || box_hit(lr, vec4(lo, 0.0f), vec4(hi, 0.0f), reach);
+                    meets = meets || box_hit(lr, vec4(lo, 0.0f), vec4(record_hi(record, leaf_hi, step), 0.0f), reach);
                 }
                 if (meets) {
                     stack[top] = stack_word(record.w & ~RECORD_SPHERE, level);
                     top = top + 1;
                 }
             }
+#endif
         }
     }
     if (best.id != NO_HIT) {

@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <initializer_list>
+#include <limits>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -242,4 +245,160 @@ TEST(Camera, CentreRayOfAnOddImageIsTheLookDirection) {
     expect_vec3_eq(r.direction, vec3(0.0f, 0.0f, -1.0f));
     Ray corner = camera_ray(0, 0, vec2(-0.5f, -0.5f)); // top-left corner of the film
     expect_vec3_eq(corner.direction, vec3(-1.0f, 1.0f, -1.0f));
+}
+
+// The CPU build's instance-record loop (records_meet.hpp) against the
+// scalar tests the device runs (sphere_hit and box_hit on record_lo and
+// record_hi): random leaves of one to eight records, spheres and boxes
+// mixed; rays at a record's sphere, into the leaf or anywhere, with values
+// at the edges (zero, NaN and infinite directions and radii, reach 0, -1,
+// NaN and T_FAR); and at each random ray, the two neighbouring floats (of
+// one direction component, or of the reach) between which the scalar
+// answer for the aimed record flips, where any other rounding would show.
+// Rule: the same mask, bit for bit, every ray; a failure prints the count
+// and the first.
+TEST(RecordsMeet, SameAnswersAsTheScalarTests) {
+    uint32_t state = 2024u;
+    auto next = [&state]() {
+        state = state * 1664525u + 1013904223u;
+        return state;
+    };
+    auto unit = [&]() { return float(next() >> 8) * 0x1p-24f; };
+    auto pick = [&](std::initializer_list<float> specials, float lo, float hi) {
+        if (next() % 16u == 0u) {
+            return *(specials.begin() + next() % specials.size());
+        }
+        return lo + (hi - lo) * unit();
+    };
+    const float inf = std::numeric_limits<float>::infinity();
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    int rays = 0, differ = 0, met = 0, records = 0, boundaries = 0;
+    std::string first;
+    uint count = 0u;
+    vec4 leaf_lo, leaf_hi;
+    vec3 step;
+    // The scalar loop's mask.
+    auto expected_mask = [&](Ray r, float reach) {
+        uint mask = 0u;
+        for (uint n = 0u; n < count; n++) {
+            uvec4 record = leaf_record(1u + n);
+            vec3 lo = record_lo(record, leaf_lo, step);
+            bool meets = (record.w & RECORD_SPHERE) != 0u ? sphere_hit(r, lo, glm::uintBitsToFloat(record.z), reach)
+                                                          : box_hit(r, vec4(lo, 0.0f), vec4(record_hi(record, leaf_hi, step), 0.0f), reach);
+            mask |= meets ? (1u << n) : 0u;
+        }
+        return mask;
+    };
+    auto compare = [&](Ray r, float reach) {
+        uint expected = expected_mask(r, reach);
+        uint actual = records_meet(r, leaf_lo, leaf_hi, step, 1u, count, reach);
+        rays++;
+        records += int(count);
+        met += __builtin_popcount(expected);
+        if (actual != expected && differ++ == 0) {
+            char text[400];
+            std::snprintf(text, sizeof(text), "%u records, ray (%a %a %a) + t (%a %a %a), reach %a: mask %#x, expected %#x", count, double(r.origin.x),
+                          double(r.origin.y), double(r.origin.z), double(r.direction.x), double(r.direction.y), double(r.direction.z), double(reach),
+                          actual, expected);
+            first = text;
+        }
+    };
+    // Floats a and b (same sign) whose answers f(a) != f(b): narrowed to
+    // neighbours, both compared.
+    auto at_boundary = [&](float a, float b, auto f, auto compare_at) {
+        uint lo = glm::floatBitsToUint(a);
+        uint hi = glm::floatBitsToUint(b);
+        bool at_lo = f(a);
+        if ((lo >> 31) != (hi >> 31) || at_lo == f(b)) {
+            return;
+        }
+        while ((lo > hi ? lo - hi : hi - lo) > 1u) {
+            uint mid = lo + (hi > lo ? (hi - lo) / 2u : 0u) - (lo > hi ? (lo - hi) / 2u : 0u);
+            (f(glm::uintBitsToFloat(mid)) == at_lo ? lo : hi) = mid;
+        }
+        boundaries++;
+        compare_at(glm::uintBitsToFloat(lo));
+        compare_at(glm::uintBitsToFloat(hi));
+    };
+    std::vector<LeafItem> items;
+    for (int c = 0; c < 100000; c++) {
+        count = 1u + next() % 8u;
+        items.assign(4u * (count + 1u), LeafItem{0u});
+        leaf_lo = vec4(pick({0.0f, -1e30f}, -50.0f, 50.0f), pick({0.0f}, -50.0f, 50.0f), pick({0.0f}, -50.0f, 50.0f), 0.0f);
+        leaf_hi = leaf_lo + vec4(pick({0.0f, 1e-30f}, 0.0f, 40.0f), pick({0.0f}, 0.0f, 40.0f), pick({0.0f}, 0.0f, 40.0f), 0.0f);
+        step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
+        float size = leaf_hi.x - leaf_lo.x + leaf_hi.y - leaf_lo.y;
+        for (uint n = 0u; n < count; n++) {
+            uint* w = &items[4u * (n + 1u)].item;
+            bool sphere = (next() & 1u) != 0u;
+            if (sphere) {
+                w[0] = next();
+                w[1] = next() & 0xffffu;
+                w[2] = glm::floatBitsToUint(pick({0.0f, 1e-30f, inf, nan, 1e30f}, 0.0f, 0.5f * size));
+            } else {
+                // lo and hi steps that leave the box mostly the right way round.
+                w[0] = next() & 0x7fff7fffu;
+                w[1] = next() & 0x7fff7fffu;
+                w[2] = next() & 0x7fff7fffu;
+            }
+            w[3] = ITEM_INSTANCE | (sphere ? RECORD_SPHERE : 0u) | n;
+        }
+        leaf_items = items.data();
+        vec3 origin(pick({0.0f, nan, leaf_lo.x}, -80.0f, 80.0f), pick({0.0f, leaf_lo.y}, -80.0f, 80.0f), pick({0.0f, 1e20f}, -80.0f, 80.0f));
+        uint aimed = 1u + next() % count;
+        uvec4 aim = leaf_record(aimed);
+        vec3 centre = record_lo(aim, leaf_lo, step);
+        float radius = glm::uintBitsToFloat(aim.z);
+        vec3 target = centre;
+        uint how = next() % 4u;
+        if (how < 2u) {
+            // At the radius sphere_hit pads (by 2^-16 of the centre's offset).
+            float span = radius + max_abs3(centre - origin) * 1.52587891e-5f;
+            vec3 v(unit() - 0.5f, unit() - 0.5f, unit() - 0.5f);
+            target = centre + v * div_rn(span, std::sqrt(dot3(v, v)));
+        } else if (how == 2u) {
+            target = xyz(leaf_lo) + vec3(unit(), unit(), unit()) * (xyz(leaf_hi) - xyz(leaf_lo));
+        } else {
+            target = vec3(unit(), unit(), unit()) * 160.0f - 80.0f;
+        }
+        vec3 direction = (target - origin) * pick({0.0f, nan, inf, 1e-20f}, 0.01f, 4.0f);
+        if (next() % 16u == 0u) {
+            direction[next() % 3u] = pick({0.0f, -inf, 1e-30f}, -4.0f, 4.0f);
+        }
+        Ray r = ray(origin.x, origin.y, origin.z, direction.x, direction.y, direction.z);
+        float reach = pick({0.0f, T_FAR, -1.0f, nan}, 0.0f, 200.0f);
+        compare(r, reach);
+        if ((aim.w & RECORD_SPHERE) == 0u) {
+            continue;
+        }
+        // The aimed sphere's boundaries: in direction.x (from the ray at
+        // its centre outward) and in the reach.
+        Ray at_centre = r;
+        at_centre.direction = centre - origin;
+        float dx = at_centre.direction.x;
+        float outward = dx + (dx < 0.0f ? -1.0f : 1.0f) * 4.0f * (radius + 1.0f);
+        auto with_dx = [&](float x) {
+            Ray moved = at_centre;
+            moved.direction.x = x;
+            return moved;
+        };
+        at_boundary(dx, outward, [&](float x) { return sphere_hit(with_dx(x), centre, radius, T_FAR); },
+                    [&](float x) { compare(with_dx(x), T_FAR); });
+        at_boundary(0.0f, T_FAR, [&](float t) { return sphere_hit(at_centre, centre, radius, t); }, [&](float t) { compare(at_centre, t); });
+        // And leaving it: from inside, heading away, to beyond its radius.
+        vec3 across(unit() - 0.5f, unit() - 0.5f, unit() - 0.5f);
+        auto from_x = [&](float x) {
+            Ray away = ray(centre.x + x, centre.y + across.y, centre.z + across.z, 1.0f, across.x, across.z);
+            return away;
+        };
+        at_boundary(0.0f, 4.0f * (radius + 1.0f), [&](float x) { return sphere_hit(from_x(x), centre, radius, T_FAR); },
+                    [&](float x) { compare(from_x(x), T_FAR); });
+    }
+    leaf_items = nullptr;
+    EXPECT_EQ(differ, 0) << differ << " of " << rays << " rays differ; the first: " << first;
+    // Both answers well represented, and boundaries found, or the
+    // comparison would say little.
+    EXPECT_GT(met, records / 10) << met << " of " << records << " records met";
+    EXPECT_LT(met, records - records / 10) << met << " of " << records << " records met";
+    EXPECT_GT(boundaries, 20000) << boundaries << " boundaries found";
 }

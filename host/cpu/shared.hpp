@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cmath>
 #include <cstring>
 #include <glm/glm.hpp>
 
@@ -180,6 +181,26 @@ const bool LEVELS_IN_REGISTERS = false;
 const uint REGISTER_LEVELS = 1u;
 const bool HAS_REFRACTION = RAYCAST_CPU_ALL;
 
+// GLSL's abs: the sign bit cleared, without a branch. GLM's is
+// x >= 0 ? x : -x, which GCC keeps as a branch that the walk's bound tests
+// (max_abs3) mispredict, and which gives -0 for -0 where the device gives 0.
+inline float abs(float x) {
+    return std::fabs(x);
+}
+
+// GLSL's findLSB for a uint: one instruction where GLM's counts bits.
+inline int findLSB(uint v) {
+    return (v == 0u) ? -1 : __builtin_ctz(v);
+}
+
+// The walk's instance-record loop in SIMD lanes (records_meet.hpp,
+// defined after the GLSL, whose box_hit and record_lo it uses).
+#define RECORDS_MEET
+namespace {
+struct Ray;
+uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, uint count, float reach);
+} // namespace
+
 // Internal linkage: each translation unit has its own copy, so GCC may
 // inline a function called once (sphere_hit in walk) without keeping an
 // outside copy's worth of growth against it; each unit uses only some.
@@ -189,6 +210,7 @@ const bool HAS_REFRACTION = RAYCAST_CPU_ALL;
 #pragma GCC diagnostic ignored "-Wunused-but-set-variable"
 namespace {
 #include "raycast.glsl"
+#include "records_meet.hpp"
 } // namespace
 #pragma GCC diagnostic pop
 
