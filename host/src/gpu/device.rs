@@ -12,7 +12,7 @@ use ash::vk;
 use super::environment;
 use super::float_controls;
 use super::instance::{cstrs, ext_names, version_string, InstanceParts, Surface};
-use super::memory::RunResources;
+use super::memory::{KeptRun, RunResources};
 use super::shader_object;
 use super::specialize;
 use super::{Division, GpuError, LESS_DATA};
@@ -191,6 +191,11 @@ struct Physical {
 pub(crate) struct Inner {
     /// Resources of runs that timed out, freed after waiting for the device at drop.
     pub(crate) abandoned: Mutex<Vec<RunResources>>,
+    /// The last run's buffers, images and descriptor set, kept for the
+    /// next run of the same kernel with the same bindings (`KeptRun`).
+    pub(crate) kept: Mutex<Option<KeptRun>>,
+    /// How many runs took a kept run's resources (the tests read it).
+    pub(crate) kept_taken: std::sync::atomic::AtomicU64,
     pub(crate) device: ash::Device,
     pub(crate) queue: Mutex<vk::Queue>,
     pub(crate) queue_family: u32,
@@ -492,6 +497,8 @@ impl Inner {
 
         Ok(Inner {
             abandoned: Mutex::new(Vec::new()),
+            kept: Mutex::new(None),
+            kept_taken: std::sync::atomic::AtomicU64::new(0),
             device,
             queue: Mutex::new(queue),
             queue_family,
@@ -548,11 +555,14 @@ impl Drop for Inner {
         if !may_destroy {
             // Nothing destroyed: the device, its instance and the window surface stay to the process's end.
             std::mem::forget(abandoned);
+            std::mem::forget(self.kept.lock().unwrap_or_else(|p| p.into_inner()).take());
             std::mem::forget(self.surface.take());
             return;
         }
+        let kept = self.kept.lock().unwrap_or_else(|p| p.into_inner()).take();
         unsafe {
             drop(abandoned);
+            drop(kept);
             self.device.destroy_device(None);
         }
         drop(self.surface.take());

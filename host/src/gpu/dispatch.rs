@@ -10,7 +10,7 @@ use ash::vk;
 use super::device::Inner;
 use super::image::record_image_upload;
 use super::memory::{
-    buffer_size, create_buffer, create_image, data_image_size, Place, RunImage, RunResources, DATA_FORMAT,
+    buffer_size, create_buffer, create_image, data_image_size, KeptRun, Place, RunImage, RunResources, DATA_FORMAT,
 };
 use super::{GpuError, ImageFormat, Kernel, LESS_DATA};
 
@@ -106,6 +106,30 @@ impl RunBuffers<'_> {
     }
 }
 
+/// What a run's resources are kept by (`KeptRun`).
+pub(crate) struct KeptKey {
+    kernel: u64,
+    lengths: Vec<(u32, usize)>,
+    inputs: Vec<u64>,
+}
+
+/// A 64-bit hash of an input's bytes (FxHash's step, eight bytes at a
+/// time): whether a kept run's input changed. Not for adversaries: two
+/// different inputs of the same length with the same hash would keep the
+/// old bytes.
+fn input_hash(bytes: &[u8]) -> u64 {
+    const K: u64 = 0x517c_c1b7_2722_0a95;
+    let step = |h: u64, w: u64| (h.rotate_left(5) ^ w).wrapping_mul(K);
+    let mut words = bytes.chunks_exact(8);
+    let mut h = bytes.len() as u64;
+    for w in &mut words {
+        h = step(h, u64::from_le_bytes(w.try_into().unwrap_or([0; 8])));
+    }
+    let mut tail = [0u8; 8];
+    tail[..words.remainder().len()].copy_from_slice(words.remainder());
+    step(h, u64::from_le_bytes(tail))
+}
+
 /// How long a context's teardown waits for work that timed out before it
 /// leaves it running (`Inner::may_destroy`).
 const TEARDOWN_WAIT: Duration = Duration::from_secs(5);
@@ -148,9 +172,9 @@ impl Inner {
         self.refuse_if_still_running()?;
 
         let start = Instant::now();
-        let (mut res, set) = self.prepare_run(kernel, buffers)?;
+        let (mut res, set, key) = self.prepare_run(kernel, buffers)?;
         let stamps = self.timestamp_ticks()?;
-        if stamps.is_some() {
+        if stamps.is_some() && res.queries == vk::QueryPool::null() {
             let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(RUN_QUERIES);
             res.queries =
                 unsafe { self.device.create_query_pool(&info, None) }.map_err(GpuError::vk("vkCreateQueryPool"))?;
@@ -218,7 +242,12 @@ impl Inner {
         let out = read(unsafe { std::slice::from_raw_parts(ptr as *const u8, buffers.output.1) });
         unsafe { d.unmap_memory(memory) };
         let readback = start.elapsed();
-        drop(res);
+        // Kept for the next run; its data images hold their inputs now.
+        for image in &mut res.images {
+            image.upload = false;
+        }
+        let KeptKey { kernel, lengths, inputs } = key;
+        *self.kept.lock().unwrap_or_else(|p| p.into_inner()) = Some(KeptRun { kernel, lengths, inputs, res, set });
         Ok((out, RunTimings { upload, dispatch, readback, device: stamps.map(|_| phases) }))
     }
 
@@ -290,7 +319,42 @@ impl Inner {
         &self,
         kernel: &Kernel,
         buffers: &RunBuffers,
-    ) -> Result<(RunResources, vk::DescriptorSet), GpuError> {
+    ) -> Result<(RunResources, vk::DescriptorSet, KeptKey), GpuError> {
+        let key = KeptKey {
+            kernel: kernel.id,
+            lengths: buffers.lengths().collect(),
+            inputs: buffers.inputs.iter().map(|(_, data)| input_hash(data)).collect(),
+        };
+        // The last run's resources where they fit this one; else they go
+        // before this run's are made.
+        let kept = self.kept.lock().unwrap_or_else(|p| p.into_inner()).take();
+        if let Some(kept) = kept.filter(|k| k.kernel == key.kernel && k.lengths == key.lengths) {
+            self.kept_taken.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let KeptRun { inputs, mut res, set, .. } = kept;
+            // The output's word before the kernel writes it: this run's.
+            let output = res.bindings.iter().find(|(b, _)| *b == buffers.output.0).map(|&(_, buffer)| buffer);
+            for fill in res.fills.iter_mut().filter(|(b, _)| Some(*b) == output) {
+                fill.1 = buffers.fill;
+            }
+            for ((&(binding, data), new), old) in buffers.inputs.iter().zip(&key.inputs).zip(&inputs) {
+                if new == old {
+                    continue;
+                }
+                let buffer = res.bindings.iter().find(|(b, _)| *b == binding).map(|&(_, buffer)| buffer);
+                let memory = res.buffers.iter().find(|(b, _)| Some(*b) == buffer).map(|&(_, memory)| memory);
+                let Some(memory) = memory else {
+                    return Err(GpuError::BadRun {
+                        kernel: kernel.name().to_string(),
+                        message: format!("a kept run has no buffer at binding {binding}"),
+                    });
+                };
+                self.write_input(memory, data)?;
+                for image in res.images.iter_mut().filter(|i| i.binding == binding) {
+                    image.upload = true;
+                }
+            }
+            return Ok((res, set, key));
+        }
         let mut res = RunResources::new(self.device.clone());
         // Inputs: one host-visible buffer per binding, written in place.
         for &(binding, data) in buffers.inputs {
@@ -302,13 +366,7 @@ impl Inner {
                 Place::Upload,
                 &kernel.binding_label(binding),
             )?;
-            let ptr = unsafe { self.device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
-                .map_err(GpuError::vk("vkMapMemory"))?;
-            // SAFETY: the mapping covers the whole allocation, at least `data.len()` bytes.
-            unsafe {
-                std::ptr::copy_nonoverlapping(data.as_ptr(), ptr as *mut u8, data.len());
-                self.device.unmap_memory(memory);
-            }
+            self.write_input(memory, data)?;
             res.bindings.push((binding, buffer));
             if kernel.binds_image(binding) {
                 // A device image, copied from this buffer when the command buffer starts.
@@ -345,7 +403,27 @@ impl Inner {
         }
         res.output = memory;
         let set = self.run_descriptor_set(&mut res, kernel)?;
-        Ok((res, set))
+        Ok((res, set, key))
+    }
+
+    /// `data` written at the start of the host-visible `memory`.
+    fn write_input(&self, memory: vk::DeviceMemory, data: &[u8]) -> Result<(), GpuError> {
+        let ptr = unsafe { self.device.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+            .map_err(GpuError::vk("vkMapMemory"))?;
+        // SAFETY: the mapping covers the whole allocation, at least `data.len()` bytes.
+        unsafe {
+            std::ptr::copy_nonoverlapping(data.as_ptr(), ptr as *mut u8, data.len());
+            self.device.unmap_memory(memory);
+        }
+        Ok(())
+    }
+
+    /// Drops the kept run (`KeptRun`), or only kernel `kernel`'s where given.
+    pub(crate) fn forget_kept(&self, kernel: Option<u64>) {
+        let mut kept = self.kept.lock().unwrap_or_else(|p| p.into_inner());
+        if kernel.is_none() || kept.as_ref().map(|k| k.kernel) == kernel {
+            drop(kept.take());
+        }
     }
 
     /// A descriptor set (from a pool in `res`) with `res`'s buffers and data images at their bindings.
@@ -426,7 +504,7 @@ impl Inner {
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
             format!("{what} (a data image of {texels} texels)"),
         )?;
-        res.images.push(RunImage { binding, source, texels, image, view, memory });
+        res.images.push(RunImage { upload: true, binding, source, texels, image, view, memory });
         Ok(())
     }
 
@@ -578,7 +656,7 @@ unsafe fn record_run_start(d: &ash::Device, cmd: vk::CommandBuffer, res: &RunRes
         let shader = vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
         let transfer = (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE);
         memory_barrier(d, cmd, transfer, (vk::PipelineStageFlags::COMPUTE_SHADER, shader));
-        for image in &res.images {
+        for image in res.images.iter().filter(|i| i.upload) {
             record_image_upload(d, cmd, image.source, image.image, image.texels);
         }
     }

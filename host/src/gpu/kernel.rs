@@ -14,6 +14,8 @@ use crate::layout::BindingLayout;
 
 /// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
 pub struct Kernel {
+    /// Unique in the process: what a kept run (`Inner::kept`) belongs to.
+    pub(crate) id: u64,
     /// Null where the kernel is a shader object (`shader`).
     pub(crate) pipeline: vk::Pipeline,
     /// The shader object, on a device with shader objects; else null.
@@ -165,7 +167,9 @@ impl Kernel {
         words = float_controls::add_modes(&words, ctx.inner.float_modes).map_err(invalid)?;
 
         let d = &ctx.inner.device;
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
         let mut kernel = Kernel {
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             pipeline: vk::Pipeline::null(),
             shader: vk::ShaderEXT::null(),
             source: None,
@@ -456,6 +460,8 @@ impl Drop for Kernel {
         if !self.inner.may_destroy() {
             return;
         }
+        // Its kept run's memory goes with it (its descriptor set has this kernel's layout).
+        self.inner.forget_kept(Some(self.id));
         // Null handles (a failed `new`) are no-ops.
         unsafe {
             if let Some(objects) = &self.inner.shader_objects {

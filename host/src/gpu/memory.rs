@@ -208,12 +208,33 @@ pub(crate) fn data_image_size(texels: u64) -> [u64; 2] {
 
 /// A run's read-only data image, filled from its input buffer `source`.
 pub(crate) struct RunImage {
+    /// Copy `source` into the image when the run starts: its bytes are
+    /// new (a kept run whose input is unchanged leaves it as it was).
+    pub(crate) upload: bool,
     pub(crate) binding: u32,
     pub(crate) source: vk::Buffer,
     pub(crate) texels: u32,
     pub(crate) image: vk::Image,
     pub(crate) view: vk::ImageView,
     pub(crate) memory: vk::DeviceMemory,
+}
+
+/// A finished run's resources, kept for the next run (`Inner::kept`):
+/// scene buffers stay on the device across frames, and a frame allocates
+/// nothing. The next run takes them when it has the same kernel and the
+/// same bindings at the same lengths; of its inputs it writes only those
+/// whose bytes changed (by `dispatch::input_hash`), and copies only their data
+/// images again. The cleared buffers and the output are filled again
+/// before every run's first pass, as for new ones.
+pub(crate) struct KeptRun {
+    /// The kernel's `Kernel::id`.
+    pub(crate) kernel: u64,
+    /// Every binding's length (`RunBuffers::lengths`).
+    pub(crate) lengths: Vec<(u32, usize)>,
+    /// Each input's hash (`dispatch::input_hash`), in the run's order.
+    pub(crate) inputs: Vec<u64>,
+    pub(crate) res: RunResources,
+    pub(crate) set: vk::DescriptorSet,
 }
 
 /// The Vulkan objects of one run, destroyed on drop (also on every error path).

@@ -304,6 +304,92 @@ fn run_uploads_data_images_texel_for_texel() {
     assert_no_messages(&sink, "in the data image test");
 }
 
+/// A run takes the last run's resources where the kernel and the
+/// bindings' lengths are the same (`dispatch::KeptRun`), and writes only
+/// the inputs that changed: so inputs that change between runs of the
+/// same lengths (a buffer, a data image), a sentinel that changes, and
+/// another kernel in between must each give what a new run gives.
+/// Rule: bit-exact, every word; and the runs that could reuse did.
+#[test]
+fn kept_runs_give_what_new_runs_give() {
+    let ctx = validated_context();
+    let sink = ctx.message_sink();
+    let taken = || ctx.inner.kept_taken.load(std::sync::atomic::Ordering::Relaxed);
+    let spv = compile("double", &double_src());
+    let double = Kernel::new(&ctx, "double", &spv, &double_bindings()).unwrap_or_else(|e| panic!("{e}"));
+    let other = Kernel::new(&ctx, "double", &spv, &double_bindings()).unwrap_or_else(|e| panic!("{e}"));
+    let before = taken();
+    // Inputs of the same lengths, different bytes: the second run must not read the first's.
+    let n = 100;
+    let p = params(n as u32);
+    let a = items(n);
+    let b: Vec<u8> =
+        bytemuck::cast_slice::<u32, u8>(&(0..2 * n as u32).map(|w| w * 7 + 5).collect::<Vec<_>>()).to_vec();
+    let run = |kernel: &Kernel, it: &[u8], fill: u32| -> Vec<u32> {
+        let (out, _) =
+            ctx.run(kernel, &[(0, &p), (1, it)], (2, (n + 3) * 8), fill, [2, 1, 1]).unwrap_or_else(|e| panic!("{e}"));
+        bytemuck::pod_collect_to_vec(&out)
+    };
+    let doubled = |it: &[u8], fill: u32| -> Vec<u32> {
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(it);
+        (0..n)
+            .flat_map(|i| [words[2 * i].wrapping_mul(2), (f32::from_bits(words[2 * i + 1]) * 2.0).to_bits()])
+            .chain(std::iter::repeat_n(fill, 6))
+            .collect()
+    };
+    for (step, (kernel, it, fill)) in [
+        (&double, &a, 0u32),
+        (&double, &b, 0),
+        (&double, &b, 0),
+        (&double, &a, 0xDEAD_BEEF),
+        (&other, &b, 1),
+        (&double, &b, 1),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let got = run(kernel, it, fill);
+        let want = doubled(it, fill);
+        let differ = got.iter().zip(&want).filter(|(g, w)| g != w).count();
+        assert_eq!(
+            differ,
+            0,
+            "rule: bit-exact; run {step}: {differ} of {} words differ, first at {:?}",
+            want.len(),
+            got.iter().zip(&want).position(|(g, w)| g != w)
+        );
+    }
+    // Runs 1, 2 and 3 took run 0's, 1's and 2's; 4 and 5 follow another kernel.
+    assert_eq!(taken() - before, 3, "runs that took a kept run's resources");
+    // A data image whose bytes change between runs of the same length.
+    let spv = compile("data_image", DATA_IMAGE_SRC);
+    let quad = StructLayout { name: "Quad", size: 16, fields: vec![field("v", 0, 16)] };
+    let buffers = [BindingLayout::single(0, params_layout()), BindingLayout::array(2, quad).writable()];
+    let image = ImageBinding { binding: 1, writable: false, format: ImageFormat::Rgba32Uint };
+    let kernel = Kernel::with_images(&ctx, "data_image", &spv, &buffers, std::slice::from_ref(&image))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let texels = 300usize;
+    for seed in [1u32, 2, 2, 1] {
+        let words: Vec<u32> = (0..4 * texels as u32).map(|w| w.wrapping_mul(0x9E37_79B9) ^ seed).collect();
+        let (out, _) = ctx
+            .run(
+                &kernel,
+                &[(0, &params(texels as u32)), (1, bytemuck::cast_slice(&words))],
+                (2, texels * 16),
+                0,
+                [5, 1, 1],
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+        let got: Vec<u32> = bytemuck::pod_collect_to_vec(&out);
+        let want: Vec<u32> = words.chunks(4).flat_map(|t| [t[3], t[2], t[1], t[0]]).collect();
+        let differ = got.iter().zip(&want).filter(|(g, w)| g != w).count();
+        assert_eq!(differ, 0, "rule: bit-exact; data image seed {seed}: {differ} of {} words differ", want.len());
+    }
+    drop((double, other, kernel));
+    drop(ctx);
+    assert_no_messages(&sink, "in the kept-run test");
+}
+
 #[test]
 fn sentinel_fill_survives_where_the_kernel_does_not_write() {
     const FILL: u32 = 0xDEAD_BEEF;
