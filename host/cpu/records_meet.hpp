@@ -1,7 +1,8 @@
 // records_meet.hpp: the CPU build's form of the walk's instance-record loop
 // (shaders/traversal.glsl calls it, with RECORDS_MEET, in place of the
-// loop's bound tests; shared.hpp includes it after the GLSL): which of a leaf's instance records the ray meets, as a mask, the
-// bounding spheres four at a time in SIMD lanes. Each lane does sphere_hit's
+// loop's bound tests; shared.hpp includes it after the GLSL): which of a
+// leaf's instance records the ray meets, as a mask, the bounding spheres
+// four at a time in SIMD lanes. Each lane does sphere_hit's
 // arithmetic, operation for operation in the same order (no FMA: the
 // library is built with -ffp-contract=off), so each answer is the scalar
 // test's (host/cpu/intersect_test.cpp, RecordsMeet, compares them); box
@@ -47,8 +48,8 @@ inline record_lanes::u4 record_at(uint t) {
 
 // The records records .. records + count - 1 (count at most 32) the ray lr
 // meets within reach: bit n for record n. leaf_lo and step place their
-// centres and boxes (layout.h, BvhNode). With use_boxes false every record
-// meets (FLAG_NO_BVH).
+// centres and boxes (layout.h, BvhNode). (With FLAG_NO_BVH the walk does
+// not call it: every record meets.)
 uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, uint count, float reach) {
     using namespace record_lanes;
     const vec3 o = lr.origin;
