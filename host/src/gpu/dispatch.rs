@@ -106,6 +106,15 @@ impl RunBuffers<'_> {
     }
 }
 
+/// The most bytes of bindings a kept run holds (`KeptRun`): a 4K frame's
+/// pixel records and samples' sums (64 bytes a pixel: 133 MB at 1080p,
+/// 531 MB at 3840x2160; on a discrete GPU the records' host copy besides)
+/// and a small scene's. A larger run's resources go at its end as
+/// before: on lavapipe the device's memory is the host's, and `check` or
+/// a large `render` would otherwise hold them beside the CPU build's
+/// picture or the PNG being written.
+const KEPT_BYTES_MAX: usize = 512 << 20;
+
 /// What a run's resources are kept by (`KeptRun`).
 pub(crate) struct KeptKey {
     kernel: u64,
@@ -247,7 +256,9 @@ impl Inner {
             image.upload = false;
         }
         let KeptKey { kernel, lengths, inputs } = key;
-        *self.kept.lock().unwrap_or_else(|p| p.into_inner()) = Some(KeptRun { kernel, lengths, inputs, res, set });
+        if lengths.iter().map(|&(_, bytes)| bytes).sum::<usize>() <= KEPT_BYTES_MAX {
+            *self.kept.lock().unwrap_or_else(|p| p.into_inner()) = Some(KeptRun { kernel, lengths, inputs, res, set });
+        }
         Ok((out, RunTimings { upload, dispatch, readback, device: stamps.map(|_| phases) }))
     }
 
