@@ -429,10 +429,10 @@ impl Inner {
         Ok(())
     }
 
-    /// Drops the kept run (`KeptRun`), or only kernel `kernel`'s where given.
-    pub(crate) fn forget_kept(&self, kernel: Option<u64>) {
+    /// Drops the kept run (`KeptRun`) where it is kernel `kernel`'s.
+    pub(crate) fn forget_kept(&self, kernel: u64) {
         let mut kept = self.kept.lock().unwrap_or_else(|p| p.into_inner());
-        if kernel.is_none() || kept.as_ref().map(|k| k.kernel) == kernel {
+        if kept.as_ref().is_some_and(|k| k.kernel == kernel) {
             drop(kept.take());
         }
     }

@@ -37,6 +37,17 @@ pub struct Kernel {
     pub(crate) inner: Arc<Inner>,
 }
 
+/// What a kernel is built from (`Kernel::specialized`'s arguments), as
+/// its private builders pass it on.
+#[derive(Clone, Copy)]
+struct Source<'a> {
+    name: &'a str,
+    spirv: &'a [u8],
+    expected: &'a [BindingLayout],
+    images: &'a [ImageBinding],
+    constants: &'a [u32],
+}
+
 impl Kernel {
     /// Validates `spirv` with naga, checks its bindings and struct layouts
     /// against `expected` (`reflect::check_layouts`), then builds the pipeline.
@@ -90,7 +101,7 @@ impl Kernel {
         images: &[ImageBinding],
         constants: &[u32],
     ) -> Result<Kernel, GpuError> {
-        Kernel::specialized_as(ctx, name, spirv, expected, images, constants, false)
+        Kernel::specialized_as(ctx, Source { name, spirv, expected, images, constants }, false)
     }
 
     /// [`Kernel::specialized`] built as a pipeline (never a shader object,
@@ -108,21 +119,14 @@ impl Kernel {
         if ctx.inner.executables.is_none() {
             return Ok(None);
         }
-        Kernel::specialized_as(ctx, name, spirv, expected, images, constants, true).map(Some)
+        Kernel::specialized_as(ctx, Source { name, spirv, expected, images, constants }, true).map(Some)
     }
 
     /// `specialized`; `capture`: as `for_statistics` builds it.
-    fn specialized_as(
-        ctx: &GpuContext,
-        name: &str,
-        spirv: &[u8],
-        expected: &[BindingLayout],
-        images: &[ImageBinding],
-        constants: &[u32],
-        capture: bool,
-    ) -> Result<Kernel, GpuError> {
+    fn specialized_as(ctx: &GpuContext, source: Source, capture: bool) -> Result<Kernel, GpuError> {
+        let Source { name, spirv, expected, images, .. } = source;
         let check = || reflect::reflect(name, spirv, expected, images);
-        let build = || Kernel::build(ctx, name, spirv, expected, images, constants, capture);
+        let build = || Kernel::build(ctx, source, capture);
         // The checks' error first; a kernel built from SPIR-V that failed them is destroyed as it drops.
         let finish = |reflection: Result<reflect::Reflection, GpuError>, built: Result<Kernel, GpuError>| {
             let reflection = reflection?;
@@ -150,15 +154,8 @@ impl Kernel {
     /// The pipeline (or shader object) of `specialized`, before naga's
     /// checks have said whether it may be used; `capture`: a pipeline
     /// that keeps its statistics (`for_statistics`).
-    fn build(
-        ctx: &GpuContext,
-        name: &str,
-        spirv: &[u8],
-        expected: &[BindingLayout],
-        images: &[ImageBinding],
-        constants: &[u32],
-        capture: bool,
-    ) -> Result<Kernel, GpuError> {
+    fn build(ctx: &GpuContext, source: Source, capture: bool) -> Result<Kernel, GpuError> {
+        let Source { name, spirv, expected, images, constants } = source;
         // Mesa 25's lavapipe makes a shader object only once its queue is
         // idle: behind a run that timed out, that is never.
         ctx.inner.refuse_if_still_running()?;
@@ -461,7 +458,7 @@ impl Drop for Kernel {
             return;
         }
         // Its kept run's memory goes with it (its descriptor set has this kernel's layout).
-        self.inner.forget_kept(Some(self.id));
+        self.inner.forget_kept(self.id);
         // Null handles (a failed `new`) are no-ops.
         unsafe {
             if let Some(objects) = &self.inner.shader_objects {
