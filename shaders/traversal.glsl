@@ -255,6 +255,13 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     level_instance[0] = 0u;
     uint stack[STACK_SIZE];
     int top = 0;
+#ifdef ORDERED_WALK
+    // The CPU build's lean copy: each entry's bound, to test again when it
+    // is taken (host/cpu/records_meet.hpp, ordered walk).
+    KeyStack keyed;
+    WalkKeys keys;
+    keyed.any(0);
+#endif
     if (frame.node_count > 0u) {
         stack[0] = frame.root_node;
         top = 1;
@@ -280,6 +287,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             if (frame.node_count > 0u) {
                 stack[0] = frame.root_node;
                 top = 1;
+#ifdef ORDERED_WALK
+                keyed.any(0);
+#endif
             } else {
                 next = 0u;
             }
@@ -307,6 +317,11 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             next = next + 1u;
         } else {
             top = top - 1;
+#ifdef ORDERED_WALK
+            if (keyed.passed_by(top, reach)) {
+                continue;
+            }
+#endif
             uint entry = stack[top] & STACK_ENTRY_MASK;
             level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
             if (LEVELS_IN_REGISTERS) {
@@ -381,11 +396,17 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 vec4 hi1 = node_at(c1).hi;
                 if (!use_boxes || box_hit(lr, lo0, hi0, reach)) {
                     stack[top] = stack_word(c0, level);
+#ifdef ORDERED_WALK
+                    keyed.any(top);
+#endif
                     top = top + 1;
                     pushed = c0;
                 }
                 if (!use_boxes || box_hit(lr, lo1, hi1, reach)) {
                     stack[top] = stack_word(c1, level);
+#ifdef ORDERED_WALK
+                    keyed.any(top);
+#endif
                     top = top + 1;
                     pushed = c1;
                 }
@@ -452,12 +473,23 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             // in the loop's order.
             for (uint base = 0u; base < item_count - prim_count; base += 32u) {
                 uint count = min(item_count - prim_count - base, 32u);
-                uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, step, records + base, count, reach) : (0xffffffffu >> (32u - count));
+#ifdef ORDERED_WALK
+                // The lean copy's: nearest on top, each with its bound.
+                uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, step, records + base, count, reach, &keys) : (0xffffffffu >> (32u - count));
+                int first_pushed = top;
+                for (; met != 0u; met = met & (met - 1u)) {
+                    uint n = uint(findLSB(met));
+                    uint word = stack_word(leaf_record(records + base + n).w & ~RECORD_SPHERE, level);
+                    keyed.push_in_order(stack, top, first_pushed, word, use_boxes, keys, n);
+                }
+#else
+                uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, step, records + base, count, reach, nullptr) : (0xffffffffu >> (32u - count));
                 for (; met != 0u; met = met & (met - 1u)) {
                     uint record_w = leaf_record(records + base + uint(findLSB(met))).w;
                     stack[top] = stack_word(record_w & ~RECORD_SPHERE, level);
                     top = top + 1;
                 }
+#endif
             }
 #else
             for (uint n = prim_count; n < item_count; n++) {

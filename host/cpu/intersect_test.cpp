@@ -247,7 +247,8 @@ TEST(Camera, CentreRayOfAnOddImageIsTheLookDirection) {
     expect_vec3_eq(corner.direction, vec3(-1.0f, 1.0f, -1.0f));
 }
 
-// The CPU build's instance-record loop (records_meet.hpp) against the
+// The CPU build's instance-record loop (records_meet.hpp), from the
+// records and from their columns, against the
 // scalar tests the device runs (sphere_hit and box_hit on record_lo and
 // record_hi): random leaves of one to eight records, spheres and boxes
 // mixed; rays at a record's sphere, into the leaf or anywhere, with values
@@ -272,7 +273,7 @@ TEST(RecordsMeet, SameAnswersAsTheScalarTests) {
     };
     const float inf = std::numeric_limits<float>::infinity();
     const float nan = std::numeric_limits<float>::quiet_NaN();
-    int rays = 0, differ = 0, met = 0, records = 0, boundaries = 0;
+    int rays = 0, differ = 0, met = 0, records = 0, boundaries = 0, key_failures = 0, retested = 0;
     std::string first;
     uint count = 0u;
     vec4 leaf_lo, leaf_hi;
@@ -289,9 +290,52 @@ TEST(RecordsMeet, SameAnswersAsTheScalarTests) {
         }
         return mask;
     };
+    std::vector<uint> columns;
+    // The mask from the records, and from their columns (made as
+    // raycast_cpu_record_columns makes them) with the walk's keys; each
+    // met record's keys tested again at smaller reaches (walk_keys.hpp):
+    // a sphere's answer is sphere_hit's there, a box's never skips one
+    // box_hit meets.
+    auto records_meet_both = [&](Ray r, float reach) {
+        uint decoded = records_meet(r, leaf_lo, leaf_hi, step, 1u, count, reach, nullptr);
+        uint stride = 1u + count + 4u;
+        columns.assign(4u + RECORD_COLUMNS * stride, 0u);
+        fill_record_columns(columns.data() + 4, stride, leaf_lo, leaf_hi, 1u, count);
+        record_columns = columns.data() + 4;
+        record_column_stride = stride;
+        WalkKeys keys;
+        uint from_columns = records_meet(r, leaf_lo, leaf_hi, step, 1u, count, reach, &keys);
+        record_columns = nullptr;
+        if (from_columns != decoded) {
+            key_failures++;
+            ADD_FAILURE() << "the columns' mask " << from_columns << ", the records' " << decoded;
+        }
+        for (uint met_now = decoded; met_now != 0u; met_now &= met_now - 1u) {
+            uint n = uint(__builtin_ctz(met_now));
+            uvec4 record = leaf_record(1u + n);
+            vec3 lo = record_lo(record, leaf_lo, step);
+            bool sphere = (record.w & RECORD_SPHERE) != 0u;
+            for (float smaller : {reach * unit(), reach * 0.5f, 0.0f, keys.tc[n]}) {
+                if (!(smaller >= 0.0f && smaller <= reach)) {
+                    continue;
+                }
+                bool hit = sphere ? sphere_hit(r, lo, glm::uintBitsToFloat(record.z), smaller)
+                                  : box_hit(r, vec4(lo, 0.0f), vec4(record_hi(record, leaf_hi, step), 0.0f), smaller);
+                bool skipped = bound_passed_by(keys.tc[n], keys.rr[n], keys.dd, smaller);
+                retested++;
+                if ((skipped && hit) || (sphere && skipped == hit)) {
+                    if (key_failures++ == 0) {
+                        ADD_FAILURE() << "record " << n << (sphere ? " (sphere)" : " (box)") << " at reach " << smaller << " of "
+                                      << reach << ": skipped " << skipped << ", met " << hit;
+                    }
+                }
+            }
+        }
+        return decoded;
+    };
     auto compare = [&](Ray r, float reach) {
         uint expected = expected_mask(r, reach);
-        uint actual = records_meet(r, leaf_lo, leaf_hi, step, 1u, count, reach);
+        uint actual = records_meet_both(r, reach);
         rays++;
         records += int(count);
         met += __builtin_popcount(expected);
@@ -401,4 +445,6 @@ TEST(RecordsMeet, SameAnswersAsTheScalarTests) {
     EXPECT_GT(met, records / 10) << met << " of " << records << " records met";
     EXPECT_LT(met, records - records / 10) << met << " of " << records << " records met";
     EXPECT_GT(boundaries, 20000) << boundaries << " boundaries found";
+    EXPECT_EQ(key_failures, 0) << key_failures << " answers of the columns or the keys differ";
+    EXPECT_GT(retested, 100000) << retested << " keys tested again";
 }

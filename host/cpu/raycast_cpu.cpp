@@ -54,6 +54,31 @@ extern "C" void RAYCAST_CPU_ENTRY(raycast_cpu_preview_rows)(const void* const* b
 }
 
 #ifndef RAYCAST_CPU_LEAN
+extern "C" uint64_t raycast_cpu_record_columns(const void* const* buffers, uint32_t* out, uint64_t capacity) {
+    Scene s = bind_buffers(buffers);
+    uint slots = record_column_slots();
+    if (slots == 0u) {
+        return 0u;
+    }
+    // Four words of padding past the last slot: a group of four lanes
+    // loads from its leaf's last record on.
+    uint stride = slots + 4u;
+    uint64_t words = 4u + uint64_t(RECORD_COLUMNS) * stride;
+    if (out == nullptr || capacity < words) {
+        return words;
+    }
+    std::memset(out, 0, words * sizeof(uint32_t));
+    out[0] = stride;
+    for (uint n = 0u; n < s.frame.node_count; n++) {
+        BvhNode node = node_at(n);
+        if (node.count > node.primitives) {
+            fill_record_columns(out + 4, stride, node.lo, node.hi, (node.first + node.primitives + 3u) >> 2u,
+                                node.count - node.primitives);
+        }
+    }
+    return words;
+}
+
 namespace {
 struct Field {
     const char* type;

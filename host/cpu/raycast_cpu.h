@@ -14,7 +14,9 @@ extern "C" {
 /* Renders rows [row_begin, row_end) of the frame into out (width pixels a
  * row, out[0] is the first pixel of row_begin). buffers[b] is the buffer the
  * kernel binds at binding b (layout.h BINDING_*, up to BINDING_COUNT; the
- * pixel binding is unused). Safe to call from many threads at once. */
+ * pixel binding is unused), and buffers[BINDING_COUNT] the record columns
+ * (raycast_cpu_record_columns) or NULL. Safe to call from many threads at
+ * once. */
 void raycast_cpu_render_rows(const void* const* buffers, uint32_t row_begin, uint32_t row_end, void* out);
 
 /* One sample of the preview window (shaders/preview_main.glsl, the same
@@ -46,6 +48,12 @@ uint32_t raycast_cpu_trace_sample(const void* const* buffers, uint32_t x, uint32
  * square's level, its colour (r, g, b). out holds COURSE_MAX_SAMPLES of
  * them; returns how many there are. */
 uint32_t raycast_cpu_course_samples(const void* const* buffers, uint32_t x, uint32_t y, float* out);
+
+/* The scene's instance records by column, as the walk's SIMD lanes read
+ * them (records_meet.hpp): the words they take (0: the scene has none),
+ * written to out when capacity (in words) holds them. buffers as
+ * raycast_cpu_render_rows takes them, the columns' own entry unread. */
+uint64_t raycast_cpu_record_columns(const void* const* buffers, uint32_t* out, uint64_t capacity);
 
 /* The C++ layout of struct `type` (e.g. "Material"): its size when member is
  * NULL, else the member's offset; -1 when unknown. */

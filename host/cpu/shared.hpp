@@ -65,6 +65,11 @@ inline thread_local RAYCAST_SCENE_ARRAY(BvhNode) mesh_nodes;
 inline thread_local RAYCAST_SCENE_ARRAY(MeshTriangle) mesh_triangles;
 inline thread_local RAYCAST_SCENE_ARRAY(MeshVertex) mesh_vertices;
 #undef RAYCAST_SCENE_ARRAY
+// The CPU build's own: the record columns of the scene (records_meet.hpp,
+// raycast_cpu_record_columns), or null (records_meet decodes the records):
+// RECORD_COLUMNS columns of `record_column_stride` words each.
+inline thread_local const uint* record_columns = nullptr;
+inline thread_local uint record_column_stride = 0u;
 
 // Element i of primitives, nodes and instances, as scene_buffers.glsl reads them.
 #define primitive_at(i) primitives[i]
@@ -98,6 +103,8 @@ struct Scene {
     const BvhNode* mesh_nodes;
     const MeshTriangle* mesh_triangles;
     const MeshVertex* mesh_vertices;
+    const uint* record_columns;
+    uint record_column_stride;
 };
 
 inline void bind_scene(const Scene& s) {
@@ -113,10 +120,13 @@ inline void bind_scene(const Scene& s) {
     mesh_nodes = s.mesh_nodes;
     mesh_triangles = s.mesh_triangles;
     mesh_vertices = s.mesh_vertices;
+    record_columns = s.record_columns;
+    record_column_stride = s.record_column_stride;
 }
 
 // Binds the kernel's buffers (buffers[b] at binding b, layout.h BINDING_*,
-// as raycast_cpu.h takes them) for this thread.
+// and the record columns at BINDING_COUNT, as raycast_cpu.h takes them)
+// for this thread.
 inline Scene bind_buffers(const void* const* buffers) {
     Scene s;
     std::memcpy(&s.frame, buffers[BINDING_FRAME], sizeof(Frame));
@@ -131,6 +141,10 @@ inline Scene bind_buffers(const void* const* buffers) {
     s.mesh_nodes = static_cast<const BvhNode*>(buffers[BINDING_MESH_NODES]);
     s.mesh_triangles = static_cast<const MeshTriangle*>(buffers[BINDING_MESH_TRIANGLES]);
     s.mesh_vertices = static_cast<const MeshVertex*>(buffers[BINDING_MESH_VERTICES]);
+    // The columns' first word is their stride; they begin 4 words on.
+    const uint* columns = static_cast<const uint*>(buffers[BINDING_COUNT]);
+    s.record_columns = (columns == nullptr) ? nullptr : columns + 4;
+    s.record_column_stride = (columns == nullptr) ? 0u : columns[0];
     bind_scene(s);
     return s;
 }
@@ -194,11 +208,16 @@ inline int findLSB(uint v) {
 }
 
 // The walk's instance-record loop in SIMD lanes (records_meet.hpp,
-// defined after the GLSL, whose box_hit and record_lo it uses).
+// defined after the GLSL, whose box_hit and record_lo it uses), and in the
+// lean copy the ordered walk (walk_keys.hpp).
 #define RECORDS_MEET
+#ifdef RAYCAST_CPU_LEAN
+#define ORDERED_WALK
+#endif
+#include "walk_keys.hpp"
 namespace {
 struct Ray;
-uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, uint count, float reach);
+uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, uint count, float reach, WalkKeys* keys);
 } // namespace
 
 // Internal linkage: each translation unit has its own copy, so GCC may

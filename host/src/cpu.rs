@@ -65,6 +65,7 @@ fn row_loops_for(data: &FrameData, frame: &layout::Frame) -> (RenderRows, Previe
 extern "C" {
     fn raycast_cpu_course_samples(buffers: *const *const c_void, x: u32, y: u32, out: *mut f32) -> u32;
     fn raycast_cpu_field_offset(ty: *const std::ffi::c_char, member: *const std::ffi::c_char) -> i64;
+    fn raycast_cpu_record_columns(buffers: *const *const c_void, out: *mut u32, capacity: u64) -> u64;
     fn raycast_cpu_trace_sample(
         buffers: *const *const c_void,
         x: u32,
@@ -75,14 +76,29 @@ extern "C" {
     ) -> u32;
 }
 
-/// The kernel's buffers by binding number, as raycast_cpu.h takes them.
+/// Where raycast_cpu.h takes the record columns: past the kernel's bindings.
+const RECORD_COLUMNS: usize = layout::BINDING_COUNT as usize;
+
+/// The kernel's buffers by binding number, and the record columns made
+/// for them, as raycast_cpu.h takes them.
 fn buffer_pointers(data: &FrameData) -> SendPtrs {
-    let mut buffers = [std::ptr::null::<c_void>(); layout::BINDING_COUNT as usize];
+    let mut buffers = [std::ptr::null::<c_void>(); RECORD_COLUMNS + 1];
     buffers[layout::BINDING_FRAME as usize] = (&data.frame as *const layout::Frame).cast();
     for (binding, _, bytes) in data.scene_buffers() {
         buffers[binding as usize] = bytes.as_ptr().cast();
     }
-    SendPtrs(buffers)
+    let mut columns = Vec::new();
+    if !data.instances.is_empty() {
+        // SAFETY: as in `CpuRenderer::run`; a null `out` only sizes them.
+        let words = unsafe { raycast_cpu_record_columns(buffers.as_ptr(), std::ptr::null_mut(), 0) };
+        columns = vec![0u32; usize::try_from(words).expect("the record columns fit the address space")];
+        // SAFETY: `columns` holds `words` words.
+        unsafe { raycast_cpu_record_columns(buffers.as_ptr(), columns.as_mut_ptr(), words) };
+        if !columns.is_empty() {
+            buffers[RECORD_COLUMNS] = columns.as_ptr().cast();
+        }
+    }
+    SendPtrs { buffers, _columns: columns }
 }
 
 /// Rows a thread takes at a time: small enough to balance uneven rows.
@@ -134,8 +150,12 @@ pub fn check_layouts() -> Result<(), Error> {
     }
 }
 
-/// Buffer pointers shared by the render threads, which only read through them.
-struct SendPtrs([*const c_void; layout::BINDING_COUNT as usize]);
+/// Buffer pointers shared by the render threads, which only read through
+/// them, and the record columns, which the last one points into.
+struct SendPtrs {
+    buffers: [*const c_void; RECORD_COLUMNS + 1],
+    _columns: Vec<u32>,
+}
 // SAFETY: the pointers are only read, and the data they point to outlives
 // the scoped threads (it is borrowed from `data` for the whole render).
 unsafe impl Sync for SendPtrs {}
@@ -144,7 +164,7 @@ impl SendPtrs {
     /// The array for the C ABI (a method, so that a closure captures the
     /// whole `SendPtrs`, which is Sync, not its array).
     fn as_ptr(&self) -> *const *const c_void {
-        self.0.as_ptr()
+        self.buffers.as_ptr()
     }
 }
 
@@ -293,13 +313,13 @@ impl CpuRenderer {
             return Err(Error::Failed(format!("sample {sample} is not one of the pixel's {spp} (0 to {})", spp - 1)));
         }
         let mut buffers = buffer_pointers(data);
-        buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
+        buffers.buffers[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
         let mut steps = vec![layout::TraceStep::default(); 64];
         loop {
             let capacity = u32::try_from(steps.len()).expect("a trace's steps fit u32");
             // SAFETY: as in `run`; `steps` holds `capacity` TraceSteps (layout checked).
             let n = unsafe {
-                raycast_cpu_trace_sample(buffers.0.as_ptr(), x, y, sample, steps.as_mut_ptr().cast(), capacity)
+                raycast_cpu_trace_sample(buffers.as_ptr(), x, y, sample, steps.as_mut_ptr().cast(), capacity)
             };
             if n <= capacity {
                 steps.truncate(n as usize);
@@ -323,10 +343,10 @@ impl CpuRenderer {
             return Err(Error::Failed(format!("pixel ({x}, {y}) is outside the {w}x{h} picture")));
         }
         let mut buffers = buffer_pointers(data);
-        buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
+        buffers.buffers[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
         let mut out = vec![0f32; 6 * layout::COURSE_MAX_SAMPLES as usize];
         // SAFETY: as in `run`; `out` holds COURSE_MAX_SAMPLES records of 6 floats (raycast_cpu.h).
-        let n = unsafe { raycast_cpu_course_samples(buffers.0.as_ptr(), x, y, out.as_mut_ptr()) };
+        let n = unsafe { raycast_cpu_course_samples(buffers.as_ptr(), x, y, out.as_mut_ptr()) };
         Ok(out
             .chunks_exact(6)
             .take(n as usize)
@@ -384,7 +404,7 @@ impl CpuRenderer {
             "the buffers hold the frame"
         );
         let mut buffers = buffer_pointers(data);
-        buffers.0[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
+        buffers.buffers[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
         let band = begin as usize * width..end as usize * width;
         let rows = width * ROWS_PER_JOB as usize;
         let jobs =

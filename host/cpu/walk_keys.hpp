@@ -1,0 +1,71 @@
+// walk_keys.hpp: what the CPU build's lean copy keeps beside the walk's
+// stack to walk in order (shaders/traversal.glsl, ORDERED_WALK; shared.hpp
+// includes this before the GLSL, records_meet.hpp fills the keys).
+//
+// The ordered walk: a leaf's met instances go on the stack nearest on top,
+// and an entry taken off the stack is tested again against the reach the
+// walk has come to since it was pushed, skipped when it lies past it. The
+// picture cannot change: the walk's answer does not depend on the order it
+// meets hits in (the tie rule, docs/scene-format.md#ties), and the test
+// again is the bound's own test at the smaller reach (sphere_hit's last
+// condition, in its operations and order; box_hit's, whose interval only
+// the reach narrows), so nothing it skips holds a hit that counts. Only
+// the passes differ, which the lean copy does not count (it has no AOVs):
+// the whole copy keeps the device's order, and `raycast check` compares
+// its passes.
+#pragma once
+
+// One leaf's records as records_meet tested them (count at most 32, four
+// lanes past them written): sphere_hit's tc and rr for a sphere, a box's
+// entry t and -1 (past its entry every reach skips it), and the ray's
+// dot3(d, d).
+struct WalkKeys {
+    float tc[36];
+    float rr[36];
+    float dd;
+};
+
+// Whether a bound records_meet met (tc, rr, dd: its keys) lies past reach:
+// sphere_hit's `(past <= 0.0f || past * past * dd <= rr)` false.
+inline bool bound_passed_by(float tc, float rr, float dd, float reach) {
+    float past = tc - reach;
+    return !(past <= 0.0f || past * past * dd <= rr);
+}
+
+// The keys of the walk's stack entries, slot by slot.
+struct KeyStack {
+    float tc[STACK_SIZE];
+    float rr[STACK_SIZE];
+    float dd[STACK_SIZE];
+
+    // Slot `at` holds an entry taken at any reach (the root, a node's children).
+    void any(int at) {
+        tc[at] = -INFINITY;
+        rr[at] = 0.0f;
+        dd[at] = 0.0f;
+    }
+
+    // Whether the entry at `at` lies past reach (bound_passed_by).
+    bool passed_by(int at, float reach) const {
+        return bound_passed_by(tc[at], rr[at], dd[at], reach);
+    }
+
+    // Pushes `word`, record n of `keys` (taken at any reach unless `keyed`),
+    // among the entries first .. top - 1 pushed from its leaf so far: the
+    // least tc nearest the top, ties in the order pushed.
+    void push_in_order(uint* stack, int& top, int first, uint word, bool keyed, const WalkKeys& keys, uint n) {
+        float key = keyed ? keys.tc[n] : -INFINITY;
+        int at = top;
+        for (; at > first && tc[at - 1] < key; at--) {
+            stack[at] = stack[at - 1];
+            tc[at] = tc[at - 1];
+            rr[at] = rr[at - 1];
+            dd[at] = dd[at - 1];
+        }
+        stack[at] = word;
+        tc[at] = key;
+        rr[at] = keyed ? keys.rr[n] : 0.0f;
+        dd[at] = keyed ? keys.dd : 0.0f;
+        top = top + 1;
+    }
+};
