@@ -298,7 +298,7 @@ TEST(RecordsMeet, SameAnswersAsTheScalarTests) {
     // box_hit meets.
     auto records_meet_both = [&](Ray r, float reach) {
         uint decoded = records_meet(r, leaf_lo, leaf_hi, step, 1u, count, reach, nullptr);
-        uint stride = 1u + count + 4u;
+        uint stride = 1u + count + RECORD_COLUMN_PADDING;
         columns.assign(4u + RECORD_COLUMNS * stride, 0u);
         fill_record_columns(columns.data() + 4, stride, leaf_lo, leaf_hi, 1u, count);
         record_columns = columns.data() + 4;
@@ -448,3 +448,16 @@ TEST(RecordsMeet, SameAnswersAsTheScalarTests) {
     EXPECT_EQ(key_failures, 0) << key_failures << " answers of the columns or the keys differ";
     EXPECT_GT(retested, 100000) << retested << " keys tested again";
 }
+
+#ifdef RAYCAST_CPU_TESTS_AVX2
+// The AVX2 build's own main: Skipped (exit 77, CMakeLists.txt) on a CPU
+// without AVX2, where its code cannot run.
+int main(int argc, char** argv) {
+    if (!__builtin_cpu_supports("avx2")) {
+        std::printf("Skipped: this CPU has no AVX2\n");
+        return 77;
+    }
+    ::testing::InitGoogleTest(&argc, argv);
+    return RUN_ALL_TESTS();
+}
+#endif

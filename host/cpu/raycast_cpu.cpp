@@ -8,8 +8,11 @@
 
 using namespace raycast_cpu;
 
-// The lean copy's entry points end in _lean (raycast_cpu_lean.cpp).
-#ifdef RAYCAST_CPU_LEAN
+// The lean copy's entry points end in _lean (raycast_cpu_lean.cpp), its
+// AVX2 build's in _lean_avx2 (raycast_cpu_lean_avx2.cpp).
+#if defined(RAYCAST_CPU_LEAN) && defined(RAYCAST_CPU_AVX2)
+#define RAYCAST_CPU_ENTRY(name) name##_lean_avx2
+#elif defined(RAYCAST_CPU_LEAN)
 #define RAYCAST_CPU_ENTRY(name) name##_lean
 #else
 #define RAYCAST_CPU_ENTRY(name) name
@@ -60,9 +63,7 @@ extern "C" uint64_t raycast_cpu_record_columns(const void* const* buffers, uint3
     if (slots == 0u) {
         return 0u;
     }
-    // Four words of padding past the last slot: a group of four lanes
-    // loads from its leaf's last record on.
-    uint stride = slots + 4u;
+    uint stride = slots + RECORD_COLUMN_PADDING;
     uint64_t words = 4u + uint64_t(RECORD_COLUMNS) * stride;
     if (out == nullptr || capacity < words) {
         return words;

@@ -36,6 +36,13 @@ void raycast_cpu_render_rows_lean(const void* const* buffers, uint32_t row_begin
 void raycast_cpu_preview_rows_lean(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
                                    uint32_t sample_index, float jitter_x, float jitter_y, void* accum_out, void* out);
 
+/* The lean two compiled for x86-64 with AVX2 (raycast_cpu_lean_avx2.cpp;
+ * only in x86-64 builds, to be called only where the CPU has AVX2). */
+void raycast_cpu_render_rows_lean_avx2(const void* const* buffers, uint32_t row_begin, uint32_t row_end, void* out);
+void raycast_cpu_preview_rows_lean_avx2(const void* const* buffers, uint32_t row_begin, uint32_t row_end,
+                                        uint32_t sample_index, float jitter_x, float jitter_y, void* accum_out,
+                                        void* out);
+
 /* Traces sample `sample` of pixel (x, y) as raycast_cpu_render_rows renders
  * it: writes its steps (layout.h TraceStep), up to `capacity`, to out and
  * returns how many there are. Safe to call from many threads at once. */

@@ -27,31 +27,42 @@
 #pragma once
 
 namespace record_lanes {
-typedef float f4 __attribute__((vector_size(16)));
-typedef int i4 __attribute__((vector_size(16)));
-typedef uint u4 __attribute__((vector_size(16)));
+// Lanes a group: eight where the compiler may use AVX (raycast_cpu_lean_avx2.cpp),
+// else four (SSE, NEON). The leaves of the course's recursive scenes hold
+// five records: one group of eight, two of four.
+#ifdef __AVX__
+const uint LANES = 8u;
+#else
+const uint LANES = 4u;
+#endif
+typedef float fv __attribute__((vector_size(4 * LANES)));
+typedef int iv __attribute__((vector_size(4 * LANES)));
+typedef uint uv __attribute__((vector_size(4 * LANES)));
 
 // abs in each lane, as shared.hpp's abs: the sign bit cleared.
-inline f4 abs_lanes(f4 v) {
-    u4 bits;
+inline fv abs_lanes(fv v) {
+    uv bits;
     __builtin_memcpy(&bits, &v, sizeof(bits));
     bits &= 0x7fffffffu;
     __builtin_memcpy(&v, &bits, sizeof(v));
     return v;
 }
-} // namespace record_lanes
 
-// Instance record t (leaf_record) in one vector.
-inline record_lanes::u4 record_at(uint t) {
-#ifdef RAYCAST_CHECKED_BUFFERS
-    uvec4 r = leaf_record(t);
-    return record_lanes::u4{r.x, r.y, r.z, r.w};
+// Bit k for each lane k that is true (all ones).
+inline uint lane_bits(iv v) {
+#if defined(__AVX__)
+    return uint(__builtin_ia32_movmskps256(fv(v)));
+#elif defined(__SSE__)
+    return uint(__builtin_ia32_movmskps(fv(v)));
 #else
-    record_lanes::u4 r;
-    __builtin_memcpy(&r, &leaf_items[t * 4u], sizeof(r));
-    return r;
+    uint bits = 0u;
+    for (uint k = 0u; k < LANES; k++) {
+        bits |= (v[k] != 0) ? (1u << k) : 0u;
+    }
+    return bits;
 #endif
 }
+} // namespace record_lanes
 
 // Columns of the record columns: x, y, z, the radius word, the w word.
 const uint RECORD_COLUMNS = 5u;
@@ -69,19 +80,29 @@ inline uint record_column_slots() {
     return slots;
 }
 
+// Words past the columns' last slot: a group of lanes loads from its
+// leaf's last record on.
+const uint RECORD_COLUMN_PADDING = 8u;
+
+// Record t's words in columns `stride` words apart from out[0]: x, y and z
+// of its centre (as record_lo decodes it from its leaf's box, leaf_lo and
+// step), its radius word and its w word.
+inline void record_column_words(uint t, vec4 leaf_lo, vec3 step, uint* out, uint stride) {
+    uvec4 record = leaf_record(t);
+    vec3 lo = record_lo(record, leaf_lo, step);
+    out[0] = floatBitsToUint(lo.x);
+    out[stride] = floatBitsToUint(lo.y);
+    out[2u * stride] = floatBitsToUint(lo.z);
+    out[3u * stride] = record.z;
+    out[4u * stride] = record.w;
+}
+
 // Writes the columns of records records .. records + count - 1 of a leaf
-// whose box is [leaf_lo, leaf_hi]: x, y and z of the centre (as the walk
-// decodes it), the radius word and the w word.
+// whose box is [leaf_lo, leaf_hi].
 inline void fill_record_columns(uint* out, uint stride, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count) {
     vec3 step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
     for (uint t = records; t < records + count; t++) {
-        uvec4 record = leaf_record(t);
-        vec3 lo = record_lo(record, leaf_lo, step);
-        out[t] = floatBitsToUint(lo.x);
-        out[stride + t] = floatBitsToUint(lo.y);
-        out[2u * stride + t] = floatBitsToUint(lo.z);
-        out[3u * stride + t] = record.z;
-        out[4u * stride + t] = record.w;
+        record_column_words(t, leaf_lo, step, out + t, stride);
     }
 }
 
@@ -109,10 +130,10 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, u
         keys->dd = dd;
     }
     uint met = 0u;
-    for (uint g = 0u; g < count; g += 4u) {
-        // Four records' centres, radius words and w words.
-        f4 cx, cy, cz;
-        u4 z, w;
+    for (uint g = 0u; g < count; g += LANES) {
+        // A group's centres, radius words and w words.
+        fv cx, cy, cz;
+        uv z, w;
         if (record_columns != nullptr) {
             // Past count: the columns' next words (their padding at the end).
             const uint* at = record_columns + records + g;
@@ -122,60 +143,55 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, u
             __builtin_memcpy(&z, at + 3u * record_column_stride, sizeof(z));
             __builtin_memcpy(&w, at + 4u * record_column_stride, sizeof(w));
         } else {
-            // Four records (zeros past count), then one word of each to a
-            // vector: x (the centre's x | y << 16), y (its z in the low
-            // half), z (the radius's bits), w; the centre as record_lo
-            // decodes it.
-            u4 r0 = record_at(records + g);
-            u4 r1 = (g + 1u < count) ? record_at(records + g + 1u) : u4{0u, 0u, 0u, 0u};
-            u4 r2 = (g + 2u < count) ? record_at(records + g + 2u) : u4{0u, 0u, 0u, 0u};
-            u4 r3 = (g + 3u < count) ? record_at(records + g + 3u) : u4{0u, 0u, 0u, 0u};
-            u4 t0 = __builtin_shuffle(r0, r1, u4{0u, 4u, 1u, 5u});
-            u4 t1 = __builtin_shuffle(r2, r3, u4{0u, 4u, 1u, 5u});
-            u4 t2 = __builtin_shuffle(r0, r1, u4{2u, 6u, 3u, 7u});
-            u4 t3 = __builtin_shuffle(r2, r3, u4{2u, 6u, 3u, 7u});
-            u4 x = __builtin_shuffle(t0, t1, u4{0u, 1u, 4u, 5u});
-            u4 y = __builtin_shuffle(t0, t1, u4{2u, 3u, 6u, 7u});
-            z = __builtin_shuffle(t2, t3, u4{0u, 1u, 4u, 5u});
-            w = __builtin_shuffle(t2, t3, u4{2u, 3u, 6u, 7u});
-            cx = leaf_lo.x + __builtin_convertvector(i4(x & 0xffffu), f4) * step.x;
-            cy = leaf_lo.y + __builtin_convertvector(i4(x >> 16u), f4) * step.y;
-            cz = leaf_lo.z + __builtin_convertvector(i4(y & 0xffffu), f4) * step.z;
+            // Decoded here, as fill_record_columns does (zeros past count).
+            uint words[RECORD_COLUMNS][LANES] = {};
+            for (uint k = 0u; k < LANES && g + k < count; k++) {
+                record_column_words(records + g + k, leaf_lo, step, &words[0][k], LANES);
+            }
+            __builtin_memcpy(&cx, words[0], sizeof(cx));
+            __builtin_memcpy(&cy, words[1], sizeof(cy));
+            __builtin_memcpy(&cz, words[2], sizeof(cz));
+            __builtin_memcpy(&z, words[3], sizeof(z));
+            __builtin_memcpy(&w, words[4], sizeof(w));
         }
         // sphere_hit(lr, centre, radius, reach).
-        f4 ocx = cx - o.x;
-        f4 ocy = cy - o.y;
-        f4 ocz = cz - o.z;
-        f4 radius;
+        fv ocx = cx - o.x;
+        fv ocy = cy - o.y;
+        fv ocz = cz - o.z;
+        fv radius;
         __builtin_memcpy(&radius, &z, sizeof(radius));
-        f4 tc = ((ocx * d.x + ocy * d.y) + ocz * d.z) / dd;
-        f4 px = ocx - tc * d.x;
-        f4 py = ocy - tc * d.y;
-        f4 pz = ocz - tc * d.z;
+        fv tc = ((ocx * d.x + ocy * d.y) + ocz * d.z) / dd;
+        fv px = ocx - tc * d.x;
+        fv py = ocy - tc * d.y;
+        fv pz = ocz - tc * d.z;
         // max_abs3(oc): abs (shared.hpp: the sign bit cleared), then max_f's (a < b) ? b : a.
-        f4 ax = abs_lanes(ocx);
-        f4 ay = abs_lanes(ocy);
-        f4 az = abs_lanes(ocz);
-        f4 m = ax < ay ? ay : ax;
+        fv ax = abs_lanes(ocx);
+        fv ay = abs_lanes(ocy);
+        fv az = abs_lanes(ocz);
+        fv m = ax < ay ? ay : ax;
         m = m < az ? az : m;
-        f4 span = radius + m * 1.52587891e-5f;
-        f4 rr = span * span;
-        f4 past = tc - reach;
-        f4 p2 = (px * px + py * py) + pz * pz;
-        i4 meets = (p2 <= rr) & ((tc >= 0.0f) | ((tc * tc) * dd <= rr)) & ((past <= 0.0f) | ((past * past) * dd <= rr));
+        fv span = radius + m * 1.52587891e-5f;
+        fv rr = span * span;
+        fv past = tc - reach;
+        fv p2 = (px * px + py * py) + pz * pz;
+        iv meets = (p2 <= rr) & ((tc >= 0.0f) | ((tc * tc) * dd <= rr)) & ((past <= 0.0f) | ((past * past) * dd <= rr));
         if (keys != nullptr) {
             __builtin_memcpy(&keys->tc[g], &tc, sizeof(tc));
             __builtin_memcpy(&keys->rr[g], &rr, sizeof(rr));
         }
         // Lanes past count are left out; where every record is a sphere
         // (the usual case), the mask is the lanes' answers as they are.
-        i4 valid = i4{0, 1, 2, 3} < int(count - g);
-        i4 spheres = HAS_BOX_RECORDS ? i4((w & RECORD_SPHERE) != 0u) : i4{-1, -1, -1, -1};
-        if (HAS_SPHERE_RECORDS && __builtin_ia32_movmskps(f4(valid & ~spheres)) == 0) {
-            met |= uint(__builtin_ia32_movmskps(f4(meets & valid))) << g;
+        iv lane;
+        for (uint k = 0u; k < LANES; k++) {
+            lane[k] = int(k);
+        }
+        iv valid = lane < int(count - g);
+        iv spheres = HAS_BOX_RECORDS ? iv((w & RECORD_SPHERE) != 0u) : (valid | ~valid);
+        if (HAS_SPHERE_RECORDS && lane_bits(valid & ~spheres) == 0u) {
+            met |= lane_bits(meets & valid) << g;
             continue;
         }
-        for (uint k = 0u; k < 4u && g + k < count; k++) {
+        for (uint k = 0u; k < LANES && g + k < count; k++) {
             bool sphere = HAS_SPHERE_RECORDS && (HAS_BOX_RECORDS ? (w[k] & RECORD_SPHERE) != 0u : true);
             bool hit;
             if (sphere) {

@@ -15,13 +15,13 @@
 // its passes.
 #pragma once
 
-// One leaf's records as records_meet tested them (count at most 32, four
-// lanes past them written): sphere_hit's tc and rr for a sphere, a box's
+// One leaf's records as records_meet tested them (count at most 32):
+// sphere_hit's tc and rr for a sphere, a box's
 // entry t and -1 (past its entry every reach skips it), and the ray's
 // dot3(d, d).
 struct WalkKeys {
-    float tc[36];
-    float rr[36];
+    float tc[32];
+    float rr[32];
     float dd;
 };
 
