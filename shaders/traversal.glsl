@@ -318,7 +318,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         } else {
             top = top - 1;
 #ifdef ORDERED_WALK
-            if (keyed.passed_by(top, reach)) {
+            if (keyed.passed_by(top, stack[top], reach)) {
                 continue;
             }
 #endif
@@ -465,7 +465,6 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         if (HAS_INSTANCES) {
             // Their records follow the primitives from the next multiple
             // of 4, each box in steps of the leaf's (layout.h, BvhNode).
-            precise vec3 step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
             uint records = (first_item + prim_count + 3u) >> 2u;
 #ifdef RECORDS_MEET
             // The CPU build's form (host/cpu/records_meet.hpp): the same
@@ -475,15 +474,15 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 uint count = min(item_count - prim_count - base, 32u);
 #ifdef ORDERED_WALK
                 // The lean copy's: nearest on top, each with its bound.
-                uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, step, records + base, count, reach, &keys) : (0xffffffffu >> (32u - count));
+                uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, records + base, count, reach, &keys) : (0xffffffffu >> (32u - count));
                 int first_pushed = top;
                 for (; met != 0u; met = met & (met - 1u)) {
                     uint n = uint(findLSB(met));
                     uint word = stack_word(leaf_record(records + base + n).w & ~RECORD_SPHERE, level);
-                    keyed.push_in_order(stack, top, first_pushed, word, use_boxes, keys, n);
+                    keyed.push_in_order(stack, top, first_pushed, word, level, use_boxes, keys, n);
                 }
 #else
-                uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, step, records + base, count, reach, nullptr) : (0xffffffffu >> (32u - count));
+                uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, records + base, count, reach, nullptr) : (0xffffffffu >> (32u - count));
                 for (; met != 0u; met = met & (met - 1u)) {
                     uint record_w = leaf_record(records + base + uint(findLSB(met))).w;
                     stack[top] = stack_word(record_w & ~RECORD_SPHERE, level);
@@ -492,6 +491,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
 #endif
             }
 #else
+            precise vec3 step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's bound: a
                 // missed instance costs no pass. The bound is a box or a

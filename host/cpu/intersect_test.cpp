@@ -297,14 +297,14 @@ TEST(RecordsMeet, SameAnswersAsTheScalarTests) {
     // a sphere's answer is sphere_hit's there, a box's never skips one
     // box_hit meets.
     auto records_meet_both = [&](Ray r, float reach) {
-        uint decoded = records_meet(r, leaf_lo, leaf_hi, step, 1u, count, reach, nullptr);
+        uint decoded = records_meet(r, leaf_lo, leaf_hi, 1u, count, reach, nullptr);
         uint stride = 1u + count + RECORD_COLUMN_PADDING;
         columns.assign(4u + RECORD_COLUMNS * stride, 0u);
         fill_record_columns(columns.data() + 4, stride, leaf_lo, leaf_hi, 1u, count);
         record_columns = columns.data() + 4;
         record_column_stride = stride;
         WalkKeys keys;
-        uint from_columns = records_meet(r, leaf_lo, leaf_hi, step, 1u, count, reach, &keys);
+        uint from_columns = records_meet(r, leaf_lo, leaf_hi, 1u, count, reach, &keys);
         record_columns = nullptr;
         if (from_columns != decoded) {
             key_failures++;

@@ -84,6 +84,12 @@ inline uint record_column_slots() {
 // leaf's last record on.
 const uint RECORD_COLUMN_PADDING = 8u;
 
+// A record's box step in its leaf's box [leaf_lo, leaf_hi], as the walk's
+// loop computes it (layout.h, BvhNode).
+inline vec3 record_step(vec4 leaf_lo, vec4 leaf_hi) {
+    return div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
+}
+
 // Record t's words in columns `stride` words apart from out[0]: x, y and z
 // of its centre (as record_lo decodes it from its leaf's box, leaf_lo and
 // step), its radius word and its w word.
@@ -100,7 +106,7 @@ inline void record_column_words(uint t, vec4 leaf_lo, vec3 step, uint* out, uint
 // Writes the columns of records records .. records + count - 1 of a leaf
 // whose box is [leaf_lo, leaf_hi].
 inline void fill_record_columns(uint* out, uint stride, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count) {
-    vec3 step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
+    vec3 step = record_step(leaf_lo, leaf_hi);
     for (uint t = records; t < records + count; t++) {
         record_column_words(t, leaf_lo, step, out + t, stride);
     }
@@ -117,10 +123,10 @@ inline vec2 box_span(Ray r, vec4 lo, vec4 hi, float t_max) {
 }
 
 // The records records .. records + count - 1 (count at most 32) the ray lr
-// meets within reach: bit n for record n. leaf_lo and step place their
-// centres and boxes (layout.h, BvhNode). (With FLAG_NO_BVH the walk does
-// not call it: every record meets.)
-uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, uint count, float reach, WalkKeys* keys) {
+// meets within reach: bit n for record n. The leaf's box [leaf_lo,
+// leaf_hi] places their centres and boxes (layout.h, BvhNode). (With
+// FLAG_NO_BVH the walk does not call it: every record meets.)
+uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, float reach, WalkKeys* keys) {
     using namespace record_lanes;
     const vec3 o = lr.origin;
     const vec3 d = lr.direction;
@@ -145,6 +151,7 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, u
         } else {
             // Decoded here, as fill_record_columns does (zeros past count).
             uint words[RECORD_COLUMNS][LANES] = {};
+            vec3 step = record_step(leaf_lo, leaf_hi);
             for (uint k = 0u; k < LANES && g + k < count; k++) {
                 record_column_words(records + g + k, leaf_lo, step, &words[0][k], LANES);
             }
@@ -198,6 +205,7 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, u
                 hit = meets[k] != 0;
             } else {
                 uvec4 record = leaf_record(records + g + k);
+                vec3 step = record_step(leaf_lo, leaf_hi);
                 vec4 lo = vec4(record_lo(record, leaf_lo, step), 0.0f);
                 vec4 hi = vec4(record_hi(record, leaf_hi, step), 0.0f);
                 if (keys != nullptr) {

@@ -217,7 +217,7 @@ inline int findLSB(uint v) {
 #include "walk_keys.hpp"
 namespace {
 struct Ray;
-uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, vec3 step, uint records, uint count, float reach, WalkKeys* keys);
+uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, float reach, WalkKeys* keys);
 } // namespace
 
 // Internal linkage: each translation unit has its own copy, so GCC may

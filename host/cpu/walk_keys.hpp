@@ -32,40 +32,39 @@ inline bool bound_passed_by(float tc, float rr, float dd, float reach) {
     return !(past <= 0.0f || past * past * dd <= rr);
 }
 
-// The keys of the walk's stack entries, slot by slot.
+// The keys of the walk's stack entries: tc and rr slot by slot, dd level by
+// level (the entries of a level were all pushed with the level's one ray).
 struct KeyStack {
     float tc[STACK_SIZE];
     float rr[STACK_SIZE];
-    float dd[STACK_SIZE];
+    float dd[MAX_LEVELS] = {};
 
     // Slot `at` holds an entry taken at any reach (the root, a node's children).
     void any(int at) {
         tc[at] = -INFINITY;
         rr[at] = 0.0f;
-        dd[at] = 0.0f;
     }
 
-    // Whether the entry at `at` lies past reach (bound_passed_by).
-    bool passed_by(int at, float reach) const {
-        return bound_passed_by(tc[at], rr[at], dd[at], reach);
+    // Whether the entry `word` at `at` lies past reach (bound_passed_by).
+    bool passed_by(int at, uint word, float reach) const {
+        return bound_passed_by(tc[at], rr[at], dd[(word >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u)], reach);
     }
 
-    // Pushes `word`, record n of `keys` (taken at any reach unless `keyed`),
-    // among the entries first .. top - 1 pushed from its leaf so far: the
-    // least tc nearest the top, ties in the order pushed.
-    void push_in_order(uint* stack, int& top, int first, uint word, bool keyed, const WalkKeys& keys, uint n) {
+    // Pushes `word` (of `level`), record n of `keys` (taken at any reach
+    // unless `keyed`), among the entries first .. top - 1 pushed from its
+    // leaf so far: the least tc nearest the top, ties in the order pushed.
+    void push_in_order(uint* stack, int& top, int first, uint word, uint level, bool keyed, const WalkKeys& keys, uint n) {
         float key = keyed ? keys.tc[n] : -INFINITY;
         int at = top;
         for (; at > first && tc[at - 1] < key; at--) {
             stack[at] = stack[at - 1];
             tc[at] = tc[at - 1];
             rr[at] = rr[at - 1];
-            dd[at] = dd[at - 1];
         }
         stack[at] = word;
         tc[at] = key;
         rr[at] = keyed ? keys.rr[n] : 0.0f;
-        dd[at] = keyed ? keys.dd : 0.0f;
+        dd[level] = keyed ? keys.dd : 0.0f;
         top = top + 1;
     }
 };
