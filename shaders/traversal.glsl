@@ -473,13 +473,14 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             for (uint base = 0u; base < item_count - prim_count; base += 32u) {
                 uint count = min(item_count - prim_count - base, 32u);
 #ifdef ORDERED_WALK
-                // The lean copy's: nearest on top, each with its bound.
+                // The lean copy's: in order of their bounds (the nearest on
+                // top, the farthest for any hit), each with its keys.
                 uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, records + base, count, reach, &keys) : (0xffffffffu >> (32u - count));
                 int first_pushed = top;
                 for (; met != 0u; met = met & (met - 1u)) {
                     uint n = uint(findLSB(met));
                     uint word = stack_word(leaf_record(records + base + n).w & ~RECORD_SPHERE, level);
-                    keyed.push_in_order(stack, top, first_pushed, word, level, use_boxes, keys, n);
+                    keyed.push_in_order(stack, top, first_pushed, word, level, use_boxes, keys, n, any_hit);
                 }
 #else
                 uint met = use_boxes ? records_meet(lr, leaf_lo, leaf_hi, records + base, count, reach, nullptr) : (0xffffffffu >> (32u - count));

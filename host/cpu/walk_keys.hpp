@@ -2,9 +2,15 @@
 // stack to walk in order (shaders/traversal.glsl, ORDERED_WALK; shared.hpp
 // includes this before the GLSL, records_meet.hpp fills the keys).
 //
-// The ordered walk: a leaf's met instances go on the stack nearest on top,
-// and an entry taken off the stack is tested again against the reach the
-// walk has come to since it was pushed, skipped when it lies past it. The
+// The ordered walk: a leaf's met instances go on the stack in order of
+// their bounds' closest approach, nearest on top for the nearest hit
+// (camera and mirror rays) and farthest on top for any hit (shadow rays:
+// they leave from a surface deep inside the bounds around it, which seldom
+// hold what blocks the light; at recursive-spheres depth 10 the warm frame
+// took 10% less time than with the nearest on top, 6% less than in the
+// device's order). An entry taken off the stack is tested again against
+// the reach the walk has come to since it was pushed, skipped when it lies
+// past it. The
 // picture cannot change: the walk's answer does not depend on the order it
 // meets hits in (the tie rule, docs/scene-format.md#ties), and the test
 // again is the bound's own test at the smaller reach (sphere_hit's last
@@ -52,11 +58,13 @@ struct KeyStack {
 
     // Pushes `word` (of `level`), record n of `keys` (taken at any reach
     // unless `keyed`), among the entries first .. top - 1 pushed from its
-    // leaf so far: the least tc nearest the top, ties in the order pushed.
-    void push_in_order(uint* stack, int& top, int first, uint word, uint level, bool keyed, const WalkKeys& keys, uint n) {
+    // leaf so far: the least tc nearest the top (the greatest with
+    // far_first), ties in the order pushed.
+    void push_in_order(uint* stack, int& top, int first, uint word, uint level, bool keyed, const WalkKeys& keys, uint n,
+                       bool far_first) {
         float key = keyed ? keys.tc[n] : -INFINITY;
         int at = top;
-        for (; at > first && tc[at - 1] < key; at--) {
+        for (; at > first && (far_first ? tc[at - 1] > key : tc[at - 1] < key); at--) {
             stack[at] = stack[at - 1];
             tc[at] = tc[at - 1];
             rr[at] = rr[at - 1];
