@@ -12,6 +12,8 @@
 #include <vector>
 
 #include "shared.hpp"
+#include "raycast_cpu.h"
+#include <glm/gtc/matrix_transform.hpp>
 
 using namespace raycast_cpu;
 
@@ -447,6 +449,131 @@ TEST(RecordsMeet, SameAnswersAsTheScalarTests) {
     EXPECT_GT(boundaries, 20000) << boundaries << " boundaries found";
     EXPECT_EQ(key_failures, 0) << key_failures << " answers of the columns or the keys differ";
     EXPECT_GT(retested, 100000) << retested << " keys tested again";
+}
+
+// The lean copy's look-ahead (records_meet.hpp, fill_lookahead) against
+// what it stands for: random scenes of a leaf of records, each placing
+// one group (a leaf of a random canonical shape and two sphere records)
+// by a random rotation, scale and translation; random rays and reaches.
+// Rule: wherever the look-ahead leaves out a record the ray meets, the
+// walk in the placed group finds nothing within the reach: its primitive's
+// hit (through both matrices) is not nearer, and the ray meets neither of
+// its records' spheres. Each must be left out somewhere, or the test says
+// little.
+TEST(Lookahead, LeavesOutOnlyWhatHoldsNoHit) {
+    uint32_t state = 1230u;
+    auto next = [&state]() {
+        state = state * 1664525u + 1013904223u;
+        return state;
+    };
+    auto unit = [&]() { return float(next() >> 8) * 0x1p-24f; };
+    auto spread = [&](float lo, float hi) { return lo + (hi - lo) * unit(); };
+    auto random_axis = [&]() {
+        vec3 a(spread(-1.0f, 1.0f), spread(-1.0f, 1.0f), spread(-1.0f, 1.0f));
+        return (dot(a, a) > 1e-4f) ? a : vec3(0.0f, 1.0f, 0.0f);
+    };
+    const uint records = 6u;
+    const uint shapes[4] = {SHAPE_SPHERE, SHAPE_CUBE, SHAPE_CONE, SHAPE_CYLINDER};
+    int left_out = 0, checked = 0, wrong = 0;
+    std::string first;
+    for (int scene = 0; scene < 400; scene++) {
+        // Nodes: 0 the parent's leaf (records at slots 0..), 1 the placed group's.
+        std::vector<BvhNode> nodes(2);
+        nodes[0].lo = vec4(-4.0f, -4.0f, -4.0f, 0.0f);
+        nodes[0].hi = vec4(4.0f, 4.0f, 4.0f, 0.0f);
+        nodes[0].first = 0u;
+        nodes[0].count = records;
+        nodes[0].primitives = 0u;
+        uint child_first = 4u * records;
+        nodes[1].lo = vec4(-1.5f, -1.5f, -1.5f, 0.0f);
+        nodes[1].hi = vec4(1.5f, 1.5f, 1.5f, 0.0f);
+        nodes[1].first = child_first;
+        nodes[1].count = 3u;
+        nodes[1].primitives = 1u;
+        uint child_records = (child_first + 1u + 3u) >> 2u;
+        std::vector<LeafItem> items(4u * (child_records + 2u), LeafItem{0u});
+        std::vector<Instance> placed(records);
+        for (uint k = 0u; k < records; k++) {
+            mat4 parent_from_child = glm::translate(mat4(1.0f), vec3(spread(-3.0f, 3.0f), spread(-3.0f, 3.0f), spread(-3.0f, 3.0f)));
+            parent_from_child = glm::rotate(parent_from_child, spread(0.0f, 6.28f), random_axis());
+            parent_from_child = glm::scale(parent_from_child, vec3(spread(0.2f, 1.5f)));
+            placed[k].object_from_parent = glm::inverse(parent_from_child);
+            placed[k].root = 1u;
+            uint* w = &items[4u * k].item;
+            // The record's sphere: about the placed group's centre, wide enough to be met often.
+            vec3 c = vec3(parent_from_child[3]);
+            vec3 q = glm::round((c - vec3(-4.0f)) / (vec3(8.0f) / float(BOX_STEPS)));
+            w[0] = uint(q.x) | (uint(q.y) << 16u);
+            w[1] = uint(q.z);
+            w[2] = glm::floatBitsToUint(4.0f);
+            w[3] = ITEM_INSTANCE | RECORD_SPHERE | k;
+        }
+        items[child_first].item = 0u;
+        for (uint j = 0u; j < 2u; j++) {
+            uint* w = &items[4u * (child_records + j)].item;
+            w[0] = (next() & 0xffffu) | ((next() & 0xffffu) << 16u);
+            w[1] = next() & 0xffffu;
+            w[2] = glm::floatBitsToUint(spread(0.05f, 0.5f));
+            w[3] = ITEM_INSTANCE | RECORD_SPHERE | 0u;
+        }
+        Primitive shape{};
+        shape.shape = shapes[next() % 4u];
+        mat4 child_from_object = glm::translate(mat4(1.0f), vec3(spread(-1.0f, 1.0f), spread(-1.0f, 1.0f), spread(-1.0f, 1.0f)));
+        child_from_object = glm::rotate(child_from_object, spread(0.0f, 6.28f), random_axis());
+        child_from_object = glm::scale(child_from_object, vec3(spread(0.2f, 1.0f), spread(0.2f, 1.0f), spread(0.2f, 1.0f)));
+        shape.object_from_world = glm::inverse(child_from_object);
+        Frame f{};
+        f.node_count = 2u;
+        const void* buffers[BINDING_COUNT + 1] = {};
+        buffers[BINDING_FRAME] = &f;
+        buffers[BINDING_PRIMITIVES] = &shape;
+        buffers[BINDING_NODES] = nodes.data();
+        buffers[BINDING_LEAF_ITEMS] = items.data();
+        buffers[BINDING_INSTANCES] = placed.data();
+        std::vector<uint32_t> columns(raycast_cpu_record_columns(buffers, nullptr, 0u));
+        raycast_cpu_record_columns(buffers, columns.data(), columns.size());
+        buffers[BINDING_COUNT] = columns.data();
+        bind_scene(bind_buffers(buffers));
+        const float* lookahead = record_lookahead;
+        ASSERT_NE(lookahead, nullptr);
+        for (int n = 0; n < 400; n++) {
+            vec3 origin(spread(-8.0f, 8.0f), spread(-8.0f, 8.0f), spread(-8.0f, 8.0f));
+            uint aim = next() % records;
+            vec3 target = glm::inverse(placed[aim].object_from_parent) * vec4(spread(-1.5f, 1.5f), spread(-1.5f, 1.5f), spread(-1.5f, 1.5f), 1.0f);
+            vec3 d = (target - origin) * spread(0.1f, 2.0f);
+            Ray r = ray(origin.x, origin.y, origin.z, d.x, d.y, d.z);
+            float reach = (next() % 2u == 0u) ? T_FAR : spread(0.0f, 3.0f);
+            WalkKeys keys;
+            uint with = records_meet(r, nodes[0].lo, nodes[0].hi, 0u, records, reach, &keys);
+            record_lookahead = nullptr;
+            uint without = records_meet(r, nodes[0].lo, nodes[0].hi, 0u, records, reach, &keys);
+            record_lookahead = lookahead;
+            ASSERT_EQ(with & ~without, 0u) << "the look-ahead added a record";
+            for (uint out = without & ~with; out != 0u; out &= out - 1u) {
+                uint k = uint(__builtin_ctz(out));
+                left_out++;
+                Ray inner = ray_through(placed[k].object_from_parent, r);
+                ShapeHit h = intersect_shape(shape.shape, ray_through(shape.object_from_world, inner));
+                bool hit = h.t < reach;
+                vec3 step = record_step(nodes[1].lo, nodes[1].hi);
+                for (uint j = 0u; j < 2u; j++) {
+                    uvec4 record = leaf_record(child_records + j);
+                    hit = hit || sphere_hit(inner, record_lo(record, nodes[1].lo, step), glm::uintBitsToFloat(record.z), reach);
+                }
+                checked++;
+                if (hit && wrong++ == 0) {
+                    char text[300];
+                    std::snprintf(text, sizeof(text), "scene %d, shape %u, record %u, ray (%a %a %a) + t (%a %a %a), reach %a, primitive t %a", scene,
+                                  shape.shape, k, double(origin.x), double(origin.y), double(origin.z), double(d.x), double(d.y), double(d.z),
+                                  double(reach), double(h.t));
+                    first = text;
+                }
+            }
+        }
+    }
+    bind_scene(Scene{});
+    EXPECT_EQ(wrong, 0) << wrong << " of " << checked << " left out held a hit; the first: " << first;
+    EXPECT_GT(left_out, 10000) << left_out << " records left out";
 }
 
 #ifdef RAYCAST_CPU_TESTS_AVX2

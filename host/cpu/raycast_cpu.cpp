@@ -64,17 +64,24 @@ extern "C" uint64_t raycast_cpu_record_columns(const void* const* buffers, uint3
         return 0u;
     }
     uint stride = slots + RECORD_COLUMN_PADDING;
-    uint64_t words = 4u + uint64_t(RECORD_COLUMNS) * stride;
+    // The columns, then each slot's look-ahead.
+    uint64_t ahead = uint64_t(RECORD_COLUMNS) * stride;
+    uint64_t words = 4u + ahead + uint64_t(slots) * 4u * LOOKAHEAD;
     if (out == nullptr || capacity < words) {
         return words;
     }
     std::memset(out, 0, words * sizeof(uint32_t));
     out[0] = stride;
+    out[1] = uint32_t(ahead);
+    float* lookahead = reinterpret_cast<float*>(out + 4 + ahead);
     for (uint n = 0u; n < s.frame.node_count; n++) {
         BvhNode node = node_at(n);
         if (node.count > node.primitives) {
-            fill_record_columns(out + 4, stride, node.lo, node.hi, (node.first + node.primitives + 3u) >> 2u,
-                                node.count - node.primitives);
+            uint records = (node.first + node.primitives + 3u) >> 2u;
+            fill_record_columns(out + 4, stride, node.lo, node.hi, records, node.count - node.primitives);
+            for (uint t = records; t < records + node.count - node.primitives; t++) {
+                fill_lookahead(t, lookahead + size_t(t) * 4u * LOOKAHEAD);
+            }
         }
     }
     return words;

@@ -112,6 +112,105 @@ inline void fill_record_columns(uint* out, uint stride, vec4 leaf_lo, vec4 leaf_
     }
 }
 
+// The look-ahead (the lean copy's, records_meet with keys): for each
+// record, up to LOOKAHEAD spheres in its leaf's space that hold all that
+// the placed group's root leaf holds, its primitives and its own records'
+// bounds. A ray that meets the record's bound but none of these would
+// enter the instance, miss its primitives and push none of its records:
+// the walk leaves it out. A record whose group's root is not a leaf of at
+// most LOOKAHEAD items, or holds a torus or a mesh, gets one infinite
+// sphere (never left out).
+const uint LOOKAHEAD = 8u;
+
+// The most a linear map l stretches a vector, from above: the square root
+// of the largest row sum of |lᵀl| (at least its largest eigenvalue; exact
+// for a rotation and a uniform scale).
+inline double stretch_bound(const dmat4& m) {
+    dmat3 l(m);
+    dmat3 g = transpose(l) * l;
+    double most = 0.0;
+    for (int r = 0; r < 3; r++) {
+        most = std::max(most, std::fabs(g[0][r]) + std::fabs(g[1][r]) + std::fabs(g[2][r]));
+    }
+    return std::sqrt(most);
+}
+
+// The radius about its origin of a canonical shape (docs/scene-format.md),
+// or 0 for one the look-ahead does not bound (a torus, a mesh).
+inline double canonical_radius(uint shape) {
+    switch (shape) {
+    case SHAPE_SPHERE:
+        return 0.5;
+    case SHAPE_CUBE:
+        return 0.8660254037844387; // sqrt(3) / 2
+    case SHAPE_CONE:
+    case SHAPE_CYLINDER:
+        return 0.7071067811865476; // sqrt(2) / 2
+    default:
+        return 0.0;
+    }
+}
+
+// Writes record t's look-ahead (LOOKAHEAD floats of x, then y, z and the
+// radius) to out, in double and then rounded outward: each sphere grown
+// by 2^-10 of its radius and 2^-20 of its centre's size, far more than
+// the rounding of the walk's own tests in the placed group.
+inline void fill_lookahead(uint t, float* out) {
+    for (uint i = 0u; i < LOOKAHEAD; i++) {
+        out[i] = 0.0f;
+        out[LOOKAHEAD + i] = 0.0f;
+        out[2u * LOOKAHEAD + i] = 0.0f;
+        out[3u * LOOKAHEAD + i] = std::nanf(""); // meets nothing
+    }
+    uvec4 record = leaf_record(t);
+    Instance placed = instance_at(record.w & (ITEM_INSTANCE - 1u) & ~RECORD_SPHERE);
+    BvhNode root = node_at(placed.root);
+    dmat4 parent_from_child = inverse(dmat4(placed.object_from_parent));
+    uint n = 0u;
+    bool bounded = root.count > 0u && root.count <= LOOKAHEAD;
+    auto put = [&](dvec3 centre, double radius) {
+        double size = std::max(std::max(std::fabs(centre.x), std::fabs(centre.y)), std::fabs(centre.z));
+        double grown = radius * (1.0 + 0x1p-10) + size * 0x1p-20;
+        vec3 c = vec3(centre);
+        grown += length(dvec3(c) - centre);
+        float r = float(grown);
+        out[n] = c.x;
+        out[LOOKAHEAD + n] = c.y;
+        out[2u * LOOKAHEAD + n] = c.z;
+        out[3u * LOOKAHEAD + n] = (double(r) < grown) ? std::nextafter(r, INFINITY) : r;
+        n++;
+    };
+    for (uint j = 0u; bounded && j < root.primitives; j++) {
+        Primitive p = primitive_at(leaf_item(root.first + j));
+        double radius = canonical_radius(p.shape);
+        bounded = radius > 0.0;
+        dmat4 parent_from_object = parent_from_child * inverse(dmat4(p.object_from_world));
+        put(dvec3(parent_from_object[3]), radius * stretch_bound(parent_from_object));
+    }
+    uint records = (root.first + root.primitives + 3u) >> 2u;
+    vec3 step = record_step(root.lo, root.hi);
+    double stretch = stretch_bound(parent_from_child);
+    for (uint j = 0u; bounded && j < root.count - root.primitives; j++) {
+        uvec4 inner = leaf_record(records + j);
+        dvec3 lo = dvec3(record_lo(inner, root.lo, step));
+        dvec3 centre = lo;
+        double radius = double(uintBitsToFloat(inner.z));
+        if ((inner.w & RECORD_SPHERE) == 0u) {
+            dvec3 hi = dvec3(record_hi(inner, root.hi, step));
+            centre = (lo + hi) * 0.5;
+            radius = length(hi - lo) * 0.5;
+        }
+        bounded = std::isfinite(radius);
+        put(dvec3(parent_from_child * dvec4(centre, 1.0)), radius * stretch);
+    }
+    if (!bounded) {
+        out[0] = 0.0f;
+        out[LOOKAHEAD] = 0.0f;
+        out[2u * LOOKAHEAD] = 0.0f;
+        out[3u * LOOKAHEAD] = INFINITY; // meets every ray
+    }
+}
+
 // box_hit's interval over the box [lo, hi]: the ray meets it where
 // !(span.x > span.y), entering at span.x.
 inline vec2 box_span(Ray r, vec4 lo, vec4 hi, float t_max) {
@@ -120,6 +219,33 @@ inline vec2 box_span(Ray r, vec4 lo, vec4 hi, float t_max) {
     span = slab(r.origin.y, r.direction.y, lo.y, hi.y, span);
     span = slab(r.origin.z, r.direction.z, lo.z, hi.z, span);
     return span;
+}
+
+// sphere_hit in each lane, for spheres whose centres lie (ocx, ocy, ocz)
+// from the ray's origin: the same operations in the same order. dd is
+// dot3(d, d). Its tc and rr to *tc_out and *rr_out where given.
+inline record_lanes::iv spheres_meet(record_lanes::fv ocx, record_lanes::fv ocy, record_lanes::fv ocz, record_lanes::fv radius,
+                                     vec3 d, float dd, float reach, record_lanes::fv* tc_out, record_lanes::fv* rr_out) {
+    using namespace record_lanes;
+    fv tc = ((ocx * d.x + ocy * d.y) + ocz * d.z) / dd;
+    fv px = ocx - tc * d.x;
+    fv py = ocy - tc * d.y;
+    fv pz = ocz - tc * d.z;
+    // max_abs3(oc): abs (shared.hpp: the sign bit cleared), then max_f's (a < b) ? b : a.
+    fv ax = abs_lanes(ocx);
+    fv ay = abs_lanes(ocy);
+    fv az = abs_lanes(ocz);
+    fv m = ax < ay ? ay : ax;
+    m = m < az ? az : m;
+    fv span = radius + m * 1.52587891e-5f;
+    fv rr = span * span;
+    fv past = tc - reach;
+    fv p2 = (px * px + py * py) + pz * pz;
+    if (tc_out != nullptr) {
+        *tc_out = tc;
+        *rr_out = rr;
+    }
+    return (p2 <= rr) & ((tc >= 0.0f) | ((tc * tc) * dd <= rr)) & ((past <= 0.0f) | ((past * past) * dd <= rr));
 }
 
 // The records records .. records + count - 1 (count at most 32) the ray lr
@@ -162,26 +288,10 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, 
             __builtin_memcpy(&w, words[4], sizeof(w));
         }
         // sphere_hit(lr, centre, radius, reach).
-        fv ocx = cx - o.x;
-        fv ocy = cy - o.y;
-        fv ocz = cz - o.z;
         fv radius;
         __builtin_memcpy(&radius, &z, sizeof(radius));
-        fv tc = ((ocx * d.x + ocy * d.y) + ocz * d.z) / dd;
-        fv px = ocx - tc * d.x;
-        fv py = ocy - tc * d.y;
-        fv pz = ocz - tc * d.z;
-        // max_abs3(oc): abs (shared.hpp: the sign bit cleared), then max_f's (a < b) ? b : a.
-        fv ax = abs_lanes(ocx);
-        fv ay = abs_lanes(ocy);
-        fv az = abs_lanes(ocz);
-        fv m = ax < ay ? ay : ax;
-        m = m < az ? az : m;
-        fv span = radius + m * 1.52587891e-5f;
-        fv rr = span * span;
-        fv past = tc - reach;
-        fv p2 = (px * px + py * py) + pz * pz;
-        iv meets = (p2 <= rr) & ((tc >= 0.0f) | ((tc * tc) * dd <= rr)) & ((past <= 0.0f) | ((past * past) * dd <= rr));
+        fv tc, rr;
+        iv meets = spheres_meet(cx - o.x, cy - o.y, cz - o.z, radius, d, dd, reach, &tc, &rr);
         if (keys != nullptr) {
             __builtin_memcpy(&keys->tc[g], &tc, sizeof(tc));
             __builtin_memcpy(&keys->rr[g], &rr, sizeof(rr));
@@ -195,7 +305,26 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, 
         iv valid = lane < int(count - g);
         iv spheres = HAS_BOX_RECORDS ? iv((w & RECORD_SPHERE) != 0u) : (valid | ~valid);
         if (HAS_SPHERE_RECORDS && lane_bits(valid & ~spheres) == 0u) {
-            met |= lane_bits(meets & valid) << g;
+            uint bits = lane_bits(meets & valid);
+            if (keys != nullptr && record_lookahead != nullptr) {
+                // The lean copy's look-ahead: a met record none of whose
+                // spheres the ray meets is left out (fill_lookahead).
+                for (uint left = bits; left != 0u; left &= left - 1u) {
+                    uint k = uint(__builtin_ctz(left));
+                    const float* ahead = record_lookahead + size_t(records + g + k) * 4u * LOOKAHEAD;
+                    uint any = 0u;
+                    for (uint h = 0u; h < LOOKAHEAD; h += LANES) {
+                        fv hx, hy, hz, hr;
+                        __builtin_memcpy(&hx, ahead + h, sizeof(hx));
+                        __builtin_memcpy(&hy, ahead + LOOKAHEAD + h, sizeof(hy));
+                        __builtin_memcpy(&hz, ahead + 2u * LOOKAHEAD + h, sizeof(hz));
+                        __builtin_memcpy(&hr, ahead + 3u * LOOKAHEAD + h, sizeof(hr));
+                        any |= lane_bits(spheres_meet(hx - o.x, hy - o.y, hz - o.z, hr, d, dd, reach, nullptr, nullptr));
+                    }
+                    bits &= (any != 0u) ? ~0u : ~(1u << k);
+                }
+            }
+            met |= bits << g;
             continue;
         }
         for (uint k = 0u; k < LANES && g + k < count; k++) {

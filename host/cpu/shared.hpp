@@ -70,6 +70,8 @@ inline thread_local RAYCAST_SCENE_ARRAY(MeshVertex) mesh_vertices;
 // RECORD_COLUMNS columns of `record_column_stride` words each.
 inline thread_local const uint* record_columns = nullptr;
 inline thread_local uint record_column_stride = 0u;
+// And the records' look-ahead (records_meet.hpp, fill_lookahead), or null.
+inline thread_local const float* record_lookahead = nullptr;
 
 // Element i of primitives, nodes and instances, as scene_buffers.glsl reads them.
 #define primitive_at(i) primitives[i]
@@ -105,6 +107,7 @@ struct Scene {
     const MeshVertex* mesh_vertices;
     const uint* record_columns;
     uint record_column_stride;
+    const float* record_lookahead;
 };
 
 inline void bind_scene(const Scene& s) {
@@ -122,6 +125,7 @@ inline void bind_scene(const Scene& s) {
     mesh_vertices = s.mesh_vertices;
     record_columns = s.record_columns;
     record_column_stride = s.record_column_stride;
+    record_lookahead = s.record_lookahead;
 }
 
 // Binds the kernel's buffers (buffers[b] at binding b, layout.h BINDING_*,
@@ -141,10 +145,12 @@ inline Scene bind_buffers(const void* const* buffers) {
     s.mesh_nodes = static_cast<const BvhNode*>(buffers[BINDING_MESH_NODES]);
     s.mesh_triangles = static_cast<const MeshTriangle*>(buffers[BINDING_MESH_TRIANGLES]);
     s.mesh_vertices = static_cast<const MeshVertex*>(buffers[BINDING_MESH_VERTICES]);
-    // The columns' first word is their stride; they begin 4 words on.
+    // The columns' first word is their stride, the second where the
+    // look-ahead begins (0: none); they begin 4 words on.
     const uint* columns = static_cast<const uint*>(buffers[BINDING_COUNT]);
     s.record_columns = (columns == nullptr) ? nullptr : columns + 4;
     s.record_column_stride = (columns == nullptr) ? 0u : columns[0];
+    s.record_lookahead = (columns == nullptr || columns[1] == 0u) ? nullptr : reinterpret_cast<const float*>(columns + 4 + columns[1]);
     bind_scene(s);
     return s;
 }
