@@ -297,6 +297,10 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         if (HAS_AOVS) {
             best.passes = best.passes + 1u;
         }
+#ifdef ORDERED_WALK
+        // The primitives the look-ahead left in (walk_keys.hpp, WalkKeys.ahead).
+        uint primitives_ahead = ~0u;
+#endif
         uint first_item = 0u;
         uint item_count = 0u;
         uint prim_count = 0u; // the leaf's primitives come first
@@ -321,6 +325,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             if (keyed.passed_by(top, stack[top], reach)) {
                 continue;
             }
+            primitives_ahead = keyed.ahead[top];
 #endif
             uint entry = stack[top] & STACK_ENTRY_MASK;
             level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
@@ -433,6 +438,11 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         uint best_before = best.id;
         if (HAS_SEVERAL_PRIMITIVE_LEAVES) {
             for (uint n = 0u; n < prim_count; n++) {
+#ifdef ORDERED_WALK
+                if (n < 32u && ((primitives_ahead >> n) & 1u) == 0u) {
+                    continue;
+                }
+#endif
                 best = primitive_hit(best, direct ? first_item : leaf_item(first_item + n), lr, first_id, t_max);
             }
         } else if (prim_count > 0u) {

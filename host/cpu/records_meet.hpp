@@ -118,8 +118,9 @@ inline void fill_record_columns(uint* out, uint stride, vec4 leaf_lo, vec4 leaf_
 // bounds. A ray that meets the record's bound but none of these would
 // enter the instance, miss its primitives and push none of its records:
 // the walk leaves it out. A record whose group's root is not a leaf of at
-// most LOOKAHEAD items, or holds a torus or a mesh, gets one infinite
-// sphere (never left out).
+// most LOOKAHEAD items, or holds a torus or a mesh, gets infinite spheres
+// (never left out, every item tested). Sphere j bounds item j: the
+// primitives first, as the leaf holds them, then the records.
 const uint LOOKAHEAD = 8u;
 
 // The most a linear map l stretches a vector, from above: the square root
@@ -203,11 +204,11 @@ inline void fill_lookahead(uint t, float* out) {
         bounded = std::isfinite(radius);
         put(dvec3(parent_from_child * dvec4(centre, 1.0)), radius * stretch);
     }
-    if (!bounded) {
-        out[0] = 0.0f;
-        out[LOOKAHEAD] = 0.0f;
-        out[2u * LOOKAHEAD] = 0.0f;
-        out[3u * LOOKAHEAD] = INFINITY; // meets every ray
+    for (uint i = 0u; !bounded && i < LOOKAHEAD; i++) {
+        out[i] = 0.0f;
+        out[LOOKAHEAD + i] = 0.0f;
+        out[2u * LOOKAHEAD + i] = 0.0f;
+        out[3u * LOOKAHEAD + i] = INFINITY; // meets every ray
     }
 }
 
@@ -304,6 +305,11 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, 
         }
         iv valid = lane < int(count - g);
         iv spheres = HAS_BOX_RECORDS ? iv((w & RECORD_SPHERE) != 0u) : (valid | ~valid);
+        if (keys != nullptr) {
+            for (uint k = 0u; k < LANES; k++) {
+                keys->ahead[g + k] = ~0u;
+            }
+        }
         if (HAS_SPHERE_RECORDS && lane_bits(valid & ~spheres) == 0u) {
             uint bits = lane_bits(meets & valid);
             if (keys != nullptr && record_lookahead != nullptr) {
@@ -312,6 +318,7 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, 
                 for (uint left = bits; left != 0u; left &= left - 1u) {
                     uint k = uint(__builtin_ctz(left));
                     const float* ahead = record_lookahead + size_t(records + g + k) * 4u * LOOKAHEAD;
+                    // Bit j: the ray meets sphere j (item j of the group's root leaf).
                     uint any = 0u;
                     for (uint h = 0u; h < LOOKAHEAD; h += LANES) {
                         fv hx, hy, hz, hr;
@@ -319,8 +326,10 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, 
                         __builtin_memcpy(&hy, ahead + LOOKAHEAD + h, sizeof(hy));
                         __builtin_memcpy(&hz, ahead + 2u * LOOKAHEAD + h, sizeof(hz));
                         __builtin_memcpy(&hr, ahead + 3u * LOOKAHEAD + h, sizeof(hr));
-                        any |= lane_bits(spheres_meet(hx - o.x, hy - o.y, hz - o.z, hr, d, dd, reach, nullptr, nullptr));
+                        any |= lane_bits(spheres_meet(hx - o.x, hy - o.y, hz - o.z, hr, d, dd, reach, nullptr, nullptr)) << h;
                     }
+                    // All eight met: an unbounded group's (or every item): test them all.
+                    keys->ahead[g + k] = (any == (1u << LOOKAHEAD) - 1u) ? ~0u : any;
                     bits &= (any != 0u) ? ~0u : ~(1u << k);
                 }
             }

@@ -29,6 +29,10 @@ struct WalkKeys {
     float tc[32];
     float rr[32];
     float dd;
+    // Which items of the placed group's root leaf the look-ahead found the
+    // ray may meet (bit j for item j; all where it has none): the walk
+    // tests only those of its primitives (records_meet.hpp, fill_lookahead).
+    uint ahead[32];
 };
 
 // Whether a bound records_meet met (tc, rr, dd: its keys) lies past reach:
@@ -44,11 +48,13 @@ struct KeyStack {
     float tc[STACK_SIZE];
     float rr[STACK_SIZE];
     float dd[MAX_LEVELS] = {};
+    uint ahead[STACK_SIZE];
 
     // Slot `at` holds an entry taken at any reach (the root, a node's children).
     void any(int at) {
         tc[at] = -INFINITY;
         rr[at] = 0.0f;
+        ahead[at] = ~0u;
     }
 
     // Whether the entry `word` at `at` lies past reach (bound_passed_by).
@@ -68,10 +74,12 @@ struct KeyStack {
             stack[at] = stack[at - 1];
             tc[at] = tc[at - 1];
             rr[at] = rr[at - 1];
+            ahead[at] = ahead[at - 1];
         }
         stack[at] = word;
         tc[at] = key;
         rr[at] = keyed ? keys.rr[n] : 0.0f;
+        ahead[at] = keyed ? keys.ahead[n] : ~0u;
         dd[level] = keyed ? keys.dd : 0.0f;
         top = top + 1;
     }

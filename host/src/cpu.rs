@@ -624,20 +624,28 @@ mod tests {
     /// the device's walk order), the lean one (in its own order, the record
     /// columns read four at a time) and, where the CPU has AVX2, the lean
     /// one's AVX2 build (eight at a time). Over instances bounded by spheres
-    /// (recursive spheres) and by boxes (recursive cubes, cones), and the
-    /// ties scene, where the order the walk meets hits in matters most,
-    /// with shadows and mirrors. Rule: every pixel's PixelOut, bit for bit.
+    /// (recursive spheres) and by boxes (recursive cubes, cones), the ties
+    /// scene, where the order the walk meets hits in matters most, and
+    /// leaves of box and sphere records together (divergent lanes), with
+    /// shadows and mirrors. Rule: every pixel's PixelOut, bit for bit.
     #[test]
     fn every_copy_draws_the_same_bits() {
         use crate::gen::{generate, Family, GenOptions};
-        let ties =
-            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/stress/ties.xml")).unwrap();
+        let stress = |name: &str| {
+            let path = format!("{}/../tests/scenes/stress/{name}", env!("CARGO_MANIFEST_DIR"));
+            let limits = crate::scene::FlattenLimits::default();
+            crate::scene::load(path.as_ref(), &crate::scene::ParseOptions::default(), &limits).unwrap()
+        };
         let untextured = GenOptions { texture: None };
+        let generated =
+            |family, depth| crate::scene::from_xml(generate(family, depth, &untextured).unwrap(), "gen.xml");
         let scenes = [
-            ("recursive spheres 5", generate(Family::RecursiveSpheres, 5, &untextured).unwrap()),
-            ("recursive cubes 4", generate(Family::RecursiveCubes, 4, &untextured).unwrap()),
-            ("recursive cones 4", generate(Family::RecursiveCones, 4, &untextured).unwrap()),
-            ("ties", ties),
+            ("recursive spheres 5", generated(Family::RecursiveSpheres, 5)),
+            ("recursive cubes 4", generated(Family::RecursiveCubes, 4)),
+            ("recursive cones 4", generated(Family::RecursiveCones, 4)),
+            ("ties", stress("ties.xml")),
+            // Box and sphere records in one leaf: records_meet's lanes and its scalar tests.
+            ("divergent lanes", stress("divergent_lanes.xml")),
         ];
         let mut copies = vec![BuildCopy::Lean];
         if has_avx2() {
@@ -645,8 +653,7 @@ mod tests {
         } else {
             eprintln!("every_copy_draws_the_same_bits: no AVX2 on this CPU, its build not compared");
         }
-        for (name, xml) in scenes {
-            let scene = crate::scene::from_xml(&xml, "copies.xml");
+        for (name, scene) in scenes {
             let settings = crate::frame::RenderSettings { width: 96, height: 72, ..Default::default() };
             let data = crate::frame::build(&scene, &settings).unwrap();
             assert!(Specialization::of(&data, &data.frame).cpu_lean(), "{name}: the lean copies draw it");
