@@ -257,7 +257,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     int top = 0;
 #ifdef ORDERED_WALK
     // The CPU build's lean copy: each entry's bound, to test again when it
-    // is taken (host/cpu/records_meet.hpp, ordered walk).
+    // is taken, and its look-ahead (host/cpu/walk_keys.hpp).
     KeyStack keyed;
     WalkKeys keys;
     keyed.any(0);
@@ -478,8 +478,8 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             uint records = (first_item + prim_count + 3u) >> 2u;
 #ifdef RECORDS_MEET
             // The CPU build's form (host/cpu/records_meet.hpp): the same
-            // tests, a leaf's spheres four at a time, then the met pushed
-            // in the loop's order.
+            // tests, a leaf's spheres several at a time, then the met pushed
+            // in the loop's order (the lean copy in its own, walk_keys.hpp).
             for (uint base = 0u; base < item_count - prim_count; base += 32u) {
                 uint count = min(item_count - prim_count - base, 32u);
 #ifdef ORDERED_WALK

@@ -2,7 +2,7 @@
 // (shaders/traversal.glsl calls it, with RECORDS_MEET, in place of the
 // loop's bound tests; shared.hpp includes it after the GLSL): which of a
 // leaf's instance records the ray meets, as a mask, the bounding spheres
-// four at a time in SIMD lanes. Each lane does sphere_hit's
+// LANES at a time in SIMD lanes. Each lane does sphere_hit's
 // arithmetic, operation for operation in the same order (no FMA: the
 // library is built with -ffp-contract=off), so each answer is the scalar
 // test's (host/cpu/intersect_test.cpp, RecordsMeet, compares them); box
@@ -13,7 +13,7 @@
 // The lanes read the records' centres from columns made once a frame
 // (raycast_cpu_record_columns): each centre decoded from its leaf's box as
 // record_lo decodes it, the same floats, one column per coordinate so
-// four records load at once. Without them (the shader-test harness) the
+// a group of records loads at once. Without them (the shader-test harness) the
 // lanes decode the records themselves.
 //
 // Why (docs/scale.md#shaped-for-lavapipe, "in SIMD lanes"): at
@@ -61,6 +61,14 @@ inline uint lane_bits(iv v) {
     }
     return bits;
 #endif
+}
+
+// The LANES words from `at` on, as a vector of lanes.
+template <class V>
+inline V lanes_at(const void* at) {
+    V v;
+    __builtin_memcpy(&v, at, sizeof(v));
+    return v;
 }
 } // namespace record_lanes
 
@@ -157,12 +165,16 @@ inline double canonical_radius(uint shape) {
 // by 2^-10 of its radius and 2^-20 of its centre's size, far more than
 // the rounding of the walk's own tests in the placed group.
 inline void fill_lookahead(uint t, float* out) {
-    for (uint i = 0u; i < LOOKAHEAD; i++) {
-        out[i] = 0.0f;
-        out[LOOKAHEAD + i] = 0.0f;
-        out[2u * LOOKAHEAD + i] = 0.0f;
-        out[3u * LOOKAHEAD + i] = std::nanf(""); // meets nothing
-    }
+    // Every sphere at the origin with this radius.
+    auto every = [out](float radius) {
+        for (uint i = 0u; i < LOOKAHEAD; i++) {
+            out[i] = 0.0f;
+            out[LOOKAHEAD + i] = 0.0f;
+            out[2u * LOOKAHEAD + i] = 0.0f;
+            out[3u * LOOKAHEAD + i] = radius;
+        }
+    };
+    every(std::nanf("")); // meets nothing
     uvec4 record = leaf_record(t);
     Instance placed = instance_at(record.w & (ITEM_INSTANCE - 1u) & ~RECORD_SPHERE);
     BvhNode root = node_at(placed.root);
@@ -204,11 +216,8 @@ inline void fill_lookahead(uint t, float* out) {
         bounded = std::isfinite(radius);
         put(dvec3(parent_from_child * dvec4(centre, 1.0)), radius * stretch);
     }
-    for (uint i = 0u; !bounded && i < LOOKAHEAD; i++) {
-        out[i] = 0.0f;
-        out[LOOKAHEAD + i] = 0.0f;
-        out[2u * LOOKAHEAD + i] = 0.0f;
-        out[3u * LOOKAHEAD + i] = INFINITY; // meets every ray
+    if (!bounded) {
+        every(INFINITY); // meets every ray
     }
 }
 
@@ -270,11 +279,11 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, 
         if (record_columns != nullptr) {
             // Past count: the columns' next words (their padding at the end).
             const uint* at = record_columns + records + g;
-            __builtin_memcpy(&cx, at, sizeof(cx));
-            __builtin_memcpy(&cy, at + record_column_stride, sizeof(cy));
-            __builtin_memcpy(&cz, at + 2u * record_column_stride, sizeof(cz));
-            __builtin_memcpy(&z, at + 3u * record_column_stride, sizeof(z));
-            __builtin_memcpy(&w, at + 4u * record_column_stride, sizeof(w));
+            cx = lanes_at<fv>(at);
+            cy = lanes_at<fv>(at + record_column_stride);
+            cz = lanes_at<fv>(at + 2u * record_column_stride);
+            z = lanes_at<uv>(at + 3u * record_column_stride);
+            w = lanes_at<uv>(at + 4u * record_column_stride);
         } else {
             // Decoded here, as fill_record_columns does (zeros past count).
             uint words[RECORD_COLUMNS][LANES] = {};
@@ -282,15 +291,14 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, 
             for (uint k = 0u; k < LANES && g + k < count; k++) {
                 record_column_words(records + g + k, leaf_lo, step, &words[0][k], LANES);
             }
-            __builtin_memcpy(&cx, words[0], sizeof(cx));
-            __builtin_memcpy(&cy, words[1], sizeof(cy));
-            __builtin_memcpy(&cz, words[2], sizeof(cz));
-            __builtin_memcpy(&z, words[3], sizeof(z));
-            __builtin_memcpy(&w, words[4], sizeof(w));
+            cx = lanes_at<fv>(words[0]);
+            cy = lanes_at<fv>(words[1]);
+            cz = lanes_at<fv>(words[2]);
+            z = lanes_at<uv>(words[3]);
+            w = lanes_at<uv>(words[4]);
         }
         // sphere_hit(lr, centre, radius, reach).
-        fv radius;
-        __builtin_memcpy(&radius, &z, sizeof(radius));
+        fv radius = lanes_at<fv>(&z);
         fv tc, rr;
         iv meets = spheres_meet(cx - o.x, cy - o.y, cz - o.z, radius, d, dd, reach, &tc, &rr);
         if (keys != nullptr) {
@@ -321,12 +329,11 @@ uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, 
                     // Bit j: the ray meets sphere j (item j of the group's root leaf).
                     uint any = 0u;
                     for (uint h = 0u; h < LOOKAHEAD; h += LANES) {
-                        fv hx, hy, hz, hr;
-                        __builtin_memcpy(&hx, ahead + h, sizeof(hx));
-                        __builtin_memcpy(&hy, ahead + LOOKAHEAD + h, sizeof(hy));
-                        __builtin_memcpy(&hz, ahead + 2u * LOOKAHEAD + h, sizeof(hz));
-                        __builtin_memcpy(&hr, ahead + 3u * LOOKAHEAD + h, sizeof(hr));
-                        any |= lane_bits(spheres_meet(hx - o.x, hy - o.y, hz - o.z, hr, d, dd, reach, nullptr, nullptr)) << h;
+                        fv hx = lanes_at<fv>(ahead + h) - o.x;
+                        fv hy = lanes_at<fv>(ahead + LOOKAHEAD + h) - o.y;
+                        fv hz = lanes_at<fv>(ahead + 2u * LOOKAHEAD + h) - o.z;
+                        fv hr = lanes_at<fv>(ahead + 3u * LOOKAHEAD + h);
+                        any |= lane_bits(spheres_meet(hx, hy, hz, hr, d, dd, reach, nullptr, nullptr)) << h;
                     }
                     // All eight met: an unbounded group's (or every item): test them all.
                     keys->ahead[g + k] = (any == (1u << LOOKAHEAD) - 1u) ? ~0u : any;

@@ -10,21 +10,19 @@
 // took 10% less time than with the nearest on top, 6% less than in the
 // device's order). An entry taken off the stack is tested again against
 // the reach the walk has come to since it was pushed, skipped when it lies
-// past it. The
-// picture cannot change: the walk's answer does not depend on the order it
-// meets hits in (the tie rule, docs/scene-format.md#ties), and the test
-// again is the bound's own test at the smaller reach (sphere_hit's last
-// condition, in its operations and order; box_hit's, whose interval only
-// the reach narrows), so nothing it skips holds a hit that counts. Only
-// the passes differ, which the lean copy does not count (it has no AOVs):
-// the whole copy keeps the device's order, and `raycast check` compares
-// its passes.
+// past it. The picture cannot change: the walk's answer does not depend
+// on the order it meets hits in (the tie rule, docs/scene-format.md#ties),
+// and the test again is the bound's own test at the smaller reach
+// (sphere_hit's last condition, in its operations and order; box_hit's,
+// whose interval only the reach narrows), so nothing it skips holds a hit
+// that counts. Only the passes differ, which the lean copy does not count
+// (it has no AOVs): the whole copy, which draws the AOVs, keeps the
+// device's order, and `raycast check` compares its passes.
 #pragma once
 
 // One leaf's records as records_meet tested them (count at most 32):
-// sphere_hit's tc and rr for a sphere, a box's
-// entry t and -1 (past its entry every reach skips it), and the ray's
-// dot3(d, d).
+// sphere_hit's tc and rr for a sphere, a box's entry t and -1 (past its
+// entry every reach skips it), and the ray's dot3(d, d).
 struct WalkKeys {
     float tc[32];
     float rr[32];
