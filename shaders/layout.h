@@ -11,7 +11,9 @@
 #ifndef RAYCAST_LAYOUT_H
 #define RAYCAST_LAYOUT_H
 
-// Descriptor set 0 bindings. Every binding is a storage buffer.
+// Descriptor set 0 bindings: storage buffers in render.comp and preview.comp;
+// render_uniform.comp and preview_uniform.comp read some of the scene's arrays
+// from storage images and the frame from a uniform block (scene_buffers.glsl).
 #define BINDING_FRAME 0      // Frame (one)
 #define BINDING_PRIMITIVES 1 // Primitive[]
 #define BINDING_MATERIALS 2  // Material[]

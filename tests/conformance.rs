@@ -10,7 +10,7 @@
 
 use raycast::conformance;
 use raycast::gpu::GpuOptions;
-use raycast::render::GpuRenderer;
+use raycast::gpu::GpuRenderer;
 use std::path::Path;
 use std::process::ExitCode;
 

@@ -38,10 +38,10 @@
 
 use raycast::frame::{self, RenderSettings};
 use raycast::gen::{self, count_primitives, Family, GenOptions};
+use raycast::gpu::GpuRenderer;
 use raycast::gpu::{DeviceSelector, GpuOptions};
 use raycast::layout::NO_HIT;
 use raycast::measure::{device_bytes, peak_host_bytes};
-use raycast::render::GpuRenderer;
 use raycast::scene::{self, FlattenLimits, ParseOptions};
 use std::path::Path;
 use std::time::Instant;
@@ -186,8 +186,7 @@ fn deep_recursive_spheres_fit_in_bounded_memory() -> bool {
     assert!(messages.is_empty(), "validation layer: {messages:#?}");
 
     let host = peak_host_bytes().expect("VmHWM in /proc/self/status");
-    let uniform =
-        renderer.kernel_for(&data).unwrap_or_else(|e| panic!("{e}")).name() == raycast::render::UNIFORM_KERNEL;
+    let uniform = renderer.kernel_for(&data).unwrap_or_else(|e| panic!("{e}")).name() == raycast::gpu::UNIFORM_KERNEL;
     let device = device_bytes(&data, uniform, renderer.band_rows(&data.frame));
     println!(
         "{name}: {} spheres expanded, {} in the file ({} bytes); load and build {:.1} ms, dispatch {:.1} ms at {}x{}; \

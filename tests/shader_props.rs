@@ -638,14 +638,11 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
         let expected = match stem.as_str() {
             "render" => Some((layout::render_bindings(), Vec::new())),
             "render_uniform" => Some((layout::render_uniform_bindings(), layout::uniform_kernel_images())),
-            "preview" => {
-                Some((raycast::preview::layout::preview_bindings(), raycast::preview::layout::preview_images()))
-            }
+            "preview" => Some((raycast::layout::preview_bindings(), raycast::layout::preview_images())),
             "fma_probe" => Some((layout::fma_probe_bindings(), Vec::new())),
-            "preview_uniform" => Some((
-                raycast::preview::layout::preview_uniform_bindings(),
-                raycast::preview::layout::preview_uniform_images(),
-            )),
+            "preview_uniform" => {
+                Some((raycast::layout::preview_uniform_bindings(), raycast::layout::preview_uniform_images()))
+            }
             _ => None,
         };
         match expected {
@@ -661,13 +658,13 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
     }
     // The embedded render kernels too (what the binary runs), both variants.
     for suffix in gpu::Division::ALL.map(gpu::Division::suffix) {
-        let storage = raycast::render::kernel_spirv(&format!("render{suffix}")).expect("embedded");
+        let storage = raycast::gpu::kernel_spirv(&format!("render{suffix}")).expect("embedded");
         if let Err(e) =
             reflect::check_layouts(&format!("render{suffix} (embedded)"), storage, &layout::render_bindings())
         {
             errors.push(e.to_string());
         }
-        let uniform = raycast::render::kernel_spirv(&format!("render_uniform{suffix}")).expect("embedded");
+        let uniform = raycast::gpu::kernel_spirv(&format!("render_uniform{suffix}")).expect("embedded");
         let (buffers, images) = (layout::render_uniform_bindings(), layout::uniform_kernel_images());
         if let Err(e) = reflect::check_layouts_with_images(
             &format!("render_uniform{suffix} (embedded)"),
@@ -678,7 +675,7 @@ fn every_kernel_validates_with_naga_and_matches_the_host_layouts() {
             errors.push(e.to_string());
         }
     }
-    let uniform_spirv = raycast::render::kernel_spirv("render_uniform").expect("embedded");
+    let uniform_spirv = raycast::gpu::kernel_spirv("render_uniform").expect("embedded");
     // Each kernel against the other's layout: the storage / uniform mismatch is named.
     match reflect::check_layouts("render_uniform", uniform_spirv, &layout::render_bindings()) {
         Ok(()) => errors.push("render_uniform.comp passed as a storage-buffer kernel".into()),

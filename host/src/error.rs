@@ -1,9 +1,12 @@
 //! `Error`: every way a command can fail, each variant with its exit code.
 //! The exit codes live in one table, [`EXIT_CODES`], which `raycast --help`
-//! prints and the README repeats. `main` is the one place that prints an
-//! error and ends the process with its code.
+//! prints and the README repeats. `main` prints the error that ends a
+//! command and ends the process with its code; a command that goes on past
+//! a failure (one scene of several, a round of `render --watch`) prints that
+//! failure's line (`Error::line`) as it happens and fails at the end.
 
 use crate::gpu::GpuError;
+use crate::render::CutShort;
 
 /// The exit codes of every command, with what each means.
 pub const EXIT_CODES: [(u8, &str); 5] = [
@@ -35,6 +38,9 @@ pub enum Error {
     /// The Vulkan device (exit 1).
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The device cut pixels short, so the picture would be wrong (exit 1).
+    #[error(transparent)]
+    CutShort(#[from] CutShort),
     /// Anything else that stopped the work: a file, the CPU build, a write (exit 1).
     #[error("{0}")]
     Failed(String),
@@ -51,7 +57,7 @@ impl Error {
     pub fn exit_code(&self) -> u8 {
         match self {
             Error::Usage(_) => 2,
-            Error::Scene(_) | Error::Gpu(_) | Error::Failed(_) => 1,
+            Error::Scene(_) | Error::Gpu(_) | Error::CutShort(_) | Error::Failed(_) => 1,
             Error::Validation(_) => 3,
             Error::Mismatch { .. } => 4,
         }

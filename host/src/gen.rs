@@ -10,7 +10,6 @@
 
 use crate::error::Error;
 use crate::scene::{Material, Node, SceneFile, Shape, TransBlock};
-use clap::ValueEnum;
 use glam::DMat4;
 use std::fmt::Write as _;
 
@@ -27,7 +26,7 @@ pub const MAX_FLAT_DEPTH: u32 = 8;
 pub const CORPUS_TEXTURE: &str = "image/marsTexture.png";
 
 /// Which corpus scene a generated scene extends.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Family {
     /// recursiveSpheres1..4: masters, each level rotated to grow outwards.
     RecursiveSpheres,
@@ -69,31 +68,6 @@ impl Family {
             Family::RecursiveSpheres => u64::from(depth),
             // One master per level and direction (six per level below the root).
             Family::RecursiveCones | Family::RecursiveCubes => 1 + 6 * u64::from(depth - 1),
-        }
-    }
-}
-
-/// What `raycast gen` writes: a recursive family's scene, or a mesh.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum GenKind {
-    /// recursiveSpheres1..4: masters, each level rotated to grow outwards.
-    RecursiveSpheres,
-    /// recursiveCones4: the same placements, every cone upright.
-    RecursiveCones,
-    /// recursiveCubes4: the same placements, every cube axis-aligned.
-    RecursiveCubes,
-    /// A sphere of radius 0.5 tessellated into --triangles N (an OBJ file beside the scene).
-    MeshSphere,
-}
-
-impl GenKind {
-    /// The recursive family, None for a mesh.
-    pub fn family(self) -> Option<Family> {
-        match self {
-            GenKind::RecursiveSpheres => Some(Family::RecursiveSpheres),
-            GenKind::RecursiveCones => Some(Family::RecursiveCones),
-            GenKind::RecursiveCubes => Some(Family::RecursiveCubes),
-            GenKind::MeshSphere => None,
         }
     }
 }
@@ -658,8 +632,8 @@ pub fn count_primitives(file: &SceneFile) -> PrimitiveCounts {
 mod tests {
     use super::*;
     use crate::frame::{self, RenderSettings};
+    use crate::gpu::GpuRenderer;
     use crate::gpu::{DeviceSelector, GpuOptions};
-    use crate::render::GpuRenderer;
     use crate::scene::{self, parse_str, FlattenLimits, ParseOptions};
     use std::path::{Path, PathBuf};
 

@@ -11,6 +11,9 @@ use bytemuck::{Pod, Zeroable};
 // by build.rs from the `#define`s of shaders/layout.h, so they exist once.
 include!(concat!(env!("OUT_DIR"), "/layout_consts.rs"));
 
+mod preview_kernel;
+pub use preview_kernel::*;
+
 pub type Vec4 = [f32; 4];
 /// Column-major, as GLSL's and GLM's mat4: `m[column][row]`.
 pub type Mat4 = [[f32; 4]; 4];
@@ -501,15 +504,33 @@ pub const UNIFORM_KERNEL_IMAGES: [u32; 6] =
 pub const UNIFORM_KERNEL_IMAGE_BYTES: usize = IMAGE_WIDTH as usize * IMAGE_ROWS as usize * 16;
 
 /// `UNIFORM_KERNEL_IMAGES` as a kernel's image bindings.
-pub fn uniform_kernel_images() -> Vec<crate::gpu::ImageBinding> {
+pub fn uniform_kernel_images() -> Vec<ImageBinding> {
     UNIFORM_KERNEL_IMAGES
         .iter()
-        .map(|&binding| crate::gpu::ImageBinding {
-            binding,
-            writable: false,
-            format: crate::gpu::ImageFormat::Rgba32Uint,
-        })
+        .map(|&binding| ImageBinding { binding, writable: false, format: ImageFormat::Rgba32Uint })
         .collect()
+}
+
+/// A storage image a kernel declares: its binding, whether the kernel
+/// writes it, and its format; checked by naga's reflection like the
+/// storage buffers (`gpu::Kernel::with_images`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ImageBinding {
+    pub binding: u32,
+    /// True when the kernel writes it (not `readonly`).
+    pub writable: bool,
+    pub format: ImageFormat,
+}
+
+/// What a storage image holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// A picture (`gpu::StorageImage`): `layout(rgba8) uniform image2D`.
+    Rgba8,
+    /// Data, 16 bytes a texel, in rows of IMAGE_WIDTH (`gpu::DataImage`, or
+    /// `GpuContext::run_passes` from an input's bytes):
+    /// `layout(rgba32ui) readonly uniform uimage2D`.
+    Rgba32Uint,
 }
 
 /// The scene's buffer bindings in render_uniform.comp and

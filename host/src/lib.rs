@@ -3,9 +3,10 @@
 //!
 //! Parts (see docs/architecture.md): `source` says where a scene comes
 //! from and `scene` reads it, `frame` turns a scene into the buffers of
-//! `layout`, `render` holds the `Renderer` trait and the render kernel,
-//! `gpu` runs kernels on a Vulkan device, `cpu` the C++ build of the same
-//! GLSL, `image_io` reads, writes and compares pictures, `output` writes a
+//! `layout`, `render` is the seam every backend implements (`Renderer`,
+//! `Progressive`, the picture and its timings), `gpu` runs kernels on a
+//! Vulkan device (`gpu::GpuRenderer`), `cpu` the C++ build of the same
+//! GLSL (`cpu::CpuRenderer`), `image_io` reads, writes and compares pictures, `output` writes a
 //! command's products, `error` is the one error type and its exit codes,
 //! `bounded` reads text inputs up to a size, `uint_defines` reads the
 //! shaders' `#define`d constants, `units` writes numbers for people,
@@ -103,7 +104,6 @@ macro_rules! errln {
 
 #[cfg(test)]
 mod area_light_tests;
-pub mod args;
 pub mod bounded;
 pub mod bvh;
 pub mod check;

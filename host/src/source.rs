@@ -7,6 +7,7 @@
 //!   where no file has that name (a file of that name wins).
 
 use crate::error::Error;
+use crate::frame::{self, FrameData, RenderSettings};
 use crate::gen::{self, GenOptions};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene, SceneFile};
 use std::path::Path;
@@ -74,10 +75,32 @@ pub fn load_scene_file(
     let name = path.map(|p| p.to_string_lossy());
     let file = parse_scene(name.as_deref(), opts)?;
     let scene = scene::flatten(&file, limits).map_err(|e| Error::Scene(e.to_string()))?;
+    print_warnings(&scene);
+    Ok((file, scene))
+}
+
+/// The scene's warnings on stderr, a line each, repeats of one folded into
+/// its first (`scene::warning_lines`): as every command and the preview say them.
+pub fn print_warnings(scene: &Scene) {
     for line in scene::warning_lines(&scene.warnings) {
         errln!("{line}");
     }
-    Ok((file, scene))
+}
+
+/// `scene` packed for rendering with `settings` (`frame::build`), its
+/// notes said on stderr.
+pub fn pack(scene: &Scene, settings: &RenderSettings) -> Result<FrameData, Error> {
+    let data = frame::build(scene, settings)?;
+    print_notes(&data);
+    Ok(data)
+}
+
+/// What packing the scene noted (masters written out, a hierarchy made
+/// shallower), on stderr.
+pub fn print_notes(data: &FrameData) {
+    for note in &data.notes {
+        errln!("raycast: note: {note}");
+    }
 }
 
 /// [`load_scene_file`]'s scene alone.

@@ -3,7 +3,7 @@
 
 use crate::cli::options::*;
 use crate::error::Error;
-use crate::frame::{self, FrameData};
+use crate::frame::FrameData;
 use crate::output::*;
 use crate::scene::{FlattenLimits, Scene};
 use crate::source::*;
@@ -24,10 +24,7 @@ pub(crate) fn prepare(scene: Option<&Path>, o: &RenderOptions) -> Result<Prepare
     let start = Instant::now();
     let parse = o.parse_options();
     let scene = load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives })?;
-    let data = frame::build(&scene, &settings)?;
-    for note in &data.notes {
-        errln!("raycast: note: {note}");
-    }
+    let data = pack(&scene, &settings)?;
     Ok(Prepared { scene, data, load: start.elapsed() })
 }
 
@@ -40,9 +37,9 @@ pub(crate) fn scene_list(scenes: &[PathBuf]) -> Vec<Option<&Path>> {
     }
 }
 
-/// A scene as the command's messages name it.
+/// A scene as the command's messages name it (`source::scene_label`).
 pub(crate) fn scene_name(scene: Option<&Path>) -> String {
-    scene.map_or("the default scene".to_string(), |s| s.display().to_string())
+    scene_label(scene.map(Path::to_string_lossy).as_deref())
 }
 
 /// What came of the scenes of a command that takes several (`each_scene`).

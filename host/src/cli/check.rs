@@ -1,18 +1,18 @@
 //! `raycast check`: the device against the CPU build, every buffer bit for bit.
 
-use crate::args::*;
 use crate::check;
 use crate::cli::batch::*;
 use crate::cli::options::*;
 use crate::cli::output::*;
 use crate::cli::status::*;
+use crate::cli::values::*;
 use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, validation_wanted, Error};
 use crate::frame::FrameData;
 use crate::image_io::{self};
 use crate::output::*;
 use crate::progress;
-use crate::render::{GpuRenderer, Picture, Renderer};
+use crate::render::{Picture, Renderer};
 use crate::units::to_json;
 use clap::Args;
 use serde::Serialize;
@@ -174,9 +174,10 @@ enum Checked {
 }
 
 /// The device and the CPU build `check` compares, opened once, for the first scene that loads.
+/// The two builds `check` holds side by side: the device and the CPU build.
 struct CheckBackends {
-    gpu: GpuRenderer,
-    cpu: CpuRenderer,
+    gpu: Box<dyn Renderer>,
+    cpu: Box<dyn Renderer>,
 }
 
 pub fn run(args: &CheckArgs) -> Result<(), Error> {
@@ -209,7 +210,12 @@ pub fn run(args: &CheckArgs) -> Result<(), Error> {
         &diffs,
         &args.render,
         &mut backends,
-        || Ok(CheckBackends { gpu: args.render.kernel.exact_renderer()?, cpu: CpuRenderer::new()? }),
+        || {
+            Ok(CheckBackends {
+                gpu: Box::new(args.render.kernel.exact_renderer()?),
+                cpu: Box::new(CpuRenderer::new()?),
+            })
+        },
         |backends, p, diff| {
             let (checked, gpu, cpu) = check_scene(args, backends, &p, diff)?;
             if !args.pixel.is_empty() {
@@ -225,7 +231,7 @@ pub fn run(args: &CheckArgs) -> Result<(), Error> {
         .filter_map(|(name, c)| if let Checked::Differ(n) = c { Some((name.as_str(), *n)) } else { None })
         .collect();
     if let Some(b) = backends {
-        let messages = b.gpu.context().take_validation_messages();
+        let messages = b.gpu.take_messages();
         drop(b);
         check_validation(messages)?;
     }
@@ -279,12 +285,12 @@ fn check_scene(
     p: &Prepared,
     diff: &Path,
 ) -> Result<(Checked, Picture, Picture), Error> {
-    let device = b.gpu.context().info().name.clone();
+    let device = b.gpu.info().name;
     print_scene(p);
     let intro = format!(
         "check: {} on {device} against the CPU build ({} threads), {}x{}, every buffer bit for bit",
         args.render.kernel.kernel_text(),
-        b.cpu.threads,
+        b.cpu.info().threads.unwrap_or(1),
         p.data.frame.width,
         p.data.frame.height
     );
@@ -295,7 +301,7 @@ fn check_scene(
     }
     let scene = p.scene.path.display();
     let (gpu_picture, _) = progress::told(format!("{scene} on {device}"), |told| b.gpu.render_frame(&p.data, told))?;
-    print_kernel(&b.gpu, &p.data)?;
+    print_kernel(b.gpu.as_ref(), &p.data)?;
     let (cpu_picture, _) =
         progress::told(format!("{scene} on the CPU build"), |told| b.cpu.render_frame(&p.data, told))?;
     let report = check::compare(&gpu_picture, "device", &cpu_picture, "cpu")?;

@@ -1,8 +1,8 @@
 //! `raycast conformance`: the course corpus rendered and judged under its rule.
 
-use crate::args::*;
 use crate::cli::options::*;
 use crate::error::Error;
+use crate::render::Backend;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -22,7 +22,7 @@ pub struct ConformanceArgs {
     out_dir: PathBuf,
     /// gpu (default), cpu (the C++ build) or auto
     #[arg(long, value_enum, default_value_t = Backend::Gpu, help_heading = "Device", hide_possible_values = true,
-          hide_default_value = true, long_help = crate::args::with_values::<Backend>(
+          hide_default_value = true, long_help = crate::cli::values::with_values::<Backend>(
               "Where to run the shared code: a Vulkan device, or its C++ build on every core [default: gpu]"))]
     backend: Backend,
     /// The device and its kernel (`--shaders DIR`: does a shader change still match the course's renders?).
@@ -62,29 +62,21 @@ pub fn run(args: &ConformanceArgs) -> Result<(), Error> {
     let count = cases.len();
     std::fs::create_dir_all(&args.out_dir)
         .map_err(|e| format!("cannot make the folder {} (--out-dir): {e}", args.out_dir.display()))?;
-    let (backend, why) = open_backend(args.backend, &args.kernel)?;
-    match &backend {
-        RenderBackend::Cpu(cpu) => {
-            outln!("conformance: the {} against {}, {count} cases", cpu.summary(&why), corpus.display())
-        }
-        RenderBackend::Gpu(renderer) => outln!(
-            "conformance: {} on {} against {}, {count} cases",
-            args.kernel.kernel_text(),
-            renderer.context().info().name,
-            corpus.display()
-        ),
-    }
-    let renderer = backend.renderer();
-    let validation = || match &backend {
-        RenderBackend::Gpu(gpu) => gpu.context().take_validation_messages(),
-        RenderBackend::Cpu(_) => Vec::new(),
+    let renderer = open_backend(args.backend, &args.kernel)?;
+    let info = renderer.info();
+    // The CPU build is the code raycast was built with; a device runs the built-in kernel or --shaders'.
+    let who = if info.cpu_build {
+        format!("the {}", info.summary)
+    } else {
+        format!("{} on {}", args.kernel.kernel_text(), info.name)
     };
+    outln!("conformance: {who} against {}, {count} cases", corpus.display());
     let summary = crate::conformance::run(
         &corpus,
         &cases,
         &args.out_dir,
         |data| renderer.render_frame(data, &|_| {}).map(|(picture, _)| picture),
-        validation,
+        || renderer.take_messages(),
     )?;
     outln!("{} passed, {} failed; the measured fractions: {}", summary.passed, summary.failed, summary.table.display());
     if summary.failed > 0 {

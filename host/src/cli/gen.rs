@@ -1,10 +1,35 @@
 //! `raycast gen`: writes a scale-test scene (the library's `gen`).
 
 use crate::error::Error;
-use crate::gen::{self, generate, generate_flat, GenKind, GenOptions};
+use crate::gen::{self, generate, generate_flat, Family, GenOptions};
 use crate::output::{emit, write_whole};
 use clap::Args;
 use std::path::PathBuf;
+
+/// What `raycast gen` writes: a recursive family's scene, or a mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GenKind {
+    /// recursiveSpheres1..4: masters, each level rotated to grow outwards.
+    RecursiveSpheres,
+    /// recursiveCones4: the same placements, every cone upright.
+    RecursiveCones,
+    /// recursiveCubes4: the same placements, every cube axis-aligned.
+    RecursiveCubes,
+    /// A sphere of radius 0.5 tessellated into --triangles N (an OBJ file beside the scene).
+    MeshSphere,
+}
+
+impl GenKind {
+    /// The recursive family, None for a mesh.
+    pub fn family(self) -> Option<Family> {
+        match self {
+            GenKind::RecursiveSpheres => Some(Family::RecursiveSpheres),
+            GenKind::RecursiveCones => Some(Family::RecursiveCones),
+            GenKind::RecursiveCubes => Some(Family::RecursiveCubes),
+            GenKind::MeshSphere => None,
+        }
+    }
+}
 
 /// `raycast gen`.
 #[derive(Args, Debug)]
@@ -12,7 +37,7 @@ use std::path::PathBuf;
 pub struct GenArgs {
     /// recursive-spheres, recursive-cones, recursive-cubes or mesh-sphere
     #[arg(value_enum, hide_possible_values = true,
-          long_help = crate::args::with_values::<GenKind>("Which corpus scene to extend, or a mesh to write."))]
+          long_help = super::values::with_values::<GenKind>("Which corpus scene to extend, or a mesh to write."))]
     pub family: GenKind,
     /// Levels deep: 4 is the corpus scene (187 primitives)
     ///

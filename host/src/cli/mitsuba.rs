@@ -24,7 +24,7 @@ pub struct MitsubaArgs {
     #[command(flatten)]
     picture: super::options::ExportOptions,
     /// Samples a pixel (the sampler's sample_count)
-    #[arg(long, default_value_t = 1, value_name = "N", value_parser = crate::args::parse_spp,
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = crate::cli::values::parse_spp,
           help_heading = "Picture")]
     spp: u32,
     /// Most primitives a shape group holds

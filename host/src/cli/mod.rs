@@ -17,10 +17,12 @@ mod mitsuba;
 mod options;
 mod output;
 mod pov;
+mod preview;
 mod render;
 mod shader_test;
 mod status;
 mod trace;
+mod values;
 mod versus;
 
 use clap::{Parser, Subcommand};
@@ -53,7 +55,7 @@ pub enum Command {
     /// Render on the device and on the CPU build and compare every buffer bit for bit.
     Check(check::CheckArgs),
     /// Show a scene in a window, refined while still, reloaded when its file or the shaders change.
-    Preview(crate::preview::PreviewArgs),
+    Preview(preview::PreviewArgs),
     /// Compare two pictures (say, your render and a course reference): how many
     /// pixels differ by more than a tolerance, the first and the worst.
     Compare(compare::CompareArgs),
@@ -100,7 +102,7 @@ pub fn run(cli: Cli) -> Result<(), crate::error::Error> {
         Command::Render(args) => render::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Compare(args) => compare::run(&args),
-        Command::Preview(args) => crate::preview::run(&args),
+        Command::Preview(args) => preview::run(&args),
         Command::Info(args) => info::run(&args),
         Command::Trace(args) => trace::run(&args),
         Command::Devices => devices::run(),

@@ -1,12 +1,12 @@
 //! The options every rendering command shares (`render`, `check`, `bench`,
 //! `trace`, `conformance`): the picture, the quality, the device.
 
-use crate::args::*;
+use super::values::*;
 use crate::cpu::CpuRenderer;
 use crate::error::{check_validation, validation_wanted, Error};
 use crate::frame::{Aov, RenderSettings, Supersample, TextureFilter};
-use crate::gpu::{DeviceSelector, GpuOptions, KernelChoice};
-use crate::render::{GpuRenderer, Renderer, SceneBuffers};
+use crate::gpu::{DeviceSelector, GpuOptions, GpuRenderer, KernelChoice, SceneBuffers};
+use crate::render::{Backend, Renderer};
 use crate::scene::{FlattenLimits, ParseOptions};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -45,7 +45,7 @@ pub struct RenderOptions {
     pub height: u32,
     /// color (default), normal, depth, id, cost[-all], samples
     #[arg(long, value_enum, default_value_t = Aov::Color, help_heading = "Picture", hide_possible_values = true,
-          hide_default_value = true, long_help = crate::args::with_values::<Aov>("What the picture shows [default: color]"))]
+          hide_default_value = true, long_help = with_values::<Aov>("What the picture shows [default: color]"))]
     pub aov: Aov,
     /// With --aov depth: the distances drawn white and black
     ///
@@ -99,12 +99,12 @@ pub struct RenderOptions {
     /// pattern (default) or course (adaptive)
     #[arg(long, value_enum, default_value_t = Supersample::Pattern, value_name = "S", help_heading = "Quality",
           hide_possible_values = true, hide_default_value = true,
-          long_help = crate::args::with_values::<Supersample>("Where a pixel's samples go [default: pattern]"))]
+          long_help = with_values::<Supersample>("Where a pixel's samples go [default: pattern]"))]
     pub supersample: Supersample,
     /// nearest (default), bilinear or course
     #[arg(long, value_enum, default_value_t = TextureFilter::Nearest, value_name = "F", help_heading = "Quality",
           hide_possible_values = true, hide_default_value = true,
-          long_help = crate::args::with_values::<TextureFilter>("How textures are sampled [default: nearest]"))]
+          long_help = with_values::<TextureFilter>("How textures are sampled [default: nearest]"))]
     pub texture_filter: TextureFilter,
     /// Test every primitive for every ray (no hierarchy; same picture)
     ///
@@ -251,29 +251,6 @@ impl RenderOptions {
     }
 }
 
-/// `--depth-range NEAR,FAR` (checked by `RenderSettings::validate`).
-/// `--timeout`: seconds, more than none, at most a week.
-pub(crate) fn parse_timeout(s: &str) -> Result<Duration, String> {
-    match s.trim().parse::<f64>() {
-        Ok(x) if x > 0.0 && x <= 604_800.0 => Ok(Duration::from_secs_f64(x)),
-        _ => Err(format!("{s:?} is not a number of seconds above 0 and at most 604800 (a week)")),
-    }
-}
-
-pub(crate) fn parse_depth_range(s: &str) -> Result<[f32; 2], String> {
-    let wrong = || format!("{s:?} is not NEAR,FAR (two distances, say 2,12)");
-    let (near, far) = s.split_once(',').ok_or_else(wrong)?;
-    let parse = |t: &str| {
-        let x = t.trim().parse::<f64>().map_err(|_| wrong())?;
-        // A distance the picture's 32-bit floats cannot hold is told as written, not as "inf".
-        if x.is_finite() && !crate::units::f32_holds(x) {
-            return Err(format!("{s:?}: {} is beyond what the renderer's 32-bit floats hold (about 3.4e38)", t.trim()));
-        }
-        Ok(x as f32)
-    };
-    Ok([parse(near)?, parse(far)?])
-}
-
 /// The render kernel on the device `--device` names (validated where
 /// asked, with `--timeout`), built in or compiled from `shaders`, reading
 /// the scene as `--scene-buffers` says: for `render`, `check` and `bench`.
@@ -290,22 +267,6 @@ pub(crate) fn open_renderer(k: &KernelOptions, shaders: Option<&Path>) -> Result
     };
     renderer.set_scene_buffers(k.scene_buffers);
     Ok(renderer)
-}
-
-/// Where `render` runs its scenes: opened once, for the first scene that loads.
-pub(crate) enum RenderBackend {
-    Cpu(CpuRenderer),
-    Gpu(GpuRenderer),
-}
-
-impl RenderBackend {
-    /// The backend as the one interface both implement.
-    pub(crate) fn renderer(&self) -> &dyn Renderer {
-        match self {
-            RenderBackend::Cpu(cpu) => cpu,
-            RenderBackend::Gpu(gpu) => gpu,
-        }
-    }
 }
 
 /// `--backend cpu` with options only a Vulkan device uses (`--device`,
@@ -344,33 +305,29 @@ pub(crate) fn cpu_takes_no_shaders(cpu_only: bool, shaders: &Option<PathBuf>) ->
 /// CPU build of the same code is about twice as fast there, without
 /// Vulkan's start-up or a pipeline to build, and on lavapipe gives the same
 /// bits) or, without `--device`, none opens (no driver, no device): then
-/// the CPU build, and a line says why. With `--shaders` it is the device
-/// (the folder's kernel runs only there), as with any option only a device
-/// uses (`KernelOptions::device_only_given`). The second value says why the
-/// CPU build was chosen (`; --backend auto: …`, or empty), to follow its
-/// thread count on the command's first line.
-pub(crate) fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(RenderBackend, String), Error> {
-    let cpu = |why: Option<String>| {
-        Ok((RenderBackend::Cpu(CpuRenderer::new()?), why.map_or(String::new(), |w| format!("; {w}"))))
-    };
+/// the CPU build, and its `device:` line says why. With `--shaders` it is
+/// the device (the folder's kernel runs only there), as with any option
+/// only a device uses (`KernelOptions::device_only_given`).
+pub(crate) fn open_backend(backend: Backend, k: &KernelOptions) -> Result<Box<dyn Renderer>, Error> {
+    let cpu = |why: &str| -> Result<Box<dyn Renderer>, Error> { Ok(Box::new(CpuRenderer::new()?.chosen_because(why))) };
     match backend {
-        Backend::Cpu => cpu(None),
-        Backend::Gpu => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
+        Backend::Cpu => cpu(""),
+        Backend::Gpu => Ok(Box::new(k.renderer()?)),
         // Options only a device uses (a shader folder, a device named,
         // validation, a buffer kind, a timeout) ask for the device.
-        Backend::Auto if !k.device_only_given().is_empty() => Ok((RenderBackend::Gpu(k.renderer()?), String::new())),
+        Backend::Auto if !k.device_only_given().is_empty() => Ok(Box::new(k.renderer()?)),
         Backend::Auto => match k.renderer() {
             Ok(renderer) if renderer.context().info().runs_on_cpu() => {
                 let why = format!("--backend auto: {} runs on the CPU", renderer.context().info().name);
                 check_validation(renderer.context().take_validation_messages())?;
                 drop(renderer);
-                cpu(Some(why))
+                cpu(&why)
             }
-            Ok(renderer) => Ok((RenderBackend::Gpu(renderer), String::new())),
+            Ok(renderer) => Ok(Box::new(renderer)),
             Err(e) if k.device.is_none() => {
                 let message = e.to_string();
                 errln!("raycast: note: {message}; --backend auto renders with the CPU build instead");
-                cpu(Some("--backend auto: no Vulkan device opened".to_string()))
+                cpu("--backend auto: no Vulkan device opened")
             }
             Err(e) => Err(e),
         },
@@ -378,11 +335,38 @@ pub(crate) fn open_backend(backend: Backend, k: &KernelOptions) -> Result<(Rende
 }
 
 /// The backend `render` runs on, announced.
-pub(crate) fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<RenderBackend, Error> {
-    let (opened, why) = open_backend(backend, &o.kernel)?;
-    match &opened {
-        RenderBackend::Cpu(cpu) => detail!("device: {}", cpu.summary(&why)),
-        RenderBackend::Gpu(renderer) => detail!("device: {}", renderer.describe()),
-    }
+pub(crate) fn open_render_backend(backend: Backend, o: &RenderOptions) -> Result<Box<dyn Renderer>, Error> {
+    let opened = open_backend(backend, &o.kernel)?;
+    detail!("device: {}", opened.info().summary);
     Ok(opened)
+}
+
+/// `--kernel` and its shorthand `--exact`: the device's exact kernel or its
+/// fast one (docs/exactness.md, "The fast kernel"), for every command that
+/// runs the render kernel on a device (`render`, `bench`, `conformance`,
+/// `preview`; `check` runs the exact one only).
+#[derive(Args, Clone, Copy, Debug, Default)]
+pub struct KernelChoiceArgs {
+    /// auto (default), exact or fast
+    #[arg(long = "kernel", value_enum, default_value_t = KernelChoice::Auto, value_name = "K", help_heading = "Device",
+          hide_possible_values = true, hide_default_value = true, hide_short_help = true, long_help = with_values::<KernelChoice>(
+              "Which kernel the device runs: exact (the CPU build's bits on every device), fast (the device's own \
+               division, square root and transcendentals: faster on GPUs, within 2/255 of the CPU build on all but \
+               a few pixels), or auto: fast on a discrete or integrated GPU, exact on every other device (lavapipe). \
+               [default: auto]"))]
+    pub kernel: KernelChoice,
+    /// The exact kernel on any device: --kernel exact
+    #[arg(long, conflicts_with = "kernel", help_heading = "Device", hide_short_help = true)]
+    pub exact: bool,
+}
+
+impl KernelChoiceArgs {
+    /// The choice `--kernel` or `--exact` made.
+    pub fn choice(&self) -> KernelChoice {
+        if self.exact {
+            KernelChoice::Exact
+        } else {
+            self.kernel
+        }
+    }
 }

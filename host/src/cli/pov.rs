@@ -39,7 +39,7 @@ pub struct PovArgs {
     /// Mirror bounces, 0 to 16 (alias --depth)
     ///
     /// Mirror bounces (POV-Ray's max_trace_level is one more: it counts the camera ray).
-    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = crate::args::parse_bounces,
+    #[arg(long, alias = "depth", default_value_t = 4, value_name = "N", value_parser = crate::cli::values::parse_bounces,
           help_heading = "Picture")]
     bounces: u32,
 }

@@ -1,6 +1,5 @@
 //! `raycast render`: scenes to PNGs, one after the other on one backend.
 
-use crate::args::*;
 use crate::cli::batch::*;
 use crate::cli::options::*;
 use crate::cli::output::*;
@@ -11,12 +10,13 @@ use crate::frame::{self};
 use crate::image_io::{self};
 use crate::output::*;
 use crate::progress;
-use crate::render::{GpuRenderer, Picture, Renderer};
+use crate::render::Backend;
+use crate::render::{finish_cut_short, Picture, Renderer};
 use crate::scene::{self};
 use crate::source::*;
 use clap::Args;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -41,7 +41,7 @@ pub struct RenderArgs {
     out_dir: Option<PathBuf>,
     /// gpu (default), cpu (the C++ build) or auto
     #[arg(long, value_enum, default_value_t = Backend::Gpu, help_heading = "Device", hide_possible_values = true,
-          hide_default_value = true, long_help = crate::args::with_values::<Backend>(
+          hide_default_value = true, long_help = crate::cli::values::with_values::<Backend>(
               "Where to run the shared code: a Vulkan device, or its C++ build on every core [default: gpu]"))]
     backend: Backend,
     /// A turntable: N pictures, 360/N degrees apart
@@ -101,10 +101,10 @@ pub fn run(args: &RenderArgs) -> Result<(), Error> {
         ));
     }
     status_beside(&args.output);
-    let mut backend: Option<RenderBackend> = None;
+    let mut backend: Option<Box<dyn Renderer>> = None;
     // The textures the scenes loaded use (what --watch follows beside them).
     let textures: std::cell::RefCell<Vec<PathBuf>> = Default::default();
-    let round = |backend: &mut Option<RenderBackend>| {
+    let round = |backend: &mut Option<Box<dyn Renderer>>| {
         textures.borrow_mut().clear();
         let batch = render_scenes(args, &scenes, &outputs, backend, &textures);
         batch.and_then(|batch| batch.failure("").map_or(Ok(()), Err))
@@ -133,9 +133,9 @@ pub fn run(args: &RenderArgs) -> Result<(), Error> {
 fn watch_renders(
     args: &RenderArgs,
     files: &[PathBuf],
-    backend: &mut Option<RenderBackend>,
+    backend: &mut Option<Box<dyn Renderer>>,
     textures: &std::cell::RefCell<Vec<PathBuf>>,
-    round: impl Fn(&mut Option<RenderBackend>) -> Result<(), Error>,
+    round: impl Fn(&mut Option<Box<dyn Renderer>>) -> Result<(), Error>,
 ) -> Result<(), Error> {
     let shaders = args.render.kernel.shaders.as_deref();
     let watched = || {
@@ -157,8 +157,8 @@ fn watch_renders(
         if let Err(e) = result {
             errln!("{}", e.line());
         }
-        if let Some(RenderBackend::Gpu(renderer)) = backend.as_ref() {
-            for m in renderer.context().take_validation_messages() {
+        if let Some(renderer) = backend.as_ref() {
+            for m in renderer.take_messages() {
                 errln!("raycast: validation: {m}");
             }
         }
@@ -203,14 +203,11 @@ fn render_scenes(
     args: &RenderArgs,
     scenes: &[Option<&Path>],
     outputs: &[PathBuf],
-    backend: &mut Option<RenderBackend>,
+    backend: &mut Option<Box<dyn Renderer>>,
     textures: &std::cell::RefCell<Vec<PathBuf>>,
 ) -> Result<Batch<()>, Error> {
-    let render_one = |backend: &RenderBackend, p: &Prepared, output: &Path| {
-        let rendered = match backend {
-            RenderBackend::Cpu(cpu) => render_on_cpu(cpu, p, output)?,
-            RenderBackend::Gpu(gpu) => render_on_gpu(gpu, &args.render, p, output)?,
-        };
+    let render_one = |backend: &Box<dyn Renderer>, p: &Prepared, output: &Path| {
+        let rendered = render_on(backend.as_ref(), &args.render, p, output)?;
         if args.json {
             crate::output::emit_line(&serde_json::to_string(&rendered).map_err(|e| Error::Failed(e.to_string()))?)?;
         }
@@ -278,49 +275,31 @@ impl Rendered {
     }
 }
 
-fn render_on_cpu(cpu: &CpuRenderer, p: &Prepared, output: &Path) -> Result<Rendered, Error> {
+/// One picture of `p` on `renderer`, written to `output`. Pixels the device
+/// cut short are finished by the CPU build, which runs the same code (not
+/// with --shaders: the CPU build is the built-in code, not the folder's).
+fn render_on(renderer: &dyn Renderer, o: &RenderOptions, p: &Prepared, output: &Path) -> Result<Rendered, Error> {
     print_scene(p);
-    let start = Instant::now();
-    let (picture, _) = progress::told(output.display().to_string(), |told| cpu.render_frame(&p.data, told))?;
-    let time = start.elapsed();
-    detail!("time: load {}, render {}", ms(p.load), ms(time));
-    print_rates(&p.data, &picture, time);
-    write_picture(output, &picture, p.load + time)?;
-    Ok(Rendered::of(p, output, &picture, p.load + time))
-}
-
-fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output: &Path) -> Result<Rendered, Error> {
-    let info = renderer.context().info();
-    print_scene(p);
-    let compiled_before = renderer.compile_time();
     let (mut picture, t) = progress::told(output.display().to_string(), |told| {
         if o.kernel.shaders.is_some() {
-            // The CPU build is the built-in code, not --shaders DIR's: it cannot finish this kernel's pixels.
-            renderer.render_told(&p.data, told)
+            renderer.render_frame(&p.data, told)
         } else {
-            renderer.render_marked_told(&p.data, told)
+            renderer.render_marked(&p.data, told)
         }
     })?;
     if picture.pixels.iter().any(crate::layout::PixelOut::is_cut_short) {
         let cpu = CpuRenderer::new()?;
         let label = format!("{}, the pixels cut short", output.display());
-        let finished = progress::told(label, |told| crate::cpu::finish_cut_short(&mut picture, &p.data, &cpu, told));
+        let finished = progress::told(label, |told| finish_cut_short(&mut picture, &p.data, &cpu, told))?;
         errln!(
             "raycast: note: {} cut {finished} of {} pixels short (Mesa's lavapipe gives each shader invocation 65535 loop \
              iterations in all); the CPU build of the same code computed those pixels, which on lavapipe gives the \
              same bits (`raycast check` compares the two builds)",
-            info.name,
+            renderer.info().name,
             picture.pixels.len()
         );
     }
-    detail!(
-        "time: load {}, upload {}, compile {}, dispatch {}, readback {}",
-        ms(p.load),
-        ms(t.upload),
-        ms(renderer.compile_time() - compiled_before),
-        ms(t.dispatch),
-        ms(t.readback)
-    );
+    detail!("time: load {}, {}", ms(p.load), t.phases_text(ms));
     if t.bands > 1 {
         detail!(
             "bands: {} dispatches of up to {} rows each: the picture's pixel records ({}) do not fit one storage buffer \
@@ -328,22 +307,22 @@ fn render_on_gpu(renderer: &GpuRenderer, o: &RenderOptions, p: &Prepared, output
             t.bands,
             t.band_rows,
             crate::units::fmt_bytes(picture.pixels.len() as u64 * std::mem::size_of::<crate::layout::PixelOut>() as u64),
-            crate::units::fmt_bytes(renderer.context().max_storage_bytes())
+            crate::units::fmt_bytes(t.band_bytes)
         );
     }
     print_rates(&p.data, &picture, t.dispatch);
     print_kernel(renderer, &p.data)?;
-    let time = p.load + t.upload + t.dispatch + t.readback;
+    let time = p.load + t.frame();
     write_picture(output, &picture, time)?;
     Ok(Rendered::of(p, output, &picture, time))
 }
 
 /// After `render`'s scenes: the hint for a device that is a CPU, then what
 /// the validation layer said (which fails the command), then `result`.
-fn finish_render(backend: Option<RenderBackend>, result: Result<(), Error>) -> Result<(), Error> {
-    let Some(RenderBackend::Gpu(renderer)) = backend else { return result };
-    let info = renderer.context().info();
-    if info.runs_on_cpu() && result.is_ok() {
+fn finish_render(backend: Option<Box<dyn Renderer>>, result: Result<(), Error>) -> Result<(), Error> {
+    let Some(renderer) = backend else { return result };
+    let info = renderer.info();
+    if info.device_on_cpu && result.is_ok() {
         detail!(
             "hint: {} runs on the CPU; `--backend cpu` runs the same code natively, without Vulkan's start-up or a \
              pipeline to build: usually faster on such a machine, and on lavapipe the same bits (BENCHMARKS.md); \
@@ -351,7 +330,7 @@ fn finish_render(backend: Option<RenderBackend>, result: Result<(), Error>) -> R
             info.name
         );
     }
-    let messages = renderer.context().take_validation_messages();
+    let messages = renderer.take_messages();
     drop(renderer);
     let validation = check_validation(messages);
     result.and(validation)

@@ -47,7 +47,7 @@ pub struct ShaderTestArgs {
     /// The longest a function's run of cases may take, on the device or in
     /// the C++ build (each in a process of its own), before its cases fail
     /// with the timeout's error (a tested function's endless loop).
-    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::args::parse_timeout,
+    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = crate::cli::values::parse_timeout,
           help_heading = "Device")]
     timeout: std::time::Duration,
 }

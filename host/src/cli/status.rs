@@ -5,7 +5,7 @@ use crate::error::Error;
 use crate::frame::FrameData;
 use crate::image_io::{self, Rgb8};
 use crate::layout;
-use crate::render::{GpuRenderer, Picture};
+use crate::render::{Picture, Renderer};
 use std::path::Path;
 use std::time::Duration;
 
@@ -31,15 +31,12 @@ pub(crate) fn print_scene(p: &Prepared) {
     detail!("{}", scene_line(p));
 }
 
-/// Which kernel drew `data`, and what its specialization kept of the shaders.
-pub(crate) fn print_kernel(renderer: &GpuRenderer, data: &FrameData) -> Result<(), Error> {
-    let kernel = renderer.kernel_for(data)?;
-    let spec = crate::render::Specialization::of(data, &data.frame);
-    // The device's division and square root corrected (raycast.glsl div_rn).
-    let corrected = renderer.context().division().describe();
-    // A shader object (compiled, or from the binary a run before kept), or a pipeline specialised ahead.
-    let how = kernel.how_built().map(|h| format!(" ({h})")).unwrap_or_default();
-    detail!("kernel: {}{corrected}{how}, specialised for the scene: {}", kernel.name(), spec.describe());
+/// Which kernel drew `data`, and what its specialization kept of the
+/// shaders; nothing where the backend has no kernel (the CPU build).
+pub(crate) fn print_kernel(renderer: &dyn Renderer, data: &FrameData) -> Result<(), Error> {
+    let Some(k) = renderer.kernel(data)? else { return Ok(()) };
+    let how = k.how_built.map(|h| format!(" ({h})")).unwrap_or_default();
+    detail!("kernel: {}{}{how}, specialised for the scene: {}", k.name, k.division, k.specialization);
     Ok(())
 }
 

@@ -1,9 +1,9 @@
 //! `raycast trace`: one sample of one pixel, step by step, from the CPU build.
 
-use crate::args::*;
 use crate::cli::batch::*;
 use crate::cli::options::*;
 use crate::cli::status::*;
+use crate::cli::values::*;
 use crate::cpu::CpuRenderer;
 use crate::error::Error;
 use crate::frame::Aov;
@@ -114,7 +114,7 @@ pub fn run(args: &TraceArgs) -> Result<(), Error> {
     }
     let steps = cpu.trace(&p.data, &p.data.frame, x, y, args.sample)?;
     // At one sample a pixel, the render's pixel: the same 8-bit colour, rays and first hit.
-    let render = (spp == 1).then(|| cpu.render_rows(&p.data, &[y])[0][x as usize]);
+    let render = (spp == 1).then(|| cpu.render_rows_told(&p.data, &[y], &|_| {})[0][x as usize]);
     let rays = steps.iter().filter(|s| s.is_ray()).count();
     let first = steps.iter().find(|s| s.kind == layout::TRACE_CAMERA);
     let colour = steps.iter().find(|s| s.kind == layout::TRACE_PIXEL).map(|s| s.id);

@@ -19,8 +19,7 @@ use super::bench::{load_or_skip, skipped, BenchArgs, BenchBackend};
 use super::options::open_renderer;
 use crate::check;
 use crate::error::{check_validation, Error};
-use crate::gpu::GpuError;
-use crate::render::Picture;
+use crate::render::{CutShort, Picture, Renderer};
 use crate::scene::FlattenLimits;
 use crate::units::median;
 use crate::units::{rounded, to_json};
@@ -120,11 +119,10 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
     let b_name = format!("the kernel from {}", versus.display());
     let r = &args.render;
     let k = &r.kernel;
-    let a = k.renderer()?;
-    let b = open_renderer(k, Some(versus))?;
+    let a: Box<dyn Renderer> = Box::new(k.renderer()?);
+    let b: Box<dyn Renderer> = Box::new(open_renderer(k, Some(versus))?);
     if !args.json {
-        let info = a.context().info();
-        outln!("device: {} ({}), two devices in one process", info.name, info.kind);
+        outln!("device: {}, two devices in one process", a.info().label);
         outln!("A: {a_name}\nB: {b_name}");
         outln!(
             "{} pairs of frames after {} warm-up frames each, in turn A B, B A, …; dispatch times",
@@ -142,17 +140,22 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
             return Ok(());
         };
         // Which kernel each runs: a folder without render_uniform.comp has only the storage one.
-        let kernels = (a.kernel_for(&loaded.data)?.name().to_string(), b.kernel_for(&loaded.data)?.name().to_string());
+        let kernel = |r: &dyn Renderer| Ok::<_, Error>(r.kernel(&loaded.data)?.map(|k| k.name).unwrap_or_default());
+        let kernels = (kernel(a.as_ref())?, kernel(b.as_ref())?);
         let timed = (|| {
             for _ in 0..args.warmup {
-                a.render(&loaded.data)?;
-                b.render(&loaded.data)?;
+                a.render_frame(&loaded.data, &|_| {})?;
+                b.render_frame(&loaded.data, &|_| {})?;
             }
             let mut pairs = Pairs { a: Vec::new(), b: Vec::new() };
             let mut last: (Option<Picture>, Option<Picture>) = (None, None);
             for i in 0..args.frames {
                 for first_a in if i % 2 == 0 { [true, false] } else { [false, true] } {
-                    let (picture, t) = if first_a { a.render(&loaded.data)? } else { b.render(&loaded.data)? };
+                    let (picture, t) = if first_a {
+                        a.render_frame(&loaded.data, &|_| {})?
+                    } else {
+                        b.render_frame(&loaded.data, &|_| {})?
+                    };
                     if first_a {
                         pairs.a.push(t.dispatch);
                         last.0 = Some(picture);
@@ -162,18 +165,18 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
                     }
                 }
             }
-            Ok::<_, GpuError>((pairs, last))
+            Ok::<_, Error>((pairs, last))
         })();
         let (pairs, (pa, pb)) = match timed {
             Ok(x) => x,
-            Err(GpuError::CutShort { count, total, .. }) => {
+            Err(Error::CutShort(CutShort { count, total, .. })) => {
                 let why = format!(
                     "not timed: a kernel cut {count} of {total} pixels short (Mesa's loop budget per invocation)"
                 );
                 skipped(&loaded.name, None, loaded.counts, &why, args);
                 return Ok(());
             }
-            Err(e) => return Err(e.into()),
+            Err(e) => return Err(e),
         };
         let (Some(pa), Some(pb)) = (pa, pb) else { return Ok(()) };
         let report = check::compare(&pa, "A", &pb, "B")?;
@@ -226,7 +229,7 @@ pub(crate) fn run(args: &BenchArgs, versus: &Path) -> Result<(), Error> {
     };
     let batch = each_named(&names, crate::source::scene_label, |name| Ok(compare_one(name)))?;
     let result = batch.failure("").map_or(Ok(()), Err);
-    let messages = [a.context().take_validation_messages(), b.context().take_validation_messages()].concat();
+    let messages = [a.take_messages(), b.take_messages()].concat();
     drop(a);
     drop(b);
     result.and(check_validation(messages))

@@ -86,7 +86,7 @@ impl GpuContext {
                 Ok(true) => Division::CorrectedFma,
                 Ok(false) => Division::Corrected,
                 Err(e) => {
-                    eprintln!("raycast: the fma probe could not run on {} ({e}); the division correction takes Dekker's residuals, exact but slower", self.inner.info.name);
+                    errln!("raycast: the fma probe could not run on {} ({e}); the division correction takes Dekker's residuals, exact but slower", self.inner.info.name);
                     Division::Corrected
                 }
             },

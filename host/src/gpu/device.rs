@@ -71,7 +71,7 @@ impl Default for GpuOptions {
 
 /// Which kernels a device runs (`--kernel`; docs/exactness.md, "The fast
 /// kernel").
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum KernelChoice {
     /// The fast kernels on a discrete or integrated GPU, the exact ones on
     /// every other device (lavapipe and other CPU devices).

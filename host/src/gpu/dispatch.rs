@@ -13,6 +13,7 @@ use super::memory::{
     buffer_size, create_buffer, create_image, data_image_size, KeptRun, Place, RunImage, RunResources, DATA_FORMAT,
 };
 use super::{GpuError, ImageFormat, Kernel, LESS_DATA};
+use crate::render::DevicePhases;
 
 /// How long one submission of a run's passes aims to take (`run_passes`):
 /// long enough that a GPU's thousands of short passes go in few
@@ -53,31 +54,6 @@ pub struct RunTimings {
     /// The device's own times of the run's phases, by its timestamps;
     /// None where the queue has none.
     pub device: Option<DevicePhases>,
-}
-
-/// The device's times of one run's phases (`RunTimings::device`), from
-/// timestamps written before and after each: what the device spent, not
-/// counting recording, submission or the host's waits.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DevicePhases {
-    /// Clearing the cleared buffers and the output, and copying the data
-    /// images from their upload buffers (the inputs' bytes themselves are
-    /// written by the host into memory the device reads in place).
-    pub clear: Duration,
-    /// The dispatches: every submission's, summed (from the end of the
-    /// clears in the first).
-    pub dispatch: Duration,
-    /// Copying the output into memory the host reads, where the run does
-    /// (zero where the kernel writes that memory itself).
-    pub readback: Duration,
-}
-
-impl std::ops::AddAssign for DevicePhases {
-    fn add_assign(&mut self, o: DevicePhases) {
-        self.clear += o.clear;
-        self.dispatch += o.dispatch;
-        self.readback += o.readback;
-    }
 }
 
 /// Timestamps of a run's submission (`record_run`): the clears' start and

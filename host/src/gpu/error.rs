@@ -52,10 +52,6 @@ pub enum GpuError {
     BadRun { kernel: String, message: String },
     /// A window surface, swapchain or presentation problem (`what` says which and what to do).
     Presentation { what: String },
-    /// The device ended some pixels' loops early (`PixelOut.rays` has
-    /// RAYS_CUT_SHORT): `count` of `total`, the first at `first` (x, y);
-    /// `advice` says what the command's user can do.
-    CutShort { device: String, count: usize, total: usize, first: (u32, u32), advice: String },
 }
 
 impl GpuError {
@@ -192,16 +188,6 @@ impl fmt::Display for GpuError {
             }
             GpuError::BadRun { kernel, message } => write!(f, "kernel {kernel}: {message}"),
             GpuError::Presentation { what } => write!(f, "cannot show the picture in a window: {what}"),
-            GpuError::CutShort { device, count, total, first, advice } => write!(
-                f,
-                "{device} cut {count} of {total} pixels short (the first at ({}, {})), so the picture would be wrong and \
-                 nothing was written. Mesa's software Vulkan device (lavapipe, llvmpipe) gives each shader invocation \
-                 65535 loop iterations in all, then ends every loop early without a word (LP_MAX_TGSI_LOOP_ITERATIONS); \
-                 these pixels need more: each node visited, each primitive tested, each light and each mirror bounce \
-                 of a sample takes some (samples run one per dispatch, so --spp does not add up). {advice}",
-                first.0,
-                first.1
-            ),
         }
     }
 }

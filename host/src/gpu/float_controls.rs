@@ -113,7 +113,7 @@ mod tests {
     /// and neither does one with no modes.
     #[test]
     fn the_render_kernel_gains_the_modes_and_stays_valid() {
-        let original = words(crate::render::kernel_spirv("render").unwrap());
+        let original = words(crate::gpu::kernel_spirv("render").unwrap());
         assert_eq!(add_modes(&original, Modes::default()).unwrap(), original);
         let nan = add_modes(&original, Modes { preserve_nan: true, preserve_denorms: false }).unwrap();
         assert_eq!(nan.len(), original.len() + 2 + 1 + string_words(EXTENSION).len() + 4);

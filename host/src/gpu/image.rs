@@ -12,33 +12,10 @@ use ash::vk;
 use super::device::Inner;
 use super::memory::{color_range, create_image, data_image_size, destroy_image, RunResources, DATA_FORMAT};
 use super::{GpuContext, GpuError, LESS_DATA};
-use crate::layout::IMAGE_WIDTH;
+use crate::layout::{ImageFormat, IMAGE_WIDTH};
 
 /// The one storage-image format: `layout(rgba8) uniform image2D` in GLSL.
 pub(crate) const FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
-
-/// A storage image binding of a kernel (descriptor set 0): a 2D
-/// `layout(rgba8) uniform image2D` or `layout(rgba32ui) uniform uimage2D`,
-/// checked by naga's reflection like the storage buffers
-/// (`Kernel::with_images`).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ImageBinding {
-    pub binding: u32,
-    /// True when the kernel writes it (not `readonly`).
-    pub writable: bool,
-    pub format: ImageFormat,
-}
-
-/// What a storage image holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ImageFormat {
-    /// A picture (`StorageImage`): `layout(rgba8) uniform image2D`.
-    Rgba8,
-    /// Data, 16 bytes a texel, in rows of IMAGE_WIDTH (`DataImage`, or
-    /// `GpuContext::run_passes` from an input's bytes):
-    /// `layout(rgba32ui) readonly uniform uimage2D`.
-    Rgba32Uint,
-}
 
 impl ImageFormat {
     pub(crate) fn naga(self) -> naga::StorageFormat {

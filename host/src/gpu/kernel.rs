@@ -11,6 +11,7 @@ use ash::vk;
 use super::device::Inner;
 use super::{float_controls, reflect, specialize, GpuContext, GpuError, ImageBinding, ShaderSource, Specialised};
 use crate::layout::BindingLayout;
+use crate::render::{Executable, Statistic, StatisticValue};
 
 /// A compute pipeline (entry point `main`) whose storage buffers match the host's layouts.
 pub struct Kernel {
@@ -398,46 +399,6 @@ impl Kernel {
             .iter()
             .find(|b| b.binding == binding)
             .map_or(vk::DescriptorType::STORAGE_BUFFER, buffer_descriptor_type)
-    }
-}
-
-/// One executable of a pipeline (a compute pipeline has one, or a few
-/// where the driver compiles several variants) and the driver's statistics
-/// of it (`Kernel::statistics`).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Executable {
-    pub name: String,
-    pub description: String,
-    pub subgroup_size: u32,
-    pub statistics: Vec<Statistic>,
-}
-
-/// One statistic of an executable, as the driver names and describes it.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Statistic {
-    pub name: String,
-    pub description: String,
-    pub value: StatisticValue,
-}
-
-/// A statistic's value in the driver's format (in JSON: a bare value).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-#[serde(untagged)]
-pub enum StatisticValue {
-    Bool(bool),
-    Int(i64),
-    Uint(u64),
-    Float(f64),
-}
-
-impl std::fmt::Display for StatisticValue {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            StatisticValue::Bool(b) => write!(f, "{b}"),
-            StatisticValue::Int(v) => write!(f, "{v}"),
-            StatisticValue::Uint(v) => write!(f, "{v}"),
-            StatisticValue::Float(v) => write!(f, "{v}"),
-        }
     }
 }
 

@@ -2,106 +2,36 @@
 //! screenshots. Frames come from `PreviewRenderer`; this file decides what
 //! to draw (camera, size, output mode, sample) and when.
 
-use std::ffi::CStr;
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
-use ash::vk::{self, Handle};
 use glam::DVec3;
 use glfw::{Action, Key, MouseButton, WindowEvent};
 
-use crate::args::Backend;
-use crate::cpu::CpuRenderer;
-use crate::error::{check_validation, validation_wanted, Error};
-use crate::frame::{self, Aov, FrameData, RenderSettings};
-use crate::gpu::{
-    DeviceInfo, DeviceSelector, FrameStatus, GpuContext, GpuError, GpuOptions, KernelChoice, PresentMode,
-};
+use crate::cpu::{CpuProgressive, CpuRenderer};
+use crate::error::Error;
+use crate::frame::{self, Aov, FrameData};
+use crate::gpu::{DeviceInfo, FrameStatus, GpuError};
 use crate::image_io::{self, Rgb8};
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
-use crate::scene::{scene_bounds, Bounds, FlattenLimits, ParseOptions, Scene};
-use crate::source::load_scene;
+use crate::scene::{scene_bounds, Bounds, Scene};
 
-use super::layout::PreviewFrame;
-use super::reload::{Reload, ShaderFolder, WatchConfig, Watcher, KERNEL_FILE};
-use super::renderer::{PreviewKernels, PreviewRenderer};
-use super::{PresentArg, PreviewArgs};
+use super::pacing::{
+    band_rows, forced_band_rows, frame_budget_ms, frames_at, jitter, motion_scale, rate, PixelCost, COST_MIN_PIXELS,
+    MOTION_HOLD, MOVING_DEG_PER_FRAME,
+};
+use super::reload::{Reload, ShaderFolder, Watcher, KERNEL_FILE};
+use super::renderer::PreviewRenderer;
+use crate::layout::PreviewFrame;
 use crate::scene::CameraControl;
 
-/// The X extensions one of which NVIDIA's Vulkan driver presents through:
-/// its own X driver's GLX (NV-GLX) or DRI3 (XWayland, PRIME offload).
-const NVIDIA_PRESENTS_THROUGH: [&CStr; 2] = [c"NV-GLX", c"DRI3"];
-
-/// Why the window cannot take `device`'s pictures, asked before its driver
-/// is (`GpuContext::with_surface`'s veto). NVIDIA's Vulkan driver crashes
-/// when asked to present to an X display that has neither of
-/// NVIDIA_PRESENTS_THROUGH (a call through a null pointer in
-/// libnvidia-eglcore while the device is opened for the window; driver
-/// 580.159.04 on an H100 under Xvfb, with and without GLX, 2026-11-27): such
-/// a display is refused for it. RAYCAST_PRESENT_CHECK=1 applies the rule to
-/// every device (how the suite tests it on lavapipe), 0 to none.
-pub(crate) fn window_refuses(device: &DeviceInfo) -> Option<String> {
-    let forced = crate::gpu::switch("RAYCAST_PRESENT_CHECK");
-    let nvidia = device.driver_id == Some(vk::DriverId::NVIDIA_PROPRIETARY);
-    if !forced.unwrap_or(nvidia) {
-        return None;
-    }
-    let why = if forced == Some(true) {
-        "which RAYCAST_PRESENT_CHECK=1 asks of every device"
-    } else {
-        "one of which NVIDIA's Vulkan driver presents through (it crashes when asked to present without them; \
-         RAYCAST_PRESENT_CHECK=0 tries anyway)"
-    };
-    let display = std::env::var("DISPLAY").unwrap_or_default();
-    refusal(super::x11::display_extensions(None, &NVIDIA_PRESENTS_THROUGH), &display, why)
-}
-
-/// The refusal of `window_refuses` where the display answered that it has
-/// none of NVIDIA_PRESENTS_THROUGH (`answers`, in that order); nothing where
-/// it has one or could not be asked.
-fn refusal(answers: Result<Vec<bool>, String>, display: &str, why: &str) -> Option<String> {
-    if !answers.is_ok_and(|has| has.len() == NVIDIA_PRESENTS_THROUGH.len() && has.iter().all(|h| !h)) {
-        return None;
-    }
-    Some(format!("the X display {display} has neither NV-GLX (NVIDIA's X driver) nor DRI3, {why}"))
-}
-
-/// What to do where no device can present (`window_refuses`): one that can
-/// shows the pixels of one that cannot.
-const REFUSED_ADVICE: &str = "install a Vulkan device that can present to this display (Debian's mesa-vulkan-drivers: \
-                              lavapipe) and the preview shows through it what this one draws (--window-device), run \
-                              the preview on a desktop whose X server runs on the GPU, or render headless with \
-                              `raycast render`";
-
-/// Samples per pixel after which an interactive preview stops drawing until something changes.
 const MAX_SAMPLES: u32 = 1024;
 /// A press and release of the left button closer than this (pixels) is a click, not a drag.
 const CLICK_SLOP: f64 = 3.0;
 /// Orbit degrees per pixel of drag.
 const ORBIT_DEG_PER_PIXEL: f64 = 0.3;
 const TITLE_INTERVAL: Duration = Duration::from_millis(250);
-/// After the camera's last move, frames stay at the motion resolution this long.
-const MOTION_HOLD: Duration = Duration::from_millis(300);
-/// While the camera moves, a frame should take at most this long: 125 ms (8
-/// a second) where the CPU draws (lavapipe, the CPU build), where every
-/// pixel is dear, and 33 ms (30 a second) on a GPU, where a window's full
-/// size is usually within reach (on an H200, depth 10 with shadows at
-/// 1920x1080 took 95 ms a frame at full size: with 125 ms it steered at 10
-/// a second). At rest a slow sample is drawn in bands of the same budget.
-const MOTION_FRAME_MS: [f64; 2] = [125.0, 1000.0 / 30.0];
-
-/// The frame budget (MOTION_FRAME_MS) of a drawer that runs on the CPU or not.
-fn frame_budget_ms(on_cpu: bool) -> f64 {
-    MOTION_FRAME_MS[usize::from(!on_cpu)]
-}
-/// The most the motion resolution divides the width and height by: 2^(MAX_MOTION_STEPS / 4) = 8.
-const MAX_MOTION_STEPS: u32 = 12;
-/// Frames smaller than this do not update the cost per pixel.
-const COST_MIN_PIXELS: u64 = 16384;
-/// `--moving`: how far the camera orbits before each frame.
-const MOVING_DEG_PER_FRAME: f64 = 2.0;
 
 const HELP: &str = "\
 preview controls:
@@ -117,329 +47,6 @@ preview controls:
   B               switch who draws: the device or the CPU build (the same pixels)
   K               recompile the shaders now, as an edit does (the device draws after)
   F1              this help                    Esc           quit";
-
-pub fn run(args: &PreviewArgs) -> Result<(), Error> {
-    // --no-textures loads none, as `render --no-textures` (a scene whose
-    // textures are missing opens); T then has nothing to turn on.
-    let settings = RenderSettings {
-        width: args.width,
-        height: args.height,
-        textures: !args.no_textures,
-        ..RenderSettings::default()
-    };
-    // A screenshot to stdout: the status lines go to stderr, as `render -o /dev/stdout`'s.
-    crate::output::status_beside(&args.screenshot);
-    settings.validate().map_err(Error::usage)?;
-    super::check_script(args)?;
-    if let Some(path) = &args.screenshot {
-        crate::image_io::check_output(path)?;
-    }
-    let parse = ParseOptions { assets: args.assets.clone(), skip_textures: args.no_textures };
-    let limits = FlattenLimits { max_primitives: args.max_primitives };
-    let scene = load_scene(args.scene.as_deref(), &parse, &limits).map_err(Error::scene)?;
-    // Nothing written over what the preview reads (its scene, the scene's
-    // textures), as `render -o`: refused before any window opens.
-    if let Some(path) = &args.screenshot {
-        let textures = scene.texture_files();
-        crate::output::refuse_overwriting(path, args.scene.iter().chain(&textures).map(PathBuf::as_path))?;
-    }
-    let data = frame::build(&scene, &settings)?;
-    for note in &data.notes {
-        errln!("raycast: note: {note}");
-    }
-    crate::args::cpu_takes_no_shaders(args.backend == Backend::Cpu, &args.shaders)?;
-    if args.backend == Backend::Cpu && args.choice.choice() == KernelChoice::Fast {
-        return Err(Error::Usage(
-            "--kernel fast runs on a Vulkan device, and --backend cpu draws with the CPU build, which is exact: \
-             drop one"
-                .into(),
-        ));
-    }
-    let (shaders, compile_at_start) = shader_folder(args.shaders.as_deref())?;
-
-    // The window. GLFW reports its errors through the callback.
-    let glfw_errors: Arc<Mutex<Vec<String>>> = Arc::default();
-    let sink = glfw_errors.clone();
-    let last_glfw_error =
-        move || glfw_errors.lock().unwrap_or_else(|p| p.into_inner()).last().cloned().unwrap_or_default();
-    let mut glfw = glfw::init(move |_, description: String| {
-        sink.lock().unwrap_or_else(|p| p.into_inner()).push(description);
-    })
-    .map_err(|_| {
-        Error::from(format!(
-            "cannot open a window: GLFW could not start ({}); run it on a desktop, or headless under `xvfb-run -a`",
-            last_glfw_error()
-        ))
-    })?;
-    if !glfw.vulkan_supported() {
-        return Err(Error::from(format!(
-            "cannot open a window: GLFW finds no Vulkan loader ({}); install libvulkan1 and a driver \
-             (e.g. Debian's mesa-vulkan-drivers)",
-            last_glfw_error()
-        )));
-    }
-    let instance_extensions = glfw.get_required_instance_extensions().unwrap_or_default();
-    if instance_extensions.is_empty() {
-        return Err(Error::from(no_surface_extension(&last_glfw_error())));
-    }
-    let fixed_size = args.screenshot.is_some() || args.frames.is_some();
-    glfw.window_hint(glfw::WindowHint::ClientApi(glfw::ClientApiHint::NoApi));
-    glfw.window_hint(glfw::WindowHint::Resizable(!fixed_size));
-    let (mut window, events) = glfw
-        .create_window(args.width, args.height, "raycast preview", glfw::WindowMode::Windowed)
-        .ok_or_else(|| Error::from(format!("cannot open a window: {}", last_glfw_error())))?;
-    window.set_all_polling(true);
-
-    let options = GpuOptions {
-        device: args.device.clone(),
-        validation: validation_wanted(args.validate),
-        timeout: args.timeout,
-        kernel: args.choice.choice(),
-    };
-    let refused = std::cell::RefCell::new(Vec::new());
-    let veto = |device: &DeviceInfo| {
-        let why = window_refuses(device)?;
-        let advice = format!("{why}; {REFUSED_ADVICE}");
-        refused.borrow_mut().push((device.index, device.name.clone(), why));
-        Some(advice)
-    };
-    let open_window = |device: Option<DeviceSelector>| {
-        let options = GpuOptions { device, ..options.clone() };
-        GpuContext::with_surface(
-            &options,
-            &instance_extensions,
-            |instance| {
-                let mut surface: glfw::ffi::VkSurfaceKHR = std::ptr::null_mut();
-                // SAFETY: `instance` is a live VkInstance with the extensions GLFW asked for.
-                let result = unsafe {
-                    window.create_window_surface(
-                        instance.as_raw() as usize as glfw::ffi::VkInstance,
-                        std::ptr::null(),
-                        &mut surface,
-                    )
-                };
-                if result != 0 {
-                    return Err(format!("glfwCreateWindowSurface failed with {:?}", vk::Result::from_raw(result)));
-                }
-                Ok(vk::SurfaceKHR::from_raw(surface as usize as u64))
-            },
-            veto,
-        )
-    };
-    let (context, apart) = choose_devices(args, &options, open_window)?;
-    let context = Arc::new(context);
-    let info = context.info().clone();
-    // Who draws the samples (--backend): the CPU build, and why, or the device.
-    let candidate = apart.as_ref().map_or(&info, |a| a.info());
-    let cpu_why = match args.backend {
-        Backend::Cpu => Some(String::new()),
-        // A device named to draw (--device) draws, as render's auto takes
-        // it; so does one asked for the fast kernel (the CPU build has none).
-        Backend::Auto
-            if !compile_at_start
-                && args.device.is_none()
-                && args.choice.choice() != KernelChoice::Fast
-                && candidate.runs_on_cpu() =>
-        {
-            Some(format!("; --backend auto: {} runs on the CPU", candidate.name))
-        }
-        Backend::Gpu | Backend::Auto => None,
-    };
-    // A device apart that runs on the CPU gives way to the CPU build (auto).
-    let apart = apart.filter(|_| cpu_why.is_none()).map(Arc::new);
-    // The device that draws when the CPU build does not (B).
-    let drawing = apart.as_ref().map_or(&info, |a| a.info()).clone();
-    let mut refused = refused.into_inner();
-    // A retry asks the veto again: each device once.
-    refused.sort_by_key(|r| r.0);
-    refused.dedup_by_key(|r| r.0);
-    for (index, name, why) in refused {
-        if index == drawing.index && apart.is_some() {
-            errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); it draws the samples and {} shows them", info.name);
-        } else if index != info.index && options.device.is_none() && args.window_device.is_none() {
-            // Only where raycast chose the device: one named needs no word about the others.
-            errln!("raycast: note: device {index} ({name}) cannot present to this window ({why}); using {}", info.name);
-        }
-    }
-    let cpu = cpu_why.as_ref().map(|_| CpuRenderer::new()).transpose()?;
-    match (&cpu, &cpu_why, &apart) {
-        (Some(c), Some(why), _) => outln!("device: {}; the window through {}", c.summary(why), info.summary()),
-        (_, _, Some(a)) => outln!("device: {}; the window through {}", a.info().summary(), info.summary()),
-        _ => outln!("device: {}", info.summary()),
-    }
-    outln!("scene: {} ({} primitives, {} lights)", scene.path.display(), data.primitives.len(), data.lights.len());
-
-    // A --shaders folder's kernel from the first frame on (so --frames and
-    // --screenshot see it); a compile error ends the command.
-    let draws = apart.as_ref().unwrap_or(&context);
-    let shaders = shaders.map(|dir| ShaderFolder { dir, division: draws.division() });
-    let kernel = match (&shaders, compile_at_start) {
-        (Some(folder), true) => match folder.compile() {
-            Reload::Kernel(kernel) => kernel,
-            Reload::Failed(e) => return Err(Error::from(format!("--shaders {}: {e}", folder.dir.display()))),
-            Reload::Scene(_) => unreachable!("compile gives a kernel or a failure"),
-        },
-        _ => PreviewKernels::embedded(draws)?,
-    };
-    // With a device apart, those are its kernels; the window's device only shows.
-    let (kernel, apart_kernels) = match &apart {
-        Some(a) => (PreviewKernels::embedded(&context)?, Some((a.clone(), kernel))),
-        None => (kernel, None),
-    };
-    let (fw, fh) = window.get_framebuffer_size();
-    let window_size = [fw.max(1) as u32, fh.max(1) as u32];
-    let size = if fixed_size { [args.width, args.height] } else { window_size };
-    let mode = match args.present_mode {
-        PresentArg::Fifo => PresentMode::Fifo,
-        PresentArg::Mailbox => PresentMode::Mailbox,
-        PresentArg::Immediate => PresentMode::Immediate,
-    };
-    let renderer = PreviewRenderer::new(context.clone(), kernel, &data, size, window_size, mode, cpu, apart_kernels)?;
-    if let Some(why) = renderer.device_cannot_draw() {
-        errln!("raycast: preview: note: {why}");
-    }
-    let sc = renderer.swapchain();
-    if sc.mode() != sc.requested_mode() {
-        errln!("raycast: note: the window does not offer --present-mode {}; using fifo", sc.requested_mode().name());
-    }
-
-    let watcher = Watcher::spawn(WatchConfig {
-        scene: args.scene.clone(),
-        textures: scene.texture_files(),
-        parse,
-        limits,
-        settings: settings.clone(),
-        shaders: shaders.clone(),
-    });
-
-    let mut preview = Preview::new(scene, data, &drawing, fixed_size, renderer);
-    preview.moving_frames = args.moving;
-    preview.click = args.click;
-    preview.keys = args.keys.clone().map(|k| k.0).unwrap_or_default();
-    preview.shaders = shaders;
-    preview.aov = args.aov;
-    preview.shadows = !args.no_shadows;
-    preview.reflections = !args.no_reflections;
-    preview.refraction = !args.no_refraction;
-    preview.textures = !args.no_textures;
-    preview.textures_loaded = !args.no_textures;
-    if args.screenshot.is_none() && args.frames.is_none() {
-        errln!("raycast: preview: F1 prints the controls, Esc quits");
-        if drawing.runs_on_cpu() && cpu_why.is_none() && !compile_at_start {
-            errln!(
-                "raycast: preview: hint: {} runs on the CPU; B (or --backend auto) lets the CPU build draw the samples \
-                 natively: the same pixels, more frames a second (BENCHMARKS.md, \"The preview\")",
-                drawing.name
-            );
-        }
-    }
-    let result = preview.run(
-        &mut glfw,
-        &mut window,
-        &events,
-        &watcher,
-        args.frames.or(args.screenshot.as_ref().map(|_| 1)),
-        args.screenshot.as_deref(),
-    );
-
-    // Tear down in order: frames and buffers, the watcher's kernels, then
-    // what the validation layer said, then the device and the window.
-    drop(preview);
-    drop(watcher);
-    let mut messages = context.take_validation_messages();
-    if let Some(a) = apart {
-        messages.extend(a.take_validation_messages());
-    }
-    drop(context);
-    drop(window);
-    result?;
-    check_validation(messages)
-}
-
-/// Why the window cannot open where GLFW finds no Vulkan surface extension
-/// (`glfw_error`: GLFW's last message, often none). The loader offers none
-/// where it found no driver (VK_ICD_FILENAMES at a file that is not there,
-/// no driver installed): that is said as `render` says it
-/// (`GpuError::no_device`), the CPU build's drawing no way around it.
-fn no_surface_extension(glfw_error: &str) -> String {
-    let needs = "the preview shows its pictures in the window through Vulkan, even with --backend cpu";
-    match crate::gpu::list_devices() {
-        Err(e @ (GpuError::NoDevice { .. } | GpuError::LoaderMissing { .. })) => {
-            format!("cannot open a window: {e} ({needs})")
-        }
-        _ => {
-            let glfw_error = if glfw_error.is_empty() { String::new() } else { format!(" ({glfw_error})") };
-            format!("cannot open a window: no Vulkan surface extension for this window system{glfw_error}; {needs}")
-        }
-    }
-}
-
-/// The window's device, opened by `open_window` for the selector given, and
-/// the device that draws where that is another one (the device apart): the
-/// one --device names, or the best, where it cannot present to this window;
-/// with --window-device, always the --device one (unless the CPU build draws).
-fn choose_devices(
-    args: &PreviewArgs,
-    options: &GpuOptions,
-    open_window: impl Fn(Option<DeviceSelector>) -> Result<GpuContext, GpuError>,
-) -> Result<(GpuContext, Option<GpuContext>), Error> {
-    let device_draws = args.backend != Backend::Cpu;
-    // With two device options, a device not found is named by its option.
-    let named = |option: &'static str| {
-        move |e: GpuError| match e {
-            GpuError::DeviceNotFound { .. } => Error::from(format!("{option}: {e}")),
-            e => Error::from(e),
-        }
-    };
-    let open_apart = || GpuContext::new(options).map_err(named("--device"));
-    if let Some(window_device) = &args.window_device {
-        let context = open_window(Some(window_device.clone())).map_err(named("--window-device"))?;
-        return Ok((context, device_draws.then(open_apart).transpose()?));
-    }
-    Ok(match open_window(options.device.clone()) {
-        Err(e @ GpuError::Presentation { .. }) if device_draws && options.device.is_some() => {
-            // Shown through any device that can; a failure there is the first one's.
-            let context = open_window(None).map_err(|_| e)?;
-            (context, Some(open_apart()?))
-        }
-        Err(e) => return Err(named("--device")(e)),
-        Ok(context) if device_draws && options.device.is_none() => {
-            // The best device, where it is not the window's, draws; if it
-            // cannot be opened, the window's device draws, as before.
-            let best = crate::gpu::list_devices_with_default()?.1;
-            let apart = match (best != context.info().index).then(|| GpuContext::new(options)) {
-                Some(Err(e)) => {
-                    errln!("raycast: note: device {best} cannot draw ({e}); {} draws", context.info().name);
-                    None
-                }
-                opened => opened.transpose()?,
-            };
-            (context, apart)
-        }
-        Ok(context) => (context, None),
-    })
-}
-
-/// The shader folder to watch, and whether to compile from it at start
-/// (only when given on the command line).
-fn shader_folder(arg: Option<&Path>) -> Result<(Option<PathBuf>, bool), Error> {
-    if let Some(dir) = arg {
-        if !dir.join(KERNEL_FILE).is_file() {
-            return Err(Error::from(format!("--shaders {}: there is no {KERNEL_FILE} in it", dir.display())));
-        }
-        return Ok((Some(dir.to_path_buf()), true));
-    }
-    let source = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders"));
-    if source.join(KERNEL_FILE).is_file() {
-        Ok((Some(source.canonicalize().unwrap_or_else(|_| source.to_path_buf())), false))
-    } else {
-        errln!(
-            "raycast: note: shader reload is off: the source tree's shaders/ ({}) is not here; use --shaders DIR",
-            source.display()
-        );
-        Ok((None, false))
-    }
-}
 
 /// Mouse state between events.
 #[derive(Default)]
@@ -471,162 +78,75 @@ impl Stats {
 }
 
 /// Everything the loop keeps.
-struct Preview {
-    scene: Scene,
-    data: FrameData,
-    bounds: Option<Bounds>,
-    camera: CameraControl,
+pub(super) struct Preview {
+    pub(super) scene: Scene,
+    pub(super) data: FrameData,
+    pub(super) bounds: Option<Bounds>,
+    pub(super) camera: CameraControl,
     /// The Vulkan device's name.
-    device: String,
+    pub(super) device: String,
     /// Whether that device runs on the CPU (lavapipe): the frame budget.
-    device_on_cpu: bool,
+    pub(super) device_on_cpu: bool,
     /// A shader was reloaded: the device's kernel is no longer the code the
     /// CPU build was built from (so an edit hands the drawing to the device,
     /// and B back to the CPU build says so).
-    shader_edited: bool,
+    pub(super) shader_edited: bool,
     /// The picture stays at the size asked for (screenshots): the window is not resizable.
-    fixed_size: bool,
+    pub(super) fixed_size: bool,
     /// What the window shows (Frame.aov, keys 1 to 6).
-    aov: Aov,
-    shadows: bool,
-    reflections: bool,
+    pub(super) aov: Aov,
+    pub(super) shadows: bool,
+    pub(super) reflections: bool,
     /// Refraction (G): FLAG_REFRACTION where the scene's frame has it.
-    refraction: bool,
-    textures: bool,
+    pub(super) refraction: bool,
+    pub(super) textures: bool,
     /// Whether the scene's textures were loaded (not with --no-textures): T can turn them on.
-    textures_loaded: bool,
+    pub(super) textures_loaded: bool,
     /// The sample the next frame draws; 0 restarts the accumulation.
-    sample: u32,
+    pub(super) sample: u32,
     /// Scripted runs (--moving N): the first N frames turn the camera.
-    moving_frames: u32,
+    pub(super) moving_frames: u32,
     /// Scripted runs (--click X,Y): the pixel clicked after the last frame.
-    click: Option<(u32, u32)>,
+    pub(super) click: Option<(u32, u32)>,
     /// Scripted runs (--keys): keys pressed just before frame N (from 1).
-    keys: Vec<(u32, Key)>,
+    pub(super) keys: Vec<(u32, Key)>,
     /// The shader folder the watcher follows (None: reload is off): K
     /// recompiles it at once.
-    shaders: Option<ShaderFolder>,
+    pub(super) shaders: Option<ShaderFolder>,
     /// K was pressed: recompile before the next frame.
-    recompile: bool,
+    pub(super) recompile: bool,
     /// Frames submitted so far.
-    rendered: u32,
+    pub(super) rendered: u32,
     /// The size of the frame submitted last.
-    frame_sizes: (u32, u32),
+    pub(super) frame_sizes: (u32, u32),
     /// Submit-to-submit times of the --moving frames, and their sizes.
-    moving_times: Vec<(Duration, [u32; 2])>,
+    pub(super) moving_times: Vec<(Duration, [u32; 2])>,
     /// Submit-to-submit times of the frames after them (scripted runs: each a whole sample), and their sizes.
-    rest_times: Vec<(Duration, [u32; 2])>,
+    pub(super) rest_times: Vec<(Duration, [u32; 2])>,
     /// The first row of the sample's next band (0: the sample starts).
-    band_next: u32,
+    pub(super) band_next: u32,
     /// When the camera last moved (`moved`).
-    last_move: Option<Instant>,
+    pub(super) last_move: Option<Instant>,
     /// Device (or frame) milliseconds per pixel of the last frames.
-    pixel_cost: PixelCost,
+    pub(super) pixel_cost: PixelCost,
     /// Pixels of the frame in flight, for `pixel_cost`.
-    pixels_in_flight: u64,
+    pub(super) pixels_in_flight: u64,
     /// Pixels of the last frame the device cut short (wrong; lavapipe's loop budget).
-    cut_short: u32,
-    error: Option<String>,
+    pub(super) cut_short: u32,
+    pub(super) error: Option<String>,
     mouse: Mouse,
     stats: Stats,
-    renderer: PreviewRenderer,
-}
-
-/// Milliseconds per pixel of the last COST_FRAMES frames measured.
-#[derive(Default)]
-struct PixelCost {
-    last: std::collections::VecDeque<f64>,
-}
-
-/// Frames `PixelCost` keeps.
-const COST_FRAMES: usize = 5;
-
-impl PixelCost {
-    fn push(&mut self, ms_per_pixel: f64) {
-        if !ms_per_pixel.is_finite() || ms_per_pixel <= 0.0 {
-            return;
-        }
-        if self.last.len() == COST_FRAMES {
-            self.last.pop_front();
-        }
-        self.last.push_back(ms_per_pixel);
-    }
-
-    /// Their median (None before the first): one slow frame (a pipeline
-    /// built, another process on the cores) does not shrink the steering
-    /// size, as it did in an average; a lasting change moves it within
-    /// three frames.
-    fn estimate(&self) -> Option<f64> {
-        Some(crate::units::median(self.last.iter().copied())).filter(|m| !m.is_nan())
-    }
-}
-
-/// The divisor of width and height that brings a frame of `pixels` pixels,
-/// at `ms_per_pixel`, within `budget_ms`: the smallest of 1, 2^(1/4),
-/// 2^(2/4), … (each step 29% fewer pixels; whole divisors went from 512x384
-/// straight to 256x192, a quarter, where 363x272 fits), 1 when the cost is
-/// not known yet, at most 2^(MAX_MOTION_STEPS / 4).
-fn motion_scale(ms_per_pixel: Option<f64>, pixels: u64, budget_ms: f64) -> f64 {
-    let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return 1.0 };
-    let full_ms = cost * pixels as f64;
-    // Dividing both sides by s = 2^(k/4) divides the pixels by s² = 2^(k/2).
-    let steps = (2.0 * (full_ms / budget_ms).log2()).ceil();
-    2f64.powf(steps.clamp(0.0, f64::from(MAX_MOTION_STEPS)) / 4.0)
-}
-
-/// Rows of a `width`-pixel frame that one frame draws at `ms_per_pixel`
-/// within `budget_ms`: a multiple of the work group's height (at least
-/// one), all `height` rows when they fit or the cost is not known yet.
-fn band_rows(ms_per_pixel: Option<f64>, width: u32, height: u32, budget_ms: f64) -> u32 {
-    let Some(cost) = ms_per_pixel.filter(|c| c.is_finite() && *c > 0.0) else { return height };
-    let rows = (budget_ms / (cost * f64::from(width.max(1)))).floor();
-    if rows >= f64::from(height) {
-        return height;
-    }
-    let group = layout::WORKGROUP_SIZE;
-    ((rows as u32) / group * group).max(group)
-}
-
-/// RAYCAST_PREVIEW_BAND_ROWS=N: every sample at rest drawn N rows a frame,
-/// whatever the device's speed (how the suite resizes a window under a
-/// sample in progress on a fast machine).
-fn forced_band_rows() -> Option<u32> {
-    static ROWS: std::sync::OnceLock<Option<u32>> = std::sync::OnceLock::new();
-    *ROWS.get_or_init(|| std::env::var("RAYCAST_PREVIEW_BAND_ROWS").ok()?.parse().ok().filter(|&n: &u32| n > 0))
-}
-
-/// "10 frames at 171x128 then 128x96": how many frames, at which sizes in turn.
-fn frames_at(times: &[(Duration, [u32; 2])]) -> String {
-    let mut sizes: Vec<[u32; 2]> = times.iter().map(|t| t.1).collect();
-    sizes.dedup();
-    let sizes: Vec<String> = sizes.iter().map(|[w, h]| format!("{w}x{h}")).collect();
-    let n = times.len();
-    format!("{n} frame{} at {}", if n == 1 { "" } else { "s" }, sizes.join(" then "))
-}
-
-/// "median 150.4 ms a frame, 6.6 frames a second" of frame times (at least one).
-fn rate(times: &[(Duration, [u32; 2])]) -> String {
-    let median = crate::units::median(times.iter().map(|t| t.0.as_secs_f64()));
-    format!("median {:.1} ms a frame, {:.1} frames a second", median * 1e3, 1.0 / median.max(1e-9))
-}
-
-/// The i-th point of the Halton (2, 3) sequence, centred on 0: sub-pixel
-/// offsets in [-0.5, 0.5)², deterministic and evenly spread.
-fn jitter(i: u32) -> [f32; 2] {
-    fn radical_inverse(mut i: u32, base: u32) -> f64 {
-        let (mut f, mut r) = (1.0, 0.0);
-        while i > 0 {
-            f /= f64::from(base);
-            r += f * f64::from(i % base);
-            i /= base;
-        }
-        r
-    }
-    [(radical_inverse(i, 2) - 0.5) as f32, (radical_inverse(i, 3) - 0.5) as f32]
+    pub(super) renderer: PreviewRenderer,
 }
 
 impl Preview {
-    fn new(scene: Scene, data: FrameData, device: &DeviceInfo, fixed_size: bool, renderer: PreviewRenderer) -> Preview {
+    pub(super) fn new(
+        scene: Scene,
+        data: FrameData,
+        device: &DeviceInfo,
+        fixed_size: bool,
+        renderer: PreviewRenderer,
+    ) -> Preview {
         let bounds = scene_bounds(&scene);
         let camera = CameraControl::new(&scene.camera, bounds);
         Preview {
@@ -668,7 +188,7 @@ impl Preview {
 
     /// The loop: until Esc, the window closes, or `frames` samples are drawn
     /// (then the picture goes to `screenshot`).
-    fn run(
+    pub(super) fn run(
         &mut self,
         glfw: &mut glfw::Glfw,
         window: &mut glfw::PWindow,
@@ -914,7 +434,9 @@ impl Preview {
         } else if self.renderer.cpu_threads().is_some() {
             self.renderer.draw_on_device().map_err(Error::from)
         } else {
-            CpuRenderer::new().and_then(|cpu| Ok(self.renderer.draw_on_cpu(cpu)?))
+            let size = self.renderer.size();
+            CpuRenderer::new()
+                .and_then(|cpu| Ok(self.renderer.draw_on_cpu(Box::new(CpuProgressive::new(cpu, size)))?))
         };
         match switched {
             Ok(()) if self.shader_edited && self.renderer.cpu_threads().is_some() => errln!(
@@ -1120,12 +642,8 @@ impl Preview {
         match reload {
             Reload::Scene(loaded) => {
                 let (scene, data) = *loaded;
-                for w in &scene.warnings {
-                    errln!("{w}");
-                }
-                for note in &data.notes {
-                    errln!("raycast: note: {note}");
-                }
+                crate::source::print_warnings(&scene);
+                crate::source::print_notes(&data);
                 // An array beyond a storage buffer of the drawing device:
                 // the last good scene stays, as after a parse error.
                 if let Err(e @ GpuError::TooLarge { .. }) = self.renderer.set_scene(&data) {
@@ -1298,90 +816,5 @@ impl Preview {
         let n = self.sample;
         outln!("wrote {} ({width}x{height}, {n} sample{} per pixel)", path.display(), if n == 1 { "" } else { "s" });
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{band_rows, frame_budget_ms, jitter, motion_scale, refusal, PixelCost};
-
-    /// The median of the last five: a spike leaves it, a lasting change moves it on the third frame.
-    #[test]
-    fn one_slow_frame_does_not_move_the_pixel_cost() {
-        let mut c = PixelCost::default();
-        assert_eq!(c.estimate(), None);
-        c.push(f64::NAN);
-        c.push(0.0);
-        assert_eq!(c.estimate(), None);
-        for v in [10.0, 1.0, 1.1, 0.9, 1.0] {
-            c.push(v);
-        }
-        assert_eq!(c.estimate(), Some(1.0), "one slow frame among five");
-        c.push(3.0);
-        c.push(3.0);
-        assert_eq!(c.estimate(), Some(1.1), "two of five at 3");
-        c.push(3.0);
-        assert_eq!(c.estimate(), Some(3.0), "three of five at 3");
-    }
-
-    #[test]
-    fn bands_keep_a_frame_within_its_budget() {
-        // Unknown cost, or the whole frame fits: all rows.
-        let cpu = frame_budget_ms(true);
-        assert_eq!(band_rows(None, 512, 384, cpu), 384);
-        assert_eq!(band_rows(Some(1e-6), 512, 384, cpu), 384);
-        // 2.69 s for 512x384: 125 ms is 17.8 rows, so 16 (two work groups).
-        assert_eq!(band_rows(Some(2690.0 / (512.0 * 384.0)), 512, 384, cpu), 16);
-        // Slower than a work group's rows in the budget: one work group anyway.
-        assert_eq!(band_rows(Some(1.0), 512, 384, cpu), 8);
-        // A GPU's 33 ms: 95 ms for 1920x1080 is 378.9 rows, so 376 (47 work groups).
-        assert_eq!(band_rows(Some(95.0 / (1920.0 * 1080.0)), 1920, 1080, frame_budget_ms(false)), 376);
-    }
-
-    /// NVIDIA's driver is refused only a display that says it has neither
-    /// NV-GLX nor DRI3; one that has either, or cannot be asked, is tried.
-    #[test]
-    fn a_display_is_refused_only_without_both_ways_to_present() {
-        // Answers for NVIDIA_PRESENTS_THROUGH: NV-GLX, DRI3.
-        let m = refusal(Ok(vec![false, false]), ":7", "why").expect("neither NV-GLX nor DRI3: refused");
-        assert!(m.starts_with("the X display :7 has neither NV-GLX") && m.ends_with("nor DRI3, why"), "{m}");
-        assert_eq!(refusal(Ok(vec![false, true]), ":7", "why"), None, "DRI3 (XWayland, PRIME)");
-        assert_eq!(refusal(Ok(vec![true, false]), ":7", "why"), None, "NVIDIA's X driver");
-        assert_eq!(refusal(Err("no libX11".to_string()), ":7", "why"), None, "cannot ask: tried");
-    }
-
-    #[test]
-    fn motion_scale_keeps_a_moving_frame_within_its_budget() {
-        let pixels = 512 * 384;
-        let (cpu, gpu) = (frame_budget_ms(true), frame_budget_ms(false));
-        assert_eq!((cpu, gpu), (125.0, 1000.0 / 30.0), "8 frames a second on a CPU, 30 on a GPU");
-        // Unknown cost, or a fast device: full resolution.
-        assert_eq!(motion_scale(None, pixels, cpu), 1.0);
-        assert_eq!(motion_scale(Some(f64::NAN), pixels, cpu), 1.0);
-        assert_eq!(motion_scale(Some(10.0 / pixels as f64), pixels, cpu), 1.0);
-        // 2.69 s a frame: 2690 / 125 = 21.5 times the budget, s >= 4.64: 2^(9/4) = 4.76,
-        // 108x81 pixels, about 120 ms.
-        assert_eq!(motion_scale(Some(2690.0 / pixels as f64), pixels, cpu), 2f64.powf(9.0 / 4.0));
-        // 0.24 s (depth 6 without shadows on lavapipe): 2^(2/4), 363x272, about 120 ms.
-        assert_eq!(motion_scale(Some(240.0 / pixels as f64), pixels, cpu), 2f64.sqrt());
-        // Exactly at the budget stays; just over takes the next step.
-        assert_eq!(motion_scale(Some(125.0 * 4.0 / pixels as f64), pixels, cpu), 2.0);
-        assert_eq!(motion_scale(Some(125.0 * 4.01 / pixels as f64), pixels, cpu), 2f64.powf(5.0 / 4.0));
-        // Never beyond the cap.
-        assert_eq!(motion_scale(Some(1.0), pixels, cpu), 8.0);
-        // A GPU at 1920x1080, 95 ms a frame (depth 10 with shadows on an H200): 2.85 times
-        // its budget, s >= 1.69: 2^(4/4) = 2, 960x540, about 24 ms; at 512x384, 7.2 ms: whole.
-        assert_eq!(motion_scale(Some(95.0 / (1920.0 * 1080.0)), 1920 * 1080, gpu), 2.0);
-        assert_eq!(motion_scale(Some(7.2 / pixels as f64), pixels, gpu), 1.0);
-    }
-
-    #[test]
-    fn jitter_is_centred_and_spread() {
-        assert_eq!(jitter(0), [-0.5, -0.5], "index 0 of Halton is 0; sample 0 does not use it");
-        assert_eq!(jitter(1), [0.0, (1.0f64 / 3.0 - 0.5) as f32]);
-        for i in 1..256 {
-            let [x, y] = jitter(i);
-            assert!((-0.5..0.5).contains(&x) && (-0.5..0.5).contains(&y), "sample {i}: {x}, {y}");
-        }
     }
 }

@@ -9,20 +9,18 @@ use std::ops::Range;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use crate::cpu::{CpuProgressive, CpuRenderer};
 use crate::error::Error;
 use crate::frame::FrameData;
 use crate::gpu::{
     Buffer, DataImage, DescriptorSet, FrameLoop, FrameStatus, GpuContext, GpuError, Kernel, PresentMode, Resource,
     StorageImage, Swapchain,
 };
-use crate::layout::{self, Frame, PixelOut};
-use crate::render::{Progressive, SceneFeatures, Specialization};
-
-use super::layout::{
-    preview_bindings, preview_images, preview_uniform_bindings, preview_uniform_images, AccumPixel, PreviewFrame,
-    PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW, BINDING_STATUS, SPEC_HOST_PIXELS,
+use crate::layout::{
+    self, preview_bindings, preview_images, preview_uniform_bindings, preview_uniform_images, AccumPixel, Frame,
+    PixelOut, PreviewFrame, PreviewStatus, BINDING_ACCUM, BINDING_DISPLAY, BINDING_PREVIEW, BINDING_STATUS,
+    SPEC_HOST_PIXELS,
 };
+use crate::render::{Progressive, SceneFeatures, Specialization};
 
 // The preview kernel's own constant follows layout.h's (preview.h).
 const _: () = assert!(SPEC_HOST_PIXELS == layout::SPEC_COUNT);
@@ -48,10 +46,10 @@ impl PreviewKernels {
     }
 
     /// The embedded kernels (shaders/preview*.comp, compiled at build time)
-    /// for `ctx`'s device (`render::kernel_spirv_for`).
+    /// for `ctx`'s device (`gpu::kernel_spirv_for`).
     pub fn embedded(ctx: &GpuContext) -> Result<PreviewKernels, GpuError> {
-        let storage = crate::render::kernel_spirv_for(ctx, "preview").expect("build.rs embeds shaders/preview.comp");
-        PreviewKernels::new(storage, crate::render::kernel_spirv_for(ctx, "preview_uniform"))
+        let storage = crate::gpu::kernel_spirv_for(ctx, "preview").expect("build.rs embeds shaders/preview.comp");
+        PreviewKernels::new(storage, crate::gpu::kernel_spirv_for(ctx, "preview_uniform"))
     }
 
     /// The uniform kernel (data images) when `uniform` (the scene's arrays
@@ -128,15 +126,15 @@ impl SceneBuffers {
     /// `has_uniform` (the kernels include one) and the scene fits it, else
     /// for preview.comp; or bound empty (`left_off`).
     fn new(ctx: &GpuContext, data: &FrameData, has_uniform: bool, role: Role) -> Result<SceneBuffers, GpuError> {
-        let uniform = has_uniform && crate::render::fits_uniform(ctx, data, preview_uniform_images().len()).is_ok();
+        let uniform = has_uniform && crate::gpu::fits_uniform(ctx, data, preview_uniform_images().len()).is_ok();
         let features = SceneFeatures::of(data);
         let advice = match role {
-            Role::Draws => crate::render::PREVIEW_DEVICE_STORAGE_ADVICE,
-            Role::MayDraw | Role::ShowsOnly => crate::render::PREVIEW_CPU_STORAGE_ADVICE,
+            Role::Draws => crate::gpu::PREVIEW_DEVICE_STORAGE_ADVICE,
+            Role::MayDraw | Role::ShowsOnly => crate::gpu::PREVIEW_CPU_STORAGE_ADVICE,
         };
         let checked = match role {
             Role::ShowsOnly => Err("another device draws the scene".to_string()),
-            Role::Draws | Role::MayDraw => match crate::render::check_storage_arrays(ctx, data, uniform, advice) {
+            Role::Draws | Role::MayDraw => match crate::gpu::check_storage_arrays(ctx, data, uniform, advice) {
                 Err(e @ GpuError::TooLarge { .. }) if role == Role::MayDraw => Err(e.to_string()),
                 other => Ok(other?),
             },
@@ -276,7 +274,7 @@ pub struct PreviewRenderer {
     kernel: Built<KernelKey, Kernel>,
     kernels: PreviewKernels,
     /// The CPU build draws the samples (None: the kernel does).
-    host: Option<CpuProgressive>,
+    host: Option<Box<dyn Progressive>>,
     /// The device that draws the samples where it is not the window's (one
     /// that cannot present to it, or --window-device): the same kernel
     /// there, without a window; each band's pixels come back through the
@@ -292,11 +290,11 @@ pub struct PreviewRenderer {
 /// Whichever draws the samples for the window's device: the CPU build, else
 /// the device apart; None: the window's device's own kernel.
 fn drawer<'a>(
-    host: &'a mut Option<CpuProgressive>,
+    host: &'a mut Option<Box<dyn Progressive>>,
     apart: &'a mut Option<Box<PreviewRenderer>>,
 ) -> Option<&'a mut dyn Progressive> {
     match (host, apart) {
-        (Some(cpu), _) => Some(cpu),
+        (Some(cpu), _) => Some(&mut **cpu),
         (None, Some(device)) => Some(&mut **device),
         (None, None) => None,
     }
@@ -315,7 +313,7 @@ impl PreviewRenderer {
         size: [u32; 2],
         window: [u32; 2],
         mode: PresentMode,
-        cpu: Option<CpuRenderer>,
+        cpu: Option<Box<dyn Progressive>>,
         apart: Option<(Arc<GpuContext>, PreviewKernels)>,
     ) -> Result<PreviewRenderer, GpuError> {
         let apart = match apart {
@@ -329,7 +327,7 @@ impl PreviewRenderer {
         let role = Role::of(apart.is_some(), cpu.is_some());
         let mut r = PreviewRenderer::without_window(context, kernels, data, size, role)?;
         r.swapchain = Some(Swapchain::new(&r.context, window, mode)?);
-        r.host = cpu.map(|c| CpuProgressive::new(c, size));
+        r.host = cpu;
         r.apart = apart;
         Ok(r)
     }
@@ -500,7 +498,7 @@ impl PreviewRenderer {
     }
 
     /// A new picture size: new per-pixel buffers and display image.
-    pub fn resize(&mut self, size: [u32; 2]) -> Result<(), GpuError> {
+    pub fn resize(&mut self, size: [u32; 2]) -> Result<(), Error> {
         if size == self.picture.size {
             return Ok(());
         }
@@ -511,8 +509,8 @@ impl PreviewRenderer {
         self.set = None;
         self.picture = PictureBuffers::new(&self.context, size)?;
         self.frame_size = size;
-        if let Some(host) = self.host.take() {
-            self.host = Some(host.resized(size));
+        if let Some(host) = &mut self.host {
+            host.resize(size)?;
         }
         Ok(())
     }
@@ -528,7 +526,7 @@ impl PreviewRenderer {
 
     /// The CPU build's threads when it draws the samples.
     pub fn cpu_threads(&self) -> Option<usize> {
-        self.host.as_ref().map(CpuProgressive::threads)
+        self.host.as_ref().and_then(|h| h.threads())
     }
 
     /// Why the device cannot draw the scene (an array beyond one of its
@@ -551,11 +549,11 @@ impl PreviewRenderer {
         Ok(())
     }
 
-    /// From now on `cpu` draws the samples and the kernel only shows them;
-    /// they start over.
-    pub fn draw_on_cpu(&mut self, cpu: CpuRenderer) -> Result<(), GpuError> {
+    /// From now on `cpu` (the CPU build, drawing pictures of `size`)
+    /// draws the samples and the kernel only shows them; they start over.
+    pub fn draw_on_cpu(&mut self, cpu: Box<dyn Progressive>) -> Result<(), GpuError> {
         self.frames.wait()?;
-        self.host = Some(CpuProgressive::new(cpu, self.picture.size));
+        self.host = Some(cpu);
         Ok(())
     }
 
@@ -591,7 +589,7 @@ impl PreviewRenderer {
             let size = std::mem::size_of::<PixelOut>();
             let band = preview.row_offset as usize * frame.width as usize * size
                 ..row_end as usize * frame.width as usize * size;
-            drawer.copy_pixels(band, &self.picture.pixels)?;
+            self.picture.pixels.write(band.start, drawer.pixel_bytes(band.clone())?);
             self.drawn_in = Some(drawn.map_or_else(|| start.elapsed(), |d| d + copy.elapsed()));
         }
         self.prepare(frame)?;
@@ -672,14 +670,17 @@ impl Progressive for PreviewRenderer {
         Ok(PreviewRenderer::wait(self)?)
     }
 
-    fn copy_pixels(&mut self, bytes: Range<usize>, to: &Buffer) -> Result<(), Error> {
+    fn pixel_bytes(&mut self, bytes: Range<usize>) -> Result<&[u8], Error> {
         self.frames.wait()?;
-        self.picture.pixels.copy_to(bytes.start, to, bytes.start, bytes.len());
-        Ok(())
+        Ok(self.picture.pixels.bytes(bytes.start, bytes.len()))
     }
 
     fn cut_short(&mut self) -> Result<u32, Error> {
         PreviewRenderer::cut_short(self)
+    }
+
+    fn resize(&mut self, size: [u32; 2]) -> Result<(), Error> {
+        PreviewRenderer::resize(self, size)
     }
 }
 
