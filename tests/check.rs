@@ -102,10 +102,7 @@ fn random_settings(rng: &mut Rng) -> RenderSettings {
 /// print (the report, the messages, or the error) and the diff image where
 /// the two rendered.
 fn device_against_cpu(gpu: &GpuRenderer, cpu: &CpuRenderer, data: &FrameData) -> Result<(), (String, Option<Rgb8>)> {
-    let result = gpu
-        .render(data)
-        .map_err(Error::from)
-        .and_then(|(g, _)| check::compare(&g, "device", &cpu.render(data)?, "cpu"));
+    let result = gpu.render(data).and_then(|(g, _)| check::compare(&g, "device", &cpu.render(data)?, "cpu"));
     let messages = gpu.context().take_validation_messages();
     let validation: String = messages.iter().map(|m| format!("\nvalidation: {m}")).collect();
     match result {

@@ -36,7 +36,7 @@ fn main() -> ExitCode {
             &corpus,
             &cases,
             &out_dir,
-            |data| renderer.render(data).map(|(picture, _)| picture).map_err(raycast::error::Error::from),
+            |data| renderer.render(data).map(|(picture, _)| picture),
             || renderer.context().take_validation_messages(),
         )
     });

@@ -130,3 +130,4 @@ pub mod source;
 pub mod trace;
 pub mod uint_defines;
 pub mod units;
+pub mod watch;

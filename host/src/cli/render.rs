@@ -14,6 +14,7 @@ use crate::render::Backend;
 use crate::render::{finish_cut_short, Picture, Renderer};
 use crate::scene::{self};
 use crate::source::*;
+use crate::watch::FileWatch;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -138,22 +139,15 @@ fn watch_renders(
     round: impl Fn(&mut Option<Box<dyn Renderer>>) -> Result<(), Error>,
 ) -> Result<(), Error> {
     let shaders = args.render.kernel.shaders.as_deref();
-    let watched = || {
-        let mut stamps = shaders.map(crate::preview::shader_stamps).unwrap_or_default();
-        stamps.extend(crate::preview::stamps(files));
-        stamps.extend(crate::preview::stamps(textures.borrow().iter()));
-        stamps
-    };
-    let mut before = watched();
+    let folders: Vec<PathBuf> = shaders.into_iter().map(Path::to_path_buf).collect();
+    let followed = || files.iter().chain(textures.borrow().iter()).cloned().collect::<Vec<PathBuf>>();
+    let mut watch = FileWatch::new();
+    watch.follow(&followed(), &folders);
     loop {
         let result = round(backend);
-        // The files the round used: one newly named (a texture) with its stamp
-        // as it is now, one no longer named dropped; the others as before the round.
-        let after = watched();
-        before.retain(|path, _| after.contains_key(path));
-        for (path, stamp) in after {
-            before.entry(path).or_insert(stamp);
-        }
+        // The files the round used: one newly named (a texture) stamped as it
+        // is now, one no longer named dropped; the others as before the round.
+        watch.follow(&followed(), &folders);
         if let Err(e) = result {
             errln!("{}", e.line());
         }
@@ -162,37 +156,19 @@ fn watch_renders(
                 errln!("raycast: validation: {m}");
             }
         }
-        let n = before.len();
+        let n = watch.len();
         summary!("watching {n} file{} for changes (Ctrl-C stops)", if n == 1 { "" } else { "s" });
-        let changed = next_change(&mut before, watched);
+        let changed = loop {
+            let changed = watch.changes(Duration::from_secs(3600));
+            if !changed.is_empty() {
+                break changed;
+            }
+        };
         let names: Vec<String> = changed.iter().map(|p| p.display().to_string()).collect();
         summary!("changed: {}", names.join(", "));
         if shaders.is_some_and(|dir| changed.iter().any(|c| c.starts_with(dir))) {
             // The kernel from --shaders DIR is compiled as the device opens.
             *backend = None;
-        }
-    }
-}
-
-/// Polls `watched` until its stamps differ from `before` and hold still for
-/// one more poll (an editor's save can be several writes); returns the paths
-/// whose stamps changed, `before` updated to the new stamps.
-fn next_change<S: PartialEq + Clone>(
-    before: &mut std::collections::BTreeMap<PathBuf, S>,
-    watched: impl Fn() -> std::collections::BTreeMap<PathBuf, S>,
-) -> Vec<PathBuf> {
-    loop {
-        std::thread::sleep(crate::preview::POLL);
-        if watched() == *before {
-            continue;
-        }
-        std::thread::sleep(crate::preview::POLL);
-        let now = watched();
-        let paths: Vec<PathBuf> =
-            now.iter().filter(|(path, stamp)| before.get(*path) != Some(stamp)).map(|(path, _)| path.clone()).collect();
-        *before = now;
-        if !paths.is_empty() {
-            return paths;
         }
     }
 }
@@ -206,8 +182,8 @@ fn render_scenes(
     backend: &mut Option<Box<dyn Renderer>>,
     textures: &std::cell::RefCell<Vec<PathBuf>>,
 ) -> Result<Batch<()>, Error> {
-    let render_one = |backend: &Box<dyn Renderer>, p: &Prepared, output: &Path| {
-        let rendered = render_on(backend.as_ref(), &args.render, p, output)?;
+    let render_one = |backend: &dyn Renderer, p: &Prepared, output: &Path| {
+        let rendered = render_on(backend, &args.render, p, output)?;
         if args.json {
             crate::output::emit_line(&serde_json::to_string(&rendered).map_err(|e| Error::Failed(e.to_string()))?)?;
         }
@@ -221,7 +197,7 @@ fn render_scenes(
         || open_render_backend(args.backend, &args.render),
         |backend, mut p, output| {
             textures.borrow_mut().extend(p.scene.texture_files());
-            let Some(n) = args.orbit else { return render_one(backend, &p, output) };
+            let Some(n) = args.orbit else { return render_one(backend.as_ref(), &p, output) };
             // Each picture turned from the scene's camera (not from the one
             // before, which would drift); the first is that camera itself.
             let home = scene::CameraControl::new(&p.scene.camera, scene::scene_bounds(&p.scene));
@@ -240,7 +216,7 @@ fn render_scenes(
                     c.pos.y,
                     c.pos.z
                 );
-                render_one(backend, &p, &numbered(output, k, n))?;
+                render_one(backend.as_ref(), &p, &numbered(output, k, n))?;
             }
             Ok(())
         },

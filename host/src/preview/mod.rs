@@ -134,7 +134,6 @@ fn parse_key_presses(s: &str) -> Result<KeyPresses, String> {
 /// Why a window on this display cannot take `device`'s pictures (asked of
 /// the X display, not of the device's driver), for `raycast devices`.
 pub(crate) use display::window_refuses;
-pub(crate) use reload::{shader_stamps, stamps, POLL};
 
 /// Runs `raycast preview`.
 pub fn run(args: &PreviewSettings) -> Result<(), Error> {

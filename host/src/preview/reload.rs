@@ -1,24 +1,25 @@
-//! Live reload: a thread polls the scene file, the textures it uses and the
-//! shader sources every 250 ms and, when one changed, does the slow part off
-//! the render thread —
+//! Live reload: a thread follows the scene file, the textures it uses and
+//! the shader sources (`watch::FileWatch`) and, when one changed, does the
+//! slow part off the render thread —
 //! parse and flatten the scene and pack its buffers, or compile
 //! preview.comp with glslang and build the checked kernel (naga reflection,
 //! pipeline) — and sends the result (or the error) to the render loop.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, Sender};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, SystemTime};
+use std::time::Duration;
 
 use crate::frame::{self, FrameData, RenderSettings};
 use crate::scene::{self, FlattenLimits, ParseOptions, Scene};
 
 use super::renderer::PreviewKernels;
+use crate::watch::FileWatch;
 
-pub(crate) const POLL: Duration = Duration::from_millis(250);
+/// The longest the watcher thread waits between looks at its stop flag.
+const STOP_CHECK: Duration = Duration::from_millis(250);
 /// The kernel that is recompiled, in the shader folder, by stem and file;
 /// its uniform variant (preview_uniform.comp) too when the folder has it.
 const KERNEL_STEM: &str = "preview";
@@ -90,67 +91,37 @@ impl Drop for Watcher {
     }
 }
 
-/// Modification time and length: what "changed" means.
-pub(crate) type Stamp = Option<(SystemTime, u64)>;
-
-fn stamp(path: &Path) -> Stamp {
-    let m = std::fs::metadata(path).ok()?;
-    Some((m.modified().ok()?, m.len()))
-}
-
-/// Every shader source in `dir`: *.comp, *.glsl, *.h.
-pub(crate) fn shader_stamps(dir: &Path) -> BTreeMap<PathBuf, Stamp> {
-    let Ok(entries) = std::fs::read_dir(dir) else { return BTreeMap::new() };
-    entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("comp" | "glsl" | "h")))
-        .map(|p| {
-            let s = stamp(&p);
-            (p, s)
-        })
-        .collect()
-}
-
-/// Each file's stamp.
-pub(crate) fn stamps<'a>(files: impl IntoIterator<Item = &'a PathBuf>) -> BTreeMap<PathBuf, Stamp> {
-    files.into_iter().map(|f| (f.clone(), stamp(f))).collect()
-}
-
 fn watch(config: WatchConfig, tx: Sender<Reload>, stop: Arc<AtomicBool>) {
-    let mut scene_stamp = config.scene.as_deref().map(stamp);
-    let mut texture_stamps = stamps(&config.textures);
-    let mut shader_stamp = config.shaders.as_ref().map(|f| shader_stamps(&f.dir));
+    let scene: Vec<PathBuf> = config.scene.iter().cloned().collect();
+    let folders: Vec<PathBuf> = config.shaders.iter().map(|f| f.dir.clone()).collect();
+    let mut files = FileWatch::new();
+    files.follow(&[scene.clone(), config.textures.clone()].concat(), &folders);
     while !stop.load(Ordering::Relaxed) {
-        std::thread::sleep(POLL);
-        if let Some(path) = &config.scene {
-            let now = Some(stamp(path));
-            let textures_now = stamps(texture_stamps.keys());
-            if now != scene_stamp || textures_now != texture_stamps {
-                scene_stamp = now;
-                texture_stamps = textures_now;
-                let msg = match scene::load(path, &config.parse, &config.limits) {
-                    Ok(scene) => match frame::build(&scene, &config.settings) {
-                        Ok(data) => {
-                            // The textures this scene uses, from now on.
-                            texture_stamps = stamps(&scene.texture_files());
-                            Reload::Scene(Box::new((scene, data)))
-                        }
-                        Err(e) => Reload::Failed(e.to_string()),
-                    },
+        // Short waits, so that a stop is seen soon.
+        let changed = files.changes(STOP_CHECK);
+        if changed.is_empty() {
+            continue;
+        }
+        let in_folder = |p: &PathBuf| folders.iter().any(|dir| p.starts_with(dir));
+        if let (Some(path), true) = (&config.scene, changed.iter().any(|p| !in_folder(p))) {
+            let msg = match scene::load(path, &config.parse, &config.limits) {
+                Ok(scene) => match frame::build(&scene, &config.settings) {
+                    Ok(data) => {
+                        // The textures this scene uses, from now on.
+                        files.follow(&[vec![path.clone()], scene.texture_files()].concat(), &folders);
+                        Reload::Scene(Box::new((scene, data)))
+                    }
                     Err(e) => Reload::Failed(e.to_string()),
-                };
-                if tx.send(msg).is_err() {
-                    return;
-                }
+                },
+                Err(e) => Reload::Failed(e.to_string()),
+            };
+            if tx.send(msg).is_err() {
+                return;
             }
         }
-        if let Some(folder) = &config.shaders {
-            let now = Some(shader_stamps(&folder.dir));
-            if now != shader_stamp {
-                shader_stamp = now;
-                if tx.send(folder.compile()).is_err() {
-                    return;
-                }
+        if let (Some(folder), true) = (&config.shaders, changed.iter().any(in_folder)) {
+            if tx.send(folder.compile()).is_err() {
+                return;
             }
         }
     }
