@@ -10,12 +10,14 @@
 #   ci/pictures.sh compare A B      compare two sets byte for byte
 #
 # The set: every corpus scene, the repository's own scenes (tests/scenes but
-# bad/ and missing_texture.xml, which fail by design), the default scene and the generated ones, on the device (lavapipe or
-# whichever `--backend gpu` picks) and on the CPU build; in colour, in each
-# view (normal, depth, id, cost, cost-all, samples), at --spp 4, with the
-# course's supersampling and texture filter at 1024x768, and without shadows,
-# reflections and textures (the test_unit references). Each picture is named
-# SET/GROUP/SCENE.png; SET names the backend and the settings.
+# bad/), the default scene and the generated ones, on the device (lavapipe
+# or whichever `--backend gpu` picks) and on the CPU build; in colour, in
+# each view (normal, depth, id, cost, cost-all, samples), at --spp 4, with
+# the course's supersampling and texture filter at 1024x768 (the four
+# scenes the course rendered so), and without shadows, reflections and
+# textures (the test_unit references). Each picture is named
+# SET/GROUP/SCENE.png; SET names the backend and the settings. About 1,200
+# pictures, 15 to 20 minutes on 2 cores.
 #
 # Needs RAYCAST_CORPUS (the cs1230 corpus): without it, the set would be a
 # different set, so this refuses. REV is built in a worktree under
@@ -100,8 +102,6 @@ render_set() {
         [ "$g" = "$ROOT/tests/scenes" ] && group=own
         local -a files=()
         for f in "$g"/*.xml; do
-          # A scene that fails by design (its texture is missing) is no picture.
-          [ "$(basename "$f")" = missing_texture.xml ] && continue
           # shellcheck disable=SC2053
           [ -z "$only" ] || [[ "$(basename "$f")" == $only ]] || continue
           files+=("$f")
@@ -123,9 +123,11 @@ render_set() {
   done
   (cd "$out" && find . -name '*.png' | LC_ALL=C sort | xargs sha256sum) >"$out/SHA256SUMS"
   echo "pictures: $(wc -l <"$out/SHA256SUMS") pictures in $out" >&2
+  # A scene that fails (tests/scenes/missing_texture.xml does, by design,
+  # unless textures are off) leaves no picture: a set compared with one
+  # where it rendered shows it as missing.
   if [ "$failed" != 0 ]; then
-    echo "pictures: a render failed (above); the set is incomplete" >&2
-    exit 1
+    echo "pictures: note: some renders failed (above); their pictures are not in the set" >&2
   fi
 }
 
@@ -145,9 +147,10 @@ compare_sets() {
   local only_a only_b
   only_a="$(join -v 1 -j 2 <(sort -k2 "$a/SHA256SUMS") <(sort -k2 "$b/SHA256SUMS") | awk '{print $1}')"
   only_b="$(join -v 2 -j 2 <(sort -k2 "$a/SHA256SUMS") <(sort -k2 "$b/SHA256SUMS") | awk '{print $1}')"
-  local n
+  local n m
   n="$(grep -c . <<<"$changed" || true)"
-  echo "pictures: FAIL: $n of $total pictures differ (rule: bit-exact) between $a and $b"
+  m="$(grep -c . <<<"$only_a$only_b" || true)"
+  echo "pictures: FAIL: $n of $total pictures differ and $m are in one set only (rule: bit-exact) between $a and $b"
   [ -n "$changed" ] && sed 's/^/  differs: /' <<<"$changed"
   [ -n "$only_a" ] && sed "s|^|  only in $a: |" <<<"$only_a"
   [ -n "$only_b" ] && sed "s|^|  only in $b: |" <<<"$only_b"
