@@ -340,7 +340,7 @@ fn generated_stand_in(group: &str, name: &str) -> Option<String> {
 /// failure pictures of an earlier run removed from `out_dir`). Err: the
 /// same with the paths of the actual / expected / diff images written there.
 pub fn judge(case: &Case, picture: &Picture, out_dir: &Path) -> Result<(String, f64, f64), Error> {
-    let actual = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
+    let actual = picture.rgb8()?;
     let expected = image_io::read_picture(&case.reference)?;
     if let Some(s) = &case.sampled {
         return judge_sampled(case, s, &actual, &shrink(&expected, s.shrink), out_dir);

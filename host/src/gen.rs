@@ -937,7 +937,7 @@ mod tests {
             let out = std::env::temp_dir().join("raycast-gen-test");
             std::fs::create_dir_all(&out).unwrap();
             for (name, p) in [("generated", &a), ("corpus", &b)] {
-                let image = crate::image_io::Rgb8 { width: p.width, height: p.height, data: p.rgb8().unwrap() };
+                let image = p.rgb8().unwrap();
                 crate::image_io::write_png(&out.join(format!("{name}.png")), &image).unwrap();
             }
             panic!(

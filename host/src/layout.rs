@@ -49,6 +49,13 @@ pub struct Frame {
     pub light_samples: u32,
 }
 
+impl Frame {
+    /// The camera rays of one frame as the rate lines count them: `spp` a pixel.
+    pub fn camera_rays(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height) * u64::from(self.spp.max(1))
+    }
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Primitive {

@@ -225,7 +225,6 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
     let opts = r.parse_options();
     let limits = FlattenLimits { max_primitives: r.max_primitives };
     let names = crate::cli::batch::scene_names(&args.scenes);
-    let primary_rays = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
     let mut all_rows: Vec<Row> = Vec::new();
     // A scene loaded and timed on each backend: its rows (None: skipped, and listed so).
     let time = |name: Option<&str>| -> Result<Option<(LoadedScene, Vec<Row>)>, Error> {
@@ -245,7 +244,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             frames: Vec::new(),
             dispatch: Vec::new(),
             phases: Vec::new(),
-            primary_rays,
+            primary_rays: loaded.data.frame.camera_rays(),
             all_rays: 0,
             host_peak: None,
             device_bytes: None,

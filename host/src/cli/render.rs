@@ -245,7 +245,7 @@ impl Rendered {
             width: picture.width,
             height: picture.height,
             seconds: time.as_secs_f64(),
-            camera_rays: u64::from(f.width) * u64::from(f.height) * u64::from(f.spp.max(1)),
+            camera_rays: f.camera_rays(),
             rays: picture.rays(),
         }
     }

@@ -3,7 +3,7 @@
 use crate::cli::batch::*;
 use crate::error::Error;
 use crate::frame::FrameData;
-use crate::image_io::{self, Rgb8};
+use crate::image_io;
 use crate::layout;
 use crate::render::{Picture, Renderer};
 use std::path::Path;
@@ -60,7 +60,7 @@ pub(crate) fn print_rates(data: &FrameData, picture: &Picture, time: Duration) {
 /// Camera rays (width x height x spp) and every ray the pixels counted, per second of `time`.
 pub(crate) fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> String {
     let f = &data.frame;
-    let primary = u64::from(f.width) * u64::from(f.height) * u64::from(f.spp.max(1));
+    let primary = f.camera_rays();
     let all = picture.rays();
     let per_s = |n: u64| n as f64 / time.as_secs_f64().max(1e-9) / 1e6;
     format!(
@@ -74,7 +74,7 @@ pub(crate) fn rate_line(data: &FrameData, picture: &Picture, time: Duration) -> 
 /// Writes `picture` as a PNG to `path`, and says so with the time it took
 /// to render (the one summary line).
 pub(crate) fn write_picture(path: &Path, picture: &Picture, time: Duration) -> Result<(), Error> {
-    let image = Rgb8 { width: picture.width, height: picture.height, data: picture.rgb8()? };
+    let image = picture.rgb8()?;
     image_io::write_png(path, &image)?;
     summary!("wrote {} ({}x{}) in {:.2} s", path.display(), picture.width, picture.height, time.as_secs_f64());
     Ok(())

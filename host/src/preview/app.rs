@@ -12,7 +12,7 @@ use crate::cpu::{CpuProgressive, CpuRenderer};
 use crate::error::Error;
 use crate::frame::{self, Aov, FrameData};
 use crate::gpu::{DeviceInfo, FrameStatus, GpuError};
-use crate::image_io::{self, Rgb8};
+use crate::image_io;
 use crate::layout::{self, Frame, NO_HIT};
 use crate::render::Picture;
 use crate::scene::{scene_bounds, Bounds, Scene};
@@ -812,7 +812,7 @@ impl Preview {
             "Turn mirror reflections off (M, or --no-reflections), or use another Vulkan device".into(),
         )?;
         let picture = Picture { width, height, pixels };
-        image_io::write_png(path, &Rgb8 { width, height, data: picture.rgb8()? })?;
+        image_io::write_png(path, &picture.rgb8()?)?;
         let n = self.sample;
         outln!("wrote {} ({width}x{height}, {n} sample{} per pixel)", path.display(), if n == 1 { "" } else { "s" });
         Ok(())

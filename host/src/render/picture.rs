@@ -2,6 +2,7 @@
 //! hit distance, id, normal, rays), and what the commands read off it.
 
 use crate::error::Error;
+use crate::image_io::Rgb8;
 use crate::layout::PixelOut;
 
 /// Every pixel's output: colour (or AOV), t, hit id and normal.
@@ -33,14 +34,15 @@ pub(crate) fn try_filled<T: Clone>(n: usize, value: T, what: &str) -> Result<Vec
 }
 
 impl Picture {
-    /// 8-bit RGB, row 0 at the top; an error when its memory cannot be had.
-    pub fn rgb8(&self) -> Result<Vec<u8>, Error> {
+    /// The picture as 8-bit RGB, row 0 at the top (what a PNG holds); an
+    /// error when its memory cannot be had.
+    pub fn rgb8(&self) -> Result<Rgb8, Error> {
         let what = format!("the {}x{} picture's RGB bytes", self.width, self.height);
-        let mut out = try_filled(self.pixels.len() * 3, 0u8, &what)?;
-        for (rgb, p) in out.chunks_exact_mut(3).zip(&self.pixels) {
+        let mut data = try_filled(self.pixels.len() * 3, 0u8, &what)?;
+        for (rgb, p) in data.chunks_exact_mut(3).zip(&self.pixels) {
             rgb.copy_from_slice(&p.rgba.to_le_bytes()[..3]);
         }
-        Ok(out)
+        Ok(Rgb8 { width: self.width, height: self.height, data })
     }
 
     /// The walk passes of a render in an AOV other than colour
