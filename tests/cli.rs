@@ -1398,6 +1398,43 @@ fn a_picture_on_stdout_comes_alone() {
     assert!(diff.is_ok_and(|d| (d.width, d.height) == (32, 24)), "stdout is not the diff PNG alone");
 }
 
+/// `render --like PNG` draws at the picture's size, as the course drew it
+/// (a 1024x768 picture: its adaptive supersampling, which the samples view
+/// shows beyond one sample a pixel), and the picture compares with the
+/// output of the same settings given by hand; with a flag it sets, a usage
+/// error. Rule: the sizes and the bytes of the two pictures.
+#[test]
+fn render_like_takes_the_pictures_size_and_the_course_settings() {
+    let dir = empty_dir("like");
+    let png = |name: &str, w: u32, h: u32| {
+        let path = dir.join(name);
+        let data = vec![128; (w * h * 3) as usize];
+        raycast::image_io::write_png(&path, &raycast::image_io::Rgb8 { width: w, height: h, data }).unwrap();
+        path.to_string_lossy().into_owned()
+    };
+    let small = png("small.png", 40, 30);
+    let o = raycast_at(&dir, &["render", "--backend", "cpu", "--like", &small, "-o", "a.png"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let a = raycast::image_io::read_picture(&dir.join("a.png")).unwrap();
+    assert_eq!((a.width, a.height), (40, 30));
+    let big = png("big.png", 1024, 768);
+    let o = raycast_at(&dir, &["render", "-v", "--backend", "cpu", "--like", &big, "--aov", "samples", "-o", "b.png"]);
+    assert_fails(&o, 2, "--aov");
+    let o = raycast_at(&dir, &["render", "-v", "--backend", "cpu", "--like", &big, "-o", "b.png"]);
+    let (_, err) = text(&o);
+    assert!(o.status.success() && err.contains("the course's adaptive supersampling"), "{err}");
+    let o = raycast_at(
+        &dir,
+        &["render", "--backend", "cpu", "--width", "1024", "--height", "768", "--supersample", "course"]
+            .iter()
+            .chain(&["--texture-filter", "course", "-o", "c.png"])
+            .copied()
+            .collect::<Vec<_>>(),
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert_eq!(std::fs::read(dir.join("b.png")).unwrap(), std::fs::read(dir.join("c.png")).unwrap());
+}
+
 /// `render --watch` renders again when the scene file or one of its
 /// textures changes; a broken scene is reported, leaves the last picture as
 /// it was, and the watch goes on to render the mended one.

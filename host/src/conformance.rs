@@ -164,6 +164,23 @@ fn silhouette_mask(picture: &Picture) -> Vec<bool> {
     mask
 }
 
+/// How the course rendered each group's references, one sample a pixel:
+/// (group, view, shadows, reflections and textures on, width, height, the
+/// bench folder of its references). Colour at 512x384 (local Phong only for
+/// test_unit and test_intersect, shadows, reflections and textures on for
+/// the rest), and normals at 1024x768.
+const PLAN: &[(&str, Aov, bool, u32, u32, &str)] = &[
+    ("test_unit", Aov::Color, false, 512, 384, "grading_illuminate"),
+    ("test_intersect", Aov::Color, false, 512, 384, "grading_illuminate"),
+    ("test_light", Aov::Color, true, 512, 384, "grading_illuminate"),
+    ("test_efficiency", Aov::Color, true, 512, 384, "grading_illuminate"),
+    ("test_feature", Aov::Color, true, 512, 384, "grading_illuminate"),
+    ("test_unit", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
+    ("test_intersect", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
+    ("test_light", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
+    ("test_efficiency", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
+];
+
 /// One corpus scene, rendered as its reference was.
 pub struct Case {
     pub group: &'static str,
@@ -266,19 +283,8 @@ pub fn cases(corpus: &Path) -> Result<Vec<Case>, Error> {
             corpus.display()
         )));
     }
-    let plan: [(&str, Aov, bool, u32, u32, &str); 9] = [
-        ("test_unit", Aov::Color, false, 512, 384, "grading_illuminate"),
-        ("test_intersect", Aov::Color, false, 512, 384, "grading_illuminate"),
-        ("test_light", Aov::Color, true, 512, 384, "grading_illuminate"),
-        ("test_efficiency", Aov::Color, true, 512, 384, "grading_illuminate"),
-        ("test_feature", Aov::Color, true, 512, 384, "grading_illuminate"),
-        ("test_unit", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
-        ("test_intersect", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
-        ("test_light", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
-        ("test_efficiency", Aov::Normal, false, 1024, 768, "intersect_normal_color"),
-    ];
     let mut cases = Vec::new();
-    for (group, aov, features, width, height, bench) in plan {
+    for &(group, aov, features, width, height, bench) in PLAN {
         // Each scene file of the group, and each reference of the group
         // whose scene file is not there (generated, or a failing case).
         let stems = |dir: &Path, ext: &str, prefix: &str| -> Result<Vec<String>, Error> {
@@ -313,6 +319,79 @@ pub fn cases(corpus: &Path) -> Result<Vec<Case>, Error> {
         cases.push(Case { group, name, aov, features: true, width, height, reference, generated, sampled });
     }
     Ok(cases)
+}
+
+/// How the course rendered a picture: the settings to draw a scene the
+/// way its official render was drawn (`render --like`, `explain`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CourseLook {
+    pub width: u32,
+    pub height: u32,
+    pub aov: Aov,
+    /// Shadows, reflections and textures on.
+    pub features: bool,
+    pub spp: u32,
+    pub supersample: Supersample,
+    pub texture_filter: TextureFilter,
+    /// How it was told apart, for people: "the corpus's reference of
+    /// test_fun/robot", "a 1024x768 picture".
+    pub because: String,
+}
+
+impl CourseLook {
+    /// `settings` drawn this way (the rest, bounces and light samples, as given).
+    pub fn apply(&self, settings: &RenderSettings) -> RenderSettings {
+        RenderSettings {
+            width: self.width,
+            height: self.height,
+            aov: self.aov,
+            shadows: self.features,
+            reflections: self.features,
+            textures: self.features,
+            spp: self.spp,
+            supersample: self.supersample,
+            texture_filter: self.texture_filter,
+            ..settings.clone()
+        }
+    }
+}
+
+/// How the course drew the picture at `reference`, `width` x `height`: as
+/// its case where it is one of the corpus's references (by its folder and
+/// name: `bench/Illuminate/test_fun_robot.png`), at its full size; else
+/// the course's way for the size: its 1024x768 renders with the adaptive
+/// supersampling and bilinear filter of its extra credit, the others one
+/// sample a pixel, shadows, reflections and textures on.
+pub fn course_look(reference: &Path, width: u32, height: u32) -> CourseLook {
+    let folder = reference.parent().and_then(Path::file_name).and_then(|f| f.to_str()).unwrap_or("");
+    let stem = reference.file_stem().and_then(|f| f.to_str()).unwrap_or("");
+    let look = |aov, features, spp, supersample, texture_filter, because: String| CourseLook {
+        width,
+        height,
+        aov,
+        features,
+        spp,
+        supersample,
+        texture_filter,
+        because,
+    };
+    for &(group, name, s) in SAMPLED {
+        if folder == "Illuminate" && stem == format!("{group}_{name}") {
+            let because = format!("the corpus's reference of {group}/{name}");
+            return look(Aov::Color, true, s.spp, s.supersample, s.texture_filter, because);
+        }
+    }
+    for (group, aov, features, bench) in PLAN.iter().map(|p| (p.0, p.1, p.2, p.5)) {
+        if let Some(name) = stem.strip_prefix(group).and_then(|n| n.strip_prefix('_')).filter(|_| folder == bench) {
+            let because = format!("the corpus's reference of {group}/{name}");
+            return look(aov, features, 1, Supersample::Pattern, TextureFilter::Nearest, because);
+        }
+    }
+    let because = format!("a {width}x{height} picture");
+    if (width, height) == (1024, 768) {
+        return look(Aov::Color, true, 1, Supersample::Course, TextureFilter::Course, because);
+    }
+    look(Aov::Color, true, 1, Supersample::Pattern, TextureFilter::Nearest, because)
 }
 
 /// The generated scene that stands in for a corpus file the corpus does not
@@ -492,4 +571,38 @@ pub fn run(
     std::fs::create_dir_all(out_dir).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     crate::output::write_whole(&path, table.as_bytes())?;
     Ok(Summary { passed, failed, table: path })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A corpus reference is drawn as its case (by its folder and name); any
+    /// other picture by its size: 1024x768 with the course's supersampling,
+    /// another size one sample a pixel. Rule: exact settings.
+    #[test]
+    fn the_course_look_follows_the_reference() {
+        let robot = course_look(Path::new("c/bench/Illuminate/test_fun_robot.png"), 1024, 768);
+        assert_eq!(
+            (robot.supersample, robot.texture_filter, robot.features, robot.aov),
+            (Supersample::Course, TextureFilter::Course, true, Aov::Color)
+        );
+        assert_eq!(robot.because, "the corpus's reference of test_fun/robot");
+        let dof = course_look(Path::new("bench/Illuminate/test_dof_dof.png"), 1024, 768);
+        assert_eq!((dof.spp, dof.supersample, dof.width), (16, Supersample::Pattern, 1024));
+        let unit = course_look(Path::new("x/bench/grading_illuminate/test_unit_unit_cone.png"), 512, 384);
+        assert_eq!((unit.features, unit.aov, unit.spp), (false, Aov::Color, 1), "test_unit: local Phong only");
+        let lit = course_look(Path::new("bench/grading_illuminate/test_light_point_light_1.png"), 512, 384);
+        assert!(lit.features);
+        let normals = course_look(Path::new("bench/intersect_normal_color/test_unit_unit_cube.png"), 1024, 768);
+        assert_eq!((normals.aov, normals.supersample), (Aov::Normal, Supersample::Pattern));
+        // Not the corpus's: by size.
+        let big = course_look(Path::new("mine/official.png"), 1024, 768);
+        assert_eq!((big.supersample, big.because.as_str()), (Supersample::Course, "a 1024x768 picture"));
+        let small = course_look(Path::new("mine/official.png"), 640, 480);
+        assert_eq!((small.supersample, small.spp, small.width, small.height), (Supersample::Pattern, 1, 640, 480));
+        // A file named like a reference outside its folder is not one.
+        let elsewhere = course_look(Path::new("mine/test_unit_unit_cone.png"), 512, 384);
+        assert!(elsewhere.features);
+    }
 }

@@ -35,7 +35,7 @@ pub struct ExportOptions {
 
 /// The options of every command that renders frames (`render`, `check`,
 /// `bench`), the scene aside.
-#[derive(Args, Debug)]
+#[derive(Args, Clone, Debug)]
 pub struct RenderOptions {
     /// Picture width in pixels (1 to 16384)
     #[arg(long, default_value_t = 512, value_name = "W", value_parser = parse_width, help_heading = "Picture")]

@@ -19,7 +19,7 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-#[derive(Args, Debug)]
+#[derive(Args, Clone, Debug)]
 pub struct RenderArgs {
     /// XML files, `-` for stdin, or gen:FAMILY:LEVELS [default: built in]
     ///
@@ -64,6 +64,53 @@ pub struct RenderArgs {
     /// One JSON object per picture on stdout
     #[arg(long, help_heading = "Output")]
     json: bool,
+    /// Draw as the course drew PNG: its size and settings
+    ///
+    /// Draw each scene as the course drew the official render PNG, to
+    /// compare with it: at PNG's size, with its settings. One of the
+    /// corpus's references (bench/…) gets its case's (`raycast
+    /// conformance`): local Phong only for test_unit and test_intersect, the
+    /// adaptive supersampling and texture filter of the 1024x768 extra
+    /// credit; another picture the course's for its size (1024x768: the
+    /// adaptive supersampling). Takes the place of --width, --height, --aov,
+    /// --spp, --supersample, --texture-filter, --no-shadows,
+    /// --no-reflections and --no-textures.
+    #[arg(long, value_name = "PNG", help_heading = "Picture", conflicts_with_all = [
+        "width", "height", "aov", "spp", "supersample", "texture_filter", "no_shadows", "no_reflections", "no_textures"])]
+    like: Option<PathBuf>,
+}
+
+impl RenderArgs {
+    /// These arguments with the picture's settings the course drew `png`
+    /// with (`conformance::course_look`), said with -v.
+    fn like(&self, png: &Path) -> Result<RenderArgs, Error> {
+        let reference = image_io::read_picture(png)?;
+        let look = crate::conformance::course_look(png, reference.width, reference.height);
+        let mut args = self.clone();
+        let o = &mut args.render;
+        (o.width, o.height, o.aov, o.spp) = (look.width, look.height, look.aov, look.spp);
+        (o.supersample, o.texture_filter) = (look.supersample, look.texture_filter);
+        (o.no_shadows, o.no_reflections, o.no_textures) = (!look.features, !look.features, !look.features);
+        detail!(
+            "like {}: {}x{}, {}{}, {} (as the course drew {})",
+            png.display(),
+            look.width,
+            look.height,
+            match look.supersample {
+                crate::frame::Supersample::Course => "the course's adaptive supersampling".to_string(),
+                crate::frame::Supersample::Pattern =>
+                    format!("{} sample{} a pixel", look.spp, if look.spp == 1 { "" } else { "s" }),
+            },
+            if look.aov == crate::frame::Aov::Color {
+                String::new()
+            } else {
+                format!(", the {} view", look.aov.name())
+            },
+            if look.features { "shadows, reflections and textures on" } else { "local Phong only" },
+            look.because
+        );
+        Ok(args)
+    }
 }
 
 /// Most pictures `render --orbit` takes.
@@ -82,6 +129,14 @@ fn numbered(path: &Path, index: u32, count: u32) -> PathBuf {
 }
 
 pub fn run(args: &RenderArgs) -> Result<(), Error> {
+    let liked;
+    let args = match &args.like {
+        Some(png) => {
+            liked = args.like(png)?;
+            &liked
+        }
+        None => args,
+    };
     cpu_takes_no_device_options(args.backend == Backend::Cpu, &args.render.kernel)?;
     if let Some(n) = args.orbit.filter(|n| !(1..=MAX_ORBIT).contains(n)) {
         return Err(Error::Usage(format!("--orbit {n} is out of range: 1 to {MAX_ORBIT} pictures")));
