@@ -44,21 +44,9 @@ pub(super) fn home(name: &str) -> Option<&'static str> {
 /// Every attribute an `<object>` takes (a mesh's among them).
 pub(super) const OBJECT_ATTRIBUTES: &[&str] = &["type", "name", "meshfile", "filename"];
 
-/// Levenshtein distance, case-insensitive.
+/// Levenshtein distance, case-insensitive: strsim's, of the names lowercased.
 pub(super) fn edit_distance(a: &str, b: &str) -> usize {
-    let a: Vec<char> = a.to_lowercase().chars().collect();
-    let b: Vec<char> = b.to_lowercase().chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    let mut cur = vec![0usize; b.len() + 1];
-    for i in 1..=a.len() {
-        cur[0] = i;
-        for j in 1..=b.len() {
-            let sub = prev[j - 1] + usize::from(a[i - 1] != b[j - 1]);
-            cur[j] = sub.min(prev[j] + 1).min(cur[j - 1] + 1);
-        }
-        std::mem::swap(&mut prev, &mut cur);
-    }
-    prev[b.len()]
+    strsim::levenshtein(&a.to_lowercase(), &b.to_lowercase())
 }
 
 /// The candidate `name` was probably meant to be: within edit distance 2

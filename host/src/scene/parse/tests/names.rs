@@ -8,6 +8,9 @@ use crate::scene::parse::names::{edit_distance, suggest};
 fn edit_distance_and_suggestions() {
     assert_eq!(edit_distance("typr", "type"), 1);
     assert_eq!(edit_distance("", "abc"), 3);
+    // Case aside, and a swap of two letters is two edits (Levenshtein's, not Damerau's).
+    assert_eq!(edit_distance("Type", "tYPE"), 0);
+    assert_eq!(edit_distance("clyinder", "cylinder"), 2);
     assert_eq!(suggest("typr", &["type", "name"]), Some("type"));
     assert_eq!(suggest("X", &["x", "y"]), Some("x"));
     assert_eq!(suggest("w", &["x", "y", "z"]), None);
