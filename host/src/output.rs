@@ -16,12 +16,8 @@ static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicB
 #[link_section = ".init_array"]
 static NOTE_CLOSED_STDOUT: extern "C" fn() = {
     extern "C" fn note() {
-        extern "C" {
-            fn fcntl(fd: i32, cmd: i32, ...) -> i32;
-        }
-        const F_GETFD: i32 = 1;
         // SAFETY: fcntl(F_GETFD) only asks whether the descriptor is open.
-        if unsafe { fcntl(1, F_GETFD) } == -1 {
+        if unsafe { libc::fcntl(libc::STDOUT_FILENO, libc::F_GETFD) } == -1 {
             STDOUT_CLOSED.store(true, std::sync::atomic::Ordering::Relaxed);
         }
     }
