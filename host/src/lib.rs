@@ -127,6 +127,8 @@ pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod source;
+#[doc(hidden)]
+pub mod test_support;
 pub mod trace;
 pub mod uint_defines;
 pub mod units;

@@ -38,7 +38,7 @@ fn sources() -> (Vec<PathBuf>, Vec<PathBuf>) {
     let mut files = xml_in(&repo.join("scenes"));
     files.extend(xml_in(&repo.join("tests/scenes/stress")));
     let mut assets = Vec::new();
-    if let Some(corpus) = super::test_corpus() {
+    if let Some(corpus) = crate::test_support::corpus("scenes mutated from the corpus's") {
         for group in ["test_unit", "test_intersect", "test_light", "test_efficiency", "test_feature"] {
             files.extend(xml_in(&corpus.join(group)));
         }
