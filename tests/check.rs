@@ -475,7 +475,7 @@ fn main() -> ExitCode {
         .iter()
         .map(|(p, _)| std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
         .collect();
-    let mut rng = Rng(MUTANT_SEED);
+    let mut rng = Rng::seeded(MUTANT_SEED);
     let (mut same, mut refused, mut mutant_failures) = (0usize, 0usize, 0usize);
     let parse = ParseOptions { assets: assets.clone(), ..ParseOptions::default() };
     for case in 0..mutants {

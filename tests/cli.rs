@@ -1140,7 +1140,7 @@ fn mutate_shader(source: &str, rng: &mut raycast::scene::mutate::Rng) -> (String
 fn mutated_shader_edits_end_in_a_result_or_an_error_never_a_crash() {
     let mutants: usize = std::env::var("RAYCAST_SHADER_MUTANTS")
         .map_or(24, |n| n.parse().unwrap_or_else(|_| panic!("RAYCAST_SHADER_MUTANTS={n:?} is not a number")));
-    let mut rng = raycast::scene::mutate::Rng(0x2545_f491_4f6c_dd1d);
+    let mut rng = raycast::scene::mutate::Rng::seeded(0x2545_f491_4f6c_dd1d);
     let files = [
         "layout.h",
         "scene_buffers.glsl",
@@ -1346,6 +1346,16 @@ fn render_tells_its_progress() {
     assert!(o.status.success(), "{out}{err}");
     let device: Vec<&str> = err.lines().filter(|l| l.starts_with("progress: ")).collect();
     assert!(device.len() >= 2 && device[0].contains(": 16% (sample 1 of 1)"), "{err}");
+    // `bench` tells its frames, scene by scene and backend by backend.
+    let o = raycast(
+        &["bench", "gen:recursive-spheres:2", "--no-textures", "--backend", "cpu", "--frames", "2", "--warmup", "1"],
+        &[("RAYCAST_PROGRESS", "1")],
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    let steps: Vec<&str> = err.lines().filter(|l| l.starts_with("progress: bench: ")).collect();
+    assert_eq!(steps.len(), 3, "a warm-up frame and two timed ones:\n{err}");
+    assert!(steps[0].contains(": 0% (scene 1 of 1, CPU build, ") && steps[2].contains(" frame 2)"), "{err}");
 }
 
 /// Masters nested deeper than the shader's 15 levels render, with a note

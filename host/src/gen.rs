@@ -637,7 +637,7 @@ mod tests {
     use crate::scene::{self, parse_str, FlattenLimits, ParseOptions};
     use std::path::{Path, PathBuf};
 
-    use crate::scene::test_corpus as corpus;
+    use crate::test_support::corpus;
 
     fn corpus_file(family: Family, depth: u32) -> &'static str {
         match (family, depth) {
@@ -825,7 +825,7 @@ mod tests {
     /// focal length lines (depth 4 has them, 1..3 do not) are taken out.
     #[test]
     fn spheres_reproduce_the_corpus_text() {
-        let Some(corpus) = corpus() else { return };
+        let Some(corpus) = corpus("gen recursive-spheres against the corpus text") else { return };
         for depth in 1..=4 {
             let ours = generate(Family::RecursiveSpheres, depth, &GenOptions::default()).unwrap();
             let path = corpus.join("test_efficiency").join(corpus_file(Family::RecursiveSpheres, depth));
@@ -863,7 +863,7 @@ mod tests {
     /// primitive, so only their count, shapes and transforms are compared.
     #[test]
     fn families_match_the_corpus_construction() {
-        let Some(corpus) = corpus() else { return };
+        let Some(corpus) = corpus("gen's families against the corpus construction") else { return };
         let assets = vec![corpus.clone()];
         for family in Family::ALL {
             for depth in 1..=4 {
@@ -912,7 +912,7 @@ mod tests {
     /// textures on, on lavapipe.
     #[test]
     fn spheres_depth_4_renders_as_the_corpus_scene() {
-        let Some(corpus) = corpus() else { return };
+        let Some(corpus) = corpus("gen recursive-spheres 4 rendered against the corpus scene") else { return };
         let opts = ParseOptions { assets: vec![corpus.clone()], ..ParseOptions::default() };
         let settings = RenderSettings { width: 128, height: 96, ..RenderSettings::default() };
         let limits = FlattenLimits::default();

@@ -28,15 +28,18 @@ macro_rules! outln {
     }};
 }
 
-/// `print!`, going on when stdout is closed (`outln!`).
+/// `print!`, going on when stdout is closed (`outln!`); a progress line
+/// on the terminal steps aside for it (`progress::suspend`).
 macro_rules! out {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        if $crate::status_on_stderr() {
-            let _ = write!(std::io::stderr(), $($arg)*);
-        } else {
-            let _ = write!(std::io::stdout(), $($arg)*);
-        }
+        $crate::progress::suspend(|| {
+            if $crate::status_on_stderr() {
+                let _ = write!(std::io::stderr(), $($arg)*);
+            } else {
+                let _ = write!(std::io::stdout(), $($arg)*);
+            }
+        })
     }};
 }
 
@@ -94,11 +97,14 @@ macro_rules! summary {
     }};
 }
 
-/// `eprintln!`, going on when stderr is closed (`outln!`).
+/// `eprintln!`, going on when stderr is closed (`outln!`); a progress
+/// line on the terminal steps aside for it (`progress::suspend`).
 macro_rules! errln {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
+        $crate::progress::suspend(|| {
+            let _ = writeln!(std::io::stderr(), $($arg)*);
+        })
     }};
 }
 
@@ -127,6 +133,8 @@ pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod source;
+#[doc(hidden)]
+pub mod test_support;
 pub mod trace;
 pub mod uint_defines;
 pub mod units;

@@ -39,9 +39,6 @@ fn end_now(code: u8) -> ! {
     use std::io::Write as _;
     let _ = std::io::stdout().flush();
     let _ = std::io::stderr().flush();
-    extern "C" {
-        fn _exit(status: i32) -> !;
-    }
     // SAFETY: _exit (POSIX) ends the process; the buffered output is flushed above.
-    unsafe { _exit(i32::from(code)) }
+    unsafe { libc::_exit(i32::from(code)) }
 }

@@ -10,24 +10,13 @@ pub fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// Records that a test leaves something out for want of a requirement
-/// (the corpus, a device, a display): prints `SKIPPED: reason` and, where
-/// ci/suite.sh runs the suite (ctest), appends the reason, one line, to the
-/// file RAYCAST_SKIP_FILE names, so that the suite counts as Skipped, not
-/// Passed.
-pub fn skip(reason: &str) {
-    use std::io::Write;
-    let reason = reason.replace('\n', " ");
-    println!("SKIPPED: {reason}");
-    if let Some(file) = std::env::var_os("RAYCAST_SKIP_FILE").filter(|f| !f.is_empty()) {
-        let mut f = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&file)
-            .unwrap_or_else(|e| panic!("RAYCAST_SKIP_FILE={}: {e}", Path::new(&file).display()));
-        f.write_all(format!("{reason}\n").as_bytes()).unwrap();
-    }
-}
+/// `skip(reason)`: records that a test leaves something out for want of a
+/// requirement, so that ci/suite.sh counts the suite as Skipped.
+/// `corpus(what)`: RAYCAST_CORPUS, or None after a skip. The library's
+/// own tests use the same two. (Not every test file uses both: as for
+/// the functions here, `dead_code` above.)
+#[allow(unused_imports)]
+pub use raycast::test_support::{corpus, skip};
 
 /// The corpus folders whose every scene the check suite renders (and the
 /// cli suite's fast-kernel rule with it).
@@ -41,26 +30,6 @@ pub const CHECKED_CORPUS_GROUPS: [&str; 8] = [
     "test_area_light",
     "test_refract",
 ];
-
-/// The cs1230 corpus (RAYCAST_CORPUS), or None where it is unset or empty,
-/// after `skip` says that `what` needs it. Set to something that is not a
-/// folder, it fails: a relative path is taken from host/, where cargo runs
-/// the tests (ci/test.sh makes it absolute).
-pub fn corpus(what: &str) -> Option<PathBuf> {
-    let Some(corpus) = std::env::var_os("RAYCAST_CORPUS").filter(|c| !c.is_empty()).map(PathBuf::from) else {
-        skip(&format!(
-            "{what}: RAYCAST_CORPUS is not set (point it at the cs1230 corpus, e.g. ../shared/corpus/cs1230)"
-        ));
-        return None;
-    };
-    assert!(
-        corpus.is_dir(),
-        "RAYCAST_CORPUS={} is not a folder (from {}: a relative path is taken from there)",
-        corpus.display(),
-        std::env::current_dir().map(|d| d.display().to_string()).unwrap_or_default()
-    );
-    Some(corpus)
-}
 
 /// A scene in `dir` (made afresh) whose one sphere has a 5800x5800
 /// texture: 33,640,000 texels, beyond lavapipe's storage buffers (128 MiB,

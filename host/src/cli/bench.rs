@@ -25,7 +25,7 @@ use rows::{command_line, median_time, ms, settings_text, Row, MARKDOWN_HEADER};
 
 use crate::layout::PixelOut;
 use crate::measure::{peak_host_bytes, reset_peak_host};
-use crate::render::{BackendInfo, CutShort, Picture, Renderer};
+use crate::render::{BackendInfo, CutShort, Picture, Progress, Renderer, Told};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use crate::source::{pack, parse_scene, print_warnings, scene_label};
 use crate::units::{thousands, to_json};
@@ -227,7 +227,8 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
     let names = crate::cli::batch::scene_names(&args.scenes);
     let mut all_rows: Vec<Row> = Vec::new();
     // A scene loaded and timed on each backend: its rows (None: skipped, and listed so).
-    let time = |name: Option<&str>| -> Result<Option<(LoadedScene, Vec<Row>)>, Error> {
+    // Its frames told as they go: `scene` of the names, each backend's warm-up and timed frames.
+    let time = |name: Option<&str>, scene: usize, told: Told| -> Result<Option<(LoadedScene, Vec<Row>)>, Error> {
         reset_peak_host();
         let Some(loaded) = load_or_skip(name, &opts, &limits, &settings, args)? else {
             return Ok(None);
@@ -260,7 +261,15 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
         let mut rows: Vec<Row> = Vec::new();
         // The device's picture, which the CPU build's row compares with.
         let mut device_picture: Option<Picture> = None;
-        for (renderer, info) in renderers.iter().zip(&infos) {
+        let per_backend = f64::from(args.warmup + args.frames);
+        for (b, (renderer, info)) in renderers.iter().zip(&infos).enumerate() {
+            let tell = |frame: u32| {
+                let done = (b as f64 + f64::from(frame) / per_backend) / renderers.len() as f64;
+                told(Progress {
+                    fraction: (scene as f64 + done) / names.len() as f64,
+                    detail: format!("scene {} of {}, {} frame {frame}", scene + 1, names.len(), info.label),
+                })
+            };
             // Which kernel: the scene's arrays in uniform or in storage buffers (--scene-buffers).
             let kernel = renderer.kernel(&loaded.data)?;
             let backend = kernel.as_ref().map_or("cpu".to_string(), |k| format!("gpu {}", k.arrays));
@@ -273,11 +282,13 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
             }
             reset_peak_host();
             let timed = (|| {
-                for _ in 0..args.warmup {
+                for k in 0..args.warmup {
+                    tell(k);
                     renderer.render_frame(&loaded.data, &|_| {})?;
                 }
                 let mut last = None;
-                for _ in 0..args.frames {
+                for k in 0..args.frames {
+                    tell(args.warmup + k);
                     let start = Instant::now();
                     let (picture, t) = renderer.render_frame(&loaded.data, &|_| {})?;
                     row.frames.push(start.elapsed());
@@ -323,26 +334,29 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
     // Of several scenes, one that fails is reported as it happens and the
     // others go on (as `render`, `check` and `info`); the command fails at
     // the end, naming it. One scene's failure ends the command.
-    let batch = each_named(&names, scene_label, |name| {
-        let (loaded, mut rows) = match time(name) {
-            Ok(Some(timed)) => timed,
-            Ok(None) => return Ok(Ok(())),
-            Err(e) => return Ok(Err(e)),
-        };
-        for row in &mut rows {
-            row.frames.sort();
-            row.dispatch.sort();
-        }
-        if args.json {
-            for row in &rows {
-                crate::output::emit_line(&row.json(&settings, args.warmup))?;
+    let scene = std::cell::Cell::new(0);
+    let batch = crate::progress::told("bench", |told| {
+        each_named(&names, scene_label, |name| {
+            scene.set(scene.get() + 1);
+            let (loaded, mut rows) = match time(name, scene.get() - 1, told) {
+                Ok(Some(timed)) => timed,
+                Ok(None) => return Ok(Ok(())),
+                Err(e) => return Ok(Err(e)),
+            };
+            for row in &mut rows {
+                row.frames.sort();
+                row.dispatch.sort();
             }
-        } else if args.markdown {
-            for row in &rows {
-                outln!("{}", row.markdown());
-            }
-        } else {
-            outln!(
+            if args.json {
+                for row in &rows {
+                    crate::output::emit_line(&row.json(&settings, args.warmup))?;
+                }
+            } else if args.markdown {
+                for row in &rows {
+                    outln!("{}", row.markdown());
+                }
+            } else {
+                outln!(
                 "scene: {} ({} primitives expanded, {} unique; {} lights)\n  load {} (parse, count, flatten, textures), build {} (hierarchy)",
                 loaded.name,
                 thousands(loaded.counts.expanded),
@@ -351,12 +365,13 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
                 ms(loaded.load),
                 ms(loaded.build)
             );
-            for row in &rows {
-                outln!("{}", row.human());
+                for row in &rows {
+                    outln!("{}", row.human());
+                }
             }
-        }
-        all_rows.extend(rows);
-        Ok(Ok(()))
+            all_rows.extend(rows);
+            Ok(Ok(()))
+        })
     })?;
     if args.markdown {
         outln!();

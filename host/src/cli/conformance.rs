@@ -3,6 +3,7 @@
 use crate::cli::options::*;
 use crate::error::Error;
 use crate::render::Backend;
+use crate::render::Progress;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -71,13 +72,23 @@ pub fn run(args: &ConformanceArgs) -> Result<(), Error> {
         format!("{} on {}", args.kernel.kernel_text(), info.name)
     };
     outln!("conformance: {who} against {}, {count} cases", corpus.display());
-    let summary = crate::conformance::run(
-        &corpus,
-        &cases,
-        &args.out_dir,
-        |data| renderer.render_frame(data, &|_| {}).map(|(picture, _)| picture),
-        || renderer.take_messages(),
-    )?;
+    let done = std::cell::Cell::new(0);
+    let summary = crate::progress::told("conformance", |told| {
+        crate::conformance::run(
+            &corpus,
+            &cases,
+            &args.out_dir,
+            |data| {
+                told(Progress {
+                    fraction: f64::from(done.get()) / count as f64,
+                    detail: format!("case {} of {count}", done.get() + 1),
+                });
+                done.set(done.get() + 1);
+                renderer.render_frame(data, &|_| {}).map(|(picture, _)| picture)
+            },
+            || renderer.take_messages(),
+        )
+    })?;
     outln!("{} passed, {} failed; the measured fractions: {}", summary.passed, summary.failed, summary.table.display());
     if summary.failed > 0 {
         return Err(Error::Mismatch {

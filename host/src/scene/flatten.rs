@@ -614,11 +614,11 @@ mod tests {
         assert_eq!(n, xmls, "every fixture is listed in EXPECTED.txt");
     }
 
-    use crate::scene::test_corpus as corpus;
+    use crate::test_support::corpus;
 
     #[test]
     fn corpus_scenes_parse_and_flatten() {
-        let Some(root) = corpus() else { return };
+        let Some(root) = corpus("every corpus scene parses and flattens") else { return };
         let opts = ParseOptions { assets: vec![root.clone()], ..ParseOptions::default() };
         let mut n = 0;
         let mut groups: Vec<PathBuf> = std::fs::read_dir(&root)
@@ -668,7 +668,7 @@ mod tests {
 
     #[test]
     fn corpus_recursive_counts() {
-        let Some(root) = corpus() else { return };
+        let Some(root) = corpus("the corpus's recursive scenes expand to their counts") else { return };
         let opts = ParseOptions { assets: vec![root.clone()], ..ParseOptions::default() };
         let limits = FlattenLimits::default();
         // recursiveSpheres4: level3 = 1 sphere; level2 = 1 + 5 × level3 = 6;

@@ -40,16 +40,3 @@ pub fn row_of_cubes_xml(n: usize) -> String {
         .collect();
     format!(r#"<scenefile><object type="tree" name="root">{cubes}</object></scenefile>"#)
 }
-
-/// Tests: the course corpus from RAYCAST_CORPUS, or None after printing
-/// that the test is skipped.
-#[cfg(test)]
-pub(crate) fn test_corpus() -> Option<std::path::PathBuf> {
-    match std::env::var_os("RAYCAST_CORPUS") {
-        Some(p) => Some(std::path::PathBuf::from(p)),
-        None => {
-            println!("skipped: RAYCAST_CORPUS is not set (e.g. RAYCAST_CORPUS=../shared/corpus/cs1230)");
-            None
-        }
-    }
-}

@@ -6,7 +6,8 @@
 //!
 //! Rule: no panic, and every error names the scene file with a line and a
 //! column (`FILE:LINE:COL: error: …`). A failure writes the mutated scene
-//! to the temporary folder (raycast-mutated-scenes) and names it.
+//! to the temporary folder (raycast-mutated-scenes) and names it, with the
+//! seed.
 
 use super::mutate::{mutate, Rng, VALUES};
 use super::{flatten, parse_str, FlattenLimits, ParseOptions};
@@ -16,6 +17,9 @@ use std::path::{Path, PathBuf};
 
 /// Mutated scenes per run: about two seconds on 2 cores.
 const CASES: usize = 4000;
+
+/// The seed of the cases (`Rng::seeded`).
+const SEED: u64 = 0x9e37_79b9_7f4a_7c15;
 
 /// The repository's scenes, and the corpus's when RAYCAST_CORPUS is set.
 fn sources() -> (Vec<PathBuf>, Vec<PathBuf>) {
@@ -34,7 +38,7 @@ fn sources() -> (Vec<PathBuf>, Vec<PathBuf>) {
     let mut files = xml_in(&repo.join("scenes"));
     files.extend(xml_in(&repo.join("tests/scenes/stress")));
     let mut assets = Vec::new();
-    if let Some(corpus) = super::test_corpus() {
+    if let Some(corpus) = crate::test_support::corpus("scenes mutated from the corpus's") {
         for group in ["test_unit", "test_intersect", "test_light", "test_efficiency", "test_feature"] {
             files.extend(xml_in(&corpus.join(group)));
         }
@@ -51,7 +55,7 @@ fn mutated_scenes_fail_with_located_errors_and_never_panic() {
     let cpu = CpuRenderer::new().expect("the CPU build");
     let options = ParseOptions { assets, ..ParseOptions::default() };
     let settings = RenderSettings { width: 8, height: 6, ..RenderSettings::default() };
-    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut rng = Rng::seeded(SEED);
     let (mut rendered, mut refused) = (0, 0);
     let mut failures: Vec<String> = Vec::new();
     for case in 0..CASES {
@@ -99,10 +103,15 @@ fn mutated_scenes_fail_with_located_errors_and_never_panic() {
         }
     }
     println!(
-        "{CASES} mutated scenes: {rendered} rendered, {refused} refused with located errors, {} failed",
+        "{CASES} mutated scenes (seed {SEED:#x}): {rendered} rendered, {refused} refused with located errors, {} failed",
         failures.len()
     );
-    assert!(failures.is_empty(), "{} of {CASES} mutated scenes failed; first: {}", failures.len(), failures[0]);
+    assert!(
+        failures.is_empty(),
+        "{} of {CASES} mutated scenes (seed {SEED:#x}) failed; first: {}",
+        failures.len(),
+        failures[0]
+    );
     // The mutations reach every stage: some scenes still render, most are refused.
-    assert!(rendered > CASES / 20 && refused > CASES / 2, "{rendered} rendered, {refused} refused");
+    assert!(rendered > CASES / 20 && refused > CASES / 2, "seed {SEED:#x}: {rendered} rendered, {refused} refused");
 }
