@@ -38,3 +38,12 @@ ShapeHit intersect_cone(Ray r) {
     best = cap(best, r, -0.5f, -1.0f);
     return best;
 }
+
+// (u, v): the base cap (normal (0, -1, 0)) as a square seen from below,
+// the body (n.y >= 0) u around y and v down it.
+precise vec2 cone_uv(vec3 p, vec3 n) {
+    if (n.y < 0.0f && n.x == 0.0f && n.z == 0.0f) {
+        return vec2(p.x + 0.5f, 0.5f - p.z);
+    }
+    return vec2(around_y(p), 0.5f - p.y);
+}

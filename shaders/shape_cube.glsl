@@ -21,3 +21,23 @@ ShapeHit intersect_cube(Ray r) {
     }
     return best;
 }
+
+// (u, v) on the face the normal n says, each face's square seen from outside.
+precise vec2 cube_uv(vec3 p, vec3 n) {
+    if (n.x > 0.0f) {
+        return vec2(0.5f - p.z, 0.5f - p.y);
+    }
+    if (n.x < 0.0f) {
+        return vec2(p.z + 0.5f, 0.5f - p.y);
+    }
+    if (n.y > 0.0f) {
+        return vec2(p.x + 0.5f, p.z + 0.5f);
+    }
+    if (n.y < 0.0f) {
+        return vec2(p.x + 0.5f, 0.5f - p.z);
+    }
+    if (n.z > 0.0f) {
+        return vec2(p.x + 0.5f, 0.5f - p.y);
+    }
+    return vec2(0.5f - p.x, 0.5f - p.y);
+}

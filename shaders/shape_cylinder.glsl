@@ -39,3 +39,15 @@ ShapeHit intersect_cylinder(Ray r) {
     best = cap(best, r, -0.5f, -1.0f);
     return best;
 }
+
+// (u, v): the caps (normal (0, +-1, 0)) as squares seen from outside, the
+// body u around y and v down it.
+precise vec2 cylinder_uv(vec3 p, vec3 n) {
+    if (n.y < 0.0f && n.x == 0.0f && n.z == 0.0f) {
+        return vec2(p.x + 0.5f, 0.5f - p.z);
+    }
+    if (n.y > 0.0f && n.x == 0.0f && n.z == 0.0f) {
+        return vec2(p.x + 0.5f, p.z + 0.5f);
+    }
+    return vec2(around_y(p), 0.5f - p.y);
+}

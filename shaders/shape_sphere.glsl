@@ -22,3 +22,8 @@ ShapeHit intersect_sphere(Ray r) {
     }
     return best;
 }
+
+// (u, v): u around y, v by latitude from the top.
+precise vec2 sphere_uv(vec3 p) {
+    return vec2(around_y(p), 0.5f - asin_portable(2.0f * p.y) * 0.318309873f);
+}

@@ -146,3 +146,10 @@ ShapeHit intersect_torus(Ray r) {
     ShapeHit h = no_hit();
     return nearer(h, tc + div_rn(s, len), vec3(k * p.x, p.y, k * p.z));
 }
+
+// (u, v): u around y; v around the tube, from its inner equator (v = 0)
+// over the top (1/4) and the outer equator (1/2) to the bottom (3/4).
+precise vec2 torus_uv(vec3 p) {
+    precise float rho = sqrt_rn(p.x * p.x + p.z * p.z);
+    return vec2(around_y(p), 0.5f - atan2_portable(p.y, rho - 0.375f) * 0.159154937f);
+}

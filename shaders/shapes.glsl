@@ -3,8 +3,10 @@
 //   and both caps, cone with base r 0.5 at y = -0.5, apex at y = 0.5 and a
 //   base cap, torus about y with ring radius 0.375 and tube radius 0.125.
 // What the shapes share (a plane's t, the nearer of two hits, the roots of
-// a quadratic, a ray's closest approach), one file per shape included where
-// its turn comes, and intersect_shape, the test of any of them.
+// a quadratic, a ray's closest approach, the angle about y), one file per
+// shape included where its turn comes (its test, intersect_NAME, and its
+// texture coordinates, NAME_uv), and intersect_shape and surface_uv, which
+// dispatch to them.
 
 // The ray parameter where the ray meets the plane {p[axis] = s}. A ray
 // parallel to the plane gives +-inf or NaN, which every caller's `t > 0 &&
@@ -23,6 +25,15 @@ ShapeHit nearer(ShapeHit best, float t, vec3 normal) {
         return h;
     }
     return best;
+}
+
+// u in [0, 1) around the y axis: (-atan2(z, x) / 2 pi) mod 1.
+precise float around_y(vec3 p) {
+    precise float u = -atan2_portable(p.z, p.x) * 0.159154937f;
+    if (u < 0.0f) {
+        u = u + 1.0f;
+    }
+    return u;
 }
 
 #include "shape_cube.glsl"
@@ -86,4 +97,27 @@ ShapeHit intersect_shape(uint shape, Ray r) {
         return intersect_sphere(r);
     }
     return no_hit();
+}
+
+// (u, v) of an object-space hit point p with the shape test's normal n
+// (docs/scene-format.md#texture-coordinates): a mesh's are its own
+// (traversal.glsl, primitive_hit, keeps them in p); the HAS_* constants
+// leave out the shapes a specialised kernel's scene does not have.
+precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
+    if (HAS_MESHES && shape == SHAPE_MESH) {
+        return vec2(p.x, p.y);
+    }
+    if (HAS_CUBES && shape == SHAPE_CUBE) {
+        return cube_uv(p, n);
+    }
+    if (HAS_SPHERES && shape == SHAPE_SPHERE) {
+        return sphere_uv(p);
+    }
+    if (HAS_TORI && shape == SHAPE_TORUS) {
+        return torus_uv(p);
+    }
+    if (HAS_CYLINDERS && shape == SHAPE_CYLINDER) {
+        return cylinder_uv(p, n);
+    }
+    return cone_uv(p, n);
 }

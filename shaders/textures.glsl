@@ -1,57 +1,6 @@
-// textures.glsl: texture mapping (docs/scene-format.md#texture-coordinates: UV per shape, v = 0
-// at the top row): a hit's (u, v) and the texel, nearest or bilinear.
-
-// u in [0, 1) around the y axis: (-atan2(z, x) / 2 pi) mod 1.
-precise float around_y(vec3 p) {
-    precise float u = -atan2_portable(p.z, p.x) * 0.159154937f;
-    if (u < 0.0f) {
-        u = u + 1.0f;
-    }
-    return u;
-}
-
-// (u, v) of an object-space hit point p with the shape test's normal n.
-precise vec2 surface_uv(uint shape, vec3 p, vec3 n) {
-    if (HAS_MESHES && shape == SHAPE_MESH) {
-        return vec2(p.x, p.y); // the mesh's own coordinates (traversal.glsl, primitive_hit)
-    }
-    if (HAS_CUBES && shape == SHAPE_CUBE) {
-        if (n.x > 0.0f) {
-            return vec2(0.5f - p.z, 0.5f - p.y);
-        }
-        if (n.x < 0.0f) {
-            return vec2(p.z + 0.5f, 0.5f - p.y);
-        }
-        if (n.y > 0.0f) {
-            return vec2(p.x + 0.5f, p.z + 0.5f);
-        }
-        if (n.y < 0.0f) {
-            return vec2(p.x + 0.5f, 0.5f - p.z);
-        }
-        if (n.z > 0.0f) {
-            return vec2(p.x + 0.5f, 0.5f - p.y);
-        }
-        return vec2(0.5f - p.x, 0.5f - p.y);
-    }
-    if (HAS_SPHERES && shape == SHAPE_SPHERE) {
-        return vec2(around_y(p), 0.5f - asin_portable(2.0f * p.y) * 0.318309873f);
-    }
-    if (HAS_TORI && shape == SHAPE_TORUS) {
-        // u around y; v around the tube, from its inner equator (v = 0)
-        // over the top (1/4) and the outer equator (1/2) to the bottom (3/4).
-        precise float rho = sqrt_rn(p.x * p.x + p.z * p.z);
-        return vec2(around_y(p), 0.5f - atan2_portable(p.y, rho - 0.375f) * 0.159154937f);
-    }
-    // Cylinder and cone: caps have the normal (0, +-1, 0), bodies n.y >= 0
-    // for the cone and 0 for the cylinder.
-    if (n.y < 0.0f && n.x == 0.0f && n.z == 0.0f) {
-        return vec2(p.x + 0.5f, 0.5f - p.z);
-    }
-    if (n.y > 0.0f && n.x == 0.0f && n.z == 0.0f && shape == SHAPE_CYLINDER) {
-        return vec2(p.x + 0.5f, p.z + 0.5f);
-    }
-    return vec2(around_y(p), 0.5f - p.y);
-}
+// textures.glsl: texture mapping (docs/scene-format.md#texture-coordinates:
+// v = 0 at the top row): the texel at a hit's (u, v), nearest or bilinear.
+// Each shape's (u, v) is its own file's (shapes.glsl surface_uv).
 
 // Texel (column, row) of texture tex as RGB in [0, 1].
 precise vec3 texel_rgb(Texture tex, uint column, uint row) {

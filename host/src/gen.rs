@@ -577,12 +577,8 @@ pub fn count_primitives(file: &SceneFile) -> PrimitiveCounts {
     fn walk(blocks: &[TransBlock], own: &mut u64, masters: &mut Vec<usize>) {
         for b in blocks {
             match &b.object {
-                Node::Primitive { shape, .. } => {
-                    *own += u64::from(matches!(
-                        shape,
-                        Shape::Cube | Shape::Cone | Shape::Cylinder | Shape::Sphere | Shape::Torus | Shape::Mesh { .. }
-                    ))
-                }
+                // Every shape is drawn.
+                Node::Primitive { .. } => *own += 1,
                 Node::Tree { blocks, .. } => walk(blocks, own, masters),
                 Node::Master { tree, .. } => masters.push(*tree),
             }

@@ -46,6 +46,7 @@
 //! off (Mitsuba picks a light at random for each sample).
 
 use crate::frame::RenderSettings;
+use crate::scene::shape::{surface_mesh, MitsubaShape};
 use crate::scene::{Camera, Light, LightKind, Scene, Shape};
 use glam::{DMat4, DVec3};
 use std::fmt::Write as _;
@@ -307,8 +308,11 @@ impl Writer<'_> {
     fn primitive(&mut self, shape: &Shape, material: u32, m: &DMat4, target: Target) {
         let bsdf = format!("<ref id=\"mat{material}\"/>");
         let similar = uniform_scale(m);
-        let text = match (shape, similar) {
-            (Shape::Sphere, Some(s)) => {
+        // A canonical shape as Mitsuba's own shape where its entry names one
+        // and the placement allows it (`scene::SHAPES`), else as a mesh.
+        let builtin = shape.kind().map(|k| k.mitsuba);
+        let text = match (builtin, similar, shape) {
+            (Some(MitsubaShape::Sphere), Some(s), _) => {
                 self.counts.shapes += 1;
                 format!(
                     "    <shape type=\"sphere\">\n      <point name=\"center\" value=\"{}\"/>\n      <float name=\"radius\" \
@@ -317,14 +321,14 @@ impl Writer<'_> {
                     num(0.5 * s)
                 )
             }
-            (Shape::Cube, _) => {
+            (Some(MitsubaShape::Cube), _, _) => {
                 self.counts.shapes += 1;
                 format!(
                     "    <shape type=\"cube\">\n      {}\n      {bsdf}\n    </shape>\n",
                     to_world(&(*m * DMat4::from_scale(DVec3::splat(0.5))))
                 )
             }
-            (Shape::Cylinder, Some(s)) => {
+            (Some(MitsubaShape::Cylinder), Some(s), _) => {
                 self.counts.shapes += 3;
                 let cap = |y: f64, angle: f64| {
                     let local = DMat4::from_translation(DVec3::new(0.0, y, 0.0))
@@ -345,7 +349,7 @@ impl Writer<'_> {
                     cap(-0.5, 90.0)
                 )
             }
-            (Shape::Mesh { file, resolved }, _) => {
+            (None, _, Shape::Mesh { file, resolved }) => {
                 let Some(path) = resolved else {
                     self.note(format!("a mesh whose file ({file}) was not found is left out"));
                     return;
@@ -359,18 +363,14 @@ impl Writer<'_> {
                     to_world(m)
                 )
             }
-            (Shape::Sphere | Shape::Cylinder | Shape::Cone | Shape::Torus, _) => {
-                let kind = match shape {
-                    Shape::Sphere => "sphere",
-                    Shape::Cylinder => "cylinder",
-                    Shape::Cone => "cone",
-                    _ => "torus",
-                };
+            (None, _, _) => return,
+            (Some(builtin), _, _) => {
+                let kind = shape.name();
                 let name = format!("{}-{kind}.obj", self.options.stem);
                 if !self.files.iter().any(|(n, _)| *n == name) {
                     self.files.push((name.clone(), mesh_obj(shape)));
                 }
-                if matches!(shape, Shape::Sphere | Shape::Cylinder) {
+                if builtin != MitsubaShape::Mesh {
                     self.note(format!(
                         "a {kind} under a non-uniform scale or shear is a mesh of {MESH_SEGMENTS} segments around"
                     ));
@@ -507,88 +507,10 @@ fn sensor(c: &Camera, s: &RenderSettings) -> String {
 }
 
 /// A canonical shape as a triangle mesh in OBJ (positions, normals,
-/// faces), its object space raycast's: a sphere of radius ½, a cylinder and
-/// a cone of radius ½ from y = −½ to ½ (the cone's tip at the top), a
-/// torus of ring radius 0.375 and tube radius 0.125 about y; normals out.
+/// faces) in raycast's object space, from its entry's surface
+/// (`scene::shape::surface_mesh`, MESH_SEGMENTS around); normals out.
 pub fn mesh_obj(shape: &Shape) -> String {
-    let n = MESH_SEGMENTS;
-    let mut v: Vec<DVec3> = Vec::new();
-    let mut vn: Vec<DVec3> = Vec::new();
-    let mut faces: Vec<[usize; 3]> = Vec::new();
-    let tau = std::f64::consts::TAU;
-    // A grid of (rows + 1) × (n + 1) vertices, each quad two triangles.
-    let mut grid = |rows: usize, at: &dyn Fn(f64, f64) -> (DVec3, DVec3), v: &mut Vec<DVec3>, vn: &mut Vec<DVec3>| {
-        let base = v.len();
-        for r in 0..=rows {
-            for k in 0..=n {
-                let (p, normal) = at(r as f64 / rows as f64, k as f64 / n as f64);
-                v.push(p);
-                vn.push(normal.normalize());
-            }
-        }
-        for r in 0..rows {
-            for k in 0..n {
-                let a = base + r * (n + 1) + k;
-                let b = a + n + 1;
-                faces.push([a, b, a + 1]);
-                faces.push([a + 1, b, b + 1]);
-            }
-        }
-    };
-    let around = |t: f64| DVec3::new((tau * t).cos(), 0.0, -(tau * t).sin());
-    match shape {
-        Shape::Sphere => grid(
-            n / 2,
-            &|r, t| {
-                let phi = std::f64::consts::PI * (1.0 - r);
-                let p = around(t) * phi.sin() + DVec3::new(0.0, -phi.cos(), 0.0);
-                (0.5 * p, p)
-            },
-            &mut v,
-            &mut vn,
-        ),
-        Shape::Torus => grid(
-            n / 2,
-            &|r, t| {
-                let a = -tau * r;
-                let out = around(t) * a.cos() + DVec3::new(0.0, a.sin(), 0.0);
-                (0.375 * around(t) + 0.125 * out, out)
-            },
-            &mut v,
-            &mut vn,
-        ),
-        _ => {
-            let cone = matches!(shape, Shape::Cone);
-            // The side: from the top rim (or the tip) down to the bottom
-            // rim, as the sphere's rows run, so its triangles face out.
-            grid(
-                1,
-                &|r, t| {
-                    let radius = if cone { 0.5 * r } else { 0.5 };
-                    let normal = if cone { around(t) * 2.0 + DVec3::new(0.0, 1.0, 0.0) } else { around(t) };
-                    (around(t) * radius + DVec3::new(0.0, 0.5 - r, 0.0), normal)
-                },
-                &mut v,
-                &mut vn,
-            );
-            // The caps: a fan about the centre.
-            let caps: &[f64] = if cone { &[-0.5] } else { &[-0.5, 0.5] };
-            for &y in caps {
-                let up = DVec3::new(0.0, y.signum(), 0.0);
-                let centre = v.len();
-                v.push(DVec3::new(0.0, y, 0.0));
-                vn.push(up);
-                for k in 0..=n {
-                    v.push(around(k as f64 / n as f64) * 0.5 + DVec3::new(0.0, y, 0.0));
-                    vn.push(up);
-                }
-                for k in 0..n {
-                    let (a, b) = (centre + 1 + k, centre + 2 + k);
-                    faces.push(if y > 0.0 { [centre, a, b] } else { [centre, b, a] });
-                }
-            }
-        }
-    }
+    let (v, vn, faces) = shape.kind().map_or_else(Default::default, |k| surface_mesh(k, MESH_SEGMENTS));
     let mut out = String::from("# written by raycast mitsuba\n");
     for p in &v {
         let _ = writeln!(out, "v {} {} {}", num(p.x), num(p.y), num(p.z));
@@ -672,8 +594,9 @@ mod tests {
 
     #[test]
     fn generated_meshes_are_closed_and_face_out() {
-        for shape in [Shape::Sphere, Shape::Cylinder, Shape::Cone, Shape::Torus] {
-            let obj = mesh_obj(&shape);
+        // Every shape Mitsuba draws as a mesh somewhere: its entry has a surface.
+        for kind in crate::scene::SHAPES.iter().filter(|k| !k.surface.is_empty()) {
+            let obj = mesh_obj(&kind.shape);
             let v: Vec<DVec3> = obj
                 .lines()
                 .filter_map(|l| l.strip_prefix("v "))
@@ -683,22 +606,19 @@ mod tests {
                 })
                 .collect();
             // The signed volume of a closed outward mesh is positive (the
-            // canonical sphere's π/6, the cylinder's π/4, the cone's π/12, the torus's 2π²·0.375·0.125²),
-            // within 2% at 48 segments around (the torus's, the farthest, 1.4% short when written).
+            // entry's: the canonical sphere's π/6, the cylinder's π/4, the
+            // cone's π/12, the torus's 2π²·0.375·0.125²), within 2% at 48
+            // segments around (the torus's, the farthest, 1.4% short when written).
             let mut volume = 0.0;
             for f in obj.lines().filter_map(|l| l.strip_prefix("f ")) {
                 let i: Vec<usize> =
                     f.split(' ').map(|t| t.split("//").next().unwrap().parse::<usize>().unwrap() - 1).collect();
                 volume += v[i[0]].dot(v[i[1]].cross(v[i[2]])) / 6.0;
             }
-            let pi = std::f64::consts::PI;
-            let want = match shape {
-                Shape::Sphere => pi / 6.0,
-                Shape::Cylinder => pi / 4.0,
-                Shape::Cone => pi / 12.0,
-                _ => 2.0 * pi * pi * 0.375 * 0.125 * 0.125,
-            };
-            assert!((volume - want).abs() < 0.02 * want, "{shape:?}: {volume} against {want}");
+            let want = kind.volume;
+            assert!((volume - want).abs() < 0.02 * want, "{}: {volume} against {want}", kind.name);
         }
+        // Each shape the exporter does not draw with Mitsuba's own has a surface.
+        assert!(crate::scene::SHAPES.iter().all(|k| k.mitsuba == MitsubaShape::Cube || !k.surface.is_empty()));
     }
 }

@@ -306,17 +306,14 @@ impl Writer<'_> {
         };
         match &b.object {
             Node::Primitive { shape, material, loc } => {
-                let geometry = match shape {
-                    Shape::Cube => "box { <-0.5, -0.5, -0.5>, <0.5, 0.5, 0.5>".to_string(),
-                    Shape::Sphere => "sphere { <0, 0, 0>, 0.5".to_string(),
-                    Shape::Cylinder => "cylinder { <0, -0.5, 0>, <0, 0.5, 0>, 0.5".to_string(),
-                    Shape::Cone => "cone { <0, -0.5, 0>, 0.5, <0, 0.5, 0>, 0".to_string(),
-                    // POV-Ray's torus lies about y too: major radius (the ring), then minor (the tube).
-                    Shape::Torus => "torus { 0.375, 0.125".to_string(),
-                    Shape::Mesh { file, resolved } => match self.mesh(file, resolved.as_deref(), loc) {
+                // A canonical shape's object is its entry's (`scene::SHAPES`).
+                let geometry = match (shape.kind(), shape) {
+                    (Some(kind), _) => kind.pov.to_string(),
+                    (None, Shape::Mesh { file, resolved }) => match self.mesh(file, resolved.as_deref(), loc) {
                         Some(k) => format!("object {{ Raycast_mesh_{k}"),
                         None => return None,
                     },
+                    (None, _) => return None,
                 };
                 let texture = self.texture(shape, material);
                 let transform =
@@ -420,13 +417,8 @@ impl Writer<'_> {
             (Some(t), true) => match (&t.resolved, image_kind(&t.file)) {
                 (Some(path), Some(kind)) => {
                     self.note("textures are projected by POV-Ray's image maps (spherical, cylindrical or planar), near the format's u, v but not the same".into());
-                    let (map_type, place) = match shape {
-                        Shape::Sphere => (1, String::new()),
-                        // The mesh's own texture coordinates (uv_vectors).
-                        Shape::Mesh { .. } => (0, String::new()),
-                        Shape::Cylinder | Shape::Cone => (2, " translate <0, -0.5, 0>".to_string()),
-                        _ => (0, " translate <-0.5, -0.5, 0>".to_string()),
-                    };
+                    // A mesh: its own texture coordinates (uv_vectors).
+                    let (map_type, place) = shape.kind().map_or((0, ""), |k| k.pov_map);
                     let repeat = format!(
                         " scale <{}, {}, 1>",
                         num32(1.0 / t.repeat_u.max(1e-6)),

@@ -1,7 +1,8 @@
 //! The command line: one module per command, each a leaf that nothing
 //! outside this folder names, plus what several commands share: the
-//! rendering options (`options`), several scenes in one command (`batch`),
-//! where pictures go (`output`) and the status lines (`status`).
+//! rendering options (`options`), the flags' value types and parsers
+//! (`values`), several scenes in one command (`batch`), where pictures go
+//! (`output`) and the status lines (`status`). Every clap type lives here.
 //! `main.rs` parses, calls [`run`], and is the one place that prints an
 //! error and chooses the exit code (`crate::error::EXIT_CODES`).
 

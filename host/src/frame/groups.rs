@@ -7,7 +7,7 @@ use super::records::{bounding_sphere, box_steps, instance_record, placed_sphere,
 use crate::bvh::{self, Aabb};
 use crate::error::Error;
 use crate::layout;
-use crate::scene::{Scene, Shape};
+use crate::scene::Scene;
 use glam::DVec3;
 
 /// Scenes of one group with at most this many primitives skip the hierarchy.
@@ -23,18 +23,6 @@ pub(super) struct Packed {
     pub(super) group_roots: Vec<u32>,
     /// The walk's levels: 1 and the deepest nesting of masters under the root.
     pub(super) levels: u32,
-}
-
-pub(super) fn shape_code(shape: &Shape) -> u32 {
-    match shape {
-        Shape::Cube => layout::SHAPE_CUBE,
-        Shape::Cone => layout::SHAPE_CONE,
-        Shape::Cylinder => layout::SHAPE_CYLINDER,
-        Shape::Torus => layout::SHAPE_TORUS,
-        // flatten() keeps only drawn shapes.
-        Shape::Mesh { .. } => layout::SHAPE_MESH,
-        Shape::Sphere => layout::SHAPE_SPHERE,
-    }
 }
 
 /// `materials` with repeats folded: each distinct material (bit for bit:
@@ -231,7 +219,7 @@ pub(super) fn pack_groups(scene: &Scene) -> Result<Packed, Error> {
         .flat_map(|g| &g.primitives)
         .map(|p| layout::Primitive {
             object_from_world: mat4(&p.object_from_world),
-            shape: shape_code(&p.shape),
+            shape: p.shape.code(),
             material: p.material,
             id_offset: p.id_offset as u32,
             // The mesh's index here; `build` makes it its root node.

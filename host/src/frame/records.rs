@@ -80,12 +80,8 @@ pub(super) fn shape_sphere(scene: &Scene, shape: &Shape) -> (DVec3, f64) {
     if let Some(i) = scene.mesh_index(shape) {
         return scene.meshes[i].bounding_sphere();
     }
-    let radius = match shape {
-        Shape::Sphere | Shape::Torus => 0.5,
-        Shape::Cone | Shape::Cylinder => 0.5f64.sqrt(),
-        _ => 0.75f64.sqrt(),
-    };
-    (DVec3::ZERO, radius)
+    // A mesh whose file was not loaded draws nothing: the unit box's sphere holds it.
+    (DVec3::ZERO, shape.kind().map_or(0.75f64.sqrt(), |k| k.radius()))
 }
 
 /// The farthest any point of a primitive (a shape placed by `m`, within

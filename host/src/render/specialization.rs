@@ -5,6 +5,7 @@
 
 use crate::frame::FrameData;
 use crate::layout;
+use crate::scene::SHAPES;
 
 /// What a kernel built for a scene keeps of the shaders' code: one bool per
 /// feature's specialization constant (shaders/layout.h SPEC_*, but for the
@@ -68,7 +69,7 @@ impl Specialization {
     /// "keeps spheres, instances, …; leaves out cubes, …".
     pub fn describe(&self) -> String {
         let names = |on: bool| -> Vec<&str> {
-            SPEC_NAMES.iter().filter(|(id, _)| self.keeps[*id as usize] == on).map(|(_, name)| *name).collect()
+            spec_names().into_iter().filter(|(id, _)| self.keeps[*id as usize] == on).map(|(_, name)| name).collect()
         };
         let (kept, out) = (names(true), names(false));
         let list = |v: &[&str]| if v.is_empty() { "nothing".to_string() } else { v.join(", ") };
@@ -81,12 +82,9 @@ impl Specialization {
     }
 }
 
-/// The specialization constants by name, for `Specialization::describe`.
+/// The specialization constants of what is not a shape, by name, for
+/// `Specialization::describe` (the shapes' are in `scene::SHAPES`).
 const SPEC_NAMES: &[(u32, &str)] = &[
-    (layout::SPEC_CUBES, "cubes"),
-    (layout::SPEC_CONES, "cones"),
-    (layout::SPEC_CYLINDERS, "cylinders"),
-    (layout::SPEC_SPHERES, "spheres"),
     (layout::SPEC_INSTANCES, "instances"),
     (layout::SPEC_POSITIONED_LIGHTS, "point and spot lights"),
     (layout::SPEC_SPOT_LIGHTS, "spot falloff"),
@@ -102,13 +100,21 @@ const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_BOX_RECORDS, "instance boxes"),
     (layout::SPEC_SPHERE_RECORDS, "instance spheres"),
     (layout::SPEC_AOVS, "the normal, depth, id and cost AOVs"),
-    (layout::SPEC_TORI, "tori"),
     (layout::SPEC_MESHES, "meshes"),
     (layout::SPEC_REFRACTION, "refraction"),
     (layout::SPEC_AREA_LIGHTS, "area lights"),
     (layout::SPEC_DOF, "depth of field"),
     (layout::SPEC_COURSE_SAMPLING, "the course's adaptive supersampling"),
 ];
+
+/// Every feature constant by name, in the order of their ids: the shapes'
+/// (`scene::SHAPES`) among the others (`SPEC_NAMES`).
+fn spec_names() -> Vec<(u32, &'static str)> {
+    let mut names: Vec<(u32, &'static str)> =
+        SHAPES.iter().map(|k| (k.spec, k.spec_name)).chain(SPEC_NAMES.iter().copied()).collect();
+    names.sort_by_key(|(id, _)| *id);
+    names
+}
 
 /// What a scene has that the kernels may leave out when it is missing
 /// (`Specialization`), apart from the frame's flags. Each test is the
@@ -117,12 +123,9 @@ const SPEC_NAMES: &[(u32, &str)] = &[
 /// that path.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SceneFeatures {
-    cubes: bool,
-    cones: bool,
-    cylinders: bool,
-    tori: bool,
-    /// raycast.glsl intersect_shape's last case: any other shape.
-    spheres: bool,
+    /// Each of `scene::SHAPES`: whether a primitive reaches its test
+    /// (`ShapeKind::reached_by`).
+    shapes: [bool; SHAPES.len()],
     instances: bool,
     positioned_lights: bool,
     spot_lights: bool,
@@ -151,19 +154,9 @@ pub struct SceneFeatures {
 
 impl SceneFeatures {
     pub fn of(data: &FrameData) -> SceneFeatures {
-        let shape = |s: u32| data.primitives.iter().any(|p| p.shape == s);
-        let (cube, cone, cylinder) = (layout::SHAPE_CUBE, layout::SHAPE_CONE, layout::SHAPE_CYLINDER);
-        let torus = layout::SHAPE_TORUS;
         SceneFeatures {
-            cubes: shape(cube),
-            cones: shape(cone),
-            cylinders: shape(cylinder),
-            tori: shape(torus),
-            meshes: shape(layout::SHAPE_MESH),
-            spheres: data
-                .primitives
-                .iter()
-                .any(|p| ![cube, cone, cylinder, torus, layout::SHAPE_MESH].contains(&p.shape)),
+            shapes: std::array::from_fn(|i| data.primitives.iter().any(|p| SHAPES[i].reached_by(p.shape))),
+            meshes: data.primitives.iter().any(|p| p.shape == layout::SHAPE_MESH),
             instances: !data.instances.is_empty(),
             positioned_lights: data.lights.iter().any(|l| l.kind != layout::LIGHT_DIRECTIONAL),
             spot_lights: data.lights.iter().any(|l| l.kind == layout::LIGHT_SPOT),
@@ -187,11 +180,10 @@ impl SceneFeatures {
         let flag = |f: u32| frame.flags & f != 0;
         let textures = self.textured && flag(layout::FLAG_TEXTURES);
         let mut on = [false; SPEC_COUNT];
+        for (kind, &reached) in SHAPES.iter().zip(&self.shapes) {
+            on[kind.spec as usize] = reached;
+        }
         for (id, value) in [
-            (layout::SPEC_CUBES, self.cubes),
-            (layout::SPEC_CONES, self.cones),
-            (layout::SPEC_CYLINDERS, self.cylinders),
-            (layout::SPEC_SPHERES, self.spheres),
             (layout::SPEC_INSTANCES, self.instances),
             (layout::SPEC_POSITIONED_LIGHTS, self.positioned_lights),
             (layout::SPEC_SPOT_LIGHTS, self.spot_lights),
@@ -209,7 +201,6 @@ impl SceneFeatures {
             (layout::SPEC_BOX_RECORDS, self.box_records),
             (layout::SPEC_SPHERE_RECORDS, self.sphere_records),
             (layout::SPEC_AOVS, frame.aov != layout::AOV_COLOR),
-            (layout::SPEC_TORI, self.tori),
             (layout::SPEC_MESHES, self.meshes),
             (layout::SPEC_COURSE_SAMPLING, flag(layout::FLAG_COURSE_SAMPLING)),
             // frame.rs sets FLAG_REFRACTION only where a material transmits.

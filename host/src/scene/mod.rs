@@ -11,12 +11,14 @@ pub mod mutate;
 #[cfg(test)]
 mod mutation_tests;
 pub mod parse;
+pub mod shape;
 
 pub use bounds::{scene_bounds, Bounds};
 pub use camera_control::CameraControl;
 pub use flatten::{flatten, load, FlattenLimits};
 pub use model::*;
 pub use parse::{parse_file, parse_str, ParseOptions};
+pub use shape::{Shape, ShapeKind, SHAPES};
 
 /// Tests: the scene of `xml`, named `name` in messages, parsed and
 /// flattened with the default options and limits (panics on an error).

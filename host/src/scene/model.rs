@@ -2,6 +2,7 @@
 //! Vulkan. `parse` builds a [`SceneFile`] (the tree, masters kept as masters);
 //! `flatten` expands it into a [`Scene`] (one entry per drawn primitive).
 
+pub use super::shape::Shape;
 use glam::{DMat4, DVec3};
 use std::fmt;
 use std::path::PathBuf;
@@ -245,38 +246,6 @@ impl Default for Material {
     }
 }
 
-/// The shape of a `<object type="primitive" name=…>`.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Shape {
-    Cube,
-    Cone,
-    Cylinder,
-    Sphere,
-    /// About the y axis, ring radius 0.375, tube radius 0.125 (docs/scene-format.md#torus).
-    Torus,
-    /// A triangle mesh: the OBJ path as written, and where it was found
-    /// (the parser looks it up as a texture's image; flatten() makes it
-    /// canonical and loads each file once into `Scene::meshes`).
-    Mesh {
-        file: String,
-        resolved: Option<PathBuf>,
-    },
-}
-
-impl Shape {
-    /// As `<object type="primitive" name=…>` writes it.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Shape::Cube => "cube",
-            Shape::Cone => "cone",
-            Shape::Cylinder => "cylinder",
-            Shape::Sphere => "sphere",
-            Shape::Torus => "torus",
-            Shape::Mesh { .. } => "mesh",
-        }
-    }
-}
-
 /// One transform of a `<transblock>`, in file order.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Transform {
@@ -414,15 +383,13 @@ impl Scene {
     }
 
     /// The box that holds a primitive of this shape in its object space:
-    /// the canonical box [-0.5, 0.5]³, or a mesh's own.
+    /// its entry's (`SHAPES`), or a mesh's own.
     pub fn object_box(&self, shape: &Shape) -> crate::bvh::Aabb {
-        match self.mesh_index(shape) {
-            Some(i) => self.meshes[i].bounds,
-            // The canonical shapes fill [-0.5, 0.5]^3; the torus's y spans [-0.125, 0.125].
-            None if *shape == Shape::Torus => {
-                crate::bvh::Aabb { lo: glam::DVec3::new(-0.5, -0.125, -0.5), hi: glam::DVec3::new(0.5, 0.125, 0.5) }
-            }
-            None => crate::bvh::Aabb::UNIT,
+        match (self.mesh_index(shape), shape.kind()) {
+            (Some(i), _) => self.meshes[i].bounds,
+            (None, Some(k)) => crate::bvh::Aabb { lo: k.lo.into(), hi: k.hi.into() },
+            // A mesh whose file was not loaded holds nothing.
+            (None, None) => crate::bvh::Aabb::UNIT,
         }
     }
 

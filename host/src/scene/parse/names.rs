@@ -2,7 +2,6 @@
 //! attribute was probably meant to be, where a misplaced element goes,
 //! lists, and values shortened.
 
-pub(super) const PRIMITIVES: &[&str] = &["cube", "cone", "cylinder", "sphere", "torus", "mesh"];
 pub(super) const MATERIAL_ELEMENTS: &[&str] = &[
     "diffuse",
     "ambient",

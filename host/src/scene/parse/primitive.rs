@@ -1,23 +1,23 @@
 //! Primitives: the shapes (a mesh with its OBJ file) and their material,
 //! textures among it.
 
-use super::names::{shown, suggest, MATERIAL_ELEMENTS, OBJECT_ATTRIBUTES, PRIMITIVES};
+use super::names::{shown, suggest, MATERIAL_ELEMENTS, OBJECT_ATTRIBUTES};
 use super::{Ctx, R};
 use crate::scene::model::*;
+use crate::scene::shape::{primitive_names, MESH_NAME};
 use roxmltree::{Attribute, Node as XNode};
 use std::collections::HashMap;
 
 impl Ctx<'_> {
     pub(super) fn primitive(&mut self, n: XNode) -> R<Node> {
-        let name_attr = self.req_attr(n, "name", OBJECT_ATTRIBUTES, "cube, cone, cylinder, sphere, torus or mesh")?;
+        // The shapes' names (`scene::SHAPES`) and the mesh's: "cube, cone, … or mesh".
+        let names = primitive_names();
+        let expected = crate::units::listed(&names, "or");
+        let name_attr = self.req_attr(n, "name", OBJECT_ATTRIBUTES, &expected)?;
         let pname = name_attr.value().trim();
-        let shape = match pname {
-            "cube" => Shape::Cube,
-            "cone" => Shape::Cone,
-            "cylinder" => Shape::Cylinder,
-            "sphere" => Shape::Sphere,
-            "torus" => Shape::Torus,
-            "mesh" => {
+        let shape = match (Shape::canonical(pname), pname) {
+            (Some(shape), _) => shape,
+            (None, MESH_NAME) => {
                 self.check_attrs(n, OBJECT_ATTRIBUTES);
                 let mf = Self::attr(n, "meshfile");
                 let f = Self::attr(n, "filename");
@@ -37,17 +37,14 @@ impl Ctx<'_> {
                 };
                 self.mesh_shape(&file)
             }
-            other => {
-                let hint = match suggest(other, PRIMITIVES) {
+            (None, other) => {
+                let hint = match suggest(other, &names) {
                     Some(s) => format!("; did you mean \"{s}\"?"),
                     None => String::new(),
                 };
                 return Err(self.err(
                     self.aloc(&name_attr),
-                    format!(
-                        "unknown primitive {} (expected cube, cone, cylinder, sphere, torus or mesh{hint})",
-                        shown(other)
-                    ),
+                    format!("unknown primitive {} (expected {expected}{hint})", shown(other)),
                 ));
             }
         };
