@@ -6,7 +6,6 @@
 //! failure's line (`Error::line`) as it happens and fails at the end.
 
 use crate::gpu::GpuError;
-use crate::render::CutShort;
 
 /// The exit codes of every command, with what each means.
 pub const EXIT_CODES: [(u8, &str); 5] = [
@@ -124,3 +123,32 @@ pub fn check_validation(messages: Vec<String>) -> Result<(), Error> {
     }
     Err(Error::Validation(messages.len()))
 }
+
+/// The device ended some pixels' loops early (`PixelOut.rays` has
+/// RAYS_CUT_SHORT): `count` of `total`, the first at `first` (x, y);
+/// `advice` says what the command's user can do.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CutShort {
+    pub device: String,
+    pub count: usize,
+    pub total: usize,
+    pub first: (u32, u32),
+    pub advice: String,
+}
+
+impl std::fmt::Display for CutShort {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let CutShort { device, count, total, first, advice } = self;
+        write!(
+            f,
+            "{device} cut {count} of {total} pixels short (the first at ({}, {})), so the picture would be wrong and \
+             nothing was written. Mesa's software Vulkan device (lavapipe, llvmpipe) gives each shader invocation \
+             65535 loop iterations in all, then ends every loop early without a word (LP_MAX_TGSI_LOOP_ITERATIONS); \
+             these pixels need more: each node visited, each primitive tested, each light and each mirror bounce \
+             of a sample takes some (samples run one per dispatch, so --spp does not add up). {advice}",
+            first.0, first.1
+        )
+    }
+}
+
+impl std::error::Error for CutShort {}

@@ -126,7 +126,7 @@ pub trait Renderer {
 /// Draws a picture a sample at a time into running sums it keeps: the
 /// preview's way (shaders/preview_main.glsl), where [`Renderer`] draws a
 /// whole frame at once. The preview kernel on a device
-/// (`preview::PreviewRenderer`) and the CPU build (`cpu::CpuProgressive`)
+/// (the preview's `PreviewRenderer`) and the CPU build (`cpu::CpuProgressive`)
 /// implement it; the preview window asks whichever draws for each sample,
 /// its time and its pixels.
 pub trait Progressive {
