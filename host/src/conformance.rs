@@ -256,18 +256,17 @@ impl Case {
             }
             None => scene::load(&xml, &parse, &FlattenLimits::default()).map_err(Error::scene)?,
         };
-        let settings = RenderSettings {
+        let look = CourseLook {
             width: self.width,
             height: self.height,
             aov: self.aov,
-            shadows: self.features,
-            reflections: self.features,
-            textures: self.features,
+            features: self.features,
             spp: self.sampled.map_or(1, |s| s.spp),
             supersample: self.sampled.map_or(Supersample::default(), |s| s.supersample),
             texture_filter: self.sampled.map_or(TextureFilter::default(), |s| s.texture_filter),
-            ..RenderSettings::default()
+            because: self.label(),
         };
+        let settings = look.apply(&RenderSettings::default());
         frame::build(&scene, &settings)
     }
 }
