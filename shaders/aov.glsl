@@ -1,8 +1,24 @@
 // aov.glsl: what a pixel stores as colour (pack_rgba8), and the AOVs other
 // than colour (layout.h AOV_*): what the first hit shows.
 
+// pack_rgba8 under FLAG_EXPLAIN_ROUND (to nearest) and FLAG_EXPLAIN_NO_CLAMP
+// (each channel's value taken modulo 256, as a cast to an 8-bit type wraps).
+uint explained_rgba8(vec3 c) {
+    bool round_it = (frame.flags & FLAG_EXPLAIN_ROUND) != 0u;
+    uint packed = 255u << 24u;
+    for (int i = 0; i < 3; i++) {
+        float v = 255.0f * c[i] + (round_it ? 0.5f : 0.0f);
+        uint u = uint(max(floor(v), 0.0f));
+        packed = packed | ((u & 255u) << (8u * uint(i)));
+    }
+    return packed;
+}
+
 // floor(255 c) per channel (truncation, as the official renders), alpha 255.
 uint pack_rgba8(vec3 c) {
+    if (HAS_EXPLAIN && (frame.flags & (FLAG_EXPLAIN_ROUND | FLAG_EXPLAIN_NO_CLAMP)) != 0u) {
+        return explained_rgba8(c);
+    }
     precise float r = floor(255.0f * c.x);
     precise float g = floor(255.0f * c.y);
     precise float b = floor(255.0f * c.z);

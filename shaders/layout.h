@@ -115,7 +115,8 @@
 #define SPEC_AREA_LIGHTS 24       // an area light (LIGHT_AREA): its samples over the rectangle
 #define SPEC_DOF 25               // FLAG_DOF: the thin lens (camera.glsl)
 #define SPEC_COURSE_SAMPLING 26   // FLAG_COURSE_SAMPLING
-#define SPEC_COUNT 27
+#define SPEC_EXPLAIN 27           // a FLAG_EXPLAIN_* bit: `raycast explain`'s variants of the code
+#define SPEC_COUNT 28
 
 // Primitive.shape
 #define SHAPE_CUBE 0u
@@ -149,6 +150,16 @@
 #define FLAG_REFRACTION 16u // refracted rays through transparent materials, and their shadows
 #define FLAG_DOF 32u   // a thin lens: Frame.lens_radius and focal_distance (camera.glsl)
 #define FLAG_COURSE_SAMPLING 64u // the course's adaptive supersampling (course_sampling.glsl), not frame.spp
+// `raycast explain`'s variants: a student's mistake drawn on purpose, to
+// compare with their picture (host/src/explain/). Each only where
+// HAS_EXPLAIN (SPEC_EXPLAIN) keeps the code: a kernel specialised without
+// them, and the CPU build's lean copy, have none of it.
+#define FLAG_EXPLAIN_FLIP_NORMALS 65536u       // the shading normal reversed
+#define FLAG_EXPLAIN_UNTRANSPOSED_NORMALS 131072u // normals mapped by the inverse of object_from_world, not its transpose
+#define FLAG_EXPLAIN_NO_CAPS 262144u           // the cone's and cylinder's flat caps left out
+#define FLAG_EXPLAIN_ROUND 524288u             // the 8-bit value rounded to nearest, not floor(255 c)
+#define FLAG_EXPLAIN_NO_CLAMP 1048576u         // colours not clamped to [0, 1]; the 8-bit value wraps
+#define FLAG_EXPLAIN_ALL 2031616u              // every FLAG_EXPLAIN_* bit
 
 // Frame.texture_filter
 #define FILTER_NEAREST 0u

@@ -127,5 +127,8 @@ bool negligible(vec3 c) {
 }
 
 precise vec3 clamp3(vec3 c) {
+    if (HAS_EXPLAIN && (frame.flags & FLAG_EXPLAIN_NO_CLAMP) != 0u) {
+        return c;
+    }
     return vec3(clamp01(c.x), clamp01(c.y), clamp01(c.z));
 }

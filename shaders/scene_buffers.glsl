@@ -126,6 +126,7 @@ layout(constant_id = SPEC_MESHES) const bool HAS_MESHES = true;
 layout(constant_id = SPEC_COURSE_SAMPLING) const bool HAS_COURSE_SAMPLING = true;
 layout(constant_id = SPEC_AREA_LIGHTS) const bool HAS_AREA_LIGHTS = true;
 layout(constant_id = SPEC_DOF) const bool HAS_DOF = true;
+layout(constant_id = SPEC_EXPLAIN) const bool HAS_EXPLAIN = true;
 // The walk's form (layout.h): its levels in arrays unless LEVELS_IN_REGISTERS,
 // then REGISTER_LEVELS of them in registers (used only in comparisons with
 // a variable, for naga's sake as above).

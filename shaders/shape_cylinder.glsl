@@ -4,6 +4,9 @@
 
 // Flat cap {y = s, x^2 + z^2 <= 0.25} with normal (0, ny, 0).
 ShapeHit cap(ShapeHit best, Ray r, float s, float ny) {
+    if (HAS_EXPLAIN && (frame.flags & FLAG_EXPLAIN_NO_CAPS) != 0u) {
+        return best;
+    }
     precise float t = plane_t(r, 1, s);
     precise float x = r.origin.x + t * r.direction.x;
     precise float z = r.origin.z + t * r.direction.z;

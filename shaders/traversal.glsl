@@ -3,6 +3,21 @@
 // sphere bounds, the primitive test it keeps the nearest of, and how far
 // a shadow or mirror ray starts from the surface it leaves.
 
+// The normal rule (exact.glsl transform_normal), or under
+// FLAG_EXPLAIN_UNTRANSPOSED_NORMALS a student's mistake: the normal mapped
+// as a vector is, by the inverse of object_from_world (world_from_object),
+// rather than by its transpose. For `raycast explain` only: not exact.
+precise vec3 explained_normal(mat4 object_from_world, vec3 n) {
+    if (HAS_EXPLAIN && (frame.flags & FLAG_EXPLAIN_UNTRANSPOSED_NORMALS) != 0u) {
+        vec3 a = xyz(object_from_world[0]);
+        vec3 b = xyz(object_from_world[1]);
+        vec3 c = xyz(object_from_world[2]);
+        vec3 bc = cross(b, c);
+        return vec3(dot(bc, n), dot(cross(c, a), n), dot(cross(a, b), n)) / dot(a, bc);
+    }
+    return transform_normal(object_from_world, n);
+}
+
 precise float max_abs3(vec3 v) {
     return max_f(max_f(abs(v.x), abs(v.y)), abs(v.z));
 }
@@ -529,7 +544,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         // The normal in the world: in the primitive's group, then by the
         // normal rule level by level back up (unit at the end).
         Primitive hit_primitive = primitive_at(best.item);
-        precise vec3 n_world = transform_normal(hit_primitive.object_from_world, best.n_object);
+        precise vec3 n_world = explained_normal(hit_primitive.object_from_world, best.n_object);
         if (HAS_INSTANCES) {
             if (LEVELS_IN_REGISTERS) {
                 // The same order, deepest first, over the scene's levels.
@@ -537,17 +552,20 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                     uint l = REGISTER_LEVELS - i;
                     if (l <= best_level) {
                         uint placed = (((unsaved >> l) & 1u) != 0u) ? level_instance[l] : best_instance[l];
-                        n_world = transform_normal(instance_at(placed).object_from_parent, n_world);
+                        n_world = explained_normal(instance_at(placed).object_from_parent, n_world);
                     }
                 }
             } else {
                 for (uint l = best_level; l > 0u; l--) {
                     uint placed = (((unsaved >> l) & 1u) != 0u) ? level_instance[l] : best_instance[l];
-                    n_world = transform_normal(instance_at(placed).object_from_parent, n_world);
+                    n_world = explained_normal(instance_at(placed).object_from_parent, n_world);
                 }
             }
         }
         best.normal = unit(n_world);
+        if (HAS_EXPLAIN && (frame.flags & FLAG_EXPLAIN_FLIP_NORMALS) != 0u) {
+            best.normal = -best.normal;
+        }
         best.material = hit_primitive.material;
         best.shape = hit_primitive.shape;
     } else {

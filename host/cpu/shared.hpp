@@ -193,6 +193,7 @@ const bool HAS_MESHES = RAYCAST_CPU_ALL;
 const bool HAS_COURSE_SAMPLING = RAYCAST_CPU_ALL;
 const bool HAS_AREA_LIGHTS = RAYCAST_CPU_ALL;
 const bool HAS_DOF = true;
+const bool HAS_EXPLAIN = RAYCAST_CPU_ALL;
 // The walk's levels in arrays (layout.h, SPEC_LEVELS_IN_REGISTERS): the
 // CPU build is compiled once for every scene, so it cannot hold a scene's
 // count of levels; the device's register form computes the same bits

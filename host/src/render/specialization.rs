@@ -49,6 +49,7 @@ impl Specialization {
             layout::SPEC_COURSE_SAMPLING,
             layout::SPEC_AREA_LIGHTS,
             layout::SPEC_REFRACTION,
+            layout::SPEC_EXPLAIN,
         ]
         .iter()
         .all(|&id| !self.keeps[id as usize])
@@ -105,6 +106,7 @@ const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_AREA_LIGHTS, "area lights"),
     (layout::SPEC_DOF, "depth of field"),
     (layout::SPEC_COURSE_SAMPLING, "the course's adaptive supersampling"),
+    (layout::SPEC_EXPLAIN, "explain's variants"),
 ];
 
 /// Every feature constant by name, in the order of their ids: the shapes'
@@ -207,6 +209,7 @@ impl SceneFeatures {
             (layout::SPEC_REFRACTION, flag(layout::FLAG_REFRACTION)),
             (layout::SPEC_AREA_LIGHTS, self.area_lights),
             (layout::SPEC_DOF, flag(layout::FLAG_DOF)),
+            (layout::SPEC_EXPLAIN, flag(layout::FLAG_EXPLAIN_ALL)),
         ] {
             on[id as usize] = value;
         }

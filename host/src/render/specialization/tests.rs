@@ -65,7 +65,7 @@ fn specialization_keeps_what_the_scene_can_reach() {
         "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
          leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
          mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori, meshes, \
-         refraction, area lights, depth of field, the course's adaptive supersampling; the walk's 2 levels in registers"
+         refraction, area lights, depth of field, the course's adaptive supersampling, explain's variants; the walk's 2 levels in registers"
     );
     // The CPU build's lean copy draws it; never everything.
     assert!(Specialization::of(&d, &d.frame).cpu_lean());
