@@ -1445,6 +1445,55 @@ fn render_like_takes_the_pictures_size_and_the_course_settings() {
     assert_eq!(std::fs::read(dir.join("b.png")).unwrap(), std::fs::read(dir.join("c.png")).unwrap());
 }
 
+/// `explain`: raycast's own picture gives no finding (exit 0); the same
+/// picture with the sphere painted black gives missing geometry on the
+/// sphere first (exit 4), its `trace` command, `--json` and the annotated
+/// picture (`-o`, a legend below the picture); it draws at the picture's
+/// size, so it takes no --width (a usage error). Rules: the exit codes, the
+/// cause and the sizes.
+#[test]
+fn explain_tells_what_differs() {
+    let dir = empty_dir("explain");
+    let scene = repo().join("scenes/default.xml");
+    let scene = scene.to_str().unwrap();
+    let o = raycast_at(&dir, &["render", "--backend", "cpu", scene, "-o", "own.png"]);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = raycast_at(&dir, &["explain", scene, "own.png"]);
+    let (out, err) = text(&o);
+    assert!(o.status.success() && out.contains("no finding"), "{out}{err}");
+    // The sphere black: the ids of the picture say where it is.
+    let o = raycast_at(&dir, &["render", "--backend", "cpu", scene, "--aov", "id", "-o", "id.png"]);
+    assert!(o.status.success());
+    let ids = raycast::image_io::read_picture(&dir.join("id.png")).unwrap();
+    let mut mine = raycast::image_io::read_picture(&dir.join("own.png")).unwrap();
+    let (x, y) = (256usize, 192usize);
+    let probe = ids.data[(y * 512 + x) * 3..][..3].to_vec();
+    let mut painted = 0;
+    for i in 0..512 * 384 {
+        if ids.data[i * 3..][..3] == probe[..] {
+            mine.data[i * 3..][..3].copy_from_slice(&[0, 0, 0]);
+            painted += 1;
+        }
+    }
+    assert!(painted > 1000, "the centre pixel's primitive covers {painted} pixels");
+    raycast::image_io::write_png(&dir.join("mine.png"), &mine).unwrap();
+    let o = raycast_at(&dir, &["explain", scene, "mine.png", "-o", "annotated.png"]);
+    let (out, err) = text(&o);
+    assert_eq!(o.status.code(), Some(4), "{out}{err}");
+    assert!(out.contains("1. surfaces missing") && out.contains("see: raycast trace "), "{out}");
+    let annotated = raycast::image_io::read_picture(&dir.join("annotated.png")).unwrap();
+    assert!(annotated.width == 512 && annotated.height > 384, "{}x{}", annotated.width, annotated.height);
+    let o = raycast_at(&dir, &["explain", scene, "mine.png", "--json"]);
+    let json: serde_json::Value = serde_json::from_str(text(&o).0.trim()).unwrap();
+    assert_eq!(json["findings"][0]["cause"], "missing-geometry", "{json}");
+    assert_eq!(json["passes"], false);
+    // The size is the picture's.
+    let small = raycast::image_io::Rgb8 { width: 64, height: 48, data: vec![0; 64 * 48 * 3] };
+    raycast::image_io::write_png(&dir.join("small.png"), &small).unwrap();
+    let o = raycast_at(&dir, &["explain", scene, "small.png", "--width", "512"]);
+    assert_fails(&o, 2, "--width");
+}
+
 /// `render --watch` renders again when the scene file or one of its
 /// textures changes; a broken scene is reported, leaves the last picture as
 /// it was, and the watch goes on to render the mended one.

@@ -265,6 +265,8 @@ impl Case {
             supersample: self.sampled.map_or(Supersample::default(), |s| s.supersample),
             texture_filter: self.sampled.map_or(TextureFilter::default(), |s| s.texture_filter),
             because: self.label(),
+            max_fraction: MAX_FRACTION,
+            min_psnr: self.sampled.map(|s| s.min_psnr),
         };
         let settings = look.apply(&RenderSettings::default());
         frame::build(&scene, &settings)
@@ -335,6 +337,12 @@ pub struct CourseLook {
     /// How it was told apart, for people: "the corpus's reference of
     /// test_fun/robot", "a 1024x768 picture".
     pub because: String,
+    /// The rule a picture drawn so meets against the reference: at most this
+    /// share of pixels off by more than TOLERANCE (a corpus case's measured
+    /// allowance, else MAX_FRACTION), or, for a sampled reference, at least
+    /// `min_psnr` dB.
+    pub max_fraction: f64,
+    pub min_psnr: Option<f64>,
 }
 
 impl CourseLook {
@@ -355,13 +363,15 @@ impl CourseLook {
     }
 }
 
-/// How the course drew the picture at `reference`, `width` x `height`: as
-/// its case where it is one of the corpus's references (by its folder and
-/// name: `bench/Illuminate/test_fun_robot.png`), at its full size; else
-/// the course's way for the size: its 1024x768 renders with the adaptive
-/// supersampling and bilinear filter of its extra credit, the others one
-/// sample a pixel, shadows, reflections and textures on.
-pub fn course_look(reference: &Path, width: u32, height: u32) -> CourseLook {
+/// How the course drew the picture at `reference`, `width` x `height`, of
+/// `scene` (where known): as its case where it is one of the corpus's
+/// references (by its folder and name:
+/// `bench/Illuminate/test_fun_robot.png`), at its full size; else the
+/// course's way for the scene and the size: local Phong only for a scene of
+/// the corpus's test_unit and test_intersect folders, its 1024x768 renders
+/// with the adaptive supersampling and bilinear filter of its extra credit,
+/// the others one sample a pixel, shadows, reflections and textures on.
+pub fn course_look(scene: Option<&Path>, reference: &Path, width: u32, height: u32) -> CourseLook {
     let folder = reference.parent().and_then(Path::file_name).and_then(|f| f.to_str()).unwrap_or("");
     let stem = reference.file_stem().and_then(|f| f.to_str()).unwrap_or("");
     let look = |aov, features, spp, supersample, texture_filter, because: String| CourseLook {
@@ -373,18 +383,28 @@ pub fn course_look(reference: &Path, width: u32, height: u32) -> CourseLook {
         supersample,
         texture_filter,
         because,
+        max_fraction: MAX_FRACTION,
+        min_psnr: None,
     };
     for &(group, name, s) in SAMPLED {
         if folder == "Illuminate" && stem == format!("{group}_{name}") {
             let because = format!("the corpus's reference of {group}/{name}");
-            return look(Aov::Color, true, s.spp, s.supersample, s.texture_filter, because);
+            let look = look(Aov::Color, true, s.spp, s.supersample, s.texture_filter, because);
+            return CourseLook { min_psnr: Some(s.min_psnr), ..look };
         }
     }
     for (group, aov, features, bench) in PLAN.iter().map(|p| (p.0, p.1, p.2, p.5)) {
         if let Some(name) = stem.strip_prefix(group).and_then(|n| n.strip_prefix('_')).filter(|_| folder == bench) {
             let because = format!("the corpus's reference of {group}/{name}");
-            return look(aov, features, 1, Supersample::Pattern, TextureFilter::Nearest, because);
+            let look = look(aov, features, 1, Supersample::Pattern, TextureFilter::Nearest, because);
+            let allowed = ALLOWANCES.iter().find(|a| a.0 == format!("{bench}/{stem}")).map(|a| a.1);
+            return CourseLook { max_fraction: allowed.unwrap_or(MAX_FRACTION), ..look };
         }
+    }
+    let scene_folder = scene.and_then(Path::parent).and_then(Path::file_name).and_then(|f| f.to_str());
+    if let Some(group) = scene_folder.filter(|g| ["test_unit", "test_intersect"].contains(g)) {
+        let because = format!("a {width}x{height} picture of a scene of the corpus's {group}");
+        return look(Aov::Color, false, 1, Supersample::Pattern, TextureFilter::Nearest, because);
     }
     let because = format!("a {width}x{height} picture");
     if (width, height) == (1024, 768) {
@@ -581,27 +601,30 @@ mod tests {
     /// another size one sample a pixel. Rule: exact settings.
     #[test]
     fn the_course_look_follows_the_reference() {
-        let robot = course_look(Path::new("c/bench/Illuminate/test_fun_robot.png"), 1024, 768);
+        let robot = course_look(None, Path::new("c/bench/Illuminate/test_fun_robot.png"), 1024, 768);
         assert_eq!(
             (robot.supersample, robot.texture_filter, robot.features, robot.aov),
             (Supersample::Course, TextureFilter::Course, true, Aov::Color)
         );
         assert_eq!(robot.because, "the corpus's reference of test_fun/robot");
-        let dof = course_look(Path::new("bench/Illuminate/test_dof_dof.png"), 1024, 768);
+        let dof = course_look(None, Path::new("bench/Illuminate/test_dof_dof.png"), 1024, 768);
         assert_eq!((dof.spp, dof.supersample, dof.width), (16, Supersample::Pattern, 1024));
-        let unit = course_look(Path::new("x/bench/grading_illuminate/test_unit_unit_cone.png"), 512, 384);
+        let unit = course_look(None, Path::new("x/bench/grading_illuminate/test_unit_unit_cone.png"), 512, 384);
         assert_eq!((unit.features, unit.aov, unit.spp), (false, Aov::Color, 1), "test_unit: local Phong only");
-        let lit = course_look(Path::new("bench/grading_illuminate/test_light_point_light_1.png"), 512, 384);
+        let lit = course_look(None, Path::new("bench/grading_illuminate/test_light_point_light_1.png"), 512, 384);
         assert!(lit.features);
-        let normals = course_look(Path::new("bench/intersect_normal_color/test_unit_unit_cube.png"), 1024, 768);
+        let normals = course_look(None, Path::new("bench/intersect_normal_color/test_unit_unit_cube.png"), 1024, 768);
         assert_eq!((normals.aov, normals.supersample), (Aov::Normal, Supersample::Pattern));
         // Not the corpus's: by size.
-        let big = course_look(Path::new("mine/official.png"), 1024, 768);
+        let big = course_look(None, Path::new("mine/official.png"), 1024, 768);
         assert_eq!((big.supersample, big.because.as_str()), (Supersample::Course, "a 1024x768 picture"));
-        let small = course_look(Path::new("mine/official.png"), 640, 480);
+        let small = course_look(None, Path::new("mine/official.png"), 640, 480);
         assert_eq!((small.supersample, small.spp, small.width, small.height), (Supersample::Pattern, 1, 640, 480));
+        // A picture of a test_unit scene: local Phong only, as its references.
+        let unit = course_look(Some(Path::new("c/test_unit/unit_cone.xml")), Path::new("mine.png"), 512, 384);
+        assert!(!unit.features, "{}", unit.because);
         // A file named like a reference outside its folder is not one.
-        let elsewhere = course_look(Path::new("mine/test_unit_unit_cone.png"), 512, 384);
+        let elsewhere = course_look(None, Path::new("mine/test_unit_unit_cone.png"), 512, 384);
         assert!(elsewhere.features);
     }
 }

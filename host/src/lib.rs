@@ -117,6 +117,7 @@ pub mod cli;
 pub mod conformance;
 pub mod cpu;
 pub mod error;
+pub mod explain;
 pub mod frame;
 pub mod gen;
 pub mod gpu;

@@ -5,7 +5,7 @@ use crate::cli::options::*;
 use crate::error::Error;
 use crate::frame::FrameData;
 use crate::output::*;
-use crate::scene::{FlattenLimits, Scene};
+use crate::scene::{FlattenLimits, ParseOptions, Scene};
 use crate::source::*;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -19,10 +19,13 @@ pub(crate) struct Prepared {
 
 /// `scene` (None: the embedded default scene) loaded and packed as `o` asks.
 pub(crate) fn prepare(scene: Option<&Path>, o: &RenderOptions) -> Result<Prepared, Error> {
-    let settings = o.settings();
+    let (settings, like) = o.settings_for(scene);
     settings.validate().map_err(Error::usage)?;
+    if let Some(said) = like {
+        detail!("{said}");
+    }
     let start = Instant::now();
-    let parse = o.parse_options();
+    let parse = ParseOptions { skip_textures: !settings.textures, ..o.parse_options() };
     let scene = load_scene(scene, &parse, &FlattenLimits { max_primitives: o.max_primitives })?;
     let data = pack(&scene, &settings)?;
     Ok(Prepared { scene, data, load: start.elapsed() })

@@ -12,6 +12,7 @@ mod check;
 mod compare;
 mod conformance;
 mod devices;
+mod explain;
 mod gen;
 mod info;
 mod mitsuba;
@@ -60,6 +61,12 @@ pub enum Command {
     /// Compare two pictures (say, your render and a course reference): how many
     /// pixels differ by more than a tolerance, the first and the worst.
     Compare(compare::CompareArgs),
+    /// Why a picture differs from raycast's render of its scene: the likely causes, where, and how well each fits.
+    ///
+    /// raycast draws its own reference as the course drew the picture's size, and tries the mistakes it knows
+    /// (a lighting term left out or doubled, flipped normals, a texture upside down, half a pixel off, …), each
+    /// drawn on purpose: the one the picture matches where the reference does not is the likely cause.
+    Explain(explain::ExplainArgs),
     /// Run shader unit tests (tests/shaders/*.toml by default) on the device and the CPU build.
     ShaderTest(shader_test::ShaderTestArgs),
     /// Follow one sample of one pixel through the shared code (its CPU build), step by step: each ray and what it meets, each light's term and shadow ray, each level's colour and mirror weight.
@@ -103,6 +110,7 @@ pub fn run(cli: Cli) -> Result<(), crate::error::Error> {
         Command::Render(args) => render::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Compare(args) => compare::run(&args),
+        Command::Explain(args) => explain::run(&args),
         Command::Preview(args) => preview::run(&args),
         Command::Info(args) => info::run(&args),
         Command::Trace(args) => trace::run(&args),

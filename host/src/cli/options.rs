@@ -121,6 +121,18 @@ pub struct RenderOptions {
     pub max_primitives: usize,
     #[command(flatten)]
     pub kernel: KernelOptions,
+    /// `render --like PNG`: each scene drawn as the course drew PNG, in
+    /// place of the picture's options (`settings_for`).
+    #[arg(skip)]
+    pub like: Option<Like>,
+}
+
+/// A picture to draw like (`render --like`): its path and size.
+#[derive(Clone, Debug)]
+pub struct Like {
+    pub png: PathBuf,
+    pub width: u32,
+    pub height: u32,
 }
 
 /// The device and the kernel of the commands that render on a device
@@ -248,6 +260,29 @@ impl RenderOptions {
     /// and not at all under `--no-textures`.
     pub fn parse_options(&self) -> ParseOptions {
         ParseOptions { assets: self.assets.clone(), skip_textures: self.no_textures }
+    }
+
+    /// The settings for `scene`: these options', or with `--like` the
+    /// course's for its picture and the scene (`conformance::course_look`),
+    /// with what chose them for `-v`.
+    pub fn settings_for(&self, scene: Option<&Path>) -> (RenderSettings, Option<String>) {
+        let settings = self.settings();
+        let Some(like) = &self.like else { return (settings, None) };
+        let look = crate::conformance::course_look(scene, &like.png, like.width, like.height);
+        let sampling = match look.supersample {
+            Supersample::Course => "the course's adaptive supersampling".to_string(),
+            Supersample::Pattern => format!("{} sample{} a pixel", look.spp, if look.spp == 1 { "" } else { "s" }),
+        };
+        let view = if look.aov == Aov::Color { String::new() } else { format!(", the {} view", look.aov.name()) };
+        let lit = if look.features { "shadows, reflections and textures on" } else { "local Phong only" };
+        let said = format!(
+            "like {}: {}x{}, {sampling}{view}, {lit} (as the course drew {})",
+            like.png.display(),
+            look.width,
+            look.height,
+            look.because
+        );
+        (look.apply(&settings), Some(said))
     }
 }
 

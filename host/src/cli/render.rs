@@ -81,34 +81,12 @@ pub struct RenderArgs {
 }
 
 impl RenderArgs {
-    /// These arguments with the picture's settings the course drew `png`
-    /// with (`conformance::course_look`), said with -v.
+    /// These arguments drawing each scene as the course drew `png`
+    /// (`RenderOptions::like`).
     fn like(&self, png: &Path) -> Result<RenderArgs, Error> {
         let reference = image_io::read_picture(png)?;
-        let look = crate::conformance::course_look(png, reference.width, reference.height);
         let mut args = self.clone();
-        let o = &mut args.render;
-        (o.width, o.height, o.aov, o.spp) = (look.width, look.height, look.aov, look.spp);
-        (o.supersample, o.texture_filter) = (look.supersample, look.texture_filter);
-        (o.no_shadows, o.no_reflections, o.no_textures) = (!look.features, !look.features, !look.features);
-        detail!(
-            "like {}: {}x{}, {}{}, {} (as the course drew {})",
-            png.display(),
-            look.width,
-            look.height,
-            match look.supersample {
-                crate::frame::Supersample::Course => "the course's adaptive supersampling".to_string(),
-                crate::frame::Supersample::Pattern =>
-                    format!("{} sample{} a pixel", look.spp, if look.spp == 1 { "" } else { "s" }),
-            },
-            if look.aov == crate::frame::Aov::Color {
-                String::new()
-            } else {
-                format!(", the {} view", look.aov.name())
-            },
-            if look.features { "shadows, reflections and textures on" } else { "local Phong only" },
-            look.because
-        );
+        args.render.like = Some(Like { png: png.to_path_buf(), width: reference.width, height: reference.height });
         Ok(args)
     }
 }

@@ -60,6 +60,47 @@ pub struct ShapeKind {
     pub mitsuba: MitsubaShape,
     /// Its surface in patches, for a mesh of it (`surface_mesh`).
     pub surface: &'static [Patch],
+    /// The part of it an object-space point on its surface lies on, as
+    /// `explain` names it: "top cap", "+x face"; "" for a shape of one part.
+    pub part: fn(DVec3) -> &'static str,
+}
+
+/// How near a flat part an object-space point must be to count as on it
+/// (the hit's distance is a float of the world's scale).
+const ON_PART: f64 = 1e-3;
+
+fn one_part(_: DVec3) -> &'static str {
+    ""
+}
+
+fn cube_face(p: DVec3) -> &'static str {
+    let a = p.abs();
+    match (a.x >= a.y && a.x >= a.z, a.y >= a.z) {
+        (true, _) if p.x > 0.0 => "+x face",
+        (true, _) => "-x face",
+        (false, true) if p.y > 0.0 => "+y face",
+        (false, true) => "-y face",
+        _ if p.z > 0.0 => "+z face",
+        _ => "-z face",
+    }
+}
+
+fn cylinder_part(p: DVec3) -> &'static str {
+    if (p.y - 0.5).abs() < ON_PART {
+        "top cap"
+    } else if (p.y + 0.5).abs() < ON_PART {
+        "bottom cap"
+    } else {
+        "body"
+    }
+}
+
+fn cone_part(p: DVec3) -> &'static str {
+    if (p.y + 0.5).abs() < ON_PART {
+        "cap"
+    } else {
+        "body"
+    }
 }
 
 /// A Mitsuba 3 shape that draws a canonical shape as it is.
@@ -136,6 +177,7 @@ pub static SHAPES: [ShapeKind; 5] = [
         pov_map: (0, " translate <-0.5, -0.5, 0>"),
         mitsuba: MitsubaShape::Cube,
         surface: &[],
+        part: cube_face,
     },
     ShapeKind {
         shape: Shape::Cone,
@@ -152,6 +194,7 @@ pub static SHAPES: [ShapeKind; 5] = [
         pov_map: (2, " translate <0, -0.5, 0>"),
         mitsuba: MitsubaShape::Mesh,
         surface: &[Patch::Grid { half_rows: false, at: cone_side }, Patch::Cap { y: -0.5 }],
+        part: cone_part,
     },
     ShapeKind {
         shape: Shape::Cylinder,
@@ -168,6 +211,7 @@ pub static SHAPES: [ShapeKind; 5] = [
         pov_map: (2, " translate <0, -0.5, 0>"),
         mitsuba: MitsubaShape::Cylinder,
         surface: &[Patch::Grid { half_rows: false, at: cylinder_side }, Patch::Cap { y: -0.5 }, Patch::Cap { y: 0.5 }],
+        part: cylinder_part,
     },
     ShapeKind {
         shape: Shape::Sphere,
@@ -184,6 +228,7 @@ pub static SHAPES: [ShapeKind; 5] = [
         pov_map: (1, ""),
         mitsuba: MitsubaShape::Sphere,
         surface: &[Patch::Grid { half_rows: true, at: sphere_at }],
+        part: one_part,
     },
     ShapeKind {
         shape: Shape::Torus,
@@ -202,6 +247,7 @@ pub static SHAPES: [ShapeKind; 5] = [
         pov_map: (0, " translate <-0.5, -0.5, 0>"),
         mitsuba: MitsubaShape::Mesh,
         surface: &[Patch::Grid { half_rows: true, at: torus_at }],
+        part: one_part,
     },
 ];
 
@@ -322,5 +368,14 @@ mod tests {
             sphere.reached_by(layout::SHAPE_SPHERE) && sphere.reached_by(99) && !sphere.reached_by(layout::SHAPE_MESH)
         );
         assert!(!Shape::Cube.kind().unwrap().reached_by(99));
+        // Parts by the object-space point.
+        let part = |s: Shape, x: f64, y: f64, z: f64| (s.kind().unwrap().part)(DVec3::new(x, y, z));
+        assert_eq!(part(Shape::Cone, 0.1, -0.5, 0.2), "cap");
+        assert_eq!(part(Shape::Cone, 0.2, 0.1, 0.0), "body");
+        assert_eq!(part(Shape::Cylinder, 0.1, 0.5, 0.0), "top cap");
+        assert_eq!(part(Shape::Cylinder, 0.1, -0.49995, 0.0), "bottom cap");
+        assert_eq!(part(Shape::Cube, 0.2, -0.5, 0.3), "-y face");
+        assert_eq!(part(Shape::Cube, 0.5, 0.1, -0.3), "+x face");
+        assert_eq!(part(Shape::Sphere, 0.5, 0.0, 0.0), "");
     }
 }

@@ -1,0 +1,86 @@
+//! Each variant found in a picture drawn with it; a picture drawn right
+//! gives no finding; the regions and the legend.
+
+use super::*;
+use crate::cpu::CpuRenderer;
+use crate::frame::RenderSettings;
+
+/// The default scene with a textured, scaled cube (so that every variant
+/// has something to change), at 96x72.
+fn scene() -> (Scene, FrameData) {
+    let dir = std::env::temp_dir().join(format!("raycast-explain-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A texture that is not the same mirrored either way.
+    let data = (0..8 * 8).flat_map(|i| [(i * 31 % 256) as u8, (i * 7 % 256) as u8, (255 - i * 3) as u8]).collect();
+    crate::image_io::write_png(&dir.join("t.png"), &Rgb8 { width: 8, height: 8, data }).unwrap();
+    let xml = crate::source::DEFAULT_SCENE.replace(
+        r#"<object type="primitive" name="cube">"#,
+        r#"<object type="primitive" name="cube"><texture file="t.png" u="2" v="1"/><blend v="0.6"/>"#,
+    );
+    assert_ne!(xml, crate::source::DEFAULT_SCENE);
+    let path = dir.join("s.xml");
+    std::fs::write(&path, xml).unwrap();
+    let scene = crate::scene::load(&path, &crate::scene::ParseOptions::default(), &Default::default()).unwrap();
+    let settings = RenderSettings { width: 96, height: 72, ..RenderSettings::default() };
+    let data = crate::frame::build(&scene, &settings).unwrap();
+    (scene, data)
+}
+
+fn picture(data: &FrameData, cpu: &CpuRenderer) -> Rgb8 {
+    cpu.render(data).unwrap().rgb8().unwrap()
+}
+
+/// Every variant that applies to the scene, drawn and explained, is the top
+/// finding (or drawn the same as the one found); the scene as it is, none.
+/// Rule: the cause, for every variant.
+#[test]
+fn each_variant_is_found_in_its_own_picture() {
+    let (scene, data) = scene();
+    let cpu = CpuRenderer::new().unwrap();
+    let right = explain(&scene, &data, &picture(&data, &cpu), &cpu, Rule::default(), &|_, _| {}).unwrap();
+    assert!(right.passes && right.findings.is_empty() && right.differing == 0, "{right:?}");
+    let mut missed = Vec::new();
+    for v in VARIANTS.iter().filter(|v| (v.applies)(&data)) {
+        let mut wrong = data.clone();
+        (v.apply)(&mut wrong);
+        let mine = picture(&wrong, &cpu);
+        let e = explain(&scene, &data, &mine, &cpu, Rule::default(), &|_, _| {}).unwrap();
+        if e.passes {
+            // Below the tolerance everywhere: the rounding alone may be.
+            assert!(v.id == "rounded" || e.differing == 0, "{}: {e:?}", v.id);
+            continue;
+        }
+        let top = e.findings.first();
+        if !top.is_some_and(|f| f.cause == v.id || f.also.iter().any(|a| a == v.id)) {
+            missed.push(format!("{}: {:?}", v.id, e.findings.iter().map(|f| &f.cause).collect::<Vec<_>>()));
+        }
+    }
+    assert!(missed.is_empty(), "variants not found first in their own pictures: {missed:#?}");
+}
+
+/// A picture with a primitive left black where the scene has it: missing
+/// geometry, on that primitive's shape, off its silhouette.
+#[test]
+fn background_where_a_surface_is_is_missing_geometry() {
+    let (scene, data) = scene();
+    let cpu = CpuRenderer::new().unwrap();
+    let reference = cpu.render(&data).unwrap();
+    let mut mine = reference.rgb8().unwrap();
+    let sphere = (0..reference.pixels.len())
+        .filter(|&i| scene.primitive(u64::from(reference.pixels[i].id)).is_some_and(|p| p.shape.name() == "sphere"))
+        .collect::<Vec<_>>();
+    assert!(sphere.len() > 50, "the sphere is in the picture");
+    for &i in &sphere {
+        mine.data[i * 3..][..3].copy_from_slice(&[0, 0, 0]);
+    }
+    let e = explain(&scene, &data, &mine, &cpu, Rule::default(), &|_, _| {}).unwrap();
+    let top = &e.findings[0];
+    assert_eq!(top.cause, "missing-geometry", "{e:?}");
+    assert_eq!((top.on[0].shape.as_str(), top.on[0].part.as_str()), ("sphere", ""), "{e:?}");
+    // The annotated picture: the size and a legend below, the finding's pixels in its colour.
+    let a = annotated(&mine, &e);
+    assert_eq!(a.width, 96);
+    assert!(a.height > 72);
+    let i = sphere[sphere.len() / 2];
+    assert_eq!(&a.data[i * 3..][..3], &[230, 25, 75]);
+}
