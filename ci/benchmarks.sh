@@ -46,6 +46,11 @@
 #                                       MITSUBA_PYTHON names another python with mitsuba).
 #   ci/benchmarks.sh peers [--rounds N] SCENE...
 #                                       the povray table, then the mitsuba table, in one run.
+#   ci/benchmarks.sh explain SCENE...
+#                                       `raycast explain` wall time per scene (median of 3) at
+#                                       512x384 on a picture drawn with the specular term left
+#                                       out of a copy of the shaders (every variant drawn on
+#                                       the CPU build), and its first finding.
 #   ci/benchmarks.sh passes [--all] SCENE...
 #                                       `build/raycast render SCENE --aov cost --backend cpu`:
 #                                       the passes of each camera ray's walk through the
@@ -181,6 +186,36 @@ wall() {
       n="$(sed ':a; s/\B[0-9]\{3\}\>/,&/; ta' <<<"$n")"
       echo "| ${s##*/} | $n | $(printf '%s\n' "${walls[@]}" | sort -n | sed -n 2p) s | $((rss / 1024)) MiB |"
     fi
+  done
+  rm -rf "$tmp"
+}
+
+# `raycast explain` per scene: a picture drawn with a copy of the shaders
+# whose specular term is left out (--shaders, the device), then explain's
+# wall time over 3 runs (median) and its first finding.
+explain_times() {
+  local tmp s file walls out t m first
+  tmp="$(mktemp -d)"
+  cp -r "$ROOT/shaders" "$tmp/shaders"
+  sed -i 's/term = term + s.specular \* highlight;/term = term;/' "$tmp/shaders/lighting.glsl"
+  # A 512x384 picture to draw like: the course's settings for each scene, as explain takes them.
+  "$RAYCAST" render -q --backend cpu -o "$tmp/like.png"
+  echo "\`ci/benchmarks.sh explain $*\`: \`$RAYCAST explain SCENE MINE.png --assets $CORPUS\` at 512x384, MINE.png drawn with the specular term left out of a copy of the shaders (\`render --shaders\`), run 3 times; the median wall time and the first finding."
+  echo
+  echo "| scene | wall time (median of 3) | peak RSS | first finding |"
+  echo "|---|---|---|---|"
+  for s in "$@"; do
+    file="$(scene_file "$s" "$tmp")"
+    "$RAYCAST" render -q --shaders "$tmp/shaders" --like "$tmp/like.png" "$file" --assets "$CORPUS" -o "$tmp/mine.png"
+    walls=() m=0
+    for _ in 1 2 3; do
+      out="$(/usr/bin/time -f 'TIME %e %M' "$RAYCAST" explain "$file" "$tmp/mine.png" --assets "$CORPUS" 2>&1 || true)"
+      read -r _ t rss <<<"$(grep '^TIME' <<<"$out")"
+      walls+=("$t")
+      if [ "$rss" -gt "$m" ]; then m="$rss"; fi
+    done
+    first="$(grep -m1 '^1\. ' <<<"$out" | sed 's/^1\. //; s/ (.*//')"
+    echo "| ${s##*/} | $(printf '%s\n' "${walls[@]}" | sort -n | sed -n 2p) s | $((m / 1024)) MiB | ${first:-no finding} |"
   done
   rm -rf "$tmp"
 }
@@ -565,6 +600,7 @@ case "${1:-}" in
   builds) shift; builds "$@"; exit ;;
   unpack-driver) shift; unpack_driver "$@"; exit ;;
   passes) shift; passes "$@"; exit ;;
+  explain) shift; explain_times "$@"; exit ;;
   preview) shift; preview_rates "$@"; exit ;;
   povray) shift; povray_side "$@"; exit ;;
   mitsuba) shift; mitsuba_side "$@"; exit ;;

@@ -13,7 +13,7 @@ pub const EXIT_CODES: [(u8, &str); 5] = [
     (1, "an error: a scene, a file, the device or the CPU build failed"),
     (2, "a usage error: a flag or a value out of range (clap's own, or found before any work)"),
     (3, "the Vulkan validation layer reported a message (--validate, RAYCAST_VALIDATION=1)"),
-    (4, "a comparison found differences (check, compare, conformance, shader-test)"),
+    (4, "a comparison found differences (check, compare, explain, conformance, shader-test)"),
 ];
 
 /// [`EXIT_CODES`] as the text `raycast --help` ends with.

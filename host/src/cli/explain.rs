@@ -145,12 +145,14 @@ fn percent(x: f64) -> String {
 
 /// "cone cap (scene.xml:42, :57) 81%, sphere (scene.xml:12) 19%".
 fn on_text(groups: &[Group], total: usize) -> String {
+    // The first, and the others of at least 1%, four at most.
+    let listed = groups.iter().enumerate().filter(|(k, g)| *k == 0 || g.pixels * 100 >= total).count().min(4);
     let shown: Vec<String> = groups
         .iter()
-        .take(4)
+        .take(listed)
         .map(|g| format!("{} {}", g.text(), percent(g.pixels as f64 / total.max(1) as f64)))
         .collect();
-    let more = if groups.len() > 4 { format!(", and {} more", groups.len() - 4) } else { String::new() };
+    let more = if groups.len() > listed { format!(", and {} more", groups.len() - listed) } else { String::new() };
     format!("{}{more}", shown.join(", "))
 }
 
