@@ -161,7 +161,7 @@ pub struct KernelOptions {
     /// Enable the Khronos validation layer (slow: not for timing); any
     /// message fails the command (exit 3; `conformance`: its case).
     /// Also on when RAYCAST_VALIDATION=1.
-    #[arg(long, help_heading = "Diagnostics")]
+    #[arg(long, help_heading = "Diagnostics", hide_short_help = true)]
     pub validate: bool,
     /// Longest one submission may take on the device [default: 600]
     ///
