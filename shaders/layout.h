@@ -141,6 +141,14 @@
 #define AOV_COST 4u   // the camera ray's walk: its passes on a heat scale (Frame.aov_scale z), hit or miss
 #define AOV_SAMPLES 6u  // the pixel's samples (camera rays) on the heat scale, dark red at COURSE_MAX_SAMPLES
 #define AOV_COST_ALL 5u // every ray of the pixel (camera, shadow, mirror) traced as in colour: their walks' passes summed, on the same scale
+// As AOV_COST_ALL, with what a GPU's lanes spend, for `bench --lanes`:
+// PixelOut.normal holds the passes of the camera ray, of the shadow rays and
+// of the mirror and refracted rays, and w all of them; t the bytes of the
+// hierarchy (nodes, instance records and instances) and id the
+// bytes of primitives the walks fetched. A mesh's own walk is counted in
+// (traversal.glsl primitive_hit): a pass a node, its nodes' and
+// triangles' bytes.
+#define AOV_LANES 7u
 
 // Frame.flags
 #define FLAG_SHADOWS 1u

@@ -35,6 +35,8 @@ struct SceneHit {
     uint shape;
     uint item;     // the hit primitive's index in `primitives`
     uint passes;   // the walk's passes (AOV_COST; 0 in a kernel without HAS_AOVS)
+    uint node_bytes; // AOV_LANES: the hierarchy's bytes the walk fetched (0 without HAS_AOVS)
+    uint prim_bytes; // AOV_LANES: the primitives' bytes it fetched
     TieWindow tie; // the walk's tie window (traversal.glsl, tie_add)
 };
 

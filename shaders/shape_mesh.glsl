@@ -90,6 +90,12 @@ struct MeshHit {
     float t;
     vec3 normal;
     vec2 uv;
+    // AOV_LANES (0 elsewhere): the walk's steps (a node taken off the
+    // stack) and the bytes they fetched: nodes, and each triangle tested
+    // with its three positions.
+    uint steps;
+    uint node_bytes;
+    uint triangle_bytes;
 };
 
 MeshHit intersect_mesh(uint root, Ray r, float t_max) {
@@ -97,6 +103,10 @@ MeshHit intersect_mesh(uint root, Ray r, float t_max) {
     best.t = t_max;
     best.normal = vec3(0.0f, 0.0f, 0.0f);
     best.uv = vec2(0.0f, 0.0f);
+    best.steps = 0u;
+    best.node_bytes = 0u;
+    best.triangle_bytes = 0u;
+    bool count = HAS_AOVS && frame.aov == AOV_LANES;
     uint best_triangle = NO_HIT;
     vec4 best_weights = vec4(0.0f);
     bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
@@ -107,6 +117,10 @@ MeshHit intersect_mesh(uint root, Ray r, float t_max) {
     while (top > 0) {
         top = top - 1;
         BvhNode node = mesh_nodes[stack[top]];
+        if (count) {
+            best.steps = best.steps + 1u;
+            best.node_bytes = best.node_bytes + NODE_BYTES;
+        }
         if (use_boxes && !box_hit(r, node.lo, node.hi, best.t)) {
             continue;
         }
@@ -117,6 +131,9 @@ MeshHit intersect_mesh(uint root, Ray r, float t_max) {
             stack[top + 1] = left_first ? node.first : node.first + 1u;
             top = top + 2;
             continue;
+        }
+        if (count) {
+            best.triangle_bytes = best.triangle_bytes + node.count * TRIANGLE_BYTES;
         }
         for (uint i = node.first; i < node.first + node.count; i++) {
             MeshTriangle tri = mesh_triangles[i];

@@ -94,6 +94,9 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
     uint lk = 0u;
     uint ln = 1u;
     uint passes = 0u; // every walk's, for AOV_COST_ALL
+    // AOV_LANES: the shadow rays' passes, and the bytes fetched.
+    uint shadow_passes = 0u;
+    uvec2 fetched = uvec2(0u, 0u);
     // Whether s.hit holds the camera ray's hit. Not `level == 0u`: with
     // that test Mesa 22.3's lavapipe stored 0 as the normal of a lane that
     // left the loop while a neighbour went on tracing mirror rays, its t,
@@ -113,9 +116,13 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
               h.id, h.passes, vec4(next.origin, 0.0f), vec4(next.direction, next_t_max), vec4(h.normal, h.t), vec4(0.0f));
         if (HAS_AOVS) {
             passes = passes + h.passes;
+            fetched = fetched + uvec2(h.node_bytes, h.prim_bytes);
         }
         bool path_ends = false;
         if (shadow) {
+            if (HAS_AOVS) {
+                shadow_passes = shadow_passes + h.passes;
+            }
             if (h.id == NO_HIT) {
                 color = color + pending;
             }
@@ -130,7 +137,7 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
             // The AOVs other than colour: the first hit's, black on a miss
             // but for the cost, which a miss has too. AOV_COST_ALL goes on
             // as colour does, its picture made at the end.
-            if (HAS_AOVS && frame.aov != AOV_COLOR && frame.aov != AOV_COST_ALL && frame.aov != AOV_SAMPLES &&
+            if (HAS_AOVS && frame.aov != AOV_COLOR && frame.aov != AOV_COST_ALL && frame.aov != AOV_LANES && frame.aov != AOV_SAMPLES &&
                 (h.id != NO_HIT || frame.aov == AOV_COST)) {
                 s.color = aov_color(frame.aov, ray, h);
                 break;
@@ -283,10 +290,19 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
         }
         s.color = c;
     }
-    if (HAS_AOVS && frame.aov == AOV_COST_ALL) {
+    if (HAS_AOVS && (frame.aov == AOV_COST_ALL || frame.aov == AOV_LANES)) {
         // Every ray's walk, on the cost's scale; PixelOut.normal's w gets the
         // same sum (pixel_out writes the hit's passes).
         s.color = heat_color(div_rn(float(passes), frame.aov_scale.z));
+        if (frame.aov == AOV_LANES) {
+            // pixel_out writes the hit's normal, t and id: a hit, whatever
+            // the camera ray met. The camera ray's passes are its hit's
+            // (s.hit, kept above); the mirror and refracted rays', the rest.
+            uint camera_passes = s.hit.passes;
+            s.hit.normal = vec3(float(camera_passes), float(shadow_passes), float(passes - camera_passes - shadow_passes));
+            s.hit.t = float(fetched.x);
+            s.hit.id = fetched.y;
+        }
         s.hit.passes = passes;
     }
     TRACE(TRACE_PIXEL, levels, 0u, pack_rgba8(s.color), passes, vec4(0.0f), vec4(0.0f), vec4(s.color, 0.0f), vec4(0.0f));

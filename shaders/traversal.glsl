@@ -3,6 +3,19 @@
 // sphere bounds, the primitive test it keeps the nearest of, and how far
 // a shadow or mirror ray starts from the surface it leaves.
 
+// What the walk fetches, in bytes, for AOV_LANES (layout.h: a BvhNode, its
+// box alone, an instance record's texel, an Instance, a Primitive, and a
+// MeshTriangle with its three MeshVertex positions; host/src/render/lanes.rs
+// checks them against the structs). A leaf's item
+// words are left out: a kernel specialised for leaves of one primitive
+// reads none where the CPU build reads one, and the two count alike.
+const uint NODE_BYTES = 48u;
+const uint NODE_BOX_BYTES = 32u;
+const uint RECORD_BYTES = 16u;
+const uint INSTANCE_BYTES = 80u;
+const uint PRIMITIVE_BYTES = 80u;
+const uint TRIANGLE_BYTES = 64u;
+
 // The normal rule (exact.glsl transform_normal), or under
 // FLAG_EXPLAIN_UNTRANSPOSED_NORMALS a student's mistake: the normal mapped
 // as a vector is, by the inverse of object_from_world (world_from_object),
@@ -177,6 +190,9 @@ precise float tie_reach(TieWindow w, float t_max) {
 // A mesh's hit keeps its texture coordinates (u, v, 0) where the others
 // keep their point (surface_uv reads them back).
 SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id, float t_max) {
+    if (HAS_AOVS) {
+        best.prim_bytes = best.prim_bytes + PRIMITIVE_BYTES;
+    }
     Ray local = ray_through(primitive_at(item).object_from_world, lr);
     ShapeHit h;
     bool mesh = HAS_MESHES && primitive_at(item).shape == SHAPE_MESH;
@@ -186,6 +202,13 @@ SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id, float t_
         h.t = m.t;
         h.normal = m.normal;
         mesh_uv = m.uv;
+        if (HAS_AOVS && frame.aov == AOV_LANES) {
+            // A lane that tests a mesh walks its triangles within this
+            // pass: for lane use, its steps count as passes.
+            best.passes = best.passes + m.steps;
+            best.node_bytes = best.node_bytes + m.node_bytes;
+            best.prim_bytes = best.prim_bytes + m.triangle_bytes;
+        }
     } else {
         h = intersect_shape(primitive_at(item).shape, local);
     }
@@ -251,6 +274,8 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
     best.shape = 0u;
     best.item = 0u;
     best.passes = 0u;
+    best.node_bytes = 0u;
+    best.prim_bytes = 0u;
     best.tie.t = T_FAR;
     best.tie.ids = uvec3(0u, 0u, 0u);
     bool use_boxes = (frame.flags & FLAG_NO_BVH) == 0u;
@@ -398,8 +423,14 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 level_first = child_first;
                 lr = inner;
                 entry = instance_at(k).root;
+                if (HAS_AOVS) {
+                    best.node_bytes = best.node_bytes + INSTANCE_BYTES;
+                }
             }
             BvhNode node = node_at(entry);
+            if (HAS_AOVS) {
+                best.node_bytes = best.node_bytes + NODE_BYTES;
+            }
             // Scenes whose every group fits one leaf (the recursive
             // spheres: a sphere and its child instances) have no inner
             // node, and their kernel leaves this block out (17% of
@@ -414,6 +445,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 vec4 hi0 = node_at(c0).hi;
                 vec4 lo1 = node_at(c1).lo;
                 vec4 hi1 = node_at(c1).hi;
+                if (HAS_AOVS) {
+                    best.node_bytes = best.node_bytes + 2u * NODE_BOX_BYTES;
+                }
                 if (!use_boxes || box_hit(lr, lo0, hi0, reach)) {
                     stack[top] = stack_word(c0, level);
 #ifdef ORDERED_WALK
@@ -435,6 +469,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 }
                 // Its box is one of the two just read (its instances' boxes are relative to it).
                 node = node_at(pushed);
+                if (HAS_AOVS) {
+                    best.node_bytes = best.node_bytes + NODE_BYTES - NODE_BOX_BYTES;
+                }
                 node.lo = (pushed == c1) ? lo1 : lo0;
                 node.hi = (pushed == c1) ? hi1 : hi0;
                 if (node.count == 0u) {
@@ -495,6 +532,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             // The CPU build's form (host/cpu/records_meet.hpp): the same
             // tests, a leaf's spheres several at a time, then the met pushed
             // in the loop's order (the lean copy in its own, walk_keys.hpp).
+            if (HAS_AOVS) {
+                best.node_bytes = best.node_bytes + RECORD_BYTES * (item_count - prim_count);
+            }
             for (uint base = 0u; base < item_count - prim_count; base += 32u) {
                 uint count = min(item_count - prim_count - base, 32u);
 #ifdef ORDERED_WALK
@@ -518,6 +558,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             }
 #else
             precise vec3 step = div_rn(xyz(leaf_hi) - xyz(leaf_lo), float(BOX_STEPS));
+            if (HAS_AOVS) {
+                best.node_bytes = best.node_bytes + RECORD_BYTES * (item_count - prim_count);
+            }
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's bound: a
                 // missed instance costs no pass. The bound is a box or a

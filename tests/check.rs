@@ -80,8 +80,8 @@ const MUTANT_SEED: u64 = 0x2545_f491_4f6c_dd1d;
 /// filter.
 fn random_settings(rng: &mut Rng) -> RenderSettings {
     const SIZES: [(u32, u32); 4] = [(8, 6), (31, 17), (40, 30), (64, 48)];
-    const AOVS: [Aov; 8] =
-        [Aov::Color, Aov::Color, Aov::Color, Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost, Aov::CostAll];
+    const AOVS: [Aov; 9] =
+        [Aov::Color, Aov::Color, Aov::Color, Aov::Normal, Aov::Depth, Aov::Id, Aov::Cost, Aov::CostAll, Aov::Lanes];
     let (width, height) = SIZES[rng.below(SIZES.len())];
     RenderSettings {
         width,
@@ -228,12 +228,13 @@ fn main() -> ExitCode {
             variants.push((sizes[0].0, sizes[0].1, Aov::Color, 4, TextureFilter::Bilinear));
         }
         // The depth AOV (its default range, from the scene's bounds) with
-        // two samples summed, and the id and both cost AOVs, small (one
-        // kernel: SPEC_AOVS).
+        // two samples summed, and the id, both cost AOVs and lane use, small
+        // (one kernel: SPEC_AOVS).
         variants.push((128, 96, Aov::Depth, 2, TextureFilter::Nearest));
         variants.push((128, 96, Aov::Id, 1, TextureFilter::Nearest));
         variants.push((128, 96, Aov::Cost, 1, TextureFilter::Nearest));
         variants.push((128, 96, Aov::CostAll, 1, TextureFilter::Nearest));
+        variants.push((128, 96, Aov::Lanes, 1, TextureFilter::Nearest));
         {
             // The hierarchy changes nothing: CPU with and without it.
             let label = format!("{name} Color 256x192 --no-bvh");

@@ -21,11 +21,14 @@ use crate::frame::{FrameData, RenderSettings};
 use crate::gen::{count_primitives, PrimitiveCounts};
 use growth::{growth, growth_fits, print_growth, print_growth_fits, GrowthFitJson};
 pub(crate) use rows::skipped;
-use rows::{command_line, median_time, ms, settings_text, Row, MARKDOWN_HEADER};
+use rows::{
+    command_line, lanes_markdown, lanes_text, median_time, ms, settings_text, LanesJson, Row, LANES_FOOTER,
+    LANES_HEADER, MARKDOWN_HEADER,
+};
 
 use crate::layout::PixelOut;
 use crate::measure::{peak_host_bytes, reset_peak_host};
-use crate::render::{BackendInfo, CutShort, Picture, Progress, Renderer, Told};
+use crate::render::{BackendInfo, CutShort, LaneUse, Picture, Progress, Renderer, Told, WARPS};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use crate::source::{pack, parse_scene, print_warnings, scene_label};
 use crate::units::{thousands, to_json};
@@ -95,6 +98,17 @@ pub struct BenchArgs {
     /// none (lavapipe), says so. With --json, a row's `kernel_statistics`.
     #[arg(long, conflicts_with_all = ["markdown", "versus"], help_heading = "Output")]
     pub kernel_stats: bool,
+    /// How well each scene's rays keep SIMT lanes busy
+    ///
+    /// Per scene, drawn once more with --aov lanes on the CPU build (the
+    /// device kernel's walk, pass for pass): each kind of ray's passes over
+    /// warps of 8x4 pixels (a GPU's 32 lanes) and 4x2 (lavapipe's 8), the
+    /// passes the lanes need over those their warps pay (Aila and Laine's
+    /// model: a warp costs its slowest lane), and the bytes of hierarchy and
+    /// primitives fetched per ray (docs/scale.md#lane-use). With --json a
+    /// line a scene (`lanes`); with --markdown a table after the results.
+    #[arg(long, conflicts_with = "versus", help_heading = "Timing")]
+    pub lanes: bool,
 }
 
 /// What `--kernel-stats` says where the driver reports no statistics.
@@ -335,6 +349,9 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
     // others go on (as `render`, `check` and `info`); the command fails at
     // the end, naming it. One scene's failure ends the command.
     let scene = std::cell::Cell::new(0);
+    // --lanes: each scene's lane use, drawn by the CPU build.
+    let lane_cpu = if args.lanes { Some(CpuRenderer::new()?) } else { None };
+    let mut lane_rows: Vec<(String, [LaneUse; 2])> = Vec::new();
     let batch = crate::progress::told("bench", |told| {
         each_named(&names, scene_label, |name| {
             scene.set(scene.get() + 1);
@@ -347,9 +364,21 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
                 row.frames.sort();
                 row.dispatch.sort();
             }
+            let lanes = match &lane_cpu {
+                Some(cpu) => {
+                    let mut drawn = loaded.data.clone();
+                    drawn.frame.aov = crate::layout::AOV_LANES;
+                    let (picture, _) = cpu.render_frame(&drawn, &|_| {})?;
+                    Some(WARPS.map(|warp| LaneUse::of(&picture, warp)))
+                }
+                None => None,
+            };
             if args.json {
                 for row in &rows {
                     crate::output::emit_line(&row.json(&settings, args.warmup))?;
+                }
+                if let Some(lanes) = &lanes {
+                    crate::output::emit_line(&to_json(&LanesJson { scene: &loaded.name, lanes }))?;
                 }
             } else if args.markdown {
                 for row in &rows {
@@ -368,6 +397,12 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
                 for row in &rows {
                     outln!("{}", row.human());
                 }
+                if let Some(lanes) = &lanes {
+                    outln!("{}", lanes_text(lanes));
+                }
+            }
+            if let Some(lanes) = lanes {
+                lane_rows.push((loaded.name.clone(), lanes));
             }
             all_rows.extend(rows);
             Ok(Ok(()))
@@ -384,6 +419,15 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
              cpu ÷ gpu: the CPU's frame median over the device's, and whether their pictures are identical (every buffer, bit for bit).",
             settings.width, settings.height, settings.spp
         );
+    }
+    if args.markdown && !lane_rows.is_empty() {
+        outln!();
+        outln!("{LANES_HEADER}");
+        for (scene, lanes) in &lane_rows {
+            outln!("{}", lanes_markdown(scene, lanes));
+        }
+        outln!();
+        outln!("{LANES_FOOTER}");
     }
     if args.growth && args.json {
         for g in growth(&all_rows) {

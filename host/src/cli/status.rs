@@ -45,7 +45,7 @@ pub(crate) fn print_rates(data: &FrameData, picture: &Picture, time: Duration) {
     detail!("{}", rate_line(data, picture, time));
     let what = match data.frame.aov {
         layout::AOV_COST => "a camera ray's walk takes",
-        layout::AOV_COST_ALL => "a pixel's rays walk",
+        layout::AOV_COST_ALL | layout::AOV_LANES => "a pixel's rays walk",
         _ => return,
     };
     detail!("{}", picture.passes_text(what));

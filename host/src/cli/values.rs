@@ -70,6 +70,9 @@ value_enum!(Aov {
     Aov::CostAll => "cost-all":
         "What all the pixel's rays cost (camera, shadow and mirror rays, traced as in colour): their walks' passes \
          summed, on the same scale, dark red from 256 passes on (render and check: --cost-max)",
+    Aov::Lanes => "lanes":
+        "As cost-all, with each kind of ray's passes and the bytes fetched in the pixel's record, for `bench \
+         --lanes` (docs/scale.md#lane-use)",
     Aov::Samples => "samples":
         "How many samples (camera rays) the pixel took, on the heat scale, dark red at 84 (the most `--supersample \
          course` takes); the colour is drawn as usual to decide them",

@@ -382,3 +382,31 @@ fn cost_all_sums_every_rays_walk() {
         assert_eq!(rgb(p), heat(totals[i] as f32 / 256.0), "pixel {i}: total {}", totals[i]);
     }
 }
+
+/// The lanes AOV splits CostAll's passes by kind of ray: camera (Cost's
+/// count), shadow and the rest, summing to CostAll's; its colour is
+/// CostAll's; bytes fetched are whole structs and grow with the walk.
+/// Rule: exact.
+#[test]
+fn lanes_split_every_rays_walk() {
+    use crate::frame::{build, Aov, RenderSettings};
+    let renderer = CpuRenderer::new().unwrap();
+    let scene = two_spheres();
+    let render = |aov: Aov| {
+        let settings = RenderSettings { width: 33, height: 33, aov, max_depth: 3, ..RenderSettings::default() };
+        renderer.render(&build(&scene, &settings).unwrap()).unwrap()
+    };
+    let (lanes, cost, all) = (render(Aov::Lanes), render(Aov::Cost), render(Aov::CostAll));
+    let mut shadowed = 0;
+    for (i, ((l, c), a)) in lanes.pixels.iter().zip(&cost.pixels).zip(&all.pixels).enumerate() {
+        let [camera, shadow, rest, total] = l.normal;
+        assert_eq!(camera, c.normal[3], "pixel {i}: the camera ray's passes are Cost's");
+        assert_eq!(total, a.normal[3], "pixel {i}: every ray's passes are CostAll's");
+        assert_eq!(camera + shadow + rest, total, "pixel {i}: the kinds sum to the total");
+        assert_eq!(rgb(l), rgb(a), "pixel {i}: drawn as CostAll");
+        assert!(l.t >= 0.0 && (l.t as u32).is_multiple_of(16), "pixel {i}: {} hierarchy bytes", l.t);
+        assert!(l.id.is_multiple_of(80), "pixel {i}: {} primitive bytes", l.id);
+        shadowed += usize::from(shadow > 0.0);
+    }
+    assert!(shadowed > 0, "shadow rays walk");
+}

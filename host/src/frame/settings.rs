@@ -48,6 +48,9 @@ pub enum Aov {
     /// How many samples (camera rays) the pixel took, on the heat scale, dark red at 84 (the most
     /// `--supersample course` takes); the colour is drawn as usual to decide them
     Samples,
+    /// As CostAll, with each kind of ray's passes and the bytes the walks
+    /// fetched in the pixel's record (layout.h AOV_LANES): `bench --lanes`.
+    Lanes,
 }
 
 impl Aov {
@@ -60,6 +63,7 @@ impl Aov {
             Aov::Id => "id",
             Aov::Cost => "cost",
             Aov::CostAll => "cost-all",
+            Aov::Lanes => "lanes",
             Aov::Samples => "samples",
         }
     }
@@ -73,6 +77,7 @@ impl Aov {
             Aov::Id => layout::AOV_ID,
             Aov::Cost => layout::AOV_COST,
             Aov::CostAll => layout::AOV_COST_ALL,
+            Aov::Lanes => layout::AOV_LANES,
             Aov::Samples => layout::AOV_SAMPLES,
         }
     }
@@ -81,7 +86,7 @@ impl Aov {
     /// ray's walk is a few passes, a pixel's rays in all several times that.
     pub fn default_cost_max(self) -> u32 {
         match self {
-            Aov::CostAll => 4 * COST_MAX,
+            Aov::CostAll | Aov::Lanes => 4 * COST_MAX,
             _ => COST_MAX,
         }
     }
@@ -257,7 +262,7 @@ impl RenderSettings {
             return Err(SettingsError("--depth-range is for --aov depth; this render is not one".to_string()));
         }
         match self.cost_max {
-            Some(_) if !matches!(self.aov, Aov::Cost | Aov::CostAll) => {
+            Some(_) if !matches!(self.aov, Aov::Cost | Aov::CostAll | Aov::Lanes) => {
                 return Err(SettingsError(
                     "--cost-max is for --aov cost or cost-all; this render is neither".to_string(),
                 ))

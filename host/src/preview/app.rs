@@ -752,6 +752,17 @@ impl Preview {
         match self.aov {
             Aov::Cost => outln!("pixel ({j}, {i}): its camera ray's walk took {} passes", p.normal[3]),
             Aov::CostAll => outln!("pixel ({j}, {i}): its rays' walks took {} passes in all", p.normal[3]),
+            Aov::Lanes => {
+                // Its record holds the split, not the hit (layout.h AOV_LANES).
+                let [camera, shadow, mirror, all] = p.normal;
+                outln!(
+                    "pixel ({j}, {i}): its rays' walks took {all} passes in all: camera {camera}, shadow {shadow}, \
+                     mirror and refracted {mirror}; they fetched {} bytes of hierarchy, {} of primitives",
+                    p.t,
+                    p.id
+                );
+                return Ok(());
+            }
             _ => {}
         }
         if p.id == NO_HIT {

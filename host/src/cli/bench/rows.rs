@@ -391,3 +391,65 @@ pub(crate) fn skipped(scene: &str, backend: Option<&str>, counts: PrimitiveCount
         );
     }
 }
+
+/// One line of `bench --lanes --json`: a scene's lane use in each warp shape.
+#[derive(Serialize)]
+pub(super) struct LanesJson<'a> {
+    pub(super) scene: &'a str,
+    pub(super) lanes: &'a [crate::render::LaneUse; 2],
+}
+
+/// A share as `0.81`, or `–` where there is no such ray.
+fn share(x: Option<f64>) -> String {
+    x.map_or("–".to_string(), |x| format!("{x:.2}"))
+}
+
+/// `bench --lanes`'s lines under a scene.
+pub(super) fn lanes_text(lanes: &[crate::render::LaneUse; 2]) -> String {
+    let warp = |u: &crate::render::LaneUse| {
+        format!(
+            "{} lanes: camera {}, shadow {}, mirror {}, all {}",
+            u.lanes,
+            share(u.camera),
+            share(u.shadow),
+            share(u.mirror),
+            share(u.all)
+        )
+    };
+    format!(
+        "  lane use, {}; {}\n       per ray: {:.0} B of hierarchy, {:.0} B of primitives fetched",
+        warp(&lanes[0]),
+        warp(&lanes[1]),
+        lanes[0].node_bytes_per_ray,
+        lanes[0].primitive_bytes_per_ray
+    )
+}
+
+pub(super) const LANES_HEADER: &str = "\
+| scene | camera (32) | shadow (32) | mirror (32) | all (32) | camera (8) | all (8) | hierarchy B/ray | primitive B/ray |
+|---|---|---|---|---|---|---|---|---|";
+
+pub(super) const LANES_FOOTER: &str = "lane use: the passes a tile's lanes need over the passes its warp pays (its lanes × the tile's most), summed \
+    over the picture's tiles of 8x4 pixels (32 lanes, a GPU's warp) and 4x2 (8 lanes, lavapipe's AVX2), as the \
+    kernels lay pixels on lanes, per kind of ray and for all of a pixel's rays in turn (Aila and Laine's model: a warp steps as long as its slowest lane); drawn with \
+    `--aov lanes` on the CPU build, which walks as the device kernel does, pass for pass; bytes: the hierarchy's \
+    (nodes, instance records, instances) and the primitives' fetched by the walks, per ray traced (a mesh's own walk \
+    over its triangles within a pass counts a pass a node it takes, its bytes the nodes' and the triangles' with \
+    their positions).";
+
+/// A scene's row of the lanes table.
+pub(super) fn lanes_markdown(scene: &str, lanes: &[crate::render::LaneUse; 2]) -> String {
+    let [w32, w8] = lanes;
+    format!(
+        "| {} | {} | {} | {} | {} | {} | {} | {:.0} | {:.0} |",
+        short_name(scene),
+        share(w32.camera),
+        share(w32.shadow),
+        share(w32.mirror),
+        share(w32.all),
+        share(w8.camera),
+        share(w8.all),
+        w32.node_bytes_per_ray,
+        w32.primitive_bytes_per_ray
+    )
+}

@@ -1,0 +1,129 @@
+//! How well a kernel's rays keep SIMT lanes busy, from a picture drawn with
+//! AOV_LANES: the model GPU traversal papers use (Aila and Laine 2009). The
+//! lanes of a warp (a tile of pixels) step together, so a warp costs as
+//! many passes as its slowest lane; its use is the passes its lanes need
+//! over those it pays. Per kind of ray (camera, shadow, mirror) and for all
+//! of a pixel's rays, over tiles of 8x4 pixels (a 32-wide warp) or 8x1
+//! (lavapipe's 8 lanes of AVX2); and the bytes of hierarchy and primitives
+//! the walks fetched per ray.
+
+use super::Picture;
+use serde::Serialize;
+
+/// The lane use of one picture, for one warp shape.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LaneUse {
+    /// Lanes a warp: its tile's width times height.
+    pub lanes: u32,
+    /// Σ passes / Σ (lanes × the tile's most passes), over the tiles with
+    /// any such ray; None where the picture has none of that kind.
+    pub camera: Option<f64>,
+    pub shadow: Option<f64>,
+    pub mirror: Option<f64>,
+    /// Every ray of each pixel, in the order the kernel traces them.
+    pub all: Option<f64>,
+    /// Bytes of the hierarchy (nodes, instance records, instances) and of
+    /// primitives fetched, per ray traced.
+    pub node_bytes_per_ray: f64,
+    pub primitive_bytes_per_ray: f64,
+}
+
+/// The warps of the two widths `bench --lanes` reports, as tile_pixel
+/// lays a workgroup's invocations out: the first 32 cover 8x4 pixels, each
+/// 8 of them 4x2.
+pub const WARPS: [(u32, u32); 2] = [(8, 4), (4, 2)];
+
+impl LaneUse {
+    /// The lane use of `picture` (drawn with AOV_LANES) in warps of
+    /// `tile_w` x `tile_h` pixels (tiles past the picture's edge are
+    /// partial, their missing lanes idle, as a dispatch's are).
+    pub fn of(picture: &Picture, (tile_w, tile_h): (u32, u32)) -> LaneUse {
+        let (w, h) = (picture.width, picture.height);
+        let lanes = tile_w * tile_h;
+        // For camera, shadow, mirror, all: passes needed, passes paid.
+        let mut needed = [0u64; 4];
+        let mut paid = [0u64; 4];
+        for ty in (0..h).step_by(tile_h as usize) {
+            for tx in (0..w).step_by(tile_w as usize) {
+                let mut most = [0u64; 4];
+                for y in ty..(ty + tile_h).min(h) {
+                    for x in tx..(tx + tile_w).min(w) {
+                        let n = picture.pixels[(y * w + x) as usize].normal;
+                        for (k, &p) in n.iter().enumerate() {
+                            let p = p as u64;
+                            needed[k] += p;
+                            most[k] = most[k].max(p);
+                        }
+                    }
+                }
+                for k in 0..4 {
+                    paid[k] += u64::from(lanes) * most[k];
+                }
+            }
+        }
+        let share = |k: usize| (paid[k] > 0).then(|| needed[k] as f64 / paid[k] as f64);
+        let rays = picture.rays().max(1) as f64;
+        let node: f64 = picture.pixels.iter().map(|p| f64::from(p.t)).sum();
+        let prim: f64 = picture.pixels.iter().map(|p| f64::from(p.id)).sum();
+        LaneUse {
+            lanes,
+            camera: share(0),
+            shadow: share(1),
+            mirror: share(2),
+            all: share(3),
+            node_bytes_per_ray: node / rays,
+            primitive_bytes_per_ray: prim / rays,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layout::{self, PixelOut};
+
+    fn pixel(camera: f32, shadow: f32, mirror: f32) -> PixelOut {
+        PixelOut { normal: [camera, shadow, mirror, camera + shadow + mirror], t: 96.0, id: 160, rgba: 0, rays: 2 }
+    }
+
+    /// One tile whose lanes all take as long is used whole; one lane of 32
+    /// taking 4 passes where the rest take 1 uses (31 + 4) / (32 × 4); a
+    /// kind no pixel traces is None; bytes are a ray's mean. Rule: exact.
+    #[test]
+    fn lanes_pay_for_the_slowest() {
+        let even = Picture { width: 8, height: 4, pixels: vec![pixel(2.0, 1.0, 0.0); 32] };
+        let u = LaneUse::of(&even, (8, 4));
+        assert_eq!((u.camera, u.shadow, u.mirror, u.all), (Some(1.0), Some(1.0), None, Some(1.0)));
+        assert_eq!((u.node_bytes_per_ray, u.primitive_bytes_per_ray), (48.0, 80.0));
+        let mut one = even.clone();
+        one.pixels = vec![pixel(1.0, 0.0, 0.0); 32];
+        one.pixels[5] = pixel(4.0, 0.0, 0.0);
+        let u = LaneUse::of(&one, (8, 4));
+        assert_eq!(u.camera, Some(35.0 / 128.0));
+        // In 4x2 warps only the slow lane's pays: 3 whole, then (7 + 4) / 32.
+        let u = LaneUse::of(&one, (4, 2));
+        assert_eq!(u.camera, Some((24.0 + 11.0) / (24.0 + 32.0)));
+    }
+
+    /// The walk's byte counts (traversal.glsl NODE_BYTES and the rest) are
+    /// the structs' sizes.
+    #[test]
+    fn fetched_bytes_are_the_structs() {
+        use std::mem::size_of;
+        assert_eq!(size_of::<layout::BvhNode>(), 48);
+        assert_eq!(size_of::<layout::Instance>(), 80);
+        assert_eq!(size_of::<layout::Primitive>(), 80);
+        assert_eq!(size_of::<layout::MeshVertex>(), 32, "a vertex's position is half of it");
+        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/traversal.glsl")).unwrap();
+        for (name, size) in [
+            ("NODE_BYTES", size_of::<layout::BvhNode>()),
+            ("NODE_BOX_BYTES", 2 * 16),
+            ("RECORD_BYTES", 16),
+            ("INSTANCE_BYTES", size_of::<layout::Instance>()),
+            ("PRIMITIVE_BYTES", size_of::<layout::Primitive>()),
+            ("TRIANGLE_BYTES", size_of::<layout::MeshTriangle>() + 3 * size_of::<[f32; 4]>()),
+        ] {
+            assert!(text.contains(&format!("const uint {name} = {size}u;")), "{name} is not {size} in traversal.glsl");
+        }
+    }
+}
