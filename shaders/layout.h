@@ -116,7 +116,15 @@
 #define SPEC_DOF 25               // FLAG_DOF: the thin lens (camera.glsl)
 #define SPEC_COURSE_SAMPLING 26   // FLAG_COURSE_SAMPLING
 #define SPEC_EXPLAIN 27           // a FLAG_EXPLAIN_* bit: `raycast explain`'s variants of the code
-#define SPEC_COUNT 28
+// The walk's form, as SPEC_LEVELS_IN_REGISTERS: a leaf's met instance
+// records go on the stack as one entry, ITEM_INSTANCE | records << 8 |
+// mask (the texel of its first record, a bit a met record), taken a record
+// at a time, highest bit first: the order, and so the passes, of one entry
+// a record (traversal.glsl, walk). Set where every record's texel is below
+// RECORD_MASKS_TEXELS (render::Specialization); off in the C++ build.
+#define SPEC_RECORD_MASKS 28      // a bool
+#define RECORD_MASKS_TEXELS 524288u // 2^19: the texel and 8 mask bits fill the 27 index bits
+#define SPEC_COUNT 29
 
 // Primitive.shape
 #define SHAPE_CUBE 0u

@@ -18,7 +18,7 @@
 // (SPEC_COUNT): set, the host has drawn the pixels (`raycast preview
 // --backend cpu`: the CPU build, raycast_cpu_preview_rows) and the kernel
 // only shows their colours in the display image.
-#define SPEC_HOST_PIXELS 28
+#define SPEC_HOST_PIXELS 29
 
 struct PreviewFrame {
     // xy: this sample's offset from the pixel centre, in pixels (0, 0 for

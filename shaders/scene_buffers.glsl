@@ -132,6 +132,7 @@ layout(constant_id = SPEC_EXPLAIN) const bool HAS_EXPLAIN = true;
 // a variable, for naga's sake as above).
 layout(constant_id = SPEC_LEVELS_IN_REGISTERS) const bool LEVELS_IN_REGISTERS = false;
 layout(constant_id = SPEC_REGISTER_LEVELS) const uint REGISTER_LEVELS = 1u;
+layout(constant_id = SPEC_RECORD_MASKS) const bool RECORD_MASKS = false;
 layout(constant_id = SPEC_REFRACTION) const bool HAS_REFRACTION = true;
 
 // Arrays of one uint would take 16 bytes an element in std140: always storage.

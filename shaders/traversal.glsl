@@ -367,8 +367,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             }
             primitives_ahead = keyed.ahead[top];
 #endif
-            uint entry = stack[top] & STACK_ENTRY_MASK;
-            level = (stack[top] >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
+            uint word = stack[top];
+            uint entry = word & STACK_ENTRY_MASK;
+            level = (word >> STACK_LEVEL_SHIFT) & (MAX_LEVELS - 1u);
             if (LEVELS_IN_REGISTERS) {
                 // A select over the scene's levels: once the loop unrolls,
                 // every index is a constant and the arrays are registers
@@ -394,6 +395,19 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             if (HAS_INSTANCES && (entry & ITEM_INSTANCE) != 0u) {
                 // Enter the instance: its group's ray one level down.
                 uint k = entry & (ITEM_INSTANCE - 1u);
+                if (RECORD_MASKS) {
+                    // A leaf's met records (layout.h, SPEC_RECORD_MASKS):
+                    // the highest left, as the last of one entry a record
+                    // would be; the rest stay on the stack.
+                    uint met = k & 0xffu;
+                    uint n = uint(findMSB(met));
+                    met = met & ~(1u << n);
+                    if (met != 0u) {
+                        stack[top] = (word & ~0xffu) | met;
+                        top = top + 1;
+                    }
+                    k = leaf_record((k >> 8u) + n).w & (ITEM_INSTANCE - 1u) & ~RECORD_SPHERE;
+                }
                 Ray inner = ray_through(instance_at(k).object_from_parent, lr);
                 uint child = level + 1u;
                 uint child_first = level_first + instance_at(k).id_offset;
@@ -561,6 +575,11 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             if (HAS_AOVS) {
                 best.node_bytes = best.node_bytes + RECORD_BYTES * (item_count - prim_count);
             }
+            // With RECORD_MASKS, the met records as one entry: a store to
+            // the stack a leaf, not a record (lavapipe stores lane by
+            // lane): 5% off the dispatch at recursive-spheres depths 8
+            // and 10 (BENCHMARKS.md, "A kernel for lanes").
+            uint met_mask = 0u;
             for (uint n = prim_count; n < item_count; n++) {
                 // Pushed only when the ray meets the instance's bound: a
                 // missed instance costs no pass. The bound is a box or a
@@ -576,9 +595,17 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                     meets = meets || box_hit(lr, vec4(lo, 0.0f), vec4(record_hi(record, leaf_hi, step), 0.0f), reach);
                 }
                 if (meets) {
-                    stack[top] = stack_word(record.w & ~RECORD_SPHERE, level);
-                    top = top + 1;
+                    if (RECORD_MASKS) {
+                        met_mask = met_mask | (1u << (n - prim_count));
+                    } else {
+                        stack[top] = stack_word(record.w & ~RECORD_SPHERE, level);
+                        top = top + 1;
+                    }
                 }
+            }
+            if (RECORD_MASKS && met_mask != 0u) {
+                stack[top] = stack_word(ITEM_INSTANCE | (records << 8u) | met_mask, level);
+                top = top + 1;
             }
 #endif
         }

@@ -200,6 +200,9 @@ const bool HAS_EXPLAIN = RAYCAST_CPU_ALL;
 // (`raycast check`).
 const bool LEVELS_IN_REGISTERS = false;
 const uint REGISTER_LEVELS = 1u;
+// One stack entry a met record (layout.h, SPEC_RECORD_MASKS): records_meet
+// pushes them one by one, in the order the device's masks give back.
+const bool RECORD_MASKS = false;
 const bool HAS_REFRACTION = RAYCAST_CPU_ALL;
 
 // GLSL's abs: the sign bit cleared, without a branch. GLM's is

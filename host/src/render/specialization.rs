@@ -17,19 +17,23 @@ pub struct Specialization {
     keeps: [bool; SPEC_COUNT],
     /// The walk's levels kept in registers, so many, or None: in arrays.
     register_levels: Option<u32>,
+    /// A leaf's met instance records as one stack entry (SPEC_RECORD_MASKS).
+    record_masks: bool,
 }
 
 const SPEC_COUNT: usize = layout::SPEC_COUNT as usize;
 
-/// Whether constant `id` turns a feature's code on or off: every one but the walk's form's two.
+/// Whether constant `id` turns a feature's code on or off: every one but the walk's form's three.
 #[cfg(test)]
 const fn is_feature(id: u32) -> bool {
-    id != layout::SPEC_LEVELS_IN_REGISTERS && id != layout::SPEC_REGISTER_LEVELS
+    id != layout::SPEC_LEVELS_IN_REGISTERS && id != layout::SPEC_REGISTER_LEVELS && id != layout::SPEC_RECORD_MASKS
 }
 
 impl Specialization {
-    /// Everything kept, the levels in arrays: the shaders' defaults, what the CPU build runs.
-    pub const ALL: Specialization = Specialization { keeps: [true; SPEC_COUNT], register_levels: None };
+    /// Everything kept, the levels in arrays, an entry a record: the
+    /// shaders' defaults, what the CPU build runs.
+    pub const ALL: Specialization =
+        Specialization { keeps: [true; SPEC_COUNT], register_levels: None, record_masks: false };
 
     /// What rendering `data` with `frame` can reach.
     pub fn of(data: &FrameData, frame: &layout::Frame) -> Specialization {
@@ -63,6 +67,7 @@ impl Specialization {
         }
         values[layout::SPEC_LEVELS_IN_REGISTERS as usize] = u32::from(self.register_levels.is_some());
         values[layout::SPEC_REGISTER_LEVELS as usize] = self.register_levels.unwrap_or(1);
+        values[layout::SPEC_RECORD_MASKS as usize] = u32::from(self.record_masks);
         values
     }
 
@@ -79,7 +84,8 @@ impl Specialization {
             Some(n) => format!("; the walk's {n} levels in registers"),
             None => String::new(),
         };
-        format!("keeps {}; leaves out {}{levels}", list(&kept), list(&out))
+        let masks = if self.record_masks { "; a leaf's met instances one stack entry" } else { "" };
+        format!("keeps {}; leaves out {}{levels}{masks}", list(&kept), list(&out))
     }
 }
 
@@ -150,6 +156,9 @@ pub struct SceneFeatures {
     sphere_records: bool,
     /// The levels the walk enters (FrameData::levels).
     levels: u32,
+    /// Every instance record's texel below RECORD_MASKS_TEXELS: a leaf's
+    /// met records fit one stack entry (SPEC_RECORD_MASKS).
+    record_masks: bool,
     /// A mesh primitive (SHAPE_MESH).
     meshes: bool,
 }
@@ -174,6 +183,7 @@ impl SceneFeatures {
             box_records: record_kind(data, 0),
             sphere_records: record_kind(data, layout::RECORD_SPHERE),
             levels: data.levels,
+            record_masks: !data.instances.is_empty() && records_fit_masks(data.leaf_items.len()),
         }
     }
 
@@ -218,8 +228,16 @@ impl SceneFeatures {
         // count below the scene's would drop its deeper levels).
         debug_assert!((1..=layout::MAX_LEVELS).contains(&self.levels), "{} levels", self.levels);
         let register_levels = Some(self.levels.max(1));
-        Specialization { keeps: on, register_levels }
+        Specialization { keeps: on, register_levels, record_masks: self.record_masks }
     }
+}
+
+/// Whether one stack entry can name the texel of any record of a scene
+/// with `leaf_items` words (four a texel) beside a mask of a leaf's
+/// records, a bit each (layout.h, SPEC_RECORD_MASKS).
+fn records_fit_masks(leaf_items: usize) -> bool {
+    const _: () = assert!(crate::bvh::MAX_LEAF_ITEMS <= 8, "a leaf's records fill 8 mask bits");
+    leaf_items.div_ceil(4) <= layout::RECORD_MASKS_TEXELS as usize
 }
 
 /// Whether a leaf holds an instance record whose RECORD_SPHERE bit is

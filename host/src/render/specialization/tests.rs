@@ -65,7 +65,8 @@ fn specialization_keeps_what_the_scene_can_reach() {
         "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
          leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
          mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori, meshes, \
-         refraction, area lights, depth of field, the course's adaptive supersampling, explain's variants; the walk's 2 levels in registers"
+         refraction, area lights, depth of field, the course's adaptive supersampling, explain's variants; the walk's 2 levels in registers; \
+         a leaf's met instances one stack entry"
     );
     // The CPU build's lean copy draws it; never everything.
     assert!(Specialization::of(&d, &d.frame).cpu_lean());
@@ -144,4 +145,23 @@ fn specialization_chooses_the_walks_form_by_the_levels() {
     assert_eq!(d.levels, 1);
     assert!(Specialization::of(&d, &d.frame).describe().ends_with("; the walk's one level in registers"));
     assert_eq!(Specialization::ALL.constants()[layout::SPEC_LEVELS_IN_REGISTERS as usize], 0);
+}
+
+/// A leaf's met instance records go on the stack as one entry where the
+/// scene has instances and every record's texel fits the entry's bits;
+/// `ALL` (the C++ build's form), one entry a record.
+#[test]
+fn record_masks_where_instances_fit_the_entry() {
+    let masks = |xml: &str| {
+        let d = data(xml, &RenderSettings::default());
+        Specialization::of(&d, &d.frame).constants()[layout::SPEC_RECORD_MASKS as usize]
+    };
+    let options = crate::gen::GenOptions { texture: None };
+    assert_eq!(masks(&crate::gen::generate(crate::gen::Family::RecursiveSpheres, 3, &options).unwrap()), 1);
+    assert_eq!(masks(&crate::scene::row_of_cubes_xml(20)), 0, "no instances");
+    assert_eq!(Specialization::ALL.constants()[layout::SPEC_RECORD_MASKS as usize], 0);
+    // The last texel an entry can name, and one past it.
+    let words = 4 * layout::RECORD_MASKS_TEXELS as usize;
+    assert!(records_fit_masks(words) && records_fit_masks(words - 3));
+    assert!(!records_fit_masks(words + 1));
 }
