@@ -1,6 +1,7 @@
 //! Build script: compiles the GLSL kernels in ../shaders to SPIR-V with
 //! glslang (embedded into the binary), and turns the `#define`s of
-//! shaders/layout.h into Rust constants so they are written once.
+//! shaders/layout.h, shapes.glsl and preview.h into Rust constants so they
+//! are written once.
 //!
 //! Also links the CPU build of the shared GLSL (host/cpu, a CMake project).
 //!
@@ -22,9 +23,15 @@ fn main() {
     println!("cargo:rerun-if-changed={}", shaders.display());
     println!("cargo:rerun-if-env-changed=RAYCAST_SPIRV_DIR");
 
-    write_layout_consts(&shaders.join("layout.h"), &out.join("layout_consts.rs"));
-    // The preview kernel's own header (host/src/preview/layout.rs includes it).
-    write_layout_consts(&shaders.join("preview.h"), &out.join("preview_consts.rs"));
+    // layout.h and the shapes' registration (shapes.glsl), then the preview
+    // kernel's own header (host/src/preview/layout.rs includes it).
+    let read =
+        |name: &str| std::fs::read_to_string(shaders.join(name)).unwrap_or_else(|e| panic!("shaders/{name}: {e}"));
+    let (layout, shapes, preview) = (read("layout.h"), read("shapes.glsl"), read("preview.h"));
+    let mut known = uint_defines(&layout, &[]);
+    known.extend(uint_defines(&shapes, &known));
+    write_consts(&known, &out.join("layout_consts.rs"));
+    write_consts(&uint_defines(&preview, &known), &out.join("preview_consts.rs"));
 
     let prebuilt = std::env::var_os("RAYCAST_SPIRV_DIR").map(PathBuf::from);
     let mut kernels = Vec::new();
@@ -106,9 +113,8 @@ fn run(cmd: &mut Command) {
     }
 }
 
-/// The uint `#define`s of `header` (`uint_defines`) -> `pub const NAME: u32 = …;`
-fn write_layout_consts(header: &Path, out: &Path) {
-    let text = std::fs::read_to_string(header).expect("shaders/layout.h");
-    let rs: String = uint_defines(&text).iter().map(|(name, v)| format!("pub const {name}: u32 = {v:#x};\n")).collect();
+/// (NAME, value) -> `pub const NAME: u32 = …;`
+fn write_consts(defines: &[(&str, u32)], out: &Path) {
+    let rs: String = defines.iter().map(|(name, v)| format!("pub const {name}: u32 = {v:#x};\n")).collect();
     std::fs::write(out, rs).unwrap();
 }

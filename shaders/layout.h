@@ -70,8 +70,9 @@
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each
 
 // Specialization constants (their constant_id): what a kernel may leave out.
-// scene_buffers.glsl declares them as HAS_* bools, true unless the host
-// says otherwise; the C++ build has them all true. Lavapipe runs every
+// scene_buffers.glsl (the shapes': shapes.glsl) declares them as HAS_*
+// bools, true unless the host says otherwise; the C++ build has them all
+// true (but its lean copy, host/cpu/shared.hpp). Lavapipe runs every
 // branch of a shader whether or not any lane takes it, so a kernel pays for
 // the cone test, spot lights or bilinear filtering in every pass even when
 // the scene has none; the host turns off what a scene and its frame flags
@@ -79,25 +80,26 @@
 // A constant turned off only removes code the scene never reaches, so the
 // pixels are the same bit for bit (`raycast check` compares the specialised
 // kernel with the CPU build).
-#define SPEC_CUBES 0
-#define SPEC_CONES 1
-#define SPEC_CYLINDERS 2
-#define SPEC_SPHERES 3
-#define SPEC_INSTANCES 4         // the scene places instances of groups
-#define SPEC_POSITIONED_LIGHTS 5 // a point or spot light (attenuation)
-#define SPEC_SPOT_LIGHTS 6
-#define SPEC_TEXTURES 7          // a textured material, and FLAG_TEXTURES
-#define SPEC_BILINEAR 8          // ... with FILTER_BILINEAR
-#define SPEC_SPECULAR 9          // a material with shininess > 0
-#define SPEC_SHADOWS 10          // FLAG_SHADOWS
-#define SPEC_REFLECTIONS 11      // FLAG_REFLECTIONS and a mirror material
-#define SPEC_INNER_NODES 12      // a hierarchy node with children (not only leaves)
-#define SPEC_SEVERAL_PRIMITIVE_LEAVES 13 // a leaf holds more than one primitive
-#define SPEC_HIERARCHY 14        // frame.node_count > 0: the walk's hierarchy steps
-#define SPEC_FLAT_LIST 15        // frame.node_count == 0: the walk's primitives in order
-#define SPEC_BOX_RECORDS 16      // an instance record holds a box
-#define SPEC_SPHERE_RECORDS 17   // an instance record holds a sphere (RECORD_SPHERE)
-#define SPEC_AOVS 18             // frame.aov other than AOV_COLOR (and the walk's pass count)
+#define SPEC_INSTANCES 0         // the scene places instances of groups
+#define SPEC_POSITIONED_LIGHTS 1 // a point or spot light (attenuation)
+#define SPEC_SPOT_LIGHTS 2
+#define SPEC_TEXTURES 3          // a textured material, and FLAG_TEXTURES
+#define SPEC_BILINEAR 4          // ... with FILTER_BILINEAR
+#define SPEC_SPECULAR 5          // a material with shininess > 0
+#define SPEC_SHADOWS 6           // FLAG_SHADOWS
+#define SPEC_REFLECTIONS 7       // FLAG_REFLECTIONS and a mirror material
+#define SPEC_INNER_NODES 8       // a hierarchy node with children (not only leaves)
+#define SPEC_SEVERAL_PRIMITIVE_LEAVES 9 // a leaf holds more than one primitive
+#define SPEC_HIERARCHY 10        // frame.node_count > 0: the walk's hierarchy steps
+#define SPEC_FLAT_LIST 11        // frame.node_count == 0: the walk's primitives in order
+#define SPEC_BOX_RECORDS 12      // an instance record holds a box
+#define SPEC_SPHERE_RECORDS 13   // an instance record holds a sphere (RECORD_SPHERE)
+#define SPEC_AOVS 14             // frame.aov other than AOV_COLOR (and the walk's pass count)
+#define SPEC_REFRACTION 15       // FLAG_REFRACTION and a transparent material (k_t O_t not 0)
+#define SPEC_AREA_LIGHTS 16      // an area light (LIGHT_AREA): its samples over the rectangle
+#define SPEC_DOF 17              // FLAG_DOF: the thin lens (camera.glsl)
+#define SPEC_COURSE_SAMPLING 18  // FLAG_COURSE_SAMPLING
+#define SPEC_EXPLAIN 19          // a FLAG_EXPLAIN_* bit: `raycast explain`'s variants of the code
 // Not a feature left out, a form chosen: the walk keeps each instance
 // level's ray, first id and instance in arrays indexed by the lane's level,
 // which lavapipe reads and writes lane by lane (a scalar loop over the 8
@@ -107,32 +109,20 @@
 // registers, as many as the scene nests (render::Specialization; 0.78 to
 // 0.90 of the dispatch at every depth of the recursive spheres, docs/scale.md#shaped-for-lavapipe); the C++ build and a kernel not
 // specialised, in arrays.
-#define SPEC_LEVELS_IN_REGISTERS 19 // a bool
-#define SPEC_REGISTER_LEVELS 20     // a count: the levels the walk keeps, 1 to MAX_LEVELS
-#define SPEC_TORI 21              // a torus (SHAPE_TORUS)
-#define SPEC_MESHES 22            // a mesh primitive (SHAPE_MESH)
-#define SPEC_REFRACTION 23        // FLAG_REFRACTION and a transparent material (k_t O_t not 0)
-#define SPEC_AREA_LIGHTS 24       // an area light (LIGHT_AREA): its samples over the rectangle
-#define SPEC_DOF 25               // FLAG_DOF: the thin lens (camera.glsl)
-#define SPEC_COURSE_SAMPLING 26   // FLAG_COURSE_SAMPLING
-#define SPEC_EXPLAIN 27           // a FLAG_EXPLAIN_* bit: `raycast explain`'s variants of the code
+#define SPEC_LEVELS_IN_REGISTERS 20 // a bool
+#define SPEC_REGISTER_LEVELS 21     // a count: the levels the walk keeps, 1 to MAX_LEVELS
 // The walk's form, as SPEC_LEVELS_IN_REGISTERS: a leaf's met instance
 // records go on the stack as one entry, ITEM_INSTANCE | records << 8 |
 // mask (the texel of its first record, a bit a met record), taken a record
 // at a time, highest bit first: the order, and so the passes, of one entry
 // a record (traversal.glsl, walk). Set where every record's texel is below
 // RECORD_MASKS_TEXELS (render::Specialization); off in the C++ build.
-#define SPEC_RECORD_MASKS 28      // a bool
+#define SPEC_RECORD_MASKS 22      // a bool
 #define RECORD_MASKS_TEXELS 524288u // 2^19: the texel and 8 mask bits fill the 27 index bits
-#define SPEC_COUNT 29
-
-// Primitive.shape
-#define SHAPE_CUBE 0u
-#define SHAPE_CONE 1u
-#define SHAPE_CYLINDER 2u
-#define SHAPE_SPHERE 3u
-#define SHAPE_TORUS 4u
-#define SHAPE_MESH 5u // a triangle mesh: Primitive.mesh is its root in the mesh nodes
+// Then one a shape, SPEC_SHAPES + its id (Primitive.shape): shapes.glsl
+// registers the shapes, their SHAPE_* ids and SPEC_* constants, and
+// SPEC_COUNT after them.
+#define SPEC_SHAPES 23
 
 // Light.kind
 #define LIGHT_POINT 0u
@@ -231,7 +221,7 @@ struct Frame {
 // the root group) to the primitive's object space.
 struct Primitive {
     mat4 object_from_world;
-    uint shape;
+    uint shape;     // SHAPE_* (shapes.glsl)
     uint material;
     uint id_offset; // its id is the group's first id plus this
     uint mesh;      // SHAPE_MESH: its mesh's root node in mesh_nodes; 0 otherwise

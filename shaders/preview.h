@@ -14,11 +14,11 @@
 #define BINDING_DISPLAY 7 // rgba8 storage image, copied to the window
 #define BINDING_STATUS 19 // PreviewStatus (one), read and written (after the meshes' 14 to 16)
 
-// The preview kernel's specialization constant after layout.h's SPEC_*
-// (SPEC_COUNT): set, the host has drawn the pixels (`raycast preview
+// The preview kernel's specialization constant after the render kernel's
+// (SPEC_COUNT, shapes.glsl): set, the host has drawn the pixels (`raycast preview
 // --backend cpu`: the CPU build, raycast_cpu_preview_rows) and the kernel
 // only shows their colours in the display image.
-#define SPEC_HOST_PIXELS 29
+#define SPEC_HOST_PIXELS SPEC_COUNT
 
 struct PreviewFrame {
     // xy: this sample's offset from the pixel centre, in pixels (0, 0 for

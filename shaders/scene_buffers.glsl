@@ -102,10 +102,8 @@ uvec4 leaf_record(uint t) {
 // specialises the kernel for a scene. Only ever used as `HAS_X && runtime
 // condition` or `if (HAS_X)`: an expression of constants alone would be an
 // OpSpecConstantOp, which naga does not read.
-layout(constant_id = SPEC_CUBES) const bool HAS_CUBES = true;
-layout(constant_id = SPEC_CONES) const bool HAS_CONES = true;
-layout(constant_id = SPEC_CYLINDERS) const bool HAS_CYLINDERS = true;
-layout(constant_id = SPEC_SPHERES) const bool HAS_SPHERES = true;
+// A shape's (shapes.glsl) is declared where the shape is registered:
+#define SHAPE_SPEC(id, name) layout(constant_id = id) const bool name = true
 layout(constant_id = SPEC_INSTANCES) const bool HAS_INSTANCES = true;
 layout(constant_id = SPEC_POSITIONED_LIGHTS) const bool HAS_POSITIONED_LIGHTS = true;
 layout(constant_id = SPEC_SPOT_LIGHTS) const bool HAS_SPOT_LIGHTS = true;
@@ -121,8 +119,6 @@ layout(constant_id = SPEC_FLAT_LIST) const bool HAS_FLAT_LIST = true;
 layout(constant_id = SPEC_BOX_RECORDS) const bool HAS_BOX_RECORDS = true;
 layout(constant_id = SPEC_SPHERE_RECORDS) const bool HAS_SPHERE_RECORDS = true;
 layout(constant_id = SPEC_AOVS) const bool HAS_AOVS = true;
-layout(constant_id = SPEC_TORI) const bool HAS_TORI = true;
-layout(constant_id = SPEC_MESHES) const bool HAS_MESHES = true;
 layout(constant_id = SPEC_COURSE_SAMPLING) const bool HAS_COURSE_SAMPLING = true;
 layout(constant_id = SPEC_AREA_LIGHTS) const bool HAS_AREA_LIGHTS = true;
 layout(constant_id = SPEC_DOF) const bool HAS_DOF = true;

@@ -2,11 +2,46 @@
 //   cube [-0.5, 0.5]^3, sphere r 0.5, cylinder r 0.5 with y in [-0.5, 0.5]
 //   and both caps, cone with base r 0.5 at y = -0.5, apex at y = 0.5 and a
 //   base cap, torus about y with ring radius 0.375 and tube radius 0.125.
-// What the shapes share (a plane's t, the nearer of two hits, the roots of
-// a quadratic, a ray's closest approach, the angle about y), one file per
-// shape included where its turn comes (its test, intersect_NAME, and its
-// texture coordinates, NAME_uv), and intersect_shape and surface_uv, which
+// Every shape is registered here and nowhere else on the shaders' side
+// (docs/architecture.md, "Adding a shape"): its id, its specialization
+// constant, its file's #include and its lines in intersect_shape and
+// surface_uv. Then what the shapes share (a plane's t, the nearer of two
+// hits, the roots of a quadratic, a ray's closest approach, the angle about
+// y), one file per shape (its test, intersect_NAME, and its texture
+// coordinates, NAME_uv), and intersect_shape and surface_uv, which
 // dispatch to them.
+
+// Primitive.shape. The host reads these (host/build.rs), and its
+// scene::SHAPES names each canonical one.
+#define SHAPE_CUBE 0u
+#define SHAPE_CONE 1u
+#define SHAPE_CYLINDER 2u
+#define SHAPE_SPHERE 3u
+#define SHAPE_TORUS 4u
+#define SHAPE_MESH 5u // a triangle mesh: Primitive.mesh is its root in the mesh nodes (traversal.glsl)
+#define SHAPE_IDS 6   // one past the last id: a new shape takes it and moves it on
+// The CPU build's lean copy (host/cpu/shared.hpp) keeps the shapes whose
+// ids are below this, the course's four; the host runs it only for scenes
+// of them (render::Specialization::cpu_lean).
+#define SHAPE_LEAN_IDS 4
+
+// Each shape's specialization constant, SPEC_SHAPES + its id (layout.h),
+// as a HAS_* bool: true unless the host specialises the kernel for a scene
+// without the shape. SHAPE_SPEC is scene_buffers.glsl's (a specialization
+// constant) or the C++ build's (host/cpu/shared.hpp, a const bool).
+#define SPEC_CUBES (SPEC_SHAPES + 0)
+#define SPEC_CONES (SPEC_SHAPES + 1)
+#define SPEC_CYLINDERS (SPEC_SHAPES + 2)
+#define SPEC_SPHERES (SPEC_SHAPES + 3)
+#define SPEC_TORI (SPEC_SHAPES + 4)
+#define SPEC_MESHES (SPEC_SHAPES + 5)
+#define SPEC_COUNT (SPEC_SHAPES + SHAPE_IDS) // every specialization constant of layout.h and here
+SHAPE_SPEC(SPEC_CUBES, HAS_CUBES);
+SHAPE_SPEC(SPEC_CONES, HAS_CONES);
+SHAPE_SPEC(SPEC_CYLINDERS, HAS_CYLINDERS);
+SHAPE_SPEC(SPEC_SPHERES, HAS_SPHERES);
+SHAPE_SPEC(SPEC_TORI, HAS_TORI);
+SHAPE_SPEC(SPEC_MESHES, HAS_MESHES);
 
 // The ray parameter where the ray meets the plane {p[axis] = s}. A ray
 // parallel to the plane gives +-inf or NaN, which every caller's `t > 0 &&
@@ -35,8 +70,6 @@ precise float around_y(vec3 p) {
     }
     return u;
 }
-
-#include "shape_cube.glsl"
 
 // The smaller and larger roots of a t^2 + b t + c = 0 as (t0, t1), or
 // (T_FAR, T_FAR) when there is none. a == 0 gives the one root of the line.
@@ -73,6 +106,8 @@ precise float closest_t(Ray r, vec3 c) {
     return t;
 }
 
+// The shapes' own files (shape_mesh.glsl is traversal.glsl's).
+#include "shape_cube.glsl"
 #include "shape_sphere.glsl"
 #include "shape_cylinder.glsl"
 #include "shape_cone.glsl"

@@ -158,10 +158,10 @@ inline Scene bind_buffers(const void* const* buffers) {
 
 // The kernels' specialization constants (scene_buffers.glsl). The CPU
 // build runs every path the shaders have, but for its lean copy
-// (raycast_cpu_lean.cpp, RAYCAST_CPU_LEAN): that leaves out meshes, tori,
-// the AOVs other than colour, the course's sampling, area lights and
-// refraction, and the host runs it only where the frame's specialization
-// leaves them out too (cpu.rs, Specialization::cpu_lean): the same bits
+// (raycast_cpu_lean.cpp, RAYCAST_CPU_LEAN): that leaves out meshes, tori
+// (every shape but the course's four), the AOVs other than colour, the
+// course's sampling, area lights and refraction, and the host runs it only
+// where the frame's specialization leaves them out too (cpu.rs, Specialization::cpu_lean): the same bits
 // with less code in the walk (11% fewer instructions at recursive-spheres
 // depth 10).
 #ifdef RAYCAST_CPU_LEAN
@@ -169,10 +169,9 @@ inline Scene bind_buffers(const void* const* buffers) {
 #else
 #define RAYCAST_CPU_ALL true
 #endif
-const bool HAS_CUBES = true;
-const bool HAS_CONES = true;
-const bool HAS_CYLINDERS = true;
-const bool HAS_SPHERES = true;
+// A shape's HAS_* (shapes.glsl registers it): the lean copy keeps those
+// with ids below SHAPE_LEAN_IDS.
+#define SHAPE_SPEC(id, name) const bool name = RAYCAST_CPU_ALL || (id) < SPEC_SHAPES + SHAPE_LEAN_IDS
 const bool HAS_INSTANCES = true;
 const bool HAS_POSITIONED_LIGHTS = true;
 const bool HAS_SPOT_LIGHTS = true;
@@ -188,8 +187,6 @@ const bool HAS_FLAT_LIST = true;
 const bool HAS_BOX_RECORDS = true;
 const bool HAS_SPHERE_RECORDS = true;
 const bool HAS_AOVS = RAYCAST_CPU_ALL;
-const bool HAS_TORI = RAYCAST_CPU_ALL;
-const bool HAS_MESHES = RAYCAST_CPU_ALL;
 const bool HAS_COURSE_SAMPLING = RAYCAST_CPU_ALL;
 const bool HAS_AREA_LIGHTS = RAYCAST_CPU_ALL;
 const bool HAS_DOF = true;

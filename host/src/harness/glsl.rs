@@ -73,7 +73,7 @@ pub struct ShaderInfo {
     pub dir: PathBuf,
     pub functions: Vec<Function>,
     pub structs: BTreeMap<String, Arc<StructDef>>,
-    /// `const` values of the shared files and numeric `#define`s of layout.h, by name.
+    /// `const` values of the shared files and numeric `#define`s of layout.h and the shared files, by name.
     pub constants: BTreeMap<String, Value>,
     pub scene_buffers: Vec<SceneBuffer>,
     /// Functions that could not be read (name, why, with the file and line
@@ -149,6 +149,9 @@ impl ShaderInfo {
             shared_files,
         };
         info.read_defines(&layout);
+        for piece in &shared {
+            info.read_defines(&piece.text); // shapes.glsl's SHAPE_* and SPEC_*
+        }
         let at = |file: &str| dir.join(file).display().to_string();
         info.read_file(&layout, &at(LAYOUT))?;
         info.read_file(&buffers, &at(SCENE_BUFFERS))?;
@@ -211,10 +214,21 @@ impl ShaderInfo {
         builtin_type(name).or_else(|| self.structs.get(name).map(|s| Type::Struct(s.clone())))
     }
 
-    /// The uint `#define`s (`uint_defines`) as constants.
+    /// The uint `#define`s (`uint_defines`) as constants; a define may
+    /// name one read before.
     fn read_defines(&mut self, text: &str) {
-        for (name, v) in crate::uint_defines::uint_defines(text) {
-            self.constants.insert(name.to_string(), Value::Uint(v));
+        let known: Vec<(&str, u32)> = self
+            .constants
+            .iter()
+            .filter_map(|(name, v)| match v {
+                Value::Uint(v) => Some((name.as_str(), *v)),
+                _ => None,
+            })
+            .collect();
+        let defines: Vec<(String, u32)> =
+            crate::uint_defines::uint_defines(text, &known).into_iter().map(|(n, v)| (n.to_string(), v)).collect();
+        for (name, v) in defines {
+            self.constants.insert(name, Value::Uint(v));
         }
     }
 

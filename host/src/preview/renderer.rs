@@ -22,7 +22,8 @@ use crate::layout::{
 };
 use crate::render::{Progressive, SceneFeatures, Specialization};
 
-// The preview kernel's own constant follows layout.h's (preview.h).
+// The preview kernel's own constant follows the render kernel's (preview.h,
+// SPEC_COUNT): `build` pushes its value after theirs.
 const _: () = assert!(SPEC_HOST_PIXELS == layout::SPEC_COUNT);
 
 /// The preview kernel's SPIR-V with the scene in storage buffers

@@ -46,17 +46,18 @@ impl Specialization {
     /// specialization leaves all of that out too; `check` compares its
     /// bits with the device's.
     pub fn cpu_lean(&self) -> bool {
+        // Every shape from SHAPE_LEAN_IDS on (shapes.glsl): the torus, the mesh, any added since.
+        let shapes = layout::SPEC_SHAPES + layout::SHAPE_LEAN_IDS..layout::SPEC_SHAPES + layout::SHAPE_IDS;
         [
             layout::SPEC_AOVS,
-            layout::SPEC_TORI,
-            layout::SPEC_MESHES,
             layout::SPEC_COURSE_SAMPLING,
             layout::SPEC_AREA_LIGHTS,
             layout::SPEC_REFRACTION,
             layout::SPEC_EXPLAIN,
         ]
-        .iter()
-        .all(|&id| !self.keeps[id as usize])
+        .into_iter()
+        .chain(shapes)
+        .all(|id| !self.keeps[id as usize])
     }
 
     /// The constants' values for `Kernel::specialized`, by constant_id.
@@ -115,12 +116,12 @@ const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_EXPLAIN, "explain's variants"),
 ];
 
-/// Every feature constant by name, in the order of their ids: the shapes'
-/// (`scene::SHAPES`) among the others (`SPEC_NAMES`).
+/// Every feature constant by name: the shapes' (`scene::SHAPES`, and
+/// meshes), then the others (`SPEC_NAMES`), each in the order of their ids.
 fn spec_names() -> Vec<(u32, &'static str)> {
     let mut names: Vec<(u32, &'static str)> =
         SHAPES.iter().map(|k| (k.spec, k.spec_name)).chain(SPEC_NAMES.iter().copied()).collect();
-    names.sort_by_key(|(id, _)| *id);
+    names.sort_by_key(|&(id, _)| (id < layout::SPEC_SHAPES, id));
     names
 }
 

@@ -1,6 +1,6 @@
 //! Every shape a primitive can be, once. A canonical shape is a variant of
 //! [`Shape`] and an entry of [`SHAPES`]: how a scene file names it, its id
-//! in the kernels (layout.h SHAPE_*) and the specialization constant that
+//! in the kernels (shapes.glsl SHAPE_*) and the specialization constant that
 //! keeps its code, the box and sphere that hold it, and what the exporters
 //! write of it. Every part of the host that meets shapes reads the table
 //! rather than matching on them, so a new shape is its GLSL and an entry
@@ -34,9 +34,9 @@ pub struct ShapeKind {
     pub shape: Shape,
     /// As `<object type="primitive" name=…>` writes it.
     pub name: &'static str,
-    /// Primitive.shape in the kernels (layout.h SHAPE_*).
+    /// Primitive.shape in the kernels (shapes.glsl SHAPE_*).
     pub code: u32,
-    /// The specialization constant that keeps its test (layout.h SPEC_*),
+    /// The specialization constant that keeps its test (shapes.glsl SPEC_*),
     /// and the words `Specialization::describe` says of it.
     pub spec: u32,
     pub spec_name: &'static str,
@@ -271,7 +271,7 @@ impl Shape {
         self.kind().map_or(MESH_NAME, |k| k.name)
     }
 
-    /// Primitive.shape in the kernels (layout.h SHAPE_*).
+    /// Primitive.shape in the kernels (shapes.glsl SHAPE_*).
     pub fn code(&self) -> u32 {
         self.kind().map_or(layout::SHAPE_MESH, |k| k.code)
     }

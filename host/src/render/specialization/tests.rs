@@ -8,9 +8,12 @@ fn data(xml: &str, settings: &RenderSettings) -> FrameData {
     crate::frame::build(&scene, settings).unwrap()
 }
 
-/// The features' constants that are on, by SPEC_* name.
+/// The features' constants that are on, by SPEC_* name, shapes first (as `spec_names`).
 fn on(s: Specialization) -> Vec<u32> {
-    (0..SPEC_COUNT as u32).filter(|&id| is_feature(id) && s.constants()[id as usize] == 1).collect()
+    let mut ids: Vec<u32> =
+        (0..SPEC_COUNT as u32).filter(|&id| is_feature(id) && s.constants()[id as usize] == 1).collect();
+    ids.sort_by_key(|&id| (id < layout::SPEC_SHAPES, id));
+    ids
 }
 
 /// A constant is on exactly when the scene and the flags can reach its
@@ -63,8 +66,8 @@ fn specialization_keeps_what_the_scene_can_reach() {
     assert_eq!(
         Specialization::of(&d, &d.frame).describe(),
         "keeps cones, cylinders, spheres, instances, point and spot lights, spot falloff, specular, shadows, \
-         leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, textures, bilinear filtering, \
-         mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, tori, meshes, \
+         leaves of several primitives, the hierarchy walk, instance spheres; leaves out cubes, tori, meshes, textures, bilinear filtering, \
+         mirrors, inner hierarchy nodes, the flat primitive list, instance boxes, the normal, depth, id and cost AOVs, \
          refraction, area lights, depth of field, the course's adaptive supersampling, explain's variants; the walk's 2 levels in registers; \
          a leaf's met instances one stack entry"
     );
@@ -96,7 +99,8 @@ fn specialization_keeps_what_the_scene_can_reach() {
     assert!(s.contains(&layout::SPEC_BOX_RECORDS) && !s.contains(&layout::SPEC_SPHERE_RECORDS), "{s:?}");
     assert!(Specialization::ALL.describe().ends_with("leaves out nothing"));
     // Every feature's constant has its name, once.
-    let ids: Vec<u32> = spec_names().iter().map(|(id, _)| *id).collect();
+    let mut ids: Vec<u32> = spec_names().iter().map(|(id, _)| *id).collect();
+    ids.sort();
     assert_eq!(ids, (0..SPEC_COUNT as u32).filter(|&id| is_feature(id)).collect::<Vec<_>>());
 }
 
