@@ -112,13 +112,19 @@
 #define SPEC_LEVELS_IN_REGISTERS 20 // a bool
 #define SPEC_REGISTER_LEVELS 21     // a count: the levels the walk keeps, 1 to MAX_LEVELS
 // The walk's form, as SPEC_LEVELS_IN_REGISTERS: a leaf's met instance
-// records go on the stack as one entry, ITEM_INSTANCE | records << 8 |
-// mask (the texel of its first record, a bit a met record), taken a record
-// at a time, highest bit first: the order, and so the passes, of one entry
-// a record (traversal.glsl, walk). Set where every record's texel is below
-// RECORD_MASKS_TEXELS (render::Specialization); off in the C++ build.
+// records go on the stack as one entry, ITEM_INSTANCE | records <<
+// RECORD_MASK_SHIFT | RECORD_LOW_FIRST or not | mask (the texel of its
+// first record, a bit a met record), taken a record at a time. With the
+// AOVs, highest bit first: the order, and so the passes, of one entry a
+// record, as the CPU build walks; in colour, from the end of the mask whose
+// record lies nearer along the ray (RECORD_LOW_FIRST: the lowest bit
+// first), which only the passes can tell (traversal.glsl, walk). Set where
+// every record's texel is below RECORD_MASKS_TEXELS
+// (render::Specialization); off in the C++ build.
 #define SPEC_RECORD_MASKS 22      // a bool
-#define RECORD_MASKS_TEXELS 524288u // 2^19: the texel and 8 mask bits fill the 27 index bits
+#define RECORD_MASKS_TEXELS 262144u // 2^18: the texel, the order bit and 8 mask bits fill the 27 index bits
+#define RECORD_MASK_SHIFT 9u
+#define RECORD_LOW_FIRST 256u
 // Then one a shape, SPEC_SHAPES + its id (Primitive.shape): shapes.glsl
 // registers the shapes, their SHAPE_* ids and SPEC_* constants, and
 // SPEC_COUNT after them.
