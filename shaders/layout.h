@@ -117,8 +117,9 @@
 // first record, a bit a met record), taken a record at a time. With the
 // AOVs, highest bit first: the order, and so the passes, of one entry a
 // record, as the CPU build walks; in colour, from the end of the mask whose
-// record lies nearer along the ray (RECORD_LOW_FIRST: the lowest bit
-// first), which only the passes can tell (traversal.glsl, walk). Set where
+// record lies nearer along the ray, or farther for a shadow ray
+// (RECORD_LOW_FIRST: the lowest bit first), which only the passes can tell
+// (traversal.glsl, walk). Set where
 // every record's texel is below RECORD_MASKS_TEXELS
 // (render::Specialization); off in the C++ build.
 #define SPEC_RECORD_MASKS 22      // a bool
