@@ -602,9 +602,9 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
             // the mask whose record lies nearer along the ray (its bound's
             // centre, or its box's lo; for a shadow ray, farther): a
             // nearer hit first culls more of the rest (8 to 11% off at
-            // depth 10). The answer does not
-            // depend on the order (the tie rule); the AOVs keep the order
-            // of one entry a record, which the CPU build counts.
+            // depth 10). The answer does not depend on the order (the tie
+            // rule); the AOVs keep the order of one entry a record, which
+            // the CPU build counts.
             uint met_mask = 0u;
             bool ordered = true;
             if (HAS_AOVS) {

@@ -161,9 +161,9 @@ inline Scene bind_buffers(const void* const* buffers) {
 // (raycast_cpu_lean.cpp, RAYCAST_CPU_LEAN): that leaves out meshes, tori
 // (every shape but the course's four), the AOVs other than colour, the
 // course's sampling, area lights and refraction, and the host runs it only
-// where the frame's specialization leaves them out too (cpu.rs, Specialization::cpu_lean): the same bits
-// with less code in the walk (11% fewer instructions at recursive-spheres
-// depth 10).
+// where the frame's specialization leaves them out too (cpu.rs,
+// Specialization::cpu_lean): the same bits with less code in the walk (11%
+// fewer instructions at recursive-spheres depth 10).
 #ifdef RAYCAST_CPU_LEAN
 #define RAYCAST_CPU_ALL false
 #else

@@ -116,13 +116,18 @@ const SPEC_NAMES: &[(u32, &str)] = &[
     (layout::SPEC_EXPLAIN, "explain's variants"),
 ];
 
-/// Every feature constant by name: the shapes' (`scene::SHAPES`, and
-/// meshes), then the others (`SPEC_NAMES`), each in the order of their ids.
+/// Every feature constant by name, in `listed_order`.
 fn spec_names() -> Vec<(u32, &'static str)> {
     let mut names: Vec<(u32, &'static str)> =
         SHAPES.iter().map(|k| (k.spec, k.spec_name)).chain(SPEC_NAMES.iter().copied()).collect();
-    names.sort_by_key(|&(id, _)| (id < layout::SPEC_SHAPES, id));
+    names.sort_by_key(|&(id, _)| listed_order(id));
     names
+}
+
+/// The order `describe` lists constants in: the shapes' (`scene::SHAPES`,
+/// and meshes), then the others (`SPEC_NAMES`), each by id.
+fn listed_order(id: u32) -> (bool, u32) {
+    (id < layout::SPEC_SHAPES, id)
 }
 
 /// What a scene has that the kernels may leave out when it is missing

@@ -8,11 +8,11 @@ fn data(xml: &str, settings: &RenderSettings) -> FrameData {
     crate::frame::build(&scene, settings).unwrap()
 }
 
-/// The features' constants that are on, by SPEC_* name, shapes first (as `spec_names`).
+/// The features' constants that are on, by SPEC_* name, as `describe` lists them.
 fn on(s: Specialization) -> Vec<u32> {
     let mut ids: Vec<u32> =
         (0..SPEC_COUNT as u32).filter(|&id| is_feature(id) && s.constants()[id as usize] == 1).collect();
-    ids.sort_by_key(|&id| (id < layout::SPEC_SHAPES, id));
+    ids.sort_by_key(|&id| listed_order(id));
     ids
 }
 
