@@ -3171,3 +3171,44 @@ fn a_device_local_output_copied_back_keeps_every_bit() {
     eprintln!("rule: the copy takes device time > 0; measured {copy} ms");
     assert!(copy > 0.0, "{row}");
 }
+
+/// `bench --lanes --json`: a line a scene with each warp's lane use. With
+/// one walk a pixel (no shadows, no mirrors), in step is the camera figure
+/// and the pixels' sums' (the trace's passes and the AOV's are one count);
+/// with shadows and mirrors, in step never exceeds the sums' figure (a
+/// turn pays at least its lanes' share of the pixel's most). Rule: exact
+/// for the first, ≤ for the second.
+#[test]
+fn bench_lanes_counts_the_rays_in_step() {
+    let lanes = |extra: &[&str]| -> Vec<serde_json::Value> {
+        let base = [
+            "bench",
+            "gen:recursive-spheres:3",
+            "--no-textures",
+            "--backend",
+            "cpu",
+            "--lanes",
+            "--json",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+        ];
+        let size = ["--width", "64", "--height", "48"];
+        let o = raycast(&[&base[..], &size, extra].concat(), &[]);
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{out}{err}");
+        let line = out.lines().find(|l| l.contains("\"lanes\"")).unwrap_or_else(|| panic!("no lanes line:\n{out}"));
+        let json: serde_json::Value = serde_json::from_str(line).unwrap();
+        json["lanes"].as_array().unwrap().clone()
+    };
+    for warp in lanes(&["--no-shadows", "--no-reflections"]) {
+        let (camera, all, in_step) = (&warp["camera"], &warp["all"], &warp["all_in_step"]);
+        assert!(camera.as_f64().is_some_and(|c| c > 0.0 && c <= 1.0), "{warp}");
+        assert_eq!((all, in_step), (camera, camera), "one walk a pixel: {warp}");
+    }
+    for warp in lanes(&[]) {
+        let (all, in_step) = (warp["all"].as_f64().unwrap(), warp["all_in_step"].as_f64().unwrap());
+        assert!(in_step > 0.0 && in_step <= all, "in step {in_step}, all {all}: {warp}");
+    }
+}

@@ -139,6 +139,61 @@ impl CpuRenderer {
         }
     }
 
+    /// The passes of every walk of `frame`, pixel by pixel (row by row) and
+    /// sample by sample, in the order the pixel's rays are traced: the
+    /// `passes` of each camera, shadow, mirror and refracted ray `trace`
+    /// records (with `frame.aov` AOV_LANES, a mesh's steps count as the
+    /// lanes AOV counts them). What `LaneUse::in_step` steps the lanes
+    /// through. None under the course's sampling, whose samples a pixel
+    /// takes depend on the ones before (`bench --lanes` leaves it out).
+    pub fn walk_passes(&self, data: &FrameData, frame: &layout::Frame) -> Option<Vec<Vec<Vec<u32>>>> {
+        if frame.flags & layout::FLAG_COURSE_SAMPLING != 0 {
+            return None;
+        }
+        let (width, height, spp) = (frame.width, frame.height, frame.spp.max(1));
+        let mut buffers = buffer_pointers(data);
+        buffers.buffers[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
+        let walks = |kind: u32| {
+            matches!(kind, layout::TRACE_CAMERA | layout::TRACE_SHADOW | layout::TRACE_MIRROR | layout::TRACE_REFRACT)
+        };
+        let mut out: Vec<Vec<Vec<u32>>> = vec![Vec::new(); width as usize * height as usize];
+        let rows_each = height.div_ceil(self.threads.max(1) as u32).max(1);
+        std::thread::scope(|scope| {
+            for (part, pixels) in out.chunks_mut((rows_each * width) as usize).enumerate() {
+                let buffers = &buffers;
+                scope.spawn(move || {
+                    let mut steps = vec![layout::TraceStep::default(); 256];
+                    for (k, pixel) in pixels.iter_mut().enumerate() {
+                        let at = part * (rows_each * width) as usize + k;
+                        let (x, y) = ((at % width as usize) as u32, (at / width as usize) as u32);
+                        for sample in 0..spp {
+                            let n = loop {
+                                let capacity = u32::try_from(steps.len()).expect("a trace's steps fit u32");
+                                // SAFETY: as in `trace`; `steps` holds `capacity` TraceSteps.
+                                let n = unsafe {
+                                    raycast_cpu_trace_sample(
+                                        buffers.as_ptr(),
+                                        x,
+                                        y,
+                                        sample,
+                                        steps.as_mut_ptr().cast(),
+                                        capacity,
+                                    )
+                                };
+                                if n <= capacity {
+                                    break n as usize;
+                                }
+                                steps.resize(n as usize, layout::TraceStep::default());
+                            };
+                            pixel.push(steps[..n].iter().filter(|s| walks(s.kind)).map(|s| s.passes).collect());
+                        }
+                    }
+                });
+            }
+        });
+        Some(out)
+    }
+
     /// The samples the course's adaptive scheme takes at pixel (x, y) of
     /// `frame` (`--supersample course`), in the order it takes them.
     pub fn course_samples(

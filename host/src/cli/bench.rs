@@ -28,7 +28,7 @@ use rows::{
 
 use crate::layout::PixelOut;
 use crate::measure::{peak_host_bytes, reset_peak_host};
-use crate::render::{BackendInfo, CutShort, LaneUse, Picture, Progress, Renderer, Told, WARPS};
+use crate::render::{in_step, BackendInfo, CutShort, LaneUse, Picture, Progress, Renderer, Told, WARPS};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use crate::source::{pack, parse_scene, print_warnings, scene_label};
 use crate::units::{thousands, to_json};
@@ -104,8 +104,10 @@ pub struct BenchArgs {
     /// device kernel's walk, pass for pass): each kind of ray's passes over
     /// warps of 8x4 pixels (a GPU's 32 lanes) and 4x2 (lavapipe's 8), the
     /// passes the lanes need over those their warps pay (Aila and Laine's
-    /// model: a warp costs its slowest lane), and the bytes of hierarchy and
-    /// primitives fetched per ray (docs/scale.md#lane-use). With --json a
+    /// model: a warp costs its slowest lane), all rays also in step (a walk
+    /// a lane a turn of the tracing loop, as the kernel takes them), and the
+    /// bytes of hierarchy and primitives fetched per ray
+    /// (docs/scale.md#lane-use). With --json a
     /// line a scene (`lanes`); with --markdown a table after the results.
     #[arg(long, conflicts_with = "versus", help_heading = "Timing")]
     pub lanes: bool,
@@ -369,7 +371,11 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
                     let mut drawn = loaded.data.clone();
                     drawn.frame.aov = crate::layout::AOV_LANES;
                     let (picture, _) = cpu.render_frame(&drawn, &|_| {})?;
-                    Some(WARPS.map(|warp| LaneUse::of(&picture, warp)))
+                    let walks = cpu.walk_passes(&drawn, &drawn.frame);
+                    Some(WARPS.map(|warp| LaneUse {
+                        all_in_step: walks.as_ref().and_then(|w| in_step(w, picture.width, picture.height, warp)),
+                        ..LaneUse::of(&picture, warp)
+                    }))
                 }
                 None => None,
             };

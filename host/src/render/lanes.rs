@@ -20,8 +20,14 @@ pub struct LaneUse {
     pub camera: Option<f64>,
     pub shadow: Option<f64>,
     pub mirror: Option<f64>,
-    /// Every ray of each pixel, in the order the kernel traces them.
+    /// Every ray of each pixel, in the order the kernel traces them, as if
+    /// a lane went on to its next ray as soon as its walk ended.
     pub all: Option<f64>,
+    /// The same rays as the kernel steps them (`in_step`): a warp's lanes
+    /// take their walks in turn together, the k-th of every lane at once,
+    /// each costing its slowest lane's passes. None where it was not
+    /// counted (the course's sampling).
+    pub all_in_step: Option<f64>,
     /// Bytes of the hierarchy (nodes, instance records, instances) and of
     /// primitives fetched, per ray traced.
     pub node_bytes_per_ray: f64,
@@ -71,10 +77,40 @@ impl LaneUse {
             shadow: share(1),
             mirror: share(2),
             all: share(3),
+            all_in_step: None,
             node_bytes_per_ray: node / rays,
             primitive_bytes_per_ray: prim / rays,
         }
     }
+}
+
+/// Lane use with every pixel's rays taken as the kernels take them: one
+/// walk each a turn of the tracing loop (trace.glsl), which ends when every
+/// lane's walk has ended, each sample's rays after the one before's.
+/// `walks` holds each pixel's walks (row by row), their passes in turn,
+/// sample by sample (`CpuRenderer::walk_passes`); `width` x `height` its
+/// picture, in warps of `tile_w` x `tile_h` pixels as in `LaneUse::of`.
+/// Σ passes / Σ over the warps' turns of (lanes × the turn's most).
+pub fn in_step(walks: &[Vec<Vec<u32>>], width: u32, height: u32, (tile_w, tile_h): (u32, u32)) -> Option<f64> {
+    let lanes = u64::from(tile_w * tile_h);
+    let (mut needed, mut paid) = (0u64, 0u64);
+    for ty in (0..height).step_by(tile_h as usize) {
+        for tx in (0..width).step_by(tile_w as usize) {
+            let tile: Vec<&Vec<Vec<u32>>> = (ty..(ty + tile_h).min(height))
+                .flat_map(|y| (tx..(tx + tile_w).min(width)).map(move |x| &walks[(y * width + x) as usize]))
+                .collect();
+            let samples = tile.iter().map(|p| p.len()).max().unwrap_or(0);
+            for s in 0..samples {
+                let turns = tile.iter().map(|p| p.get(s).map_or(0, Vec::len)).max().unwrap_or(0);
+                for k in 0..turns {
+                    let passes = tile.iter().map(|p| u64::from(p.get(s).and_then(|w| w.get(k).copied()).unwrap_or(0)));
+                    needed += passes.clone().sum::<u64>();
+                    paid += lanes * passes.max().unwrap_or(0);
+                }
+            }
+        }
+    }
+    (paid > 0).then(|| needed as f64 / paid as f64)
 }
 
 #[cfg(test)]
@@ -103,6 +139,23 @@ mod tests {
         // In 4x2 warps only the slow lane's pays: 3 whole, then (7 + 4) / 32.
         let u = LaneUse::of(&one, (4, 2));
         assert_eq!(u.camera, Some((24.0 + 11.0) / (24.0 + 32.0)));
+    }
+
+    /// In step, a lane that ends its walk early waits for the turn's
+    /// slowest: two lanes of walks (1, 3) and (3, 1) pay 3 + 3 where the
+    /// pixels' sums (4 and 4) would pay 4; samples start their turns
+    /// afresh; missing lanes of a partial tile idle. Rule: exact.
+    #[test]
+    fn lanes_in_step_wait_for_each_turn() {
+        let walks = vec![vec![vec![1, 3]], vec![vec![3, 1]]];
+        assert_eq!(in_step(&walks, 2, 1, (2, 1)), Some(8.0 / 12.0));
+        // Two samples: (2) then (1, 1) beside (1, 1) then (2): turns' most 2, 1, then 2, 1.
+        let walks = vec![vec![vec![2], vec![1, 1]], vec![vec![1, 1], vec![2]]];
+        assert_eq!(in_step(&walks, 2, 1, (2, 1)), Some(8.0 / (2.0 * (2.0 + 1.0 + 2.0 + 1.0))));
+        // A 4x1 warp over a 2x1 picture: its two missing lanes are paid for.
+        let walks = vec![vec![vec![2]], vec![vec![2]]];
+        assert_eq!(in_step(&walks, 2, 1, (4, 1)), Some(4.0 / 8.0));
+        assert_eq!(in_step(&[], 0, 0, (4, 2)), None);
     }
 
     /// The walk's byte counts (traversal.glsl NODE_BYTES and the rest) are
