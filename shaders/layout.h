@@ -65,6 +65,7 @@
 #define LIGHT_TEXELS 6     // sizeof(Light) / 16
 #define NODE_TEXELS 3      // sizeof(BvhNode) / 16
 #define INSTANCE_TEXELS 5  // sizeof(Instance) / 16
+#define PACKED_TEXELS 4u   // a Primitive or an Instance in the images (scene_buffers.glsl)
 #define LEAF_ITEMS_PER_TEXEL 4
 
 #define WORKGROUP_SIZE 8 // 8x8 invocations, one pixel each

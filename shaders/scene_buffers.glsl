@@ -27,7 +27,8 @@ layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame
 
 #ifdef SCENE_UNIFORM
 // The uniform kernels: the arrays as rgba32ui storage images of the same
-// bytes (layout.h, IMAGE_WIDTH).
+// bytes (layout.h, IMAGE_WIDTH), but primitives and instances packed
+// (below).
 layout(binding = BINDING_PRIMITIVES, rgba32ui) readonly uniform uimage2D primitive_texels;
 layout(binding = BINDING_MATERIALS, rgba32ui) readonly uniform uimage2D material_texels;
 layout(binding = BINDING_NODES, rgba32ui) readonly uniform uimage2D node_texels;
@@ -39,10 +40,21 @@ layout(binding = BINDING_LEAF_ITEMS, rgba32ui) readonly uniform uimage2D leaf_it
 #define SCENE_VEC4(image, n, i, k) uintBitsToFloat(SCENE_TEXEL(image, n, i, k))
 #define SCENE_MAT4(image, n, i) \
     mat4(SCENE_VEC4(image, n, i, 0u), SCENE_VEC4(image, n, i, 1u), SCENE_VEC4(image, n, i, 2u), SCENE_VEC4(image, n, i, 3u))
-#define primitive_at(i) \
-    Primitive(SCENE_MAT4(primitive_texels, PRIMITIVE_TEXELS, i), \
-              SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).x, SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).y, \
-              SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).z, SCENE_TEXEL(primitive_texels, PRIMITIVE_TEXELS, i, 4u).w)
+// A Primitive or an Instance takes 4 texels, not 5: its matrix's columns,
+// each with one of the four words that follow the matrix in its w
+// (layout::padded_for_uniform packs them; the kernels read only a
+// column's xyz, exact.glsl transform_point and the rest). A fetch fewer
+// each for the walk's instance and primitive.
+#define SCENE_PACKED_COLUMN(image, i, k) SCENE_TEXEL_AT(image, (i) * PACKED_TEXELS + (k))
+#define SCENE_PACKED_MAT4(image, i) \
+    mat4(vec4(uintBitsToFloat(SCENE_PACKED_COLUMN(image, i, 0u).xyz), 0.0f), \
+         vec4(uintBitsToFloat(SCENE_PACKED_COLUMN(image, i, 1u).xyz), 0.0f), \
+         vec4(uintBitsToFloat(SCENE_PACKED_COLUMN(image, i, 2u).xyz), 0.0f), \
+         vec4(uintBitsToFloat(SCENE_PACKED_COLUMN(image, i, 3u).xyz), 1.0f))
+#define SCENE_PACKED_WORDS(image, i) \
+    SCENE_PACKED_COLUMN(image, i, 0u).w, SCENE_PACKED_COLUMN(image, i, 1u).w, SCENE_PACKED_COLUMN(image, i, 2u).w, \
+        SCENE_PACKED_COLUMN(image, i, 3u).w
+#define primitive_at(i) Primitive(SCENE_PACKED_MAT4(primitive_texels, i), SCENE_PACKED_WORDS(primitive_texels, i))
 #define material_at(i) \
     Material(SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 0u), SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 1u), \
              SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 2u), SCENE_VEC4(material_texels, MATERIAL_TEXELS, i, 3u), \
@@ -60,10 +72,7 @@ layout(binding = BINDING_LEAF_ITEMS, rgba32ui) readonly uniform uimage2D leaf_it
     BvhNode(SCENE_VEC4(node_texels, NODE_TEXELS, i, 0u), SCENE_VEC4(node_texels, NODE_TEXELS, i, 1u), \
             SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).x, SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).y, \
             SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).z, SCENE_TEXEL(node_texels, NODE_TEXELS, i, 2u).w)
-#define instance_at(i) \
-    Instance(SCENE_MAT4(instance_texels, INSTANCE_TEXELS, i), \
-             SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).x, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).y, \
-             SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).z, SCENE_TEXEL(instance_texels, INSTANCE_TEXELS, i, 4u).w)
+#define instance_at(i) Instance(SCENE_PACKED_MAT4(instance_texels, i), SCENE_PACKED_WORDS(instance_texels, i))
 layout(binding = BINDING_LIGHTS, rgba32ui) readonly uniform uimage2D light_texels;
 #else
 layout(std430, binding = BINDING_PRIMITIVES) readonly buffer PrimitiveBlock { Primitive primitives[]; };

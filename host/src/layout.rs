@@ -502,7 +502,7 @@ pub fn scene_bindings() -> Vec<BindingLayout> {
 /// The scene arrays render_uniform.comp and preview_uniform.comp read from
 /// rgba32ui storage images (scene_buffers.glsl, SCENE_UNIFORM; layout.h,
 /// IMAGE_WIDTH): every array the walk and the shading read, the same bytes
-/// (`padded_for_uniform`).
+/// but primitives and instances packed (`padded_for_uniform`).
 pub const UNIFORM_KERNEL_IMAGES: [u32; 6] =
     [BINDING_PRIMITIVES, BINDING_MATERIALS, BINDING_LIGHTS, BINDING_NODES, BINDING_INSTANCES, BINDING_LEAF_ITEMS];
 
@@ -557,22 +557,105 @@ pub fn uniform_kernel_scene_bindings(frame_uniform: bool) -> Vec<BindingLayout> 
 }
 
 /// `bytes` of scene binding `binding` as the uniform kernels take them: an
-/// array they read as an image padded with zeros to at least one texel
-/// and, past one row, to whole rows of IMAGE_WIDTH texels (a data image,
-/// `GpuContext::run_passes`); anything else as it is.
+/// array they read as an image, primitives and instances packed into four
+/// texels each (`packed_records`), padded with zeros to
+/// `uniform_image_bytes`; anything else as it is.
 pub fn padded_for_uniform(binding: u32, bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    use std::borrow::Cow;
     if !UNIFORM_KERNEL_IMAGES.contains(&binding) {
-        return std::borrow::Cow::Borrowed(bytes);
+        return Cow::Borrowed(bytes);
     }
-    let row = IMAGE_WIDTH as usize * 16;
-    let len =
-        if bytes.len() <= row { bytes.len().max(16).next_multiple_of(16) } else { bytes.len().next_multiple_of(row) };
+    let len = uniform_image_bytes(binding, bytes.len());
+    let bytes = match binding {
+        BINDING_PRIMITIVES | BINDING_INSTANCES => Cow::Owned(packed_records(bytes)),
+        _ => Cow::Borrowed(bytes),
+    };
     if len == bytes.len() {
-        return std::borrow::Cow::Borrowed(bytes);
+        return bytes;
     }
-    let mut v = bytes.to_vec();
+    let mut v = bytes.into_owned();
     v.resize(len, 0);
-    std::borrow::Cow::Owned(v)
+    Cow::Owned(v)
+}
+
+/// The bytes an array of `len` bytes of scene binding `binding` takes in
+/// the uniform kernels' images: 4 texels a primitive or instance where the
+/// struct has 5 (`packed_records`), then at least one texel and, past one
+/// row, whole rows of IMAGE_WIDTH texels (a data image,
+/// `GpuContext::run_passes`); `len` for any other binding.
+pub fn uniform_image_bytes(binding: u32, len: usize) -> usize {
+    if !UNIFORM_KERNEL_IMAGES.contains(&binding) {
+        return len;
+    }
+    let len = match binding {
+        BINDING_PRIMITIVES | BINDING_INSTANCES => len / PACKED_RECORD * PACKED_TEXELS as usize * 16,
+        _ => len,
+    };
+    let row = IMAGE_WIDTH as usize * 16;
+    if len <= row {
+        len.max(16).next_multiple_of(16)
+    } else {
+        len.next_multiple_of(row)
+    }
+}
+
+/// A Primitive's and an Instance's bytes: a mat4 and four words.
+const PACKED_RECORD: usize = std::mem::size_of::<Primitive>();
+const _: () = assert!(PACKED_RECORD == 80 && std::mem::size_of::<Instance>() == PACKED_RECORD);
+const _: () = assert!(PACKED_TEXELS as usize * 16 == 64, "the mat4's four columns");
+
+/// Primitives or instances as the uniform kernels' images hold them
+/// (scene_buffers.glsl, PACKED_TEXELS): each record's matrix, its four
+/// columns with the four words after it in their w, where the matrix's
+/// bottom row was (no kernel reads it: exact.glsl transforms by the
+/// columns' xyz). Four texels a record where the struct takes five.
+fn packed_records(bytes: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(bytes.len() / PACKED_RECORD * 64);
+    for record in bytes.chunks_exact(PACKED_RECORD) {
+        for k in 0..4 {
+            out.extend_from_slice(&record[16 * k..16 * k + 12]);
+            out.extend_from_slice(&record[64 + 4 * k..64 + 4 * k + 4]);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod packing_tests {
+    use super::*;
+
+    /// A primitive's image texels: each matrix column's xyz, then one of
+    /// the four words after the matrix in its w; padded to one texel per
+    /// record; the other arrays' bytes unchanged. Rule: exact.
+    #[test]
+    fn primitives_take_four_texels() {
+        let m: [f32; 16] = std::array::from_fn(|i| i as f32 + 0.5);
+        let p = Primitive {
+            object_from_world: [
+                [m[0], m[1], m[2], m[3]],
+                [m[4], m[5], m[6], m[7]],
+                [m[8], m[9], m[10], m[11]],
+                [m[12], m[13], m[14], m[15]],
+            ],
+            shape: 7,
+            material: 8,
+            id_offset: 9,
+            mesh: 10,
+        };
+        let bytes = bytemuck::bytes_of(&p);
+        let packed = padded_for_uniform(BINDING_PRIMITIVES, bytes);
+        let words: &[u32] = bytemuck::cast_slice(&packed);
+        let f = |x: f32| x.to_bits();
+        let expected: Vec<u32> =
+            (0..4).flat_map(|k| [f(m[4 * k]), f(m[4 * k + 1]), f(m[4 * k + 2]), 7 + k as u32]).collect();
+        assert_eq!(words, &expected[..]);
+        assert_eq!(uniform_image_bytes(BINDING_PRIMITIVES, 3 * 80), 3 * 64);
+        assert_eq!(uniform_image_bytes(BINDING_INSTANCES, 80), 64);
+        let node = [1u8; 48];
+        assert_eq!(&padded_for_uniform(BINDING_NODES, &node)[..], &node[..]);
+        assert_eq!(uniform_image_bytes(BINDING_NODES, 8), 16);
+        assert_eq!(uniform_image_bytes(BINDING_TEXELS, 8), 8);
+    }
 }
 
 /// The buffer bindings of render_uniform.comp: `render_bindings` with the

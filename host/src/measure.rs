@@ -26,7 +26,7 @@ pub fn reset_peak_host() -> bool {
 /// running sums (render.comp's, cleared by the device) and the pixel buffer
 /// read back. With `uniform` (render_uniform.comp), the arrays it reads as
 /// uniform blocks count at their declared size, as they are uploaded
-/// (`layout::padded_for_uniform`). The driver's rounding of each
+/// (`layout::uniform_image_bytes`). The driver's rounding of each
 /// allocation is not counted, nor the kernel itself. A picture drawn in
 /// bands (`GpuRenderer::band_rows`) holds the running sums and pixels of
 /// one band of `band_rows` rows at a time.
@@ -34,7 +34,7 @@ pub fn device_bytes(data: &FrameData, uniform: bool, band_rows: u32) -> u64 {
     let scene: u64 = data
         .scene_buffers()
         .iter()
-        .map(|&(binding, _, bytes)| if uniform { crate::layout::padded_for_uniform(binding, bytes).len() } else { bytes.len() } as u64)
+        .map(|&(binding, _, bytes)| if uniform { crate::layout::uniform_image_bytes(binding, bytes.len()) } else { bytes.len() } as u64)
         .sum();
     let per_pixel = std::mem::size_of::<PixelOut>() + std::mem::size_of::<SampleSum>();
     let pixels = u64::from(data.frame.width) * u64::from(data.frame.height.min(band_rows)) * per_pixel as u64;

@@ -56,8 +56,11 @@ pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result
             ctx.info().name
         )));
     }
-    let sizes: Vec<(u32, &str, usize)> =
-        data.scene_buffers().iter().map(|&(b, what, bytes)| (b, what, bytes.len())).collect();
+    let sizes: Vec<(u32, &str, usize)> = data
+        .scene_buffers()
+        .iter()
+        .map(|&(b, what, bytes)| (b, what, layout::uniform_image_bytes(b, bytes.len())))
+        .collect();
     fits_images(&sizes)
 }
 

@@ -37,14 +37,17 @@ fn device_bytes_counts_every_buffer() {
     // In bands of 2 rows, half the pixels at a time.
     assert_eq!(crate::measure::device_bytes(&loaded.data, false, 2), expect - 20 * per_pixel as u64);
     // The uniform kernels' images are uploaded as `padded_for_uniform` pads them:
-    // at least one texel, and these arrays are all shorter than a row.
+    // at least one texel (these arrays are all shorter than a row), a
+    // primitive or an instance in 64 bytes where its struct takes 80.
     let images: u64 = loaded
         .data
         .scene_buffers()
         .iter()
         .map(|&(binding, _, bytes)| {
+            let packed = [crate::layout::BINDING_PRIMITIVES, crate::layout::BINDING_INSTANCES].contains(&binding);
             let image = crate::layout::UNIFORM_KERNEL_IMAGES.contains(&binding);
-            (if image { bytes.len().max(16) } else { bytes.len() }) as u64
+            let len = if packed { bytes.len() / 80 * 64 } else { bytes.len() };
+            (if image { len.max(16) } else { len }) as u64
         })
         .sum();
     assert_eq!(crate::measure::device_bytes(&loaded.data, true, 4), expect - scene + images);
