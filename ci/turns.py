@@ -1,16 +1,20 @@
 #!/usr/bin/env python3
 """What a pixel's rays cost a vector of lavapipe's 8 lanes, turn by turn.
 
-The kernels trace a pixel's rays one walk a turn of the tracing loop
-(shaders/trace.glsl), and a turn ends when its slowest lane's walk does
-(`bench --lanes`, "all in step", counts the same over every pixel). This
-samples 4x2 blocks of pixels (a vector's, `tile_pixel`), takes each
-pixel's walks from `raycast trace --json`, and prints, per block, the
-passes the vector pays and its turns: as the kernels take the rays, and
-as they would be were a surface's shadow rays one turn ("shadows"), or
-its shadow rays and its mirror ray one turn ("shadows and mirror"): what
-letting a lane start its next ray inside the walk's loop would save in
-passes and turns, before the cost of doing so.
+A vector's lanes step together: a walk that ends early waits for its
+neighbours' in the same step (`bench --lanes`, "all in step", counts the
+kernels' own steps over every pixel). This samples 4x2 blocks of pixels
+(a vector's, `tile_pixel`), takes each pixel's walks from `raycast trace
+--json`, and prints the passes and steps a block pays under three ways of
+stepping a pixel's rays (shaders/trace.glsl):
+
+- "a walk a step": every ray through one walk call, the k-th walk of each
+  lane together (the kernels until 2026-12-07);
+- "the kernels": a turn for each camera, mirror or refracted ray, then
+  the light loop, a light point a step, its shadow ray walked there;
+- "shadows and mirror in one step": a surface's shadow rays and its
+  mirror ray walked one after another within one step, as a lane that
+  started its next ray inside the walk's loop would (not built).
 
     ci/turns.py [--blocks N] [--raycast BIN] SCENE [raycast options]...
 
@@ -25,26 +29,38 @@ from concurrent.futures import ThreadPoolExecutor
 
 
 def walks(raycast, scene, options, pixel):
+    """A pixel's walks as (kind, turn, slot, passes), as Walk::of_steps keys them."""
     out = subprocess.run(
         [raycast, "trace", "--pixel", f"{pixel[0]},{pixel[1]}", scene, "--json", *options],
         capture_output=True, text=True, check=True,
     ).stdout
-    steps = json.loads(out)["steps"]
-    return [(s["kind"], s["passes"]) for s in steps if s["kind"] in ("camera", "shadow", "mirror", "refract")]
+    found, turn, slot = [], -1, 0
+    for s in json.loads(out)["steps"]:
+        if s["kind"] in ("camera", "mirror", "refract"):
+            turn, slot = turn + 1, 0
+            found.append((s["kind"], turn, 0, s["passes"]))
+        elif s["kind"] == "light":
+            slot += 1
+        elif s["kind"] == "shadow":
+            found.append(("shadow", turn, slot, s["passes"]))
+    return found
 
 
-def turns(rays, fuse):
-    """A pixel's turns' passes: each walk its own turn, or fused as `fuse` says."""
-    out, prev = [], None
-    for kind, passes in rays:
-        joins = (fuse == "shadows" and kind == "shadow" and prev == "shadow") or (
-            fuse == "shadows and mirror" and (kind == "mirror" or (kind == "shadow" and prev == "shadow"))
-        )
-        if joins and out:
-            out[-1] += passes
+def steps(walks, way):
+    """A pixel's steps as {key: passes}: the block pays each key's most."""
+    out = {}
+    for i, (kind, turn, slot, passes) in enumerate(walks):
+        if way == "a walk a step":
+            key = i
+        elif way == "the kernels":
+            key = (turn, slot)
+        elif kind == "shadow":
+            key = (turn, 1)  # after the turn's ray, all its shadow rays in one step
+        elif kind == "mirror":
+            key = (turn - 1, 1)  # and the mirror ray after them, in the same step
         else:
-            out.append(passes)
-        prev = kind
+            key = (turn, 0)
+        out[key] = out.get(key, 0) + passes
     return out
 
 
@@ -63,17 +79,16 @@ def main():
     with ThreadPoolExecutor(4) as pool:
         rays = list(pool.map(lambda px: walks(args.raycast, args.scene, options, px), pixels))
     print(f"{args.scene}: {args.blocks} blocks of 4x2 pixels")
-    for fuse in ("none", "shadows", "shadows and mirror"):
+    for way in ("a walk a step", "the kernels", "shadows and mirror in one step"):
         paid = needed = count = 0
         for b in range(args.blocks):
-            lanes = [turns(r, fuse) for r in rays[8 * b:8 * b + 8]]
-            n = max(len(t) for t in lanes)
-            paid += sum(max(t[i] if i < len(t) else 0 for t in lanes) for i in range(n))
-            needed += sum(sum(t) for t in lanes)
-            count += n
-        label = "as the kernels take them" if fuse == "none" else f"one turn for a surface's {fuse}"
+            lanes = [steps(r, way) for r in rays[8 * b:8 * b + 8]]
+            keys = set().union(*lanes)
+            paid += sum(max(l.get(k, 0) for l in lanes) for k in keys)
+            needed += sum(sum(l.values()) for l in lanes)
+            count += len(keys)
         print(
-            f"  {label}: {paid / args.blocks:.2f} passes and {count / args.blocks:.2f} turns a block; "
+            f"  {way}: {paid / args.blocks:.2f} passes and {count / args.blocks:.2f} steps a block; "
             f"lane use {needed / (8 * paid):.3f}"
         )
 

@@ -1,6 +1,6 @@
 // trace.glsl: the tracing loop: one sample of a pixel, its camera ray, the
-// shadow rays and the mirror path through the one walk, folded into a
-// colour (or an AOV's), each step a TRACE for `raycast trace`.
+// shadow rays and the mirror path through the walk, folded into a colour
+// (or an AOV's), each step a TRACE for `raycast trace`.
 
 // One sample of a pixel: the primary ray's nearest hit and the colour it
 // gives (the shaded colour with reflections, or an AOV's), each
@@ -33,16 +33,17 @@ struct PixelSample {
 // k_t O_t c_refracted). Mirror and refracted rays share the bounce budget
 // (frame.max_depth); without refraction the arithmetic is the chain's.
 //
-// Every ray, camera, shadow, mirror or refracted, goes through the one walk call at
-// the top of the loop: each pass traces the pixel's next ray, then goes on
-// from its answer to the next ray, the next light's shadow ray or the
-// level's mirror ray. Lavapipe turns every copy of the walk into code on
-// every pipeline build (a copy for shadow rays took a third of
-// recursiveSpheres4's), and runs a vector's lanes through a copy together:
-// with one, a lane's mirror ray goes beside a neighbour's shadow ray, not
-// after it. (Keeping the lanes in step, one pass per light whether its
-// shadow ray is needed or not, was 4-8% slower.) With another AOV than
-// colour, the first hit only (aov_color).
+// The camera, mirror and refracted rays go through the walk call at the
+// top of the loop, a turn each; a hit's shadow rays through a second call,
+// in the light loop, one a light that needs one, any_hit a constant there.
+// Lavapipe runs every branch of the loop's body on every turn, masked:
+// with one call for every ray, a shadow ray's turn paid for the shading
+// of a hit, the light's term and the mirror's set-up too, about 2.6 walk
+// passes (BENCHMARKS.md, "A kernel for lanes"); a second copy of the walk
+// costs its build instead (lavapipe builds a kernel again at each
+// dispatch), and took 4 to 18% off the dispatch at recursive-spheres
+// depths 4 to 10. With another AOV than colour, the first hit only
+// (aov_color).
 //
 // Each step is also a TRACE (layout.h TraceStep): the CPU build records
 // them for `raycast trace`; in a kernel TRACE is nothing.
@@ -81,14 +82,10 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
     bool refracted = false; // the level's ray is a refracted one (TRACE_REFRACT)
     uint levels = 0u;
     uint level = 0u;
-    // The ray traced next: the level's ray, or (shadow) the shadow ray of
-    // light li, whose term `pending` is added unless something blocks it.
+    // The ray the turn traces: the level's (camera, mirror or refracted).
     Ray next = ray;
-    float next_t_max = T_FAR;
-    bool shadow = false;
     Surface surface;
     precise vec3 color = vec3(0.0f, 0.0f, 0.0f);
-    precise vec3 pending = vec3(0.0f, 0.0f, 0.0f);
     uint li = 0u;
     // An area light's point lk of ln (sample_dims zw rotates them); other lights have one.
     uint lk = 0u;
@@ -110,59 +107,46 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
     // tests/scenes/stress/mirrors_beside_matte.xml.
     bool first_kept = false;
     while (true) {
-        SceneHit h = walk(next, next_t_max, shadow);
+        SceneHit h = walk(next, T_FAR, false);
         s.rays = s.rays + 1u;
-        TRACE(shadow ? TRACE_SHADOW : (level == 0u ? TRACE_CAMERA : (refracted ? TRACE_REFRACT : TRACE_MIRROR)), level, li,
-              h.id, h.passes, vec4(next.origin, 0.0f), vec4(next.direction, next_t_max), vec4(h.normal, h.t), vec4(0.0f));
+        TRACE(level == 0u ? TRACE_CAMERA : (refracted ? TRACE_REFRACT : TRACE_MIRROR), level, li,
+              h.id, h.passes, vec4(next.origin, 0.0f), vec4(next.direction, T_FAR), vec4(h.normal, h.t), vec4(0.0f));
         if (HAS_AOVS) {
             passes = passes + h.passes;
             fetched = fetched + uvec2(h.node_bytes, h.prim_bytes);
         }
         bool path_ends = false;
-        if (shadow) {
-            if (HAS_AOVS) {
-                shadow_passes = shadow_passes + h.passes;
-            }
-            if (h.id == NO_HIT) {
-                color = color + pending;
-            }
-            uvec2 after = next_light_point(li, lk, ln);
-            li = after.x;
-            lk = after.y;
-        } else {
-            if (!first_kept) {
-                s.hit = h;
-                first_kept = true;
-            }
-            // The AOVs other than colour: the first hit's, black on a miss
-            // but for the cost, which a miss has too. AOV_COST_ALL goes on
-            // as colour does, its picture made at the end.
-            if (HAS_AOVS && frame.aov != AOV_COLOR && frame.aov != AOV_COST_ALL && frame.aov != AOV_LANES && frame.aov != AOV_SAMPLES &&
-                (h.id != NO_HIT || frame.aov == AOV_COST)) {
-                s.color = aov_color(frame.aov, ray, h);
+        if (!first_kept) {
+            s.hit = h;
+            first_kept = true;
+        }
+        // The AOVs other than colour: the first hit's, black on a miss
+        // but for the cost, which a miss has too. AOV_COST_ALL goes on
+        // as colour does, its picture made at the end.
+        if (HAS_AOVS && frame.aov != AOV_COLOR && frame.aov != AOV_COST_ALL && frame.aov != AOV_LANES && frame.aov != AOV_SAMPLES &&
+            (h.id != NO_HIT || frame.aov == AOV_COST)) {
+            s.color = aov_color(frame.aov, ray, h);
+            break;
+        }
+        if (h.id == NO_HIT) {
+            if (refract_pending == 0u) {
                 break;
             }
-            if (h.id == NO_HIT) {
-                if (refract_pending == 0u) {
-                    break;
-                }
-                path_ends = true;
-            } else {
-                surface = surface_at(ray, h);
-                li = 0u;
-                lk = 0u;
-                if (refraction && leaves_medium(surface)) {
-                    surface = passing_out(surface);
-                    li = frame.light_count;
-                }
-                color = surface.base;
-                TRACE(TRACE_SURFACE, level, 0u, h.id, 0u, vec4(surface.p, 1.0f), vec4(0.0f), vec4(surface.base, 0.0f),
-                      vec4(surface.diffuse, 0.0f));
+            path_ends = true;
+        } else {
+            surface = surface_at(ray, h);
+            li = 0u;
+            lk = 0u;
+            if (refraction && leaves_medium(surface)) {
+                surface = passing_out(surface);
+                li = frame.light_count;
             }
+            color = surface.base;
+            TRACE(TRACE_SURFACE, level, 0u, h.id, 0u, vec4(surface.p, 1.0f), vec4(0.0f), vec4(surface.base, 0.0f),
+                  vec4(surface.diffuse, 0.0f));
         }
-        // The lights from li on: each adds its term, up to the first that
-        // needs a shadow ray.
-        shadow = false;
+        // The lights in turn: each adds its term, one that needs a shadow
+        // ray only when the ray finds nothing in the way.
         while (!path_ends && li < frame.light_count) {
             Light l = light_at(li);
             precise vec3 to_light = xyz(l.direction_to_light);
@@ -194,25 +178,35 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
                 // by anything closer than the light (anything at all for a
                 // directional light).
                 precise vec3 shadow_origin = surface.p + ray_offset(surface.p, ray.origin) * to_light;
-                next.origin = shadow_origin;
-                next.direction = to_light;
+                Ray toward;
+                toward.origin = shadow_origin;
+                toward.direction = to_light;
                 precise float t_max = T_FAR;
                 if (HAS_POSITIONED_LIGHTS && l.kind != LIGHT_DIRECTIONAL) {
                     precise vec3 rest = at - shadow_origin;
                     t_max = sqrt_rn(dot3(rest, rest));
                 }
-                next_t_max = t_max;
-                pending = lit;
-                shadow = true;
-                break;
+                SceneHit sh = walk(toward, t_max, true);
+                s.rays = s.rays + 1u;
+                TRACE(TRACE_SHADOW, level, li, sh.id, sh.passes, vec4(toward.origin, 0.0f), vec4(toward.direction, t_max),
+                      vec4(sh.normal, sh.t), vec4(0.0f));
+                if (HAS_AOVS) {
+                    passes = passes + sh.passes;
+                    fetched = fetched + uvec2(sh.node_bytes, sh.prim_bytes);
+                    shadow_passes = shadow_passes + sh.passes;
+                }
+                if (sh.id == NO_HIT) {
+                    color = color + lit;
+                }
+                uvec2 after = next_light_point(li, lk, ln);
+                li = after.x;
+                lk = after.y;
+                continue;
             }
             color = color + lit;
             uvec2 after = next_light_point(li, lk, ln);
             li = after.x;
             lk = after.y;
-        }
-        if (shadow) {
-            continue;
         }
         if (!path_ends) {
             local_at[level] = color;
@@ -243,7 +237,6 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
                 ray.origin = mirror_origin;
                 ray.direction = mirror;
                 next = ray;
-                next_t_max = T_FAR;
                 level = level + 1u;
                 refracted = false;
                 continue;
@@ -274,7 +267,6 @@ PixelSample sample_pixel(uint j, uint i, vec2 offset, vec4 dims) {
         ray.origin = refract_origin_at[k];
         ray.direction = refract_direction_at[k];
         next = ray;
-        next_t_max = T_FAR;
         level = k + 1u;
         levels = level;
         refracted = true;

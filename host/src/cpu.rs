@@ -16,7 +16,7 @@ pub use progressive::CpuProgressive;
 use crate::error::Error;
 use crate::frame::FrameData;
 use crate::layout::{self, AccumPixel, PixelOut, PreviewFrame};
-use crate::render::{BackendInfo, Picture, Progress, Renderer, Timings, Told};
+use crate::render::{BackendInfo, Picture, Progress, Renderer, Timings, Told, Walk};
 use ffi::{buffer_pointers, raycast_cpu_course_samples, raycast_cpu_trace_sample, row_loops_for};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
@@ -139,24 +139,23 @@ impl CpuRenderer {
         }
     }
 
-    /// The passes of every walk of `frame`, pixel by pixel (row by row) and
-    /// sample by sample, in the order the pixel's rays are traced: the
-    /// `passes` of each camera, shadow, mirror and refracted ray `trace`
+    /// Every walk of `frame`, pixel by pixel (row by row) and sample by
+    /// sample, as the kernels step a vector's lanes through them: each a
+    /// `Walk` of its turn of the tracing loop and its slot in the turn
+    /// (trace.glsl: the level's ray, then the light loop's shadow rays,
+    /// one slot a light's point, needed or not), with the `passes` `trace`
     /// records (with `frame.aov` AOV_LANES, a mesh's steps count as the
-    /// lanes AOV counts them). What `LaneUse::in_step` steps the lanes
-    /// through. None under the course's sampling, whose samples a pixel
-    /// takes depend on the ones before (`bench --lanes` leaves it out).
-    pub fn walk_passes(&self, data: &FrameData, frame: &layout::Frame) -> Option<Vec<Vec<Vec<u32>>>> {
+    /// lanes AOV counts them). What `lanes::in_step` steps lanes through.
+    /// None under the course's sampling, whose samples a pixel takes
+    /// depend on the ones before (`bench --lanes` leaves it out).
+    pub fn walks(&self, data: &FrameData, frame: &layout::Frame) -> Option<Vec<Vec<Vec<Walk>>>> {
         if frame.flags & layout::FLAG_COURSE_SAMPLING != 0 {
             return None;
         }
         let (width, height, spp) = (frame.width, frame.height, frame.spp.max(1));
         let mut buffers = buffer_pointers(data);
         buffers.buffers[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
-        let walks = |kind: u32| {
-            matches!(kind, layout::TRACE_CAMERA | layout::TRACE_SHADOW | layout::TRACE_MIRROR | layout::TRACE_REFRACT)
-        };
-        let mut out: Vec<Vec<Vec<u32>>> = vec![Vec::new(); width as usize * height as usize];
+        let mut out: Vec<Vec<Vec<Walk>>> = vec![Vec::new(); width as usize * height as usize];
         let rows_each = height.div_ceil(self.threads.max(1) as u32).max(1);
         std::thread::scope(|scope| {
             for (part, pixels) in out.chunks_mut((rows_each * width) as usize).enumerate() {
@@ -185,7 +184,7 @@ impl CpuRenderer {
                                 }
                                 steps.resize(n as usize, layout::TraceStep::default());
                             };
-                            pixel.push(steps[..n].iter().filter(|s| walks(s.kind)).map(|s| s.passes).collect());
+                            pixel.push(Walk::of_steps(&steps[..n]));
                         }
                     }
                 });

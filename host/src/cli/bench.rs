@@ -104,8 +104,9 @@ pub struct BenchArgs {
     /// device kernel's walk, pass for pass): each kind of ray's passes over
     /// warps of 8x4 pixels (a GPU's 32 lanes) and 4x2 (lavapipe's 8), the
     /// passes the lanes need over those their warps pay (Aila and Laine's
-    /// model: a warp costs its slowest lane), all rays also in step (a walk
-    /// a lane a turn of the tracing loop, as the kernel takes them), and the
+    /// model: a warp costs its slowest lane), all rays also in step (each
+    /// step of the tracing loop at its slowest lane, as the kernel takes
+    /// them), and the
     /// bytes of hierarchy and primitives fetched per ray
     /// (docs/scale.md#lane-use). With --json a
     /// line a scene (`lanes`); with --markdown a table after the results.
@@ -371,7 +372,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
                     let mut drawn = loaded.data.clone();
                     drawn.frame.aov = crate::layout::AOV_LANES;
                     let (picture, _) = cpu.render_frame(&drawn, &|_| {})?;
-                    let walks = cpu.walk_passes(&drawn, &drawn.frame);
+                    let walks = cpu.walks(&drawn, &drawn.frame);
                     Some(WARPS.map(|warp| LaneUse {
                         all_in_step: walks.as_ref().and_then(|w| in_step(w, picture.width, picture.height, warp)),
                         ..LaneUse::of(&picture, warp)

@@ -24,9 +24,10 @@ pub struct LaneUse {
     /// a lane went on to its next ray as soon as its walk ended.
     pub all: Option<f64>,
     /// The same rays as the kernel steps them (`in_step`): a warp's lanes
-    /// take their walks in turn together, the k-th of every lane at once,
-    /// each costing its slowest lane's passes. None where it was not
-    /// counted (the course's sampling).
+    /// take the tracing loop's turns together, and a turn's ray and its
+    /// light points' shadow rays one slot at a time, each slot costing its
+    /// slowest lane's passes. None where it was not counted (the course's
+    /// sampling).
     pub all_in_step: Option<f64>,
     /// Bytes of the hierarchy (nodes, instance records, instances) and of
     /// primitives fetched, per ray traced.
@@ -84,30 +85,67 @@ impl LaneUse {
     }
 }
 
-/// Lane use with every pixel's rays taken as the kernels take them: one
-/// walk each a turn of the tracing loop (trace.glsl), which ends when every
-/// lane's walk has ended, each sample's rays after the one before's.
-/// `walks` holds each pixel's walks (row by row), their passes in turn,
-/// sample by sample (`CpuRenderer::walk_passes`); `width` x `height` its
-/// picture, in warps of `tile_w` x `tile_h` pixels as in `LaneUse::of`.
-/// Σ passes / Σ over the warps' turns of (lanes × the turn's most).
-pub fn in_step(walks: &[Vec<Vec<u32>>], width: u32, height: u32, (tile_w, tile_h): (u32, u32)) -> Option<f64> {
+/// One walk of a pixel's sample as the kernels step it (trace.glsl): in
+/// `turn` of the tracing loop (its camera, mirror or refracted ray, from
+/// 0), at `slot` of that turn (0 the turn's ray; 1 + j the light loop's
+/// j-th light point, whose shadow ray it is), taking `passes`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Walk {
+    pub turn: u32,
+    pub slot: u32,
+    pub passes: u32,
+}
+
+impl Walk {
+    /// The walks of one sample's `raycast trace` steps: each camera,
+    /// mirror or refracted ray starts a turn, each light the light loop
+    /// takes (layout.h TRACE_LIGHT, needed or not) a slot.
+    pub fn of_steps(steps: &[crate::layout::TraceStep]) -> Vec<Walk> {
+        use crate::layout::{TRACE_CAMERA, TRACE_LIGHT, TRACE_MIRROR, TRACE_REFRACT, TRACE_SHADOW};
+        let (mut walks, mut turn, mut slot) = (Vec::new(), None::<u32>, 0u32);
+        for s in steps {
+            match s.kind {
+                TRACE_CAMERA | TRACE_MIRROR | TRACE_REFRACT => {
+                    let t = turn.map_or(0, |t| t + 1);
+                    (turn, slot) = (Some(t), 0);
+                    walks.push(Walk { turn: t, slot: 0, passes: s.passes });
+                }
+                TRACE_LIGHT => slot += 1,
+                TRACE_SHADOW => walks.push(Walk { turn: turn.unwrap_or(0), slot, passes: s.passes }),
+                _ => {}
+            }
+        }
+        walks
+    }
+}
+
+/// Lane use with every pixel's rays taken as the kernels take them: a
+/// vector's lanes step through the tracing loop's turns together, and
+/// through each turn's slots (its ray's walk, then the light loop's, a
+/// light point each); a slot ends when its slowest lane's walk does.
+/// `walks` holds each pixel's walks (row by row), sample by sample
+/// (`CpuRenderer::walks`); `width` x `height` its picture, in warps of
+/// `tile_w` x `tile_h` pixels as in `LaneUse::of`. Σ passes / Σ over the
+/// warps' slots of (lanes × the slot's most).
+pub fn in_step(walks: &[Vec<Vec<Walk>>], width: u32, height: u32, (tile_w, tile_h): (u32, u32)) -> Option<f64> {
     let lanes = u64::from(tile_w * tile_h);
     let (mut needed, mut paid) = (0u64, 0u64);
+    let mut most = std::collections::BTreeMap::<(usize, u32, u32), u64>::new();
     for ty in (0..height).step_by(tile_h as usize) {
         for tx in (0..width).step_by(tile_w as usize) {
-            let tile: Vec<&Vec<Vec<u32>>> = (ty..(ty + tile_h).min(height))
-                .flat_map(|y| (tx..(tx + tile_w).min(width)).map(move |x| &walks[(y * width + x) as usize]))
-                .collect();
-            let samples = tile.iter().map(|p| p.len()).max().unwrap_or(0);
-            for s in 0..samples {
-                let turns = tile.iter().map(|p| p.get(s).map_or(0, Vec::len)).max().unwrap_or(0);
-                for k in 0..turns {
-                    let passes = tile.iter().map(|p| u64::from(p.get(s).and_then(|w| w.get(k).copied()).unwrap_or(0)));
-                    needed += passes.clone().sum::<u64>();
-                    paid += lanes * passes.max().unwrap_or(0);
+            most.clear();
+            for y in ty..(ty + tile_h).min(height) {
+                for x in tx..(tx + tile_w).min(width) {
+                    for (sample, sample_walks) in walks[(y * width + x) as usize].iter().enumerate() {
+                        for w in sample_walks {
+                            needed += u64::from(w.passes);
+                            let m = most.entry((sample, w.turn, w.slot)).or_default();
+                            *m = (*m).max(u64::from(w.passes));
+                        }
+                    }
                 }
             }
+            paid += lanes * most.values().sum::<u64>();
         }
     }
     (paid > 0).then(|| needed as f64 / paid as f64)
@@ -141,21 +179,44 @@ mod tests {
         assert_eq!(u.camera, Some((24.0 + 11.0) / (24.0 + 32.0)));
     }
 
-    /// In step, a lane that ends its walk early waits for the turn's
-    /// slowest: two lanes of walks (1, 3) and (3, 1) pay 3 + 3 where the
-    /// pixels' sums (4 and 4) would pay 4; samples start their turns
-    /// afresh; missing lanes of a partial tile idle. Rule: exact.
+    /// In step, a lane that ends its walk early waits for the slot's
+    /// slowest: two lanes of turns' rays (1, 3) and (3, 1) pay 3 + 3 where
+    /// the pixels' sums (4 and 4) would pay 4; a shadow ray waits only for
+    /// the same light's in the same turn; samples start afresh; missing
+    /// lanes of a partial tile idle. Rule: exact.
     #[test]
-    fn lanes_in_step_wait_for_each_turn() {
-        let walks = vec![vec![vec![1, 3]], vec![vec![3, 1]]];
+    fn lanes_in_step_wait_for_each_slot() {
+        let w = |turn, slot, passes| Walk { turn, slot, passes };
+        let walks = vec![vec![vec![w(0, 0, 1), w(1, 0, 3)]], vec![vec![w(0, 0, 3), w(1, 0, 1)]]];
         assert_eq!(in_step(&walks, 2, 1, (2, 1)), Some(8.0 / 12.0));
-        // Two samples: (2) then (1, 1) beside (1, 1) then (2): turns' most 2, 1, then 2, 1.
-        let walks = vec![vec![vec![2], vec![1, 1]], vec![vec![1, 1], vec![2]]];
-        assert_eq!(in_step(&walks, 2, 1, (2, 1)), Some(8.0 / (2.0 * (2.0 + 1.0 + 2.0 + 1.0))));
+        // Light 1's shadow ray beside light 2's: two slots, each paid whole.
+        let walks = vec![vec![vec![w(0, 0, 2), w(0, 1, 2)]], vec![vec![w(0, 0, 2), w(0, 2, 2)]]];
+        assert_eq!(in_step(&walks, 2, 1, (2, 1)), Some(8.0 / (2.0 * 6.0)));
+        // Two samples: each sample's turns paid apart.
+        let walks = vec![vec![vec![w(0, 0, 2)], vec![w(0, 0, 1)]], vec![vec![w(0, 0, 1)], vec![w(0, 0, 2)]]];
+        assert_eq!(in_step(&walks, 2, 1, (2, 1)), Some(6.0 / (2.0 * 4.0)));
         // A 4x1 warp over a 2x1 picture: its two missing lanes are paid for.
-        let walks = vec![vec![vec![2]], vec![vec![2]]];
+        let walks = vec![vec![vec![w(0, 0, 2)]], vec![vec![w(0, 0, 2)]]];
         assert_eq!(in_step(&walks, 2, 1, (4, 1)), Some(4.0 / 8.0));
         assert_eq!(in_step(&[], 0, 0, (4, 2)), None);
+    }
+
+    /// A trace's steps as walks: the camera ray turn 0, its lights' slots
+    /// 1 and 2 (the first needing no shadow ray), the mirror ray turn 1.
+    #[test]
+    fn walks_of_a_trace() {
+        use crate::layout::{TraceStep, TRACE_CAMERA, TRACE_LIGHT, TRACE_MIRROR, TRACE_SHADOW, TRACE_SURFACE};
+        let step = |kind, passes| TraceStep { kind, passes, ..TraceStep::default() };
+        let steps = [
+            step(TRACE_CAMERA, 3),
+            step(TRACE_SURFACE, 0),
+            step(TRACE_LIGHT, 0),
+            step(TRACE_LIGHT, 0),
+            step(TRACE_SHADOW, 5),
+            step(TRACE_MIRROR, 2),
+        ];
+        let w = |turn, slot, passes| Walk { turn, slot, passes };
+        assert_eq!(Walk::of_steps(&steps), vec![w(0, 0, 3), w(0, 2, 5), w(1, 0, 2)]);
     }
 
     /// The walk's byte counts (traversal.glsl NODE_BYTES and the rest) are

@@ -433,8 +433,9 @@ pub(super) const LANES_HEADER: &str = "\
 pub(super) const LANES_FOOTER: &str = "lane use: the passes a tile's lanes need over the passes its warp pays (its lanes × the tile's most), summed \
     over the picture's tiles of 8x4 pixels (32 lanes, a GPU's warp) and 4x2 (8 lanes, lavapipe's AVX2), as the \
     kernels lay pixels on lanes, per kind of ray (a pixel's rays of that kind summed) and for all of a pixel's rays (Aila and Laine's model: a warp steps as long as its slowest lane); \
-    all in step: the same rays as the kernels step them, one walk a lane a turn of the tracing loop, which ends when the turn's slowest walk does \
-    (each turn paid at its slowest lane's passes, from `raycast trace`'s walks of every pixel); drawn with \
+    all in step: the same rays as the kernels step them, a vector's lanes through the tracing loop's turns together, in a turn its ray's walk \
+    and then the light loop's shadow rays a light point at a time, each step paid at its slowest lane's passes (from `raycast trace`'s walks \
+    of every pixel); drawn with \
     `--aov lanes` on the CPU build, which walks as the device kernel does, pass for pass; bytes: the hierarchy's \
     (nodes, instance records, instances) and the primitives' fetched by the walks, per ray traced (a mesh's own walk \
     over its triangles within a pass counts a pass a node it takes, its bytes the nodes' and the triangles' with \
