@@ -620,6 +620,31 @@ fn packed_records(bytes: &[u8]) -> Vec<u8> {
     out
 }
 
+/// The buffer bindings of render_uniform.comp: `render_bindings` with the
+/// scene as `uniform_kernel_scene_bindings`.
+pub fn render_uniform_bindings() -> Vec<BindingLayout> {
+    let mut b = uniform_kernel_scene_bindings(true);
+    let own = [BINDING_PIXELS, BINDING_SAMPLE_SUMS, BINDING_COURSE_SUMS];
+    b.extend(render_bindings().into_iter().filter(|r| own.contains(&r.binding)));
+    b
+}
+
+/// The bindings of every kernel that writes pixels: the scene and the pixels.
+pub fn pixel_kernel_bindings() -> Vec<BindingLayout> {
+    let mut b = scene_bindings();
+    b.push(BindingLayout::array(BINDING_PIXELS, PixelOut::layout()).writable());
+    b
+}
+
+/// The bindings of the render kernel (`shaders/render.comp`): the scene, the
+/// pixels and the running sums of their samples.
+pub fn render_bindings() -> Vec<BindingLayout> {
+    let mut b = pixel_kernel_bindings();
+    b.push(BindingLayout::array(BINDING_SAMPLE_SUMS, SampleSum::layout()).writable());
+    b.push(BindingLayout::array(BINDING_COURSE_SUMS, CourseSum::layout()).writable());
+    b
+}
+
 #[cfg(test)]
 mod packing_tests {
     use super::*;
@@ -656,29 +681,4 @@ mod packing_tests {
         assert_eq!(uniform_image_bytes(BINDING_NODES, 8), 16);
         assert_eq!(uniform_image_bytes(BINDING_TEXELS, 8), 8);
     }
-}
-
-/// The buffer bindings of render_uniform.comp: `render_bindings` with the
-/// scene as `uniform_kernel_scene_bindings`.
-pub fn render_uniform_bindings() -> Vec<BindingLayout> {
-    let mut b = uniform_kernel_scene_bindings(true);
-    let own = [BINDING_PIXELS, BINDING_SAMPLE_SUMS, BINDING_COURSE_SUMS];
-    b.extend(render_bindings().into_iter().filter(|r| own.contains(&r.binding)));
-    b
-}
-
-/// The bindings of every kernel that writes pixels: the scene and the pixels.
-pub fn pixel_kernel_bindings() -> Vec<BindingLayout> {
-    let mut b = scene_bindings();
-    b.push(BindingLayout::array(BINDING_PIXELS, PixelOut::layout()).writable());
-    b
-}
-
-/// The bindings of the render kernel (`shaders/render.comp`): the scene, the
-/// pixels and the running sums of their samples.
-pub fn render_bindings() -> Vec<BindingLayout> {
-    let mut b = pixel_kernel_bindings();
-    b.push(BindingLayout::array(BINDING_SAMPLE_SUMS, SampleSum::layout()).writable());
-    b.push(BindingLayout::array(BINDING_COURSE_SUMS, CourseSum::layout()).writable());
-    b
 }
