@@ -35,6 +35,21 @@ fn rows_told<'a>(total: u32, suffix: &'a str, told: Told<'a>) -> impl Fn(u32) + 
     }
 }
 
+/// The steps of sample `sample` of pixel (x, y) into `steps`, grown until
+/// they fit (layout.h TraceStep); how many there are.
+fn trace_into(buffers: &ffi::SendPtrs, x: u32, y: u32, sample: u32, steps: &mut Vec<layout::TraceStep>) -> usize {
+    loop {
+        let capacity = u32::try_from(steps.len()).expect("a trace's steps fit u32");
+        // SAFETY: as in `run`; `steps` holds `capacity` TraceSteps (layout checked).
+        let n =
+            unsafe { raycast_cpu_trace_sample(buffers.as_ptr(), x, y, sample, steps.as_mut_ptr().cast(), capacity) };
+        if n <= capacity {
+            return n as usize;
+        }
+        steps.resize(n as usize, layout::TraceStep::default());
+    }
+}
+
 /// Renders on the CPU with the shared GLSL built as C++.
 pub struct CpuRenderer {
     pub threads: usize,
@@ -125,18 +140,9 @@ impl CpuRenderer {
         let mut buffers = buffer_pointers(data);
         buffers.buffers[layout::BINDING_FRAME as usize] = (frame as *const layout::Frame).cast();
         let mut steps = vec![layout::TraceStep::default(); 64];
-        loop {
-            let capacity = u32::try_from(steps.len()).expect("a trace's steps fit u32");
-            // SAFETY: as in `run`; `steps` holds `capacity` TraceSteps (layout checked).
-            let n = unsafe {
-                raycast_cpu_trace_sample(buffers.as_ptr(), x, y, sample, steps.as_mut_ptr().cast(), capacity)
-            };
-            if n <= capacity {
-                steps.truncate(n as usize);
-                return Ok(steps);
-            }
-            steps.resize(n as usize, layout::TraceStep::default());
-        }
+        let n = trace_into(&buffers, x, y, sample, &mut steps);
+        steps.truncate(n);
+        Ok(steps)
     }
 
     /// Every walk of `frame`, pixel by pixel (row by row) and sample by
@@ -166,24 +172,7 @@ impl CpuRenderer {
                         let at = part * (rows_each * width) as usize + k;
                         let (x, y) = ((at % width as usize) as u32, (at / width as usize) as u32);
                         for sample in 0..spp {
-                            let n = loop {
-                                let capacity = u32::try_from(steps.len()).expect("a trace's steps fit u32");
-                                // SAFETY: as in `trace`; `steps` holds `capacity` TraceSteps.
-                                let n = unsafe {
-                                    raycast_cpu_trace_sample(
-                                        buffers.as_ptr(),
-                                        x,
-                                        y,
-                                        sample,
-                                        steps.as_mut_ptr().cast(),
-                                        capacity,
-                                    )
-                                };
-                                if n <= capacity {
-                                    break n as usize;
-                                }
-                                steps.resize(n as usize, layout::TraceStep::default());
-                            };
+                            let n = trace_into(buffers, x, y, sample, &mut steps);
                             pixel.push(Walk::of_steps(&steps[..n]));
                         }
                     }

@@ -106,10 +106,9 @@ pub struct BenchArgs {
     /// passes the lanes need over those their warps pay (Aila and Laine's
     /// model: a warp costs its slowest lane), all rays also in step (each
     /// step of the tracing loop at its slowest lane, as the kernel takes
-    /// them), and the
-    /// bytes of hierarchy and primitives fetched per ray
-    /// (docs/scale.md#lane-use). With --json a
-    /// line a scene (`lanes`); with --markdown a table after the results.
+    /// them), and the bytes of hierarchy and primitives fetched per ray
+    /// (docs/scale.md#lane-use). With --json a line a scene (`lanes`);
+    /// with --markdown a table after the results.
     #[arg(long, conflicts_with = "versus", help_heading = "Timing")]
     pub lanes: bool,
 }
