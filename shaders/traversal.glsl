@@ -263,12 +263,9 @@ uint stack_word(uint entry, uint level) {
 // has: the inner-node step (HAS_INNER_NODES), the loop over a leaf's
 // primitives or a single test (HAS_SEVERAL_PRIMITIVE_LEAVES), the
 // hierarchy or the flat list (HAS_HIERARCHY, HAS_FLAT_LIST).
-// The C++ build compiles walk once for trace.glsl's two calls (shared.hpp
-// WALK_FUNCTION); a kernel has every call inlined whatever this says.
-#ifndef WALK_FUNCTION
-#define WALK_FUNCTION
-#endif
-WALK_FUNCTION SceneHit walk(Ray r, float t_max, bool any_hit) {
+// (The C++ build keeps it one function for trace.glsl's two calls:
+// shared.hpp declares it so.)
+SceneHit walk(Ray r, float t_max, bool any_hit) {
     SceneHit best;
     best.t = t_max;
     best.id = NO_HIT;

@@ -17,15 +17,6 @@
 namespace raycast_cpu {
 using namespace glm;
 #define precise
-// traversal.glsl's walk: one function, neither inlined at trace.glsl's
-// two calls nor cloned for their any_hit (GCC's noclone): either way the
-// compiler stopped inlining the record tests into it, and the frame took
-// 10 to 25% longer.
-#if defined(__clang__)
-#define WALK_FUNCTION __attribute__((noinline))
-#else
-#define WALK_FUNCTION __attribute__((noinline, noclone))
-#endif
 
 #include "layout.h"
 #include "preview.h"
@@ -233,7 +224,18 @@ inline int findLSB(uint v) {
 #include "walk_keys.hpp"
 namespace {
 struct Ray;
+struct SceneHit;
 uint records_meet(Ray lr, vec4 leaf_lo, vec4 leaf_hi, uint records, uint count, float reach, WalkKeys* keys);
+// traversal.glsl's walk: one function, neither inlined at trace.glsl's
+// two calls nor cloned for their any_hit (GCC's noclone): either way GCC
+// stopped inlining the record tests into it, and the frame took 10 to 25%
+// longer. (Kernels inline every call.)
+#if defined(__clang__)
+__attribute__((noinline))
+#else
+__attribute__((noinline, noclone))
+#endif
+SceneHit walk(Ray r, float t_max, bool any_hit);
 } // namespace
 
 // Internal linkage: each translation unit has its own copy, so GCC may
