@@ -60,11 +60,9 @@
 #define IMAGE_WIDTH 4096
 #define IMAGE_WIDTH_SHIFT 12u // log2(IMAGE_WIDTH)
 #define IMAGE_ROWS 4096
-#define PRIMITIVE_TEXELS 5 // sizeof(Primitive) / 16
 #define MATERIAL_TEXELS 8  // sizeof(Material) / 16
 #define LIGHT_TEXELS 6     // sizeof(Light) / 16
 #define NODE_TEXELS 3      // sizeof(BvhNode) / 16
-#define INSTANCE_TEXELS 5  // sizeof(Instance) / 16
 #define PACKED_TEXELS 4u   // a Primitive or an Instance in the images (scene_buffers.glsl)
 #define LEAF_ITEMS_PER_TEXEL 4
 

@@ -38,8 +38,6 @@ layout(binding = BINDING_LEAF_ITEMS, rgba32ui) readonly uniform uimage2D leaf_it
 #define SCENE_TEXEL_AT(image, t) imageLoad(image, ivec2(int((t) & uint(IMAGE_WIDTH - 1)), int((t) >> IMAGE_WIDTH_SHIFT)))
 #define SCENE_TEXEL(image, n, i, k) SCENE_TEXEL_AT(image, (i) * (n) + (k))
 #define SCENE_VEC4(image, n, i, k) uintBitsToFloat(SCENE_TEXEL(image, n, i, k))
-#define SCENE_MAT4(image, n, i) \
-    mat4(SCENE_VEC4(image, n, i, 0u), SCENE_VEC4(image, n, i, 1u), SCENE_VEC4(image, n, i, 2u), SCENE_VEC4(image, n, i, 3u))
 // A Primitive or an Instance takes 4 texels, not 5: its matrix's columns,
 // each with one of the four words that follow the matrix in its w
 // (layout::padded_for_uniform packs them; the kernels read only a
