@@ -11,18 +11,49 @@
 // returning the structs).
 // The frame: in the uniform kernels (render_uniform.comp and
 // preview_uniform.comp) a uniform block (std140 lays it out as std430
-// does), or with FRAME_IN_STORAGE a storage buffer, as in the others.
-// Lavapipe 22.3 folds a uniform block's values that steer branches into
-// the kernel and builds it again at every dispatch (its "inlined
-// uniforms"; Mesa's shader cache on disk serves the builds it has seen):
-// for render's few dispatches the folded kernel is the faster, for the
-// preview's one a frame it cost a build whenever the frame was new to the
-// cache (~200 ms a frame with it cold: BENCHMARKS.md, "The preview"), so
-// preview_uniform.comp keeps its frame in a storage buffer.
-#if defined(SCENE_UNIFORM) && !defined(FRAME_IN_STORAGE)
+// does), a storage buffer in the others.
+#ifdef SCENE_UNIFORM
 layout(std140, binding = BINDING_FRAME) uniform FrameBlock { Frame frame; };
 #else
 layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame; };
+#endif
+
+// Lavapipe 22.3 folds the uniform-block words that a branch or a loop's
+// end depends on alone into the kernel, and so builds the kernel again
+// at every dispatch (its "inlined uniforms": ~8 ms a dispatch at
+// recursiveSpheres4, where the specialization constants have already
+// taken out what the folding would; BENCHMARKS.md, "A kernel for lanes").
+// So on a CPU device (the kernels compiled without CORRECT_DIVISION or
+// FAST_MATH: glslang_args.rs, Division::AsGiven) main's first step copies
+// the frame into frame_copy, each uint min'ed with
+// ~gl_LocalInvocationIndex: the same value (never as large as 2^32 - 64),
+// but none the driver can fold, and loop_budget_ok's loop keeps a trip
+// count it does not know. Everything after reads the copy (`frame`
+// names it). GPU kernels read the block. A test in host/src/layout.rs
+// checks that frame_unfolded covers every uint of Frame.
+#if defined(SCENE_UNIFORM) && !defined(CORRECT_DIVISION) && !defined(FAST_MATH)
+#define FRAME_COPY 1
+Frame frame_unfolded() {
+    Frame f = frame;
+    uint open = ~gl_LocalInvocationIndex;
+    f.width = min(f.width, open);
+    f.height = min(f.height, open);
+    f.primitive_count = min(f.primitive_count, open);
+    f.light_count = min(f.light_count, open);
+    f.aov = min(f.aov, open);
+    f.flags = min(f.flags, open);
+    f.max_depth = min(f.max_depth, open);
+    f.spp = min(f.spp, open);
+    f.texture_filter = min(f.texture_filter, open);
+    f.root_node = min(f.root_node, open);
+    f.node_count = min(f.node_count, open);
+    f.loop_canary = min(f.loop_canary, open);
+    f.row_offset = min(f.row_offset, open);
+    f.light_samples = min(f.light_samples, open);
+    return f;
+}
+Frame frame_copy;
+#define frame frame_copy
 #endif
 
 #ifdef SCENE_UNIFORM

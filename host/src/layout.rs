@@ -541,15 +541,13 @@ pub enum ImageFormat {
 }
 
 /// The scene's buffer bindings in render_uniform.comp and
-/// preview_uniform.comp: the frame as a uniform block where
-/// `frame_uniform` (render_uniform.comp; preview_uniform.comp keeps it in a
-/// storage buffer, scene_buffers.glsl's FRAME_IN_STORAGE), the textures and
+/// preview_uniform.comp: the frame as a uniform block, the textures and
 /// texels as in `scene_bindings` (the arrays are images).
-pub fn uniform_kernel_scene_bindings(frame_uniform: bool) -> Vec<BindingLayout> {
+pub fn uniform_kernel_scene_bindings() -> Vec<BindingLayout> {
     let mut b: Vec<BindingLayout> =
         scene_bindings().into_iter().filter(|b| !UNIFORM_KERNEL_IMAGES.contains(&b.binding)).collect();
     for binding in &mut b {
-        if binding.binding == BINDING_FRAME && frame_uniform {
+        if binding.binding == BINDING_FRAME {
             binding.shape = BufferShape::UniformSingle(Frame::layout());
         }
     }
@@ -623,7 +621,7 @@ fn packed_records(bytes: &[u8]) -> Vec<u8> {
 /// The buffer bindings of render_uniform.comp: `render_bindings` with the
 /// scene as `uniform_kernel_scene_bindings`.
 pub fn render_uniform_bindings() -> Vec<BindingLayout> {
-    let mut b = uniform_kernel_scene_bindings(true);
+    let mut b = uniform_kernel_scene_bindings();
     let own = [BINDING_PIXELS, BINDING_SAMPLE_SUMS, BINDING_COURSE_SUMS];
     b.extend(render_bindings().into_iter().filter(|r| own.contains(&r.binding)));
     b
@@ -680,5 +678,40 @@ mod packing_tests {
         assert_eq!(&padded_for_uniform(BINDING_NODES, &node)[..], &node[..]);
         assert_eq!(uniform_image_bytes(BINDING_NODES, 8), 16);
         assert_eq!(uniform_image_bytes(BINDING_TEXELS, 8), 8);
+    }
+}
+
+#[cfg(test)]
+mod frame_unfolded_tests {
+    /// The uint fields of a GLSL struct `name` in `source`, in order.
+    fn uint_fields(source: &str, name: &str) -> Vec<String> {
+        let start = source.find(&format!("struct {name} {{")).expect("the struct");
+        let body = &source[start..start + source[start..].find("};").expect("its end")];
+        body.lines()
+            .filter_map(|line| line.trim().strip_prefix("uint ")?.split(';').next().map(|f| f.trim().to_string()))
+            .collect()
+    }
+
+    /// On a CPU device the uniform kernels read every uint of the frame
+    /// from scene_buffers.glsl's frame_unfolded, which hides it from
+    /// lavapipe's folding of uniform values (a kernel built again at every
+    /// dispatch where a branch reads one). A uint added to Frame and not to
+    /// frame_unfolded would bring the builds back: this names it. Rule: the
+    /// same fields, in the same order.
+    #[test]
+    fn frame_unfolded_hides_every_uint_of_the_frame() {
+        let fields = uint_fields(include_str!("../../shaders/layout.h"), "Frame");
+        assert!(fields.len() >= 14 && fields.contains(&"loop_canary".to_string()), "{fields:?}");
+        let buffers = include_str!("../../shaders/scene_buffers.glsl");
+        let start = buffers.find("Frame frame_unfolded() {").expect("scene_buffers.glsl declares frame_unfolded");
+        let body = &buffers[start..start + buffers[start..].find("\n}").expect("its end")];
+        let hidden: Vec<String> = body
+            .lines()
+            .filter_map(|line| {
+                let field = line.trim().strip_prefix("f.")?.split(' ').next()?;
+                (line.trim() == format!("f.{field} = min(f.{field}, open);")).then(|| field.to_string())
+            })
+            .collect();
+        assert_eq!(hidden, fields, "frame_unfolded's fields against layout.h's uints of Frame");
     }
 }

@@ -89,10 +89,9 @@ pub fn preview_bindings() -> Vec<BindingLayout> {
 }
 
 /// The buffer bindings of preview_uniform.comp: `preview_bindings` with the
-/// scene as render_uniform.comp's (`layout::uniform_kernel_scene_bindings`)
-/// but for the frame, in a storage buffer.
+/// scene as render_uniform.comp's (`layout::uniform_kernel_scene_bindings`).
 pub fn preview_uniform_bindings() -> Vec<BindingLayout> {
-    let mut b = super::uniform_kernel_scene_bindings(false);
+    let mut b = super::uniform_kernel_scene_bindings();
     b.extend(pixel_kernel_bindings().into_iter().filter(|p| p.binding == super::BINDING_PIXELS));
     with_preview_bindings(b)
 }
@@ -132,13 +131,10 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e}"));
     }
 
-    /// The embedded preview_uniform kernel matches its mirrors, and they
-    /// bind no uniform block: Mesa 22.3's lavapipe builds a kernel again at
-    /// every dispatch when its branches read a uniform block's values (its
-    /// inlined uniforms), which cost a preview frame ~230 ms where Mesa's
-    /// shader cache was cold (scene_buffers.glsl, FRAME_IN_STORAGE).
+    /// The embedded preview_uniform kernel matches its mirrors, the frame
+    /// a uniform block as render_uniform's (scene_buffers.glsl, frame_copy).
     #[test]
-    fn preview_uniform_kernel_binds_no_uniform_block() {
+    fn preview_uniform_kernel_matches_its_mirrors() {
         let spv = crate::gpu::kernel_spirv("preview_uniform").expect("build.rs embeds shaders/preview_uniform.comp");
         reflect::check_layouts_with_images(
             "preview_uniform",
@@ -149,7 +145,7 @@ mod tests {
         .unwrap_or_else(|e| panic!("{e}"));
         let uniform: Vec<u32> =
             preview_uniform_bindings().iter().filter(|b| b.shape.is_uniform()).map(|b| b.binding).collect();
-        assert!(uniform.is_empty(), "uniform blocks at bindings {uniform:?}");
+        assert_eq!(uniform, [crate::layout::BINDING_FRAME]);
     }
 
     /// A host that forgot the image, or calls it read-only, is told so.
