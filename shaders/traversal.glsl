@@ -188,8 +188,11 @@ precise float tie_reach(TieWindow w, float t_max) {
 // The walk finishes the hit it keeps after its loop (the world normal,
 // material and shape).
 // A mesh's hit keeps its texture coordinates (u, v, 0) where the others
-// keep their point (surface_uv reads them back).
-SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id, float t_max) {
+// keep their point (surface_uv reads them back). With any_hit (a shadow
+// ray) the first hit below t_max is the answer, and the walk returns on
+// it: the tie window is left alone (the same answer and passes; 4 to 5%
+// off the dispatch at recursiveSpheres4 and depth 8: BENCHMARKS.md).
+SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id, float t_max, bool any_hit) {
     if (HAS_AOVS) {
         best.prim_bytes = best.prim_bytes + PRIMITIVE_BYTES;
     }
@@ -213,8 +216,10 @@ SceneHit primitive_hit(SceneHit best, uint item, Ray lr, uint first_id, float t_
         h = intersect_shape(primitive_at(item).shape, local);
     }
     uint id = first_id + primitive_at(item).id_offset;
-    best.tie = tie_add(best.tie, h.t, id, t_max);
-    if (h.t < t_max && id == tie_winner(best.tie)) {
+    if (!any_hit) {
+        best.tie = tie_add(best.tie, h.t, id, t_max);
+    }
+    if (h.t < t_max && (any_hit || id == tie_winner(best.tie))) {
         precise vec3 p_object = mesh ? vec3(mesh_uv, 0.0f) : local.origin + h.t * local.direction;
         best.t = h.t;
         best.id = id;
@@ -530,12 +535,12 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                     continue;
                 }
 #endif
-                best = primitive_hit(best, direct ? first_item : leaf_item(first_item + n), lr, first_id, t_max);
+                best = primitive_hit(best, direct ? first_item : leaf_item(first_item + n), lr, first_id, t_max, any_hit);
             }
         } else if (prim_count > 0u) {
             // At most one: an `if`, not a loop (12% of recursiveSpheres4's
             // dispatch: a lavapipe loop costs far more than its body).
-            best = primitive_hit(best, direct ? first_item : first_primitive, lr, first_id, t_max);
+            best = primitive_hit(best, direct ? first_item : first_primitive, lr, first_id, t_max, any_hit);
         }
         reach = tie_reach(best.tie, t_max);
         if (best.id != best_before) {
