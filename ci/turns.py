@@ -56,6 +56,8 @@ def steps(walks, way):
             key = (turn, slot)
         elif kind == "shadow":
             key = (turn, 1)  # after the turn's ray, all its shadow rays in one step
+        elif way == "shadows in one step":
+            key = (turn, 0)  # every turn's ray a step of its own
         elif kind == "mirror":
             key = (turn - 1, 1)  # and the mirror ray after them, in the same step
         else:
@@ -79,7 +81,7 @@ def main():
     with ThreadPoolExecutor(4) as pool:
         rays = list(pool.map(lambda px: walks(args.raycast, args.scene, options, px), pixels))
     print(f"{args.scene}: {args.blocks} blocks of 4x2 pixels")
-    for way in ("a walk a step", "the kernels", "shadows and mirror in one step"):
+    for way in ("a walk a step", "the kernels", "shadows in one step", "shadows and mirror in one step"):
         paid = needed = count = 0
         for b in range(args.blocks):
             lanes = [steps(r, way) for r in rays[8 * b:8 * b + 8]]
