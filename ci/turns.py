@@ -12,6 +12,8 @@ stepping a pixel's rays (shaders/trace.glsl):
   lane together (the kernels until 2026-12-07);
 - "the kernels": a turn for each camera, mirror or refracted ray, then
   the light loop, a light point a step, its shadow ray walked there;
+- "shadows in one step": a turn's ray a step, then all its surface's
+  shadow rays one after another within one step (not built);
 - "shadows and mirror in one step": a surface's shadow rays and its
   mirror ray walked one after another within one step, as a lane that
   started its next ray inside the walk's loop would (not built).
