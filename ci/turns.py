@@ -5,7 +5,7 @@ A vector's lanes step together: a walk that ends early waits for its
 neighbours' in the same step (`bench --lanes`, "all in step", counts the
 kernels' own steps over every pixel). This samples 4x2 blocks of pixels
 (a vector's, `tile_pixel`), takes each pixel's walks from `raycast trace
---json`, and prints the passes and steps a block pays under three ways of
+--json`, and prints the passes and steps a block pays under four ways of
 stepping a pixel's rays (shaders/trace.glsl):
 
 - "a walk a step": every ray through one walk call, the k-th walk of each
