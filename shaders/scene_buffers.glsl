@@ -25,14 +25,13 @@ layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame
 // taken out what the folding would; BENCHMARKS.md, "A kernel for lanes").
 // So on a CPU device (the kernels compiled without CORRECT_DIVISION or
 // FAST_MATH: glslang_args.rs, Division::AsGiven) main's first step copies
-// the frame into frame_copy, each uint min'ed with
+// the frame into frame_copy (frame_unfolded), each uint min'ed with
 // ~gl_LocalInvocationIndex: the same value (never as large as 2^32 - 64),
 // but none the driver can fold, and loop_budget_ok's loop keeps a trip
 // count it does not know. Everything after reads the copy (`frame`
 // names it). GPU kernels read the block. A test in host/src/layout.rs
-// checks that frame_unfolded covers every uint of Frame.
-#if defined(SCENE_UNIFORM) && !defined(CORRECT_DIVISION) && !defined(FAST_MATH)
-#define FRAME_COPY 1
+// checks that frame_unfolded covers every uint of Frame; the C++ build's
+// (host/cpu/shared.hpp) returns the frame.
 Frame frame_unfolded() {
     Frame f = frame;
     uint open = ~gl_LocalInvocationIndex;
@@ -52,6 +51,8 @@ Frame frame_unfolded() {
     f.light_samples = min(f.light_samples, open);
     return f;
 }
+#if defined(SCENE_UNIFORM) && !defined(CORRECT_DIVISION) && !defined(FAST_MATH)
+#define FRAME_COPY 1
 Frame frame_copy;
 #define frame frame_copy
 #endif

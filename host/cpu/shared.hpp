@@ -85,6 +85,13 @@ inline uint leaf_item(uint i) {
     return leaf_items[i].item;
 }
 
+// The frame as scene_buffers.glsl's frame_unfolded gives it to a CPU
+// device's kernels: the same values (there each uint is hidden from the
+// driver's folding).
+inline Frame frame_unfolded() {
+    return frame;
+}
+
 // The instance record at leaf items 4 t .. 4 t + 3, as scene_buffers.glsl reads it.
 inline uvec4 leaf_record(uint t) {
     uint i = t * 4u;
