@@ -25,9 +25,6 @@ layout(std430, binding = BINDING_STATUS) buffer StatusBlock { PreviewStatus stat
 layout(constant_id = SPEC_HOST_PIXELS) const bool HOST_PIXELS = false;
 
 void main() {
-#ifdef FRAME_COPY
-    frame_copy = frame_unfolded(); // scene_buffers.glsl
-#endif
     uvec2 pixel = tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationIndex);
     uint j = pixel.x;
     uint i = pixel.y + preview.row_offset;

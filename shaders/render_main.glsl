@@ -33,9 +33,6 @@ layout(std430, binding = BINDING_COURSE_SUMS) buffer CourseSumBlock { CourseSum 
 #include "raycast.glsl"
 
 void main() {
-#ifdef FRAME_COPY
-    frame_copy = frame_unfolded(); // scene_buffers.glsl
-#endif
     // The pixel in the band the dispatch draws, from frame.row_offset on
     // (every band but the last a whole number of tiles high).
     uvec2 pixel = tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationIndex);

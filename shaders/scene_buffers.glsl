@@ -24,7 +24,7 @@ layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame
 // recursiveSpheres4, where the specialization constants have already
 // taken out what the folding would; BENCHMARKS.md, "A kernel for lanes").
 // So on a CPU device (the kernels compiled without CORRECT_DIVISION or
-// FAST_MATH: glslang_args.rs, Division::AsGiven) main's first step copies
+// FAST_MATH: glslang_args.rs, Division::AsGiven) the kernel first copies
 // the frame into frame_copy (frame_unfolded), each uint min'ed with
 // ~gl_LocalInvocationIndex: the same value (never as large as 2^32 - 64),
 // but none the driver can fold, and loop_budget_ok's loop keeps a trip
@@ -52,8 +52,8 @@ Frame frame_unfolded() {
     return f;
 }
 #if defined(SCENE_UNIFORM) && !defined(CORRECT_DIVISION) && !defined(FAST_MATH)
-#define FRAME_COPY 1
-Frame frame_copy;
+// (A global's initializer runs at the start of main, before any read.)
+Frame frame_copy = frame_unfolded();
 #define frame frame_copy
 #endif
 
