@@ -47,6 +47,8 @@ pub struct FileWatch {
     folders: Vec<PathBuf>,
     /// Each followed path's stamp as last seen.
     stamps: BTreeMap<PathBuf, Stamp>,
+    /// How many times the stamps were read (a test's count of wake-ups).
+    looks: u64,
 }
 
 impl Default for FileWatch {
@@ -59,7 +61,13 @@ impl FileWatch {
     /// Following nothing yet.
     pub fn new() -> FileWatch {
         let (tx, events) = mpsc::channel();
-        let watcher = notify::recommended_watcher(move |_: notify::Result<notify::Event>| {
+        let watcher = notify::recommended_watcher(move |event: notify::Result<notify::Event>| {
+            // A file read or a folder listed changes nothing, and each look
+            // at the stamps lists the shader folders: woken by those, the
+            // follower looked again at once, hundreds of times a second.
+            if matches!(&event, Ok(e) if e.kind.is_access()) {
+                return;
+            }
             // Which file does not matter: the stamps say.
             let _ = tx.send(());
         })
@@ -71,6 +79,7 @@ impl FileWatch {
             files: Vec::new(),
             folders: Vec::new(),
             stamps: BTreeMap::new(),
+            looks: 0,
         }
     }
 
@@ -113,7 +122,8 @@ impl FileWatch {
     }
 
     /// Every followed path's stamp as it is now.
-    fn current(&self) -> BTreeMap<PathBuf, Stamp> {
+    fn current(&mut self) -> BTreeMap<PathBuf, Stamp> {
+        self.looks += 1;
         let mut now: BTreeMap<PathBuf, Stamp> = self.files.iter().map(|f| (f.clone(), stamp(f))).collect();
         for dir in &self.folders {
             let Ok(entries) = std::fs::read_dir(dir) else { continue };
@@ -206,5 +216,22 @@ mod tests {
         std::fs::write(&scene, "three, longer still").unwrap();
         assert!(w.changes(Duration::from_millis(300)).is_empty(), "a file no longer followed");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// With nothing changing, the follower sleeps: it does not wake on the
+    /// events of its own looks (listing a shader folder is an access).
+    #[test]
+    fn nothing_changing_keeps_the_follower_asleep() {
+        let dir = std::env::temp_dir().join(format!("raycast-watch-asleep-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.glsl"), "a").unwrap();
+        let mut w = FileWatch::new();
+        w.follow(&[], std::slice::from_ref(&dir));
+        let before = w.looks;
+        assert!(w.changes(Duration::from_millis(600)).is_empty(), "nothing changed");
+        let looks = w.looks - before;
+        let _ = std::fs::remove_dir_all(&dir);
+        // One look on entry; the FALLBACK pace (1 s) adds none in 0.6 s.
+        assert!(looks <= 2, "the stamps were read {looks} times in 0.6 s with nothing changing");
     }
 }
