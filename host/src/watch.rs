@@ -62,11 +62,15 @@ impl FileWatch {
     pub fn new() -> FileWatch {
         let (tx, events) = mpsc::channel();
         let watcher = notify::recommended_watcher(move |event: notify::Result<notify::Event>| {
-            // A file read or a folder listed changes nothing, and each look
-            // at the stamps lists the shader folders: woken by those, the
-            // follower looked again at once, hundreds of times a second.
-            if matches!(&event, Ok(e) if e.kind.is_access()) {
-                return;
+            // A file read or a folder listed changes nothing (nor does the
+            // access time they may set), and each look at the stamps lists
+            // the shader folders: woken by those, the follower looked again
+            // at once, tens of thousands of times a second.
+            use notify::event::{EventKind, MetadataKind, ModifyKind};
+            if let Ok(e) = &event {
+                if e.kind.is_access() || e.kind == EventKind::Modify(ModifyKind::Metadata(MetadataKind::AccessTime)) {
+                    return;
+                }
             }
             // Which file does not matter: the stamps say.
             let _ = tx.send(());
