@@ -3173,11 +3173,12 @@ fn a_device_local_output_copied_back_keeps_every_bit() {
 }
 
 /// `bench --lanes --json`: a line a scene with each warp's lane use. With
-/// one walk a pixel (no shadows, no mirrors), in step is the camera figure
-/// and the pixels' sums' (the trace's passes and the AOV's are one count);
+/// one walk a pixel (no shadows, no mirrors), in step and compacted are the
+/// camera figure and the pixels' sums' (the trace's passes and the AOV's
+/// are one count; at 64x48 the camera rays' queue is the whole tiles);
 /// with shadows and mirrors, in step never exceeds the sums' figure (a
-/// turn pays at least its lanes' share of the pixel's most). Rule: exact
-/// for the first, ≤ for the second.
+/// turn pays at least its lanes' share of the pixel's most), and
+/// compacted is a share. Rule: exact for the first, ≤ for the rest.
 #[test]
 fn bench_lanes_counts_the_rays_in_step() {
     let lanes = |extra: &[&str]| -> Vec<serde_json::Value> {
@@ -3203,12 +3204,15 @@ fn bench_lanes_counts_the_rays_in_step() {
         json["lanes"].as_array().unwrap().clone()
     };
     for warp in lanes(&["--no-shadows", "--no-reflections"]) {
-        let (camera, all, in_step) = (&warp["camera"], &warp["all"], &warp["all_in_step"]);
+        let (camera, all, in_step, compacted) =
+            (&warp["camera"], &warp["all"], &warp["all_in_step"], &warp["all_compacted"]);
         assert!(camera.as_f64().is_some_and(|c| c > 0.0 && c <= 1.0), "{warp}");
-        assert_eq!((all, in_step), (camera, camera), "one walk a pixel: {warp}");
+        assert_eq!((all, in_step, compacted), (camera, camera, camera), "one walk a pixel: {warp}");
     }
     for warp in lanes(&[]) {
         let (all, in_step) = (warp["all"].as_f64().unwrap(), warp["all_in_step"].as_f64().unwrap());
         assert!(in_step > 0.0 && in_step <= all, "in step {in_step}, all {all}: {warp}");
+        let compacted = warp["all_compacted"].as_f64().unwrap();
+        assert!(compacted > 0.0 && compacted <= 1.0, "compacted {compacted}: {warp}");
     }
 }

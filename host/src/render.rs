@@ -16,7 +16,7 @@ mod timings;
 
 pub use cut_short::{finish_cut_short, refuse_cut_short, render_advice, CutShort};
 pub use kernel_info::{Executable, KernelInfo, Statistic, StatisticValue};
-pub use lanes::{in_step, LaneUse, Walk, WARPS};
+pub use lanes::{compacted, in_step, LaneUse, Walk, WARPS};
 pub use picture::Picture;
 pub(crate) use picture::{try_filled, try_with_capacity};
 pub use specialization::{SceneFeatures, Specialization};

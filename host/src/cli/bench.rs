@@ -28,7 +28,7 @@ use rows::{
 
 use crate::layout::PixelOut;
 use crate::measure::{peak_host_bytes, reset_peak_host};
-use crate::render::{in_step, BackendInfo, CutShort, LaneUse, Picture, Progress, Renderer, Told, WARPS};
+use crate::render::{compacted, in_step, BackendInfo, CutShort, LaneUse, Picture, Progress, Renderer, Told, WARPS};
 use crate::scene::{self, FlattenLimits, ParseOptions, SceneFile};
 use crate::source::{pack, parse_scene, print_warnings, scene_label};
 use crate::units::{thousands, to_json};
@@ -106,7 +106,8 @@ pub struct BenchArgs {
     /// passes the lanes need over those their warps pay (Aila and Laine's
     /// model: a warp costs its slowest lane), all rays also in step (each
     /// step of the tracing loop at its slowest lane, as the kernel takes
-    /// them), and the bytes of hierarchy and primitives fetched per ray
+    /// them) and compacted by kind (as a wavefront kernel would take them:
+    /// a model), and the bytes of hierarchy and primitives fetched per ray
     /// (docs/scale.md#lane-use). With --json a line a scene (`lanes`);
     /// with --markdown a table after the results.
     #[arg(long, conflicts_with = "versus", help_heading = "Timing")]
@@ -374,6 +375,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<(), Error> {
                     let walks = cpu.walks(&drawn, &drawn.frame);
                     Some(WARPS.map(|warp| LaneUse {
                         all_in_step: walks.as_ref().and_then(|w| in_step(w, picture.width, picture.height, warp)),
+                        all_compacted: walks.as_ref().and_then(|w| compacted(w, picture.width, picture.height, warp)),
                         ..LaneUse::of(&picture, warp)
                     }))
                 }

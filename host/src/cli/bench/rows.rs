@@ -408,13 +408,14 @@ fn share(x: Option<f64>) -> String {
 pub(super) fn lanes_text(lanes: &[crate::render::LaneUse; 2]) -> String {
     let warp = |u: &crate::render::LaneUse| {
         format!(
-            "{} lanes: camera {}, shadow {}, mirror {}, all {} ({} in step)",
+            "{} lanes: camera {}, shadow {}, mirror {}, all {} ({} in step, {} compacted)",
             u.lanes,
             share(u.camera),
             share(u.shadow),
             share(u.mirror),
             share(u.all),
-            share(u.all_in_step)
+            share(u.all_in_step),
+            share(u.all_compacted)
         )
     };
     format!(
@@ -427,15 +428,16 @@ pub(super) fn lanes_text(lanes: &[crate::render::LaneUse; 2]) -> String {
 }
 
 pub(super) const LANES_HEADER: &str = "\
-| scene | camera (32) | shadow (32) | mirror (32) | all (32) | all in step (32) | camera (8) | all (8) | all in step (8) | hierarchy B/ray | primitive B/ray |
-|---|---|---|---|---|---|---|---|---|---|---|";
+| scene | camera (32) | shadow (32) | mirror (32) | all (32) | all in step (32) | all compacted (32) | camera (8) | all (8) | all in step (8) | all compacted (8) | hierarchy B/ray | primitive B/ray |
+|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 pub(super) const LANES_FOOTER: &str = "lane use: the passes a tile's lanes need over the passes its warp pays (its lanes × the tile's most), summed \
     over the picture's tiles of 8x4 pixels (32 lanes, a GPU's warp) and 4x2 (8 lanes, lavapipe's AVX2), as the \
     kernels lay pixels on lanes, per kind of ray (a pixel's rays of that kind summed) and for all of a pixel's rays (Aila and Laine's model: a warp steps as long as its slowest lane); \
     all in step: the same rays as the kernels step them, a vector's lanes through the tracing loop's turns together, in a turn its ray's walk \
     and then the light loop's shadow rays a light point at a time, each step paid at its slowest lane's passes (from `raycast trace`'s walks \
-    of every pixel); drawn with \
+    of every pixel); all compacted: the same rays as a wavefront kernel would take them (a model, not built), each turn's rays of one kind \
+    (its camera, mirror or refracted rays; its shadow rays to one light point) from every pixel in one queue, in the tiles' order, a warp's lanes at a time; drawn with \
     `--aov lanes` on the CPU build, which walks as the device kernel does, pass for pass; bytes: the hierarchy's \
     (nodes, instance records, instances) and the primitives' fetched by the walks, per ray traced (a mesh's own walk \
     over its triangles within a pass counts a pass a node it takes, its bytes the nodes' and the triangles' with \
@@ -445,16 +447,18 @@ pub(super) const LANES_FOOTER: &str = "lane use: the passes a tile's lanes need 
 pub(super) fn lanes_markdown(scene: &str, lanes: &[crate::render::LaneUse; 2]) -> String {
     let [w32, w8] = lanes;
     format!(
-        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} | {:.0} |",
+        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} | {:.0} |",
         short_name(scene),
         share(w32.camera),
         share(w32.shadow),
         share(w32.mirror),
         share(w32.all),
         share(w32.all_in_step),
+        share(w32.all_compacted),
         share(w8.camera),
         share(w8.all),
         share(w8.all_in_step),
+        share(w8.all_compacted),
         w32.node_bytes_per_ray,
         w32.primitive_bytes_per_ray
     )
