@@ -26,8 +26,9 @@ layout(std430, binding = BINDING_FRAME) readonly buffer FrameBlock { Frame frame
 // So on a CPU device (the kernels compiled without CORRECT_DIVISION or
 // FAST_MATH: glslang_args.rs, Division::AsGiven) the kernel first copies
 // the frame into frame_copy (frame_unfolded), each uint min'ed with
-// ~gl_LocalInvocationIndex: the same value (never as large as 2^32 - 64),
-// but none the driver can fold, and loop_budget_ok's loop keeps a trip
+// ~gl_LocalInvocationIndex: the same value (never as large as 2^32 - 64:
+// fits_uniform keeps such a frame off these kernels), but none the driver
+// can fold, and loop_budget_ok's loop keeps a trip
 // count it does not know. Everything after reads the copy (`frame`
 // names it). GPU kernels read the block. A test in host/src/layout.rs
 // checks that frame_unfolded covers every uint of Frame; the C++ build's

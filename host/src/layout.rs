@@ -54,6 +54,35 @@ impl Frame {
     pub fn camera_rays(&self) -> u64 {
         u64::from(self.width) * u64::from(self.height) * u64::from(self.spp.max(1))
     }
+
+    /// The uint fields, named, in layout.h's order.
+    pub fn uints(&self) -> [(&'static str, u32); 14] {
+        [
+            ("width", self.width),
+            ("height", self.height),
+            ("primitive_count", self.primitive_count),
+            ("light_count", self.light_count),
+            ("aov", self.aov),
+            ("flags", self.flags),
+            ("max_depth", self.max_depth),
+            ("spp", self.spp),
+            ("texture_filter", self.texture_filter),
+            ("root_node", self.root_node),
+            ("node_count", self.node_count),
+            ("loop_canary", self.loop_canary),
+            ("row_offset", self.row_offset),
+            ("light_samples", self.light_samples),
+        ]
+    }
+
+    /// The first uint that scene_buffers.glsl's frame_unfolded would
+    /// change (it takes each uint's min with ~gl_LocalInvocationIndex, at
+    /// least 2^32 - 64 in a work group of 64): none for any frame the
+    /// settings' bounds allow, but `fits_uniform` keeps such a frame off
+    /// the uniform kernels (which copy the frame so on a CPU device).
+    pub fn not_unfolded(&self) -> Option<(&'static str, u32)> {
+        self.uints().into_iter().find(|&(_, v)| v >= u32::MAX - 63)
+    }
 }
 
 #[repr(C)]
@@ -713,5 +742,19 @@ mod frame_unfolded_tests {
             })
             .collect();
         assert_eq!(hidden, fields, "frame_unfolded's fields against layout.h's uints of Frame");
+        let named: Vec<String> = super::Frame::default().uints().iter().map(|(n, _)| n.to_string()).collect();
+        assert_eq!(named, fields, "Frame::uints against layout.h's uints of Frame");
+    }
+
+    /// A frame whose uint would not survive frame_unfolded's min (2^32 -
+    /// 64 or more) is named; one just below is not. Rule: exact.
+    #[test]
+    fn frames_too_large_to_unfold_are_named() {
+        let mut frame = super::Frame { width: 512, height: 384, ..Default::default() };
+        assert_eq!(frame.not_unfolded(), None);
+        frame.row_offset = u32::MAX - 64;
+        assert_eq!(frame.not_unfolded(), None);
+        frame.row_offset = u32::MAX - 63;
+        assert_eq!(frame.not_unfolded(), Some(("row_offset", u32::MAX - 63)));
     }
 }

@@ -49,6 +49,11 @@ pub enum SceneBuffers {
 /// binds as many storage images as a uniform kernel declares (`images`: its
 /// data images and any picture); else what does not.
 pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result<(), Error> {
+    if let Some((field, value)) = data.frame.not_unfolded() {
+        return Err(Error::Failed(format!(
+            "the frame's {field} is {value}, too large for the uniform kernel's copy of the frame (below 2^32 - 64)"
+        )));
+    }
     let limit = ctx.storage_image_limit();
     if (limit as usize) < images {
         return Err(Error::Failed(format!(
