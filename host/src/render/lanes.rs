@@ -44,6 +44,18 @@ pub struct LaneUse {
 /// 8 of them 4x2.
 pub const WARPS: [(u32, u32); 2] = [(8, 4), (4, 2)];
 
+/// A `width` x `height` picture's tiles of `tile_w` x `tile_h` pixels, row
+/// by row, each as its pixels' indices (row by row); tiles past the
+/// picture's edge are partial.
+fn tiles(width: u32, height: u32, (tile_w, tile_h): (u32, u32)) -> impl Iterator<Item = impl Iterator<Item = usize>> {
+    (0..height).step_by(tile_h as usize).flat_map(move |ty| {
+        (0..width).step_by(tile_w as usize).map(move |tx| {
+            (ty..(ty + tile_h).min(height))
+                .flat_map(move |y| (tx..(tx + tile_w).min(width)).map(move |x| (y * width + x) as usize))
+        })
+    })
+}
+
 impl LaneUse {
     /// The lane use of `picture` (drawn with AOV_LANES) in warps of
     /// `tile_w` x `tile_h` pixels (tiles past the picture's edge are
@@ -54,22 +66,17 @@ impl LaneUse {
         // For camera, shadow, mirror, all: passes needed, passes paid.
         let mut needed = [0u64; 4];
         let mut paid = [0u64; 4];
-        for ty in (0..h).step_by(tile_h as usize) {
-            for tx in (0..w).step_by(tile_w as usize) {
-                let mut most = [0u64; 4];
-                for y in ty..(ty + tile_h).min(h) {
-                    for x in tx..(tx + tile_w).min(w) {
-                        let n = picture.pixels[(y * w + x) as usize].normal;
-                        for (k, &p) in n.iter().enumerate() {
-                            let p = p as u64;
-                            needed[k] += p;
-                            most[k] = most[k].max(p);
-                        }
-                    }
+        for tile in tiles(w, h, (tile_w, tile_h)) {
+            let mut most = [0u64; 4];
+            for i in tile {
+                for (k, &p) in picture.pixels[i].normal.iter().enumerate() {
+                    let p = p as u64;
+                    needed[k] += p;
+                    most[k] = most[k].max(p);
                 }
-                for k in 0..4 {
-                    paid[k] += u64::from(lanes) * most[k];
-                }
+            }
+            for k in 0..4 {
+                paid[k] += u64::from(lanes) * most[k];
             }
         }
         let share = |k: usize| (paid[k] > 0).then(|| needed[k] as f64 / paid[k] as f64);
@@ -136,22 +143,18 @@ pub fn in_step(walks: &[Vec<Vec<Walk>>], width: u32, height: u32, (tile_w, tile_
     let lanes = u64::from(tile_w * tile_h);
     let (mut needed, mut paid) = (0u64, 0u64);
     let mut most = std::collections::BTreeMap::<(usize, u32, u32), u64>::new();
-    for ty in (0..height).step_by(tile_h as usize) {
-        for tx in (0..width).step_by(tile_w as usize) {
-            most.clear();
-            for y in ty..(ty + tile_h).min(height) {
-                for x in tx..(tx + tile_w).min(width) {
-                    for (sample, sample_walks) in walks[(y * width + x) as usize].iter().enumerate() {
-                        for w in sample_walks {
-                            needed += u64::from(w.passes);
-                            let m = most.entry((sample, w.turn, w.slot)).or_default();
-                            *m = (*m).max(u64::from(w.passes));
-                        }
-                    }
+    for tile in tiles(width, height, (tile_w, tile_h)) {
+        most.clear();
+        for i in tile {
+            for (sample, sample_walks) in walks[i].iter().enumerate() {
+                for w in sample_walks {
+                    needed += u64::from(w.passes);
+                    let m = most.entry((sample, w.turn, w.slot)).or_default();
+                    *m = (*m).max(u64::from(w.passes));
                 }
             }
-            paid += lanes * most.values().sum::<u64>();
         }
+        paid += lanes * most.values().sum::<u64>();
     }
     (paid > 0).then(|| needed as f64 / paid as f64)
 }
@@ -162,25 +165,19 @@ pub fn in_step(walks: &[Vec<Vec<Walk>>], width: u32, height: u32, (tile_w, tile_
 /// every pixel in one queue and its shadow rays in one a light point (a
 /// light's rays leave alike: one queue for every light's mixed them, and
 /// read 0.70 for the teapot where in step reads 0.78), each queue in the
-/// order the warps' tiles take the pixels and
-/// walked `lanes` rays at a time, a group paying its slowest. Not built:
+/// order the warps' tiles take the pixels and walked `lanes` rays at a
+/// time, a group paying its slowest. Not built:
 /// what such a kernel could save in passes (not what its queues cost).
 /// Arguments as `in_step`.
 pub fn compacted(walks: &[Vec<Vec<Walk>>], width: u32, height: u32, (tile_w, tile_h): (u32, u32)) -> Option<f64> {
     let lanes = (tile_w * tile_h) as usize;
     let mut queues = std::collections::BTreeMap::<(usize, u32, u32), Vec<u64>>::new();
     let mut needed = 0u64;
-    for ty in (0..height).step_by(tile_h as usize) {
-        for tx in (0..width).step_by(tile_w as usize) {
-            for y in ty..(ty + tile_h).min(height) {
-                for x in tx..(tx + tile_w).min(width) {
-                    for (sample, sample_walks) in walks[(y * width + x) as usize].iter().enumerate() {
-                        for w in sample_walks {
-                            needed += u64::from(w.passes);
-                            queues.entry((sample, w.turn, w.slot)).or_default().push(u64::from(w.passes));
-                        }
-                    }
-                }
+    for i in tiles(width, height, (tile_w, tile_h)).flatten() {
+        for (sample, sample_walks) in walks[i].iter().enumerate() {
+            for w in sample_walks {
+                needed += u64::from(w.passes);
+                queues.entry((sample, w.turn, w.slot)).or_default().push(u64::from(w.passes));
             }
         }
     }
