@@ -6,8 +6,11 @@ use std::collections::{BTreeMap, BTreeSet};
 use naga::{AddressSpace, ArraySize, Handle, Module, ShaderStage, StorageAccess, Type, TypeInner};
 
 use super::spirv::{
-    self, instructions, CLASS_STORAGE_BUFFER, CLASS_UNIFORM, DEC_BINDING, DEC_NON_READABLE, DEC_NON_WRITABLE, DEC_SET,
-    OP_DECORATE, OP_MEMBER_DECORATE, OP_TYPE_POINTER, OP_TYPE_STRUCT, OP_VARIABLE,
+    self, instructions, BUILT_IN_LOCAL_INVOCATION_INDEX, BUILT_IN_NUM_SUBGROUPS, BUILT_IN_SUBGROUP_ID,
+    BUILT_IN_SUBGROUP_LOCAL_INVOCATION_ID, BUILT_IN_SUBGROUP_SIZE, CLASS_STORAGE_BUFFER, CLASS_UNIFORM, DEC_BINDING,
+    DEC_BUILT_IN, DEC_NON_READABLE, DEC_NON_WRITABLE, DEC_SET, OP_CONSTANT_NULL, OP_COPY_OBJECT, OP_DECORATE,
+    OP_FUNCTION, OP_GROUP_NON_UNIFORM_FIRST, OP_GROUP_NON_UNIFORM_LAST, OP_MEMBER_DECORATE, OP_TYPE_POINTER,
+    OP_TYPE_STRUCT, OP_VARIABLE,
 };
 use super::{GpuError, ImageBinding};
 use crate::layout::{BindingLayout, BufferShape, StructLayout};
@@ -50,7 +53,17 @@ pub(crate) fn reflect(
         strict_capabilities: false,
         block_ctx_dump_prefix: None,
     };
-    let module = naga::front::spv::parse_u8_slice(&for_naga(spirv), &options).map_err(|e| invalid(error_chain(&e)))?;
+    // naga's reader has panicked on valid SPIR-V (see for_naga): a kernel
+    // edit it cannot read is an error, not a crash.
+    let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        naga::front::spv::parse_u8_slice(&for_naga(spirv), &options)
+    }));
+    let module = match parsed {
+        Ok(parsed) => parsed.map_err(|e| invalid(error_chain(&e)))?,
+        Err(_) => {
+            return Err(invalid("naga's SPIR-V reader panicked on it (a naga bug; its message is above)".to_string()))
+        }
+    };
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
         .validate(&module)
         .map_err(|e| {
@@ -120,13 +133,22 @@ fn buffer_class(class: u32) -> bool {
     class == CLASS_STORAGE_BUFFER || class == CLASS_UNIFORM
 }
 
-/// The module as naga is given it: without the `NonReadable` decoration of
-/// buffer variables. glslang 15 (Debian 13) puts it on a `writeonly
-/// buffer`'s variable, where glslang 11 (Debian 12) put it on the members
-/// only, and naga's spv-in turns it into a store-only storage access that
-/// its validator refuses (WGSL has no write-only buffers). The access
-/// check reads it from the SPIR-V itself ([`spirv_storage_access`]); the
-/// driver gets the module unchanged.
+/// The module as naga is given it, which its reflection needs and the
+/// driver never sees (the driver gets the module unchanged):
+/// - without the `NonReadable` decoration of buffer variables. glslang 15
+///   (Debian 13) puts it on a `writeonly buffer`'s variable, where glslang
+///   11 (Debian 12) put it on the members only, and naga's spv-in turns it
+///   into a store-only storage access that its validator refuses (WGSL has
+///   no write-only buffers). The access check reads it from the SPIR-V
+///   itself ([`spirv_storage_access`]);
+/// - with a copy of a null constant of its type for each subgroup
+///   operation (a kernel edit's: `--shaders`, `--versus`): naga 30's spv-in
+///   panics on a subgroup operation whose operand comes from a loop
+///   (gfx-rs/wgpu#8389), and what a subgroup computes is nothing the
+///   layout check reads;
+/// - with the subgroup's id and a lane's id in it as other builtins of
+///   their type, which naga refuses in a workgroup of more than one
+///   dimension (the kernels' 8x8).
 fn for_naga(spirv: &[u8]) -> std::borrow::Cow<'_, [u8]> {
     let Some(words) = spirv::words(spirv) else { return spirv.into() };
     let buffers: BTreeSet<u32> = instructions(&words)
@@ -135,22 +157,73 @@ fn for_naga(spirv: &[u8]) -> std::borrow::Cow<'_, [u8]> {
             _ => None,
         })
         .collect();
-    let dropped: Vec<(usize, usize)> = instructions(&words)
-        .filter_map(|(at, op, ops)| match (op, ops) {
-            (OP_DECORATE, [target, DEC_NON_READABLE]) if buffers.contains(target) => Some((at, at + 1 + ops.len())),
+    // A null constant of each subgroup operation's result type, new ids
+    // from the module's bound on (naga reads an OpUndef in a function
+    // body into an expression its validator then refuses).
+    let mut bound = words.get(3).copied().unwrap_or(0);
+    let mut nulls = BTreeMap::<u32, u32>::new();
+    for (_, op, ops) in instructions(&words) {
+        if let (OP_GROUP_NON_UNIFORM_FIRST..=OP_GROUP_NON_UNIFORM_LAST, [ty, ..]) = (op, ops) {
+            nulls.entry(*ty).or_insert_with(|| {
+                bound += 1;
+                bound - 1
+            });
+        }
+    }
+    // Builtins naga refuses in a workgroup of more than one dimension
+    // (WGSL's rule, not Vulkan's): each in a u32 builtin the module leaves
+    // unused, as the layout check never reads them.
+    let builtins: BTreeSet<u32> = instructions(&words)
+        .filter_map(|(_, op, ops)| match (op, ops) {
+            (OP_DECORATE, [_, DEC_BUILT_IN, b]) => Some(*b),
             _ => None,
         })
         .collect();
-    if dropped.is_empty() {
+    let mut spare = [BUILT_IN_NUM_SUBGROUPS, BUILT_IN_SUBGROUP_SIZE, BUILT_IN_LOCAL_INVOCATION_INDEX]
+        .into_iter()
+        .filter(|b| !builtins.contains(b));
+    let renamed: BTreeMap<u32, u32> = [BUILT_IN_SUBGROUP_ID, BUILT_IN_SUBGROUP_LOCAL_INVOCATION_ID]
+        .into_iter()
+        .filter(|b| builtins.contains(b))
+        .filter_map(|b| Some((b, spare.next()?)))
+        .collect();
+    let first_function = instructions(&words).find(|(_, op, _)| *op == OP_FUNCTION).map(|(at, _, _)| at);
+    // Each changed instruction: where it starts and ends, and what takes its place.
+    let mut changed: Vec<(usize, usize, Vec<u32>)> = instructions(&words)
+        .filter_map(|(at, op, ops)| {
+            let end = at + 1 + ops.len();
+            match (op, ops) {
+                (OP_DECORATE, [target, DEC_NON_READABLE]) if buffers.contains(target) => Some((at, end, vec![])),
+                (OP_DECORATE, [target, DEC_BUILT_IN, b]) if renamed.contains_key(b) => {
+                    Some((at, end, vec![words[at], *target, DEC_BUILT_IN, renamed[b]]))
+                }
+                (OP_GROUP_NON_UNIFORM_FIRST..=OP_GROUP_NON_UNIFORM_LAST, [ty, id, ..]) => {
+                    Some((at, end, vec![(4 << 16) | OP_COPY_OBJECT, *ty, *id, nulls[ty]]))
+                }
+                _ => None,
+            }
+        })
+        .collect();
+    if changed.is_empty() {
         return spirv.into();
     }
-    let mut kept = Vec::with_capacity(spirv.len());
+    if let Some(at) = first_function.filter(|_| !nulls.is_empty()) {
+        let constants = nulls.iter().flat_map(|(ty, id)| [(3 << 16) | OP_CONSTANT_NULL, *ty, *id]).collect();
+        changed.push((at, at, constants));
+        changed.sort_by_key(|c| c.0);
+    }
+    let mut kept: Vec<u32> = Vec::with_capacity(words.len() + 3 * nulls.len());
     let mut from = 0;
-    for (start, end) in dropped.into_iter().chain([(words.len(), words.len())]) {
-        kept.extend(words[from..start].iter().flat_map(|w| w.to_le_bytes()));
+    for (start, end, instead) in changed {
+        kept.extend_from_slice(&words[from..start]);
+        kept.extend(instead);
         from = end;
     }
-    kept.into()
+    kept.extend_from_slice(&words[from..]);
+    if let Some(b) = kept.get_mut(3) {
+        *b = bound;
+    }
+    kept.iter().flat_map(|w| w.to_le_bytes()).collect::<Vec<u8>>().into()
 }
 
 /// Access of each storage buffer `(set, binding)`, read from the SPIR-V decorations.

@@ -1,9 +1,9 @@
 //! The SPIR-V the host reads and edits itself, written once: a module's
 //! words, its instruction walk, and the opcodes, decorations, storage
 //! classes, capabilities and execution modes it looks for (SPIR-V 1.6
-//! specification, chapter 3). Used by reflect.rs (the buffers' access),
-//! float_controls.rs (execution modes added) and specialize.rs
-//! (specialization constants frozen).
+//! specification, chapter 3). Used by reflect.rs (the buffers' access and
+//! the copy naga reads), float_controls.rs (execution modes added) and
+//! specialize.rs (specialization constants frozen).
 
 /// The first word of every module.
 pub(super) const MAGIC: u32 = 0x0723_0203;
@@ -17,18 +17,31 @@ pub(super) const OP_TYPE_POINTER: u32 = 32;
 pub(super) const OP_CONSTANT_TRUE: u32 = 41;
 pub(super) const OP_CONSTANT_FALSE: u32 = 42;
 pub(super) const OP_CONSTANT: u32 = 43;
+pub(super) const OP_CONSTANT_NULL: u32 = 46;
 pub(super) const OP_SPEC_CONSTANT_TRUE: u32 = 48;
 pub(super) const OP_SPEC_CONSTANT_FALSE: u32 = 49;
 pub(super) const OP_SPEC_CONSTANT: u32 = 50;
+pub(super) const OP_FUNCTION: u32 = 54;
 pub(super) const OP_VARIABLE: u32 = 59;
 pub(super) const OP_DECORATE: u32 = 71;
 pub(super) const OP_MEMBER_DECORATE: u32 = 72;
+pub(super) const OP_COPY_OBJECT: u32 = 83;
+/// OpGroupNonUniformElect to OpGroupNonUniformQuadSwap: the subgroup operations.
+pub(super) const OP_GROUP_NON_UNIFORM_FIRST: u32 = 333;
+pub(super) const OP_GROUP_NON_UNIFORM_LAST: u32 = 366;
 
 pub(super) const DEC_SPEC_ID: u32 = 1;
+pub(super) const DEC_BUILT_IN: u32 = 11;
 pub(super) const DEC_NON_WRITABLE: u32 = 24;
 pub(super) const DEC_NON_READABLE: u32 = 25;
 pub(super) const DEC_BINDING: u32 = 33;
 pub(super) const DEC_SET: u32 = 34;
+
+pub(super) const BUILT_IN_LOCAL_INVOCATION_INDEX: u32 = 29;
+pub(super) const BUILT_IN_SUBGROUP_SIZE: u32 = 36;
+pub(super) const BUILT_IN_NUM_SUBGROUPS: u32 = 38;
+pub(super) const BUILT_IN_SUBGROUP_ID: u32 = 40;
+pub(super) const BUILT_IN_SUBGROUP_LOCAL_INVOCATION_ID: u32 = 41;
 
 pub(super) const CLASS_UNIFORM: u32 = 2;
 pub(super) const CLASS_STORAGE_BUFFER: u32 = 12;

@@ -604,6 +604,48 @@ fn check_layouts_takes_a_writeonly_buffer_decorated_on_its_variable() {
     assert!(e.contains("binding 2") && e.contains("writable in the shader, read-only on the host"), "{e}");
 }
 
+/// A kernel edit with subgroup operations (`--shaders`, `--versus`): naga
+/// 30's SPIR-V reader panics on a shuffle whose lane comes from a loop, as
+/// raycast's spirv-opt passes leave it (gfx-rs/wgpu#8389); raycast's check
+/// reads the module with each subgroup operation in place of its value.
+/// Found pooling shadow rays across a subgroup (BENCHMARKS.md, "A kernel
+/// for lanes"): every kernel with the pool failed with a panic.
+#[test]
+fn check_layouts_reads_subgroup_operations_that_naga_panics_on() {
+    let extensions =
+        ["shuffle", "ballot", "arithmetic"].map(|e| format!("#extension GL_KHR_shader_subgroup_{e} : require\n"));
+    let src = COMMON
+        .replace("#version 450\n", &format!("#version 450\n{}", extensions.concat()))
+        .replace("layout(local_size_x = 64) in;", "layout(local_size_x = 8, local_size_y = 8) in;")
+        + r#"
+layout(std430, set = 0, binding = 1) readonly buffer Inputs { Item items[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint o = 0u;
+    for (uint k = 0u; k < gl_SubgroupSize; k++) {
+        if (items[k].u > 3u) {
+            o = k;
+        }
+    }
+    uvec4 lanes = subgroupBallot(items[i].f > 0.0);
+    results[i].u = subgroupShuffle(items[i].u, o) + subgroupAdd(lanes.x);
+    results[i].f = items[i].f + float(gl_SubgroupInvocationID);
+}
+"#;
+    let spv = compile("subgroup_shuffle", &src);
+    // naga alone panics on it; when a naga update reads it, for_naga's
+    // stand-ins can go.
+    let options = naga::front::spv::Options::default();
+    let alone = std::panic::catch_unwind(|| naga::front::spv::parse_u8_slice(&spv, &options).map(|_| ()));
+    assert!(alone.is_err(), "naga read the module by itself: {alone:?}");
+
+    reflect::check_layouts("subgroup_shuffle", &spv, &double_bindings()).unwrap_or_else(|e| panic!("{e}"));
+    let mut host = double_bindings();
+    host[2].writable = false;
+    let e = reflect::check_layouts("subgroup_shuffle", &spv, &host).unwrap_err().to_string();
+    assert!(e.contains("binding 2"), "{e}");
+}
+
 #[test]
 fn check_layouts_rejects_invalid_spirv_and_other_resources() {
     let e = reflect::check_layouts("junk", &[0u8; 64], &[]).unwrap_err();
