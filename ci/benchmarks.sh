@@ -617,7 +617,7 @@ FILE="${1:-BENCHMARKS.md}"
 [ -d "$CORPUS/test_efficiency" ] || { echo "benchmarks: no corpus at $CORPUS: set RAYCAST_CORPUS" >&2; exit 1; }
 
 out="$(mktemp)"
-in_block=0
+in_block=0 failed=0
 while IFS= read -r line || [ -n "$line" ]; do
   if [ "$in_block" = 0 ] && [[ "$line" =~ ^'<!-- bench: '(.*)' -->'$ ]]; then
     printf '%s\n' "$line" >>"$out"
@@ -627,8 +627,18 @@ while IFS= read -r line || [ -n "$line" ]; do
       in_block=2
     elif [[ "${BASH_REMATCH[1]}" == *"$only"* ]] && { [ -z "$skip" ] || [[ "${BASH_REMATCH[1]}" != *"$skip"* ]]; }; then
       echo "benchmarks: ${BASH_REMATCH[1]}" >&2
-      eval "${BASH_REMATCH[1]}" >>"$out" </dev/null
-      in_block=1
+      block="$(mktemp)"
+      if (eval "${BASH_REMATCH[1]}") >"$block" </dev/null; then
+        cat "$block" >>"$out"
+        in_block=1
+      else
+        # One failing block costs only itself: it stays as it is, the
+        # blocks before it keep their new results, and the run says so.
+        echo "benchmarks: FAILED (exit $?), kept as it is: ${BASH_REMATCH[1]}" >&2
+        failed=$((failed + 1))
+        in_block=2
+      fi
+      rm -f "$block"
     else
       in_block=2 # kept as it is
     fi
@@ -646,3 +656,4 @@ done <"$FILE"
 [ "$in_block" = 0 ] || { echo "benchmarks: $FILE: a block is not closed with <!-- /bench -->" >&2; exit 1; }
 mv "$out" "$FILE"
 echo "benchmarks: wrote $FILE" >&2
+[ "$failed" = 0 ] || { echo "benchmarks: $failed block(s) failed and were kept as they were" >&2; exit 1; }
