@@ -606,10 +606,13 @@ fn check_layouts_takes_a_writeonly_buffer_decorated_on_its_variable() {
 
 /// A kernel edit with subgroup operations (`--shaders`, `--versus`): naga
 /// 30's SPIR-V reader panics on a shuffle whose lane comes from a loop, as
-/// raycast's spirv-opt passes leave it (gfx-rs/wgpu#8389); raycast's check
-/// reads the module with each subgroup operation in place of its value.
-/// Found pooling shadow rays across a subgroup (BENCHMARKS.md, "A kernel
-/// for lanes"): every kernel with the pool failed with a panic.
+/// raycast's spirv-opt passes leave it (gfx-rs/wgpu#8389), and its
+/// validator refuses a lane's id in an 8x8 work group (a WGSL rule); the
+/// check reads the module with a null constant's copy for each subgroup
+/// operation and the subgroup ids as other builtins (reflect.rs,
+/// `for_naga`). Found pooling shadow rays across a subgroup
+/// (BENCHMARKS.md, "A kernel for lanes"): every kernel with the pool
+/// failed with a panic.
 #[test]
 fn check_layouts_reads_subgroup_operations_that_naga_panics_on() {
     let extensions =
