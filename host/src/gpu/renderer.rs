@@ -51,7 +51,7 @@ pub enum SceneBuffers {
 pub fn fits_uniform(ctx: &GpuContext, data: &FrameData, images: usize) -> Result<(), Error> {
     if let Some((field, value)) = data.frame.not_unfolded() {
         return Err(Error::Failed(format!(
-            "the frame's {field} is {value}, too large for the uniform kernel's copy of the frame (below 2^32 - 64)"
+            "the frame's {field} is {value}, too large for the uniform kernel's copy of the frame, which holds values below 2^32 - 64"
         )));
     }
     let limit = ctx.storage_image_limit();
