@@ -3216,3 +3216,50 @@ fn bench_lanes_counts_the_rays_in_step() {
         assert!(compacted > 0.0 && compacted <= 1.0, "compacted {compacted}: {warp}");
     }
 }
+
+/// ci/benchmarks.sh regenerates BENCHMARKS.md block by block: a block whose
+/// command fails stays as it was, the blocks around it take their new
+/// output, and the script names it and exits 1 (it used to stop at the
+/// failing block and throw away every block run before it). Run on a file
+/// of three `echo` blocks, the middle one failing. Needs build/raycast (the
+/// script checks for it; ctest builds it) and RAYCAST_CORPUS: skipped
+/// without either.
+#[test]
+fn the_benchmarks_script_keeps_a_failing_block_and_the_others_results() {
+    let Some(corpus) = common::corpus("the_benchmarks_script_keeps_a_failing_block_and_the_others_results") else {
+        return;
+    };
+    let root = common::repo();
+    if !root.join("build/raycast").is_file() {
+        common::skip("the_benchmarks_script_keeps_a_failing_block_and_the_others_results: build/raycast is missing");
+        return;
+    }
+    let dir = empty_dir("benchmarks-script");
+    let file = dir.join("B.md");
+    let block = |command: &str, old: &str| format!("<!-- bench: {command} -->\n{old}\n<!-- /bench -->\n");
+    let before = [
+        "# B\n".to_string(),
+        block("echo new-one", "old-one"),
+        block("echo partial; false", "old-two"),
+        block("echo new-three", "old-three"),
+    ];
+    std::fs::write(&file, before.concat()).unwrap();
+    let o = Command::new("bash")
+        .arg(root.join("ci/benchmarks.sh"))
+        .args(["--no-build", file.to_str().unwrap()])
+        .env("RAYCAST_CORPUS", corpus.canonicalize().unwrap())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert_eq!(o.status.code(), Some(1), "stdout:\n{stdout}\nstderr:\n{stderr}");
+    let after = std::fs::read_to_string(&file).unwrap();
+    let expected = [
+        "# B\n".to_string(),
+        block("echo new-one", "new-one"),
+        block("echo partial; false", "old-two"),
+        block("echo new-three", "new-three"),
+    ];
+    assert_eq!(after, expected.concat(), "stderr:\n{stderr}");
+    assert!(stderr.contains("FAILED (exit 1), kept as it is: echo partial; false"), "{stderr}");
+    assert!(stderr.contains("1 block(s) failed and were kept as they were"), "{stderr}");
+}
