@@ -627,14 +627,20 @@ while IFS= read -r line || [ -n "$line" ]; do
       in_block=2
     elif [[ "${BASH_REMATCH[1]}" == *"$only"* ]] && { [ -z "$skip" ] || [[ "${BASH_REMATCH[1]}" != *"$skip"* ]]; }; then
       echo "benchmarks: ${BASH_REMATCH[1]}" >&2
+      # One failing block costs only itself: it stays as it is, the blocks
+      # before it keep their new results, and the run says so. (Not an
+      # `if` on the subshell: that would turn off -e inside it, and a
+      # block's first failing command would no longer fail the block.)
       block="$(mktemp)"
-      if (eval "${BASH_REMATCH[1]}") >"$block" </dev/null; then
+      set +e
+      (set -e; eval "${BASH_REMATCH[1]}") >"$block" </dev/null
+      status=$?
+      set -e
+      if [ "$status" = 0 ]; then
         cat "$block" >>"$out"
         in_block=1
       else
-        # One failing block costs only itself: it stays as it is, the
-        # blocks before it keep their new results, and the run says so.
-        echo "benchmarks: FAILED (exit $?), kept as it is: ${BASH_REMATCH[1]}" >&2
+        echo "benchmarks: FAILED (exit $status), kept as it is: ${BASH_REMATCH[1]}" >&2
         failed=$((failed + 1))
         in_block=2
       fi
