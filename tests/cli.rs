@@ -1494,6 +1494,27 @@ fn explain_tells_what_differs() {
     assert_fails(&o, 2, "--width");
 }
 
+/// A picture where a scene goes is named as a picture, not read as broken
+/// XML: `render` of a PNG fails (exit 1) saying what it is; `explain` with
+/// its two arguments swapped is a usage error (exit 2) that says so; a
+/// scene where a picture goes is named as XML. Rules: the exit codes and
+/// the messages.
+#[test]
+fn pictures_and_scenes_given_for_each_other_are_named() {
+    let dir = empty_dir("swapped");
+    let scene = repo().join("scenes/default.xml");
+    let scene = scene.to_str().unwrap();
+    let picture = raycast::image_io::Rgb8 { width: 4, height: 3, data: vec![7; 4 * 3 * 3] };
+    raycast::image_io::write_png(&dir.join("mine.png"), &picture).unwrap();
+    let o = raycast_at(&dir, &["render", "mine.png", "-o", "out.png"]);
+    assert_fails(&o, 1, "mine.png: error: this is a PNG picture, not a scene file");
+    let o = raycast_at(&dir, &["explain", "mine.png", scene]);
+    assert_fails(&o, 2, "its content is XML (a scene file?)");
+    assert_fails(&o, 2, "the arguments look swapped (raycast explain SCENE PICTURE)");
+    let o = raycast_at(&dir, &["compare", "mine.png", scene]);
+    assert_fails(&o, 1, "its content is XML (a scene file?), not a picture raycast reads");
+}
+
 /// `render --watch` renders again when the scene file or one of its
 /// textures changes; a broken scene is reported, leaves the last picture as
 /// it was, and the watch goes on to render the mended one.

@@ -133,12 +133,26 @@ fn picture_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<s
     // Content that starts as no picture format does: said so, not judged
     // by the name (the image crate falls back on the extension: "Invalid
     // PNG signature" for a .png, "extension not recognized" for a .xml).
-    let mut start = [0u8; 16];
+    let mut start = [0u8; 64];
     let n = std::io::Read::read(&mut std::fs::File::open(path).map_err(|e| e.to_string())?, &mut start).unwrap_or(0);
     if image::guess_format(&start[..n]).is_err() {
-        return Err(format!("its content is not a picture raycast reads ({PICTURE_FORMATS}), whatever its name says"));
+        // Markup (a scene file given where a picture goes) said as such.
+        let text = start[..n].strip_prefix("\u{feff}".as_bytes()).unwrap_or(&start[..n]);
+        let what = if text.trim_ascii_start().starts_with(b"<") { "XML (a scene file?)" } else { "not a picture" };
+        return Err(format!(
+            "its content is {what}, not a picture raycast reads ({PICTURE_FORMATS}), whatever its name says"
+        ));
     }
     Ok(reader)
+}
+
+/// The picture format `path`'s content starts as ("PNG", "JPEG", …), if
+/// any: whatever the name says, and None for a file that cannot be read.
+/// What a command names when a picture is given where a scene goes.
+pub fn picture_format(path: &Path) -> Option<String> {
+    let mut start = [0u8; 16];
+    let n = std::io::Read::read(&mut std::fs::File::open(path).ok()?, &mut start).ok()?;
+    image::guess_format(&start[..n]).ok().map(|f| format!("{f:?}").to_uppercase())
 }
 
 /// The image crate's error, with the formats raycast reads where the
@@ -581,7 +595,7 @@ mod tests {
             std::fs::write(dir.join(name), b"<scenefile></scenefile>").unwrap();
             let e = read_picture(&dir.join(name)).unwrap_err().to_string();
             let why = format!(
-                "{name}: its content is not a picture raycast reads ({PICTURE_FORMATS}), whatever its name says"
+                "{name}: its content is XML (a scene file?), not a picture raycast reads ({PICTURE_FORMATS}), whatever its name says"
             );
             assert!(e.ends_with(&why), "{e}");
         }

@@ -59,7 +59,13 @@ pub fn parse_scene(name: Option<&str>, opts: &ParseOptions) -> Result<SceneFile,
                 scene::parse_str(&xml, Path::new(n), opts).map_err(located)
             }
             Some(Err(e)) => Err(e),
-            None => scene::parse_file(Path::new(n), opts).map_err(located),
+            None => scene::parse_file(Path::new(n), opts).map_err(|e| match crate::image_io::picture_format(Path::new(n)) {
+                // A picture where the scene goes (explain's arguments swapped, say).
+                Some(format) => Error::Scene(format!(
+                    "{n}: error: this is a {format} picture, not a scene file: raycast reads scenes in the CS1230 XML format"
+                )),
+                None => located(e),
+            }),
         },
     }
 }

@@ -192,7 +192,15 @@ pub fn run(args: &ExplainArgs) -> Result<(), Error> {
         ));
     }
     crate::output::status_beside(&args.output);
-    let mine = image_io::read_picture(&args.picture)?;
+    let mine = image_io::read_picture(&args.picture).map_err(|e| {
+        if image_io::picture_format(&args.scene).is_some() {
+            Error::Usage(format!(
+                "{e}; the scene is a picture: the arguments look swapped (raycast explain SCENE PICTURE)"
+            ))
+        } else {
+            e
+        }
+    })?;
     let (settings, rule, because) = args.settings(mine.width, mine.height);
     settings.validate().map_err(Error::usage)?;
     if let Some(out) = &args.output {
