@@ -324,6 +324,28 @@ const BUGS: &[Bug] = &[
         on: None,
     },
     Bug {
+        name: "shadow rays leaving from the surface itself (acne)",
+        causes: &["shadow-acne"],
+        edits: &[(
+            "trace.glsl",
+            "precise vec3 shadow_origin = surface.p + ray_offset(surface.p, ray.origin) * to_light;",
+            "precise vec3 shadow_origin = surface.p;",
+        )],
+        scenes: &["test_feature/shadow_test.xml", "test_light/point_light_1.xml"],
+        on: None,
+    },
+    Bug {
+        name: "directional lights ignored",
+        causes: &["no-light"],
+        edits: &[(
+            "lighting.glsl",
+            "precise vec3 intensity = light_intensity(l, to_light, dist);",
+            "precise vec3 intensity = (l.kind == LIGHT_DIRECTIONAL) ? vec3(0.0f) : light_intensity(l, to_light, dist);",
+        )],
+        scenes: &["test_light/directional_light_2.xml", "test_feature/shadow_test.xml"],
+        on: None,
+    },
+    Bug {
         name: "refraction left out",
         causes: &["no-refraction"],
         edits: &[("lighting.glsl", "        s.transmit = transmit;\n", "")],

@@ -6,9 +6,11 @@
 //! changed), drawn on purpose: the variant that the student's pixels match,
 //! where the reference does not, is the likeliest cause. Its pixels are
 //! told by what the scene holds there (`regions`: the primitive and its
-//! XML element, its shape and part, its material). What no variant
-//! explains is told as missing or extra geometry where the student's
-//! picture shows the background, or the reverse.
+//! XML element, its shape and part, its material). Light that does not
+//! arrive (`lights`: a light or a kind of light left out, shadow acne) is
+//! told from each light's share of the pixels. What no variant explains
+//! is told as missing or extra geometry where the student's picture shows
+//! the background, or the reverse.
 //!
 //! The search is greedy: the variant that explains the most differing
 //! pixels, less those it would change where the student's picture agrees
@@ -16,6 +18,7 @@
 //! the next is sought among the rest.
 
 mod annotate;
+mod lights;
 mod regions;
 #[cfg(test)]
 mod tests;
@@ -173,7 +176,8 @@ pub fn explain(
         )));
     }
     let applies: Vec<&Variant> = VARIANTS.iter().filter(|v| (v.applies)(data)).collect();
-    told(0, applies.len() + 1);
+    let renders = applies.len() + 1 + lights::renders(data);
+    told(0, renders);
     let (reference, _) = renderer.render_frame(data, &|_| {})?;
     let count = reference.pixels.len();
     let theirs: Vec<[u8; 3]> = mine.data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
@@ -219,7 +223,7 @@ pub fn explain(
         let mut variant_data = data.clone();
         (v.apply)(&mut variant_data);
         let (picture, _) = renderer.render_frame(&variant_data, &|_| {})?;
-        told(k + 1, applies.len() + 1);
+        told(k + 1, renders);
         let colours: Vec<[u8; 3]> = picture.pixels.iter().map(rgb).collect();
         let changes: Vec<bool> = (0..count).map(|i| !near(colours[i], ours[i])).collect();
         if !changes.iter().any(|&c| c) {
@@ -248,6 +252,14 @@ pub fn explain(
         .filter_map(|c| scaled_term(c, &theirs, &ours, &differs))
         .collect();
     candidates.extend(scaled);
+    let told_light = |k: usize| told(applies.len() + 1 + k, renders);
+    let pictures = (theirs.as_slice(), ours.as_slice(), differs.as_slice());
+    for c in lights::candidates(scene, data, renderer, &reference, pictures, &told_light)? {
+        match candidates.iter_mut().find(|d| c.colours.is_some() && d.colours == c.colours) {
+            Some(same) => same.also.push(c.cause),
+            None => candidates.push(c),
+        }
+    }
     candidates.extend(geometry_candidates(&reference, &theirs, &ours, &differs, &regions));
 
     // Greedy: the candidate that explains the most of what is left, net of

@@ -84,3 +84,36 @@ fn background_where_a_surface_is_is_missing_geometry() {
     let i = sphere[sphere.len() / 2];
     assert_eq!(&a.data[i * 3..][..3], &[230, 25, 75]);
 }
+
+/// Light that does not arrive. The scene's first light dark on every
+/// other pixel it lights (a checkerboard: speckle) is shadow acne; dark
+/// on a solid block of them, shadows where nothing blocks it; dark
+/// everywhere, that light left out (the candidate raycast draws without
+/// it). Rule: the top finding's cause.
+#[test]
+fn light_that_does_not_arrive_is_told_by_its_pattern() {
+    let (scene, data) = scene();
+    let cpu = CpuRenderer::new().unwrap();
+    let ours = picture(&data, &cpu);
+    let mut dark = data.clone();
+    dark.lights[0].color = [0.0; 4];
+    let without = picture(&dark, &cpu);
+    let (w, h) = (ours.width as usize, ours.height as usize);
+    let lit: Vec<usize> = (0..w * h).filter(|&i| ours.data[i * 3..][..3] != without.data[i * 3..][..3]).collect();
+    assert!(lit.len() > 500, "the first light lights {} pixels", lit.len());
+    let top = |dark_at: &dyn Fn(usize) -> bool| {
+        let mut mine = ours.clone();
+        for &i in lit.iter().filter(|&&i| dark_at(i)) {
+            mine.data[i * 3..][..3].copy_from_slice(&without.data[i * 3..][..3]);
+        }
+        let e = explain(&scene, &data, &mine, &cpu, Rule::default(), &|_, _| {}).unwrap();
+        e.findings.first().map(|f| (f.cause.clone(), f.what.clone())).unwrap_or_default()
+    };
+    let (cause, _) = top(&|i| (i % w + i / w) % 2 == 0);
+    assert_eq!(cause, "shadow-acne");
+    let (cause, _) = top(&|i| i / w < h / 2);
+    assert_eq!(cause, "extra-shadows");
+    let (cause, what) = top(&|_| true);
+    assert_eq!(cause, "no-light");
+    assert!(what.contains("light at") && what.contains("s.xml"), "{what}");
+}
