@@ -171,7 +171,11 @@
 #define FLAG_EXPLAIN_NO_CAPS 262144u           // the cone's and cylinder's flat caps left out
 #define FLAG_EXPLAIN_ROUND 524288u             // the 8-bit value rounded to nearest, not floor(255 c)
 #define FLAG_EXPLAIN_NO_CLAMP 1048576u         // colours not clamped to [0, 1]; the 8-bit value wraps
-#define FLAG_EXPLAIN_ALL 2031616u              // every FLAG_EXPLAIN_* bit
+#define FLAG_EXPLAIN_BLINN 2097152u            // the specular highlight from the half vector (Blinn-Phong)
+#define FLAG_EXPLAIN_LONG_NORMALS 4194304u     // the world normal not made unit length (the object's is)
+#define FLAG_EXPLAIN_NEGATIVE_LIGHT 8388608u   // n.l not clamped at 0: a light darkens what faces away
+#define FLAG_EXPLAIN_UNCAPPED_ATTENUATION 16777216u // attenuation 1/falloff not capped at 1
+#define FLAG_EXPLAIN_ALL 33488896u             // every FLAG_EXPLAIN_* bit
 
 // Frame.texture_filter
 #define FILTER_NEAREST 0u

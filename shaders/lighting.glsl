@@ -7,6 +7,9 @@
 precise vec3 positioned_light_intensity(Light l, vec3 color, vec3 to_light, float dist) {
     precise float falloff = (l.attenuation.x + l.attenuation.y * dist) + l.attenuation.z * (dist * dist);
     precise float att = min_f(1.0f, div_rn(1.0f, falloff));
+    if (HAS_EXPLAIN && (frame.flags & FLAG_EXPLAIN_UNCAPPED_ATTENUATION) != 0u) {
+        att = div_rn(1.0f, falloff); // `raycast explain`'s variant: not capped at 1
+    }
     precise vec3 intensity = color * att;
     if (HAS_SPOT_LIGHTS && l.kind == LIGHT_SPOT) {
         // Angle between the spot axis and (p - position) = -to_light.
@@ -108,9 +111,19 @@ precise vec3 light_term(Surface s, Light l, vec3 to_light, float dist) {
     precise vec3 intensity = light_intensity(l, to_light, dist);
     precise float n_dot_l = dot3(s.n, to_light);
     precise vec3 term = s.diffuse * max_f(0.0f, n_dot_l);
+    // `raycast explain`'s variants (layout.h FLAG_EXPLAIN_*): n.l taken
+    // as it is, below 0 too; the highlight from the half vector.
+    bool explained = HAS_EXPLAIN && (frame.flags & (FLAG_EXPLAIN_NEGATIVE_LIGHT | FLAG_EXPLAIN_BLINN)) != 0u;
+    if (explained && (frame.flags & FLAG_EXPLAIN_NEGATIVE_LIGHT) != 0u) {
+        term = s.diffuse * n_dot_l;
+    }
     if (HAS_SPECULAR && s.shininess > 0.0f) {
         precise vec3 reflected = (2.0f * n_dot_l) * s.n - to_light;
-        precise float highlight = pow_portable(max_f(0.0f, dot3(reflected, s.v)), s.shininess);
+        precise float toward = dot3(reflected, s.v);
+        if (explained && (frame.flags & FLAG_EXPLAIN_BLINN) != 0u) {
+            toward = dot3(unit(to_light + s.v), s.n);
+        }
+        precise float highlight = pow_portable(max_f(0.0f, toward), s.shininess);
         term = term + s.specular * highlight;
     }
     precise vec3 lit = intensity * term;

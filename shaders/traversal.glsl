@@ -666,7 +666,11 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
         // The normal in the world: in the primitive's group, then by the
         // normal rule level by level back up (unit at the end).
         Primitive hit_primitive = primitive_at(best.item);
-        precise vec3 n_world = explained_normal(hit_primitive.object_from_world, best.n_object);
+        // FLAG_EXPLAIN_LONG_NORMALS: a student's mistake, the object's
+        // normal made unit length and the world's not.
+        bool long_normals = HAS_EXPLAIN && (frame.flags & FLAG_EXPLAIN_LONG_NORMALS) != 0u;
+        precise vec3 n_object = long_normals ? unit(best.n_object) : best.n_object;
+        precise vec3 n_world = explained_normal(hit_primitive.object_from_world, n_object);
         if (HAS_INSTANCES) {
             if (LEVELS_IN_REGISTERS) {
                 // The same order, deepest first, over the scene's levels.
@@ -684,7 +688,7 @@ SceneHit walk(Ray r, float t_max, bool any_hit) {
                 }
             }
         }
-        best.normal = unit(n_world);
+        best.normal = long_normals ? n_world : unit(n_world);
         if (HAS_EXPLAIN && (frame.flags & FLAG_EXPLAIN_FLIP_NORMALS) != 0u) {
             best.normal = -best.normal;
         }

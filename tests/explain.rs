@@ -190,7 +190,11 @@ const BUGS: &[Bug] = &[
     Bug {
         name: "normals reversed",
         causes: &["flip-normals"],
-        edits: &[("traversal.glsl", "        best.normal = unit(n_world);\n", "        best.normal = -unit(n_world);\n")],
+        edits: &[(
+            "traversal.glsl",
+            "        best.normal = long_normals ? n_world : unit(n_world);\n",
+            "        best.normal = -unit(n_world);\n",
+        )],
         scenes: &[PHONG],
         on: None,
     },
@@ -199,8 +203,8 @@ const BUGS: &[Bug] = &[
         causes: &["untransposed-normals"],
         edits: &[(
             "traversal.glsl",
-            "precise vec3 n_world = explained_normal(hit_primitive.object_from_world, best.n_object);",
-            "precise vec3 n_world = inverse(mat3(hit_primitive.object_from_world)) * best.n_object;",
+            "precise vec3 n_world = explained_normal(hit_primitive.object_from_world, n_object);",
+            "precise vec3 n_world = inverse(mat3(hit_primitive.object_from_world)) * n_object;",
         )],
         scenes: &["own:explain/stretched.xml"],
         on: None,
@@ -272,8 +276,8 @@ const BUGS: &[Bug] = &[
         causes: &["specular-term-changed", "weighted-specular-term"],
         edits: &[(
             "lighting.glsl",
-            "pow_portable(max_f(0.0f, dot3(reflected, s.v)), s.shininess);",
-            "pow_portable(max_f(0.0f, dot3(reflected, s.v)), 2.0f * s.shininess);",
+            "pow_portable(max_f(0.0f, toward), s.shininess);",
+            "pow_portable(max_f(0.0f, toward), 2.0f * s.shininess);",
         )],
         scenes: &[PHONG],
         on: None,
@@ -343,6 +347,53 @@ const BUGS: &[Bug] = &[
             "precise vec3 intensity = (l.kind == LIGHT_DIRECTIONAL) ? vec3(0.0f) : light_intensity(l, to_light, dist);",
         )],
         scenes: &["test_light/directional_light_2.xml", "test_feature/shadow_test.xml"],
+        on: None,
+    },
+    Bug {
+        name: "Blinn-Phong highlights (the half vector)",
+        causes: &["blinn-phong"],
+        edits: &[(
+            "lighting.glsl",
+            "precise float toward = dot3(reflected, s.v);",
+            "precise float toward = dot3(unit(to_light + s.v), s.n);",
+        )],
+        scenes: &[PHONG, "test_light/point_light_1.xml"],
+        on: None,
+    },
+    Bug {
+        name: "n.l not clamped at 0",
+        causes: &["negative-light"],
+        edits: &[(
+            "lighting.glsl",
+            "precise vec3 term = s.diffuse * max_f(0.0f, n_dot_l);",
+            "precise vec3 term = s.diffuse * n_dot_l;",
+        )],
+        scenes: &[PHONG],
+        on: None,
+    },
+    Bug {
+        name: "world normals not made unit length",
+        causes: &["long-normals"],
+        edits: &[
+            (
+                "traversal.glsl",
+                "precise vec3 n_object = long_normals ? unit(best.n_object) : best.n_object;",
+                "precise vec3 n_object = unit(best.n_object);",
+            ),
+            ("traversal.glsl", "best.normal = long_normals ? n_world : unit(n_world);", "best.normal = n_world;"),
+        ],
+        scenes: &[PHONG],
+        on: None,
+    },
+    Bug {
+        name: "attenuation not capped at 1",
+        causes: &["uncapped-attenuation"],
+        edits: &[(
+            "lighting.glsl",
+            "precise float att = min_f(1.0f, div_rn(1.0f, falloff));",
+            "precise float att = div_rn(1.0f, falloff);",
+        )],
+        scenes: &["test_feature/attenuation.xml"],
         on: None,
     },
     Bug {

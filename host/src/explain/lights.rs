@@ -22,6 +22,10 @@ const MAX_LIGHTS: usize = 10;
 /// something else) can be raycast's less some lights' shares by chance.
 const BLOCKED_SHARE: f64 = 0.2;
 
+/// ... and at least this share of the differing pixels on the surfaces
+/// where it shows.
+const SURFACE_SHARE: f64 = 0.7;
+
 /// A share of the blocked pixels next to a lit one on the same surface at
 /// least this large is speckle: acne, not a shadow's region.
 const SPECKLE: f64 = 0.25;
@@ -143,6 +147,20 @@ pub fn candidates(
     let total = blocked.iter().filter(|&&b| b).count();
     let differing = differs.iter().filter(|&&d| d).count();
     if total == 0 || (total as f64) < BLOCKED_SHARE * differing as f64 {
+        return Ok(out);
+    }
+    // On the surfaces where it shows, blocked light is most of what
+    // differs: a shading mistake (a normal not of unit length, say) darkens
+    // a surface smoothly, and only a band of its pixels matches some
+    // lights' shares by chance.
+    let mut by_surface = std::collections::HashMap::<u32, (usize, usize)>::new();
+    for p in (0..count).filter(|&p| differs[p]) {
+        let e = by_surface.entry(reference.pixels[p].id).or_default();
+        e.0 += usize::from(blocked[p]);
+        e.1 += 1;
+    }
+    let (on, of) = by_surface.values().filter(|e| e.0 > 0).fold((0, 0), |(a, b), e| (a + e.0, b + e.1));
+    if (on as f64) < SURFACE_SHARE * of as f64 {
         return Ok(out);
     }
     // Where raycast drawn without some lights (a light or a kind left out)

@@ -218,6 +218,27 @@ pub static VARIANTS: &[Variant] = &[
         },
     },
     Variant {
+        id: "blinn-phong",
+        what: "specular highlights from the half vector (Blinn-Phong), not the reflected light",
+        category: Category::Lighting,
+        applies: specular,
+        apply: |d| d.frame.flags |= layout::FLAG_EXPLAIN_BLINN,
+    },
+    Variant {
+        id: "negative-light",
+        what: "n.l not clamped at 0 (a light darkens the surfaces that face away from it)",
+        category: Category::Lighting,
+        applies: diffuse,
+        apply: |d| d.frame.flags |= layout::FLAG_EXPLAIN_NEGATIVE_LIGHT,
+    },
+    Variant {
+        id: "uncapped-attenuation",
+        what: "distance attenuation not capped at 1 (lights brighter than their colour near them)",
+        category: Category::Lighting,
+        applies: attenuated,
+        apply: |d| d.frame.flags |= layout::FLAG_EXPLAIN_UNCAPPED_ATTENUATION,
+    },
+    Variant {
         id: "spot-as-point",
         what: "spot lights lighting every way, as point lights",
         category: Category::Lighting,
@@ -330,6 +351,14 @@ pub static VARIANTS: &[Variant] = &[
         category: Category::Normals,
         applies: lit,
         apply: |d| d.frame.flags |= layout::FLAG_EXPLAIN_UNTRANSPOSED_NORMALS,
+    },
+    Variant {
+        id: "long-normals",
+        what:
+            "normals not made unit length after their mapping to the world (scaled shapes lit too much or too little)",
+        category: Category::Normals,
+        applies: lit,
+        apply: |d| d.frame.flags |= layout::FLAG_EXPLAIN_LONG_NORMALS,
     },
     Variant {
         id: "pixel-corner",
