@@ -339,6 +339,17 @@ const BUGS: &[Bug] = &[
         on: None,
     },
     Bug {
+        name: "mirror rays leaving from the surface itself (acne)",
+        causes: &["mirror-acne"],
+        edits: &[(
+            "trace.glsl",
+            "precise vec3 mirror_origin = surface.p + ray_offset(surface.p, ray.origin) * mirror;",
+            "precise vec3 mirror_origin = surface.p;",
+        )],
+        scenes: &["test_feature/reflection.xml", "test_feature/mirror_depth.xml"],
+        on: None,
+    },
+    Bug {
         name: "directional lights ignored",
         causes: &["no-light"],
         edits: &[(

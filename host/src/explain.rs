@@ -260,6 +260,7 @@ pub fn explain(
             None => candidates.push(c),
         }
     }
+    candidates.extend(mirror_acne(scene, data, &reference, &differs, &regions));
     candidates.extend(geometry_candidates(&reference, &theirs, &ours, &differs, &regions));
 
     // Greedy: the candidate that explains the most of what is left, net of
@@ -459,6 +460,62 @@ fn scaled_term(c: &Candidate, theirs: &[[u8; 3]], ours: &[[u8; 3]], differs: &[b
         colours: Some(colours),
         explains,
         changes,
+    })
+}
+
+/// A share of a finding's pixels beside a right pixel of the same surface
+/// at least this large is speckle: acne, not a region drawn otherwise.
+const SPECKLE: f64 = 0.25;
+
+/// Whether pixel `p` of `reference` has a 4-neighbour on the same surface
+/// (the same primitive, or the background) for which `ok` holds.
+fn beside(reference: &Picture, p: usize, ok: &dyn Fn(usize) -> bool) -> bool {
+    let (w, h) = (reference.width as usize, reference.height as usize);
+    let (x, y) = (p % w, p / w);
+    let around =
+        [(x > 0).then(|| p - 1), (x + 1 < w).then(|| p + 1), (y > 0).then(|| p - w), (y + 1 < h).then(|| p + w)];
+    around.into_iter().flatten().any(|q| reference.pixels[q].id == reference.pixels[p].id && ok(q))
+}
+
+/// Mirror acne, which no variant draws (it falls as the last bit of each
+/// hit does): most differing pixels lie on mirror surfaces, away from
+/// silhouettes, speckled among pixels of the same surface that are right,
+/// and few differ elsewhere.
+fn mirror_acne(
+    scene: &Scene,
+    data: &FrameData,
+    reference: &Picture,
+    differs: &[bool],
+    regions: &Regions,
+) -> Option<Candidate> {
+    let f = &data.frame;
+    if f.flags & crate::layout::FLAG_REFLECTIONS == 0 || f.k[2] == 0.0 {
+        return None;
+    }
+    let mirror = |p: usize| {
+        let id = reference.pixels[p].id;
+        id != NO_HIT
+            && scene
+                .primitive(u64::from(id))
+                .and_then(|prim| scene.materials.get(prim.material as usize))
+                .is_some_and(|m| m.reflective.iter().any(|&c| c != 0.0))
+    };
+    let count = differs.len();
+    let inside: Vec<bool> = (0..count).map(|p| differs[p] && !regions.silhouette(p)).collect();
+    let on: Vec<bool> = (0..count).map(|p| inside[p] && mirror(p)).collect();
+    let total = on.iter().filter(|&&o| o).count();
+    let speckled = (0..count).filter(|&p| on[p] && beside(reference, p, &|q| !differs[q])).count();
+    let mostly = total as f64 >= 0.8 * inside.iter().filter(|&&d| d).count() as f64;
+    (total > 0 && mostly && speckled as f64 >= SPECKLE * total as f64).then(|| Candidate {
+        cause: "mirror-acne".into(),
+        what: "mirror acne: reflections speckled (a mirror ray that starts on the surface meets the surface it leaves \
+               as the last bit falls; start it a little off the surface)"
+            .into(),
+        also: Vec::new(),
+        category: Category::Lighting,
+        colours: None,
+        changes: on.clone(),
+        explains: on,
     })
 }
 

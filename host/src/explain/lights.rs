@@ -7,7 +7,7 @@
 //! a shadow ray that leaves from the surface point itself meets the
 //! surface it leaves, or not, as the last bit of each hit falls.
 
-use super::{near, rgb, Candidate, Category, TOLERANCE};
+use super::{near, rgb, Candidate, Category, SPECKLE, TOLERANCE};
 use crate::error::Error;
 use crate::frame::FrameData;
 use crate::render::{Picture, Renderer};
@@ -25,10 +25,6 @@ const BLOCKED_SHARE: f64 = 0.2;
 /// ... and at least this share of the differing pixels on the surfaces
 /// where it shows.
 const SURFACE_SHARE: f64 = 0.7;
-
-/// A share of the blocked pixels next to a lit one on the same surface at
-/// least this large is speckle: acne, not a shadow's region.
-const SPECKLE: f64 = 0.25;
 
 /// The light kinds (layout.h LIGHT_*) of which `data` has two lights or
 /// more: each is also left out as a whole (a kind the student's code
@@ -176,28 +172,8 @@ pub fn candidates(
     }
     // Speckle: blocked pixels beside a pixel of the same surface that some
     // light reaches and that agrees with raycast's.
-    let (w, h) = (reference.width as usize, reference.height as usize);
     let lit_and_right = |q: usize| !differs[q] && (0..lights).any(|i| reaches(i, q));
-    let beside_lit = (0..count)
-        .filter(|&p| blocked[p])
-        .filter(|&p| {
-            let (x, y) = (p % w, p / w);
-            let mut around = Vec::with_capacity(4);
-            if x > 0 {
-                around.push(p - 1);
-            }
-            if x + 1 < w {
-                around.push(p + 1);
-            }
-            if y > 0 {
-                around.push(p - w);
-            }
-            if y + 1 < h {
-                around.push(p + w);
-            }
-            around.into_iter().any(|q| reference.pixels[q].id == reference.pixels[p].id && lit_and_right(q))
-        })
-        .count();
+    let beside_lit = (0..count).filter(|&p| blocked[p] && super::beside(reference, p, &lit_and_right)).count();
     let speckled = beside_lit as f64 >= SPECKLE * total as f64;
     let (cause, what) = if speckled {
         (

@@ -109,11 +109,49 @@ fn light_that_does_not_arrive_is_told_by_its_pattern() {
         let e = explain(&scene, &data, &mine, &cpu, Rule::default(), &|_, _| {}).unwrap();
         e.findings.first().map(|f| (f.cause.clone(), f.what.clone())).unwrap_or_default()
     };
-    let (cause, _) = top(&|i| (i % w + i / w) % 2 == 0);
+    let (cause, _) = top(&|i| (i % w + i / w).is_multiple_of(2));
     assert_eq!(cause, "shadow-acne");
     let (cause, _) = top(&|i| i / w < h / 2);
     assert_eq!(cause, "extra-shadows");
     let (cause, what) = top(&|_| true);
     assert_eq!(cause, "no-light");
     assert!(what.contains("light at") && what.contains("s.xml"), "{what}");
+}
+
+/// Mirror acne: a reflective sphere's pixels off on a checkerboard (speckle
+/// among right pixels of the same surface) is mirror acne; the same pixels
+/// off as one block are not. Rule: the top finding's cause.
+#[test]
+fn speckled_reflections_are_mirror_acne() {
+    let dir = std::env::temp_dir().join(format!("raycast-explain-mirror-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let xml = crate::source::DEFAULT_SCENE.replace(
+        r#"<object type="primitive" name="sphere">"#,
+        r#"<object type="primitive" name="sphere"><reflective r="0.5" g="0.5" b="0.5"/>"#,
+    );
+    assert_ne!(xml, crate::source::DEFAULT_SCENE);
+    std::fs::write(dir.join("m.xml"), xml).unwrap();
+    let scene = crate::scene::load(&dir.join("m.xml"), &Default::default(), &Default::default()).unwrap();
+    let settings = RenderSettings { width: 192, height: 144, ..RenderSettings::default() };
+    let data = crate::frame::build(&scene, &settings).unwrap();
+    let cpu = CpuRenderer::new().unwrap();
+    let reference = cpu.render(&data).unwrap();
+    let ours = reference.rgb8().unwrap();
+    let w = ours.width as usize;
+    let sphere: Vec<usize> = (0..reference.pixels.len())
+        .filter(|&i| scene.primitive(u64::from(reference.pixels[i].id)).is_some_and(|p| p.shape.name() == "sphere"))
+        .collect();
+    assert!(sphere.len() > 50, "the sphere is in the picture");
+    let top = |off: &dyn Fn(usize) -> bool| {
+        let mut mine = ours.clone();
+        for &i in sphere.iter().filter(|&&i| off(i)) {
+            for c in &mut mine.data[i * 3..][..3] {
+                *c = c.saturating_add(60);
+            }
+        }
+        let e = explain(&scene, &data, &mine, &cpu, Rule::default(), &|_, _| {}).unwrap();
+        e.findings.first().map(|f| f.cause.clone()).unwrap_or_default()
+    };
+    assert_eq!(top(&|i| (i % w + i / w).is_multiple_of(2)), "mirror-acne");
+    assert_ne!(top(&|_| true), "mirror-acne");
 }
