@@ -350,6 +350,24 @@ const BUGS: &[Bug] = &[
         on: None,
     },
     Bug {
+        name: "the mirror reflection without k_s",
+        causes: &["unweighted-reflection"],
+        edits: &[(
+            "lighting.glsl",
+            "precise vec3 mirror = frame.k.z * xyz(m.reflective);",
+            "precise vec3 mirror = xyz(m.reflective);",
+        )],
+        scenes: &["test_feature/reflection.xml"],
+        on: None,
+    },
+    Bug {
+        name: "light colours ignored",
+        causes: &["white-lights"],
+        edits: &[("lighting.glsl", "precise vec3 intensity = xyz(l.color);", "precise vec3 intensity = vec3(1.0f);")],
+        scenes: &["test_feature/shadow_test.xml"],
+        on: None,
+    },
+    Bug {
         name: "directional lights ignored",
         causes: &["no-light"],
         edits: &[(

@@ -277,6 +277,28 @@ pub static VARIANTS: &[Variant] = &[
         apply: |d| d.frame.flags &= !layout::FLAG_REFLECTIONS,
     },
     Variant {
+        id: "unweighted-reflection",
+        what: "the mirror reflection without the global coefficient k_s",
+        category: Category::Lighting,
+        applies: |d| {
+            flag(d, layout::FLAG_REFLECTIONS)
+                && d.frame.k[2] != 0.0
+                && d.frame.k[2] != 1.0
+                && any_material(d, |m| nonzero(m.reflective))
+        },
+        apply: |d| {
+            let ks = d.frame.k[2];
+            materials(d, |m| scale3(&mut m.reflective, 1.0 / ks));
+        },
+    },
+    Variant {
+        id: "white-lights",
+        what: "every light white (its colour ignored)",
+        category: Category::Lighting,
+        applies: |d| d.lights.iter().any(|l| l.color[..3] != [1.0, 1.0, 1.0]),
+        apply: |d| d.lights.iter_mut().for_each(|l| l.color = [1.0, 1.0, 1.0, 0.0]),
+    },
+    Variant {
         id: "no-refraction",
         what: "no refraction (transparent materials opaque)",
         category: Category::Lighting,
