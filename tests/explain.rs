@@ -231,6 +231,28 @@ const BUGS: &[Bug] = &[
         on: None,
     },
     Bug {
+        name: "the height angle not halved",
+        causes: &["whole-height-angle"],
+        edits: &[(
+            "camera.glsl",
+            "    r.direction = transform_vector(frame.world_from_film, vec3(x, y, -1.0f));",
+            "    float t = length(xyz(frame.world_from_film[1]));\n    float f = tan(2.0f * atan(t)) / t;\n    r.direction = transform_vector(frame.world_from_film, vec3(f * x, f * y, -1.0f));",
+        )],
+        scenes: &[PHONG, "test_feature/shadow_test.xml"],
+        on: None,
+    },
+    Bug {
+        name: "the aspect ratio ignored",
+        causes: &["aspect-ignored"],
+        edits: &[(
+            "camera.glsl",
+            "    r.direction = transform_vector(frame.world_from_film, vec3(x, y, -1.0f));",
+            "    r.direction = transform_vector(frame.world_from_film, vec3(x * float(frame.height) / float(frame.width), y, -1.0f));",
+        )],
+        scenes: &[PHONG],
+        on: None,
+    },
+    Bug {
         name: "cylinder's top cap missing",
         causes: &["no-caps", "missing-geometry"],
         edits: &[("shape_cylinder.glsl", "    best = cap(best, r, 0.5f, 1.0f);\n", "")],

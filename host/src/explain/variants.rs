@@ -107,6 +107,33 @@ fn film(d: &mut FrameData, dx: f64, dy: f64, flip: bool) {
     f.world_from_film = [col(c0, 0.0), col(y, 0.0), col(z, 0.0), col(c3, w)];
 }
 
+/// The film's x and y scaled by `sx` and `sy`: a field of view drawn
+/// otherwise (the ray through film point (x, y) is the one through
+/// (sx x, sy y); camera.glsl).
+fn film_scale(d: &mut FrameData, sx: f32, sy: f32) {
+    let f = &mut d.frame;
+    for (c, s) in [(0, sx), (1, sy)] {
+        for x in &mut f.world_from_film[c][..3] {
+            *x *= s;
+        }
+    }
+}
+
+/// tan(θ/2) of the camera's height angle θ: the length of the film's y
+/// column (frame/camera.rs world_from_film).
+fn tan_half_height(d: &FrameData) -> f64 {
+    let c = d.frame.world_from_film[1];
+    (f64::from(c[0]).powi(2) + f64::from(c[1]).powi(2) + f64::from(c[2]).powi(2)).sqrt()
+}
+
+/// The factor a height angle used whole (tan θ for tan θ/2) scales the
+/// film by, where θ is below 89 degrees.
+fn whole_angle(d: &FrameData) -> Option<f32> {
+    let t = tan_half_height(d);
+    let half = t.atan();
+    (t > 0.0 && half.to_degrees() < 44.5).then(|| ((2.0 * half).tan() / t) as f32)
+}
+
 /// Every texture's texels mirrored left to right (`u`) or top to bottom.
 fn mirror_texels(d: &mut FrameData, u: bool) {
     for t in &d.textures {
@@ -395,6 +422,26 @@ pub static VARIANTS: &[Variant] = &[
         category: Category::Geometry,
         applies: always,
         apply: |d| film(d, 0.0, 0.0, true),
+    },
+    Variant {
+        id: "whole-height-angle",
+        what: "the height angle used whole, not halved (tan θ for tan θ/2: the view too wide)",
+        category: Category::Geometry,
+        applies: |d| whole_angle(d).is_some(),
+        apply: |d| {
+            let f = whole_angle(d).unwrap_or(1.0);
+            film_scale(d, f, f);
+        },
+    },
+    Variant {
+        id: "aspect-ignored",
+        what: "the width's angle taken as the height's (the picture squeezed or stretched across)",
+        category: Category::Geometry,
+        applies: |d| d.frame.width != d.frame.height,
+        apply: |d| {
+            let aspect = d.frame.width as f32 / d.frame.height as f32;
+            film_scale(d, 1.0 / aspect, 1.0);
+        },
     },
     Variant {
         id: "no-caps",
