@@ -278,6 +278,17 @@ const BUGS: &[Bug] = &[
         on: None,
     },
     Bug {
+        name: "a gamma correction of 2.2 before the 8-bit value",
+        causes: &["tone-curve"],
+        edits: &[(
+            "aov.glsl",
+            "    precise float r = floor(255.0f * c.x);",
+            "    c = pow(max(c, vec3(0.0f)), vec3(1.0f / 2.2f));\n    precise float r = floor(255.0f * c.x);",
+        )],
+        scenes: &[PHONG, "test_feature/texture_uv.xml"],
+        on: None,
+    },
+    Bug {
         name: "colours not clamped",
         causes: &["no-clamp"],
         edits: &[

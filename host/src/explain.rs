@@ -261,6 +261,7 @@ pub fn explain(
         }
     }
     candidates.extend(mirror_acne(scene, data, &reference, &differs, &regions));
+    candidates.extend(tone_curve(&ours, &theirs, &differs));
     candidates.extend(geometry_candidates(&reference, &theirs, &ours, &differs, &regions));
 
     // Greedy: the candidate that explains the most of what is left, net of
@@ -460,6 +461,54 @@ fn scaled_term(c: &Candidate, theirs: &[[u8; 3]], ours: &[[u8; 3]], differs: &[b
         colours: Some(colours),
         explains,
         changes,
+    })
+}
+
+/// A tone curve over the whole picture, which no variant draws: each
+/// channel of the student's pixel is raycast's to a power g (a gamma
+/// correction: g = 1/2.2), the power fitted over the differing pixels
+/// (least squares in log space, channels 16 to 250 of 255). A pixel is
+/// told where the student's value lies within the tolerance of the curve
+/// over the 8-bit step raycast's value stands for; the curve must tell
+/// 90% of the differing pixels.
+fn tone_curve(ours: &[[u8; 3]], theirs: &[[u8; 3]], differs: &[bool]) -> Option<Candidate> {
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for p in (0..ours.len()).filter(|&p| differs[p]) {
+        for c in 0..3 {
+            let (a, b) = (f64::from(ours[p][c]), f64::from(theirs[p][c]));
+            if (16.0..=250.0).contains(&a) && (1.0..=254.0).contains(&b) {
+                let (x, y) = (((a + 0.5) / 255.0).ln(), ((b + 0.5) / 255.0).ln());
+                num += x * y;
+                den += x * x;
+            }
+        }
+    }
+    let g = num / den;
+    if den == 0.0 || !(0.2..=5.0).contains(&g) || (g - 1.0).abs() < 0.05 {
+        return None;
+    }
+    let level = |v: f64| (255.0 * (v / 255.0).powf(g)).floor();
+    let on_curve = |a: u8, b: u8| {
+        let (lo, hi) = (level(f64::from(a)), level(f64::from(a) + 1.0));
+        let t = f64::from(TOLERANCE);
+        (lo - t..=hi + t).contains(&f64::from(b))
+    };
+    let told: Vec<bool> =
+        (0..ours.len()).map(|p| differs[p] && (0..3).all(|c| on_curve(ours[p][c], theirs[p][c]))).collect();
+    let n = told.iter().filter(|&&t| t).count();
+    let differing = differs.iter().filter(|&&d| d).count();
+    (n as f64 >= 0.9 * differing as f64).then(|| Candidate {
+        cause: "tone-curve".into(),
+        what: format!(
+            "every colour put through a curve: each channel to the power {g:.2} (a gamma correction of {:.1}), \
+             which the course does not apply",
+            1.0 / g
+        ),
+        also: Vec::new(),
+        category: Category::Clamping,
+        colours: None,
+        changes: told.clone(),
+        explains: told,
     })
 }
 

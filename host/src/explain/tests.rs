@@ -155,3 +155,22 @@ fn speckled_reflections_are_mirror_acne() {
     assert_eq!(top(&|i| (i % w + i / w).is_multiple_of(2)), "mirror-acne");
     assert_ne!(top(&|_| true), "mirror-acne");
 }
+
+/// A gamma correction of 2.2 over raycast's picture is a tone curve of
+/// power 0.45. Rule: the top finding's cause and its fitted power.
+#[test]
+fn a_gamma_correction_is_a_tone_curve() {
+    let (scene, data) = scene();
+    let cpu = CpuRenderer::new().unwrap();
+    let mut mine = picture(&data, &cpu);
+    for c in &mut mine.data {
+        *c = (255.0 * (f64::from(*c) / 255.0).powf(1.0 / 2.2)).floor() as u8;
+    }
+    let e = explain(&scene, &data, &mine, &cpu, Rule::default(), &|_, _| {}).unwrap();
+    let top = e.findings.first().expect("a finding");
+    assert_eq!(top.cause, "tone-curve", "{e:?}");
+    // Fitted to a curve put over 8-bit values (the mistake puts it over the
+    // colour before they are taken): about 1 / 2.2.
+    let power: f64 = top.what.split("power ").nth(1).and_then(|w| w[..4].parse().ok()).expect("a power");
+    assert!((power - 1.0 / 2.2).abs() <= 0.02, "{}", top.what);
+}
