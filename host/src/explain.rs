@@ -8,9 +8,10 @@
 //! told by what the scene holds there (`regions`: the primitive and its
 //! XML element, its shape and part, its material). Light that does not
 //! arrive (`lights`: a light or a kind of light left out, shadow acne) is
-//! told from each light's share of the pixels. What no variant explains
-//! is told as missing or extra geometry where the student's picture shows
-//! the background, or the reverse.
+//! told from each light's share of the pixels; mirror acne by its speckle
+//! on mirror surfaces; a gamma correction as a tone curve fitted over the
+//! picture. What no variant explains is told as missing or extra geometry
+//! where the student's picture shows the background, or the reverse.
 //!
 //! The search is greedy: the variant that explains the most differing
 //! pixels, less those it would change where the student's picture agrees
@@ -541,13 +542,17 @@ fn mirror_acne(
     if f.flags & crate::layout::FLAG_REFLECTIONS == 0 || f.k[2] == 0.0 {
         return None;
     }
-    let mirror = |p: usize| {
+    // Whether each primitive hit is a mirror, looked up once per primitive.
+    let mut mirrors = std::collections::HashMap::<u32, bool>::new();
+    let mut mirror = |p: usize| {
         let id = reference.pixels[p].id;
         id != NO_HIT
-            && scene
-                .primitive(u64::from(id))
-                .and_then(|prim| scene.materials.get(prim.material as usize))
-                .is_some_and(|m| m.reflective.iter().any(|&c| c != 0.0))
+            && *mirrors.entry(id).or_insert_with(|| {
+                scene
+                    .primitive(u64::from(id))
+                    .and_then(|prim| scene.materials.get(prim.material as usize))
+                    .is_some_and(|m| m.reflective.iter().any(|&c| c != 0.0))
+            })
     };
     let count = differs.len();
     let inside: Vec<bool> = (0..count).map(|p| differs[p] && !regions.silhouette(p)).collect();
