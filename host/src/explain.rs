@@ -127,6 +127,15 @@ fn near(a: [u8; 3], b: [u8; 3]) -> bool {
     a.iter().zip(&b).all(|(x, y)| x.abs_diff(*y) <= TOLERANCE)
 }
 
+/// Where a picture drawn with a mistake (`colours`) changes raycast's
+/// (`ours`), and the differing pixels where it matches the student's
+/// (`theirs`): what a candidate changes and what it explains.
+fn told_by(colours: &[[u8; 3]], ours: &[[u8; 3]], theirs: &[[u8; 3]], differs: &[bool]) -> (Vec<bool>, Vec<bool>) {
+    let changes: Vec<bool> = (0..ours.len()).map(|i| !near(colours[i], ours[i])).collect();
+    let explains = (0..ours.len()).map(|i| differs[i] && changes[i] && near(colours[i], theirs[i])).collect();
+    (changes, explains)
+}
+
 fn off_by(a: [u8; 3], b: [u8; 3]) -> u8 {
     a.iter().zip(&b).map(|(x, y)| x.abs_diff(*y)).max().unwrap_or(0)
 }
@@ -226,7 +235,7 @@ pub fn explain(
         let (picture, _) = renderer.render_frame(&variant_data, &|_| {})?;
         told(k + 1, renders);
         let colours: Vec<[u8; 3]> = picture.pixels.iter().map(rgb).collect();
-        let changes: Vec<bool> = (0..count).map(|i| !near(colours[i], ours[i])).collect();
+        let (changes, explains) = told_by(&colours, &ours, &theirs, &differs);
         if !changes.iter().any(|&c| c) {
             continue;
         }
@@ -236,7 +245,6 @@ pub fn explain(
             same.also.push(v.id.to_string());
             continue;
         }
-        let explains: Vec<bool> = (0..count).map(|i| differs[i] && changes[i] && near(colours[i], theirs[i])).collect();
         candidates.push(Candidate {
             cause: v.id.to_string(),
             what: v.what.to_string(),
@@ -451,8 +459,7 @@ fn scaled_term(c: &Candidate, theirs: &[[u8; 3]], ours: &[[u8; 3]], differs: &[b
             })
         })
         .collect();
-    let changes: Vec<bool> = (0..count).map(|i| !near(colours[i], ours[i])).collect();
-    let explains: Vec<bool> = (0..count).map(|i| differs[i] && changes[i] && near(colours[i], theirs[i])).collect();
+    let (changes, explains) = told_by(&colours, ours, theirs, differs);
     let term = term_of(&c.cause)?;
     Some(Candidate {
         cause: format!("weighted-{}", term.replace(' ', "-")),

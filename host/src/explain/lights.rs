@@ -7,7 +7,7 @@
 //! a shadow ray that leaves from the surface point itself meets the
 //! surface it leaves, or not, as the last bit of each hit falls.
 
-use super::{near, rgb, Candidate, Category, SPECKLE, TOLERANCE};
+use super::{rgb, told_by, Candidate, Category, SPECKLE, TOLERANCE};
 use crate::error::Error;
 use crate::frame::FrameData;
 use crate::render::{Picture, Renderer};
@@ -80,8 +80,7 @@ pub fn candidates(
         }
         let (picture, _) = renderer.render_frame(&without, &|_| {})?;
         let colours: Vec<[u8; 3]> = picture.pixels.iter().map(rgb).collect();
-        let changes: Vec<bool> = (0..count).map(|p| !near(colours[p], ours[p])).collect();
-        let explains: Vec<bool> = (0..count).map(|p| differs[p] && changes[p] && near(colours[p], theirs[p])).collect();
+        let (changes, explains) = told_by(&colours, ours, theirs, differs);
         let candidate = Candidate {
             cause: "no-light".into(),
             what: format!("{named} left out"),

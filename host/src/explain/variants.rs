@@ -86,6 +86,13 @@ fn scale3(c: &mut [f32; 4], s: f32) {
     }
 }
 
+/// Every material's `colour` (one k_s weights) divided by k_s: the term
+/// without its global coefficient.
+fn without_ks(d: &mut FrameData, colour: fn(&mut layout::Material) -> &mut [f32; 4]) {
+    let ks = d.frame.k[2];
+    materials(d, |m| scale3(colour(m), 1.0 / ks));
+}
+
 /// A positioned light whose attenuation is not 1 at every distance.
 fn attenuated(d: &FrameData) -> bool {
     d.lights.iter().any(|l| l.kind != layout::LIGHT_DIRECTIONAL && l.attenuation[..3] != [1.0, 0.0, 0.0])
@@ -228,10 +235,7 @@ pub static VARIANTS: &[Variant] = &[
         what: "the specular term without the global coefficient k_s",
         category: Category::Lighting,
         applies: |d| specular(d) && d.frame.k[2] != 1.0,
-        apply: |d| {
-            let ks = d.frame.k[2];
-            materials(d, |m| scale3(&mut m.specular, 1.0 / ks));
-        },
+        apply: |d| without_ks(d, |m| &mut m.specular),
     },
     Variant {
         id: "no-attenuation",
@@ -313,10 +317,7 @@ pub static VARIANTS: &[Variant] = &[
                 && d.frame.k[2] != 1.0
                 && any_material(d, |m| nonzero(m.reflective))
         },
-        apply: |d| {
-            let ks = d.frame.k[2];
-            materials(d, |m| scale3(&mut m.reflective, 1.0 / ks));
-        },
+        apply: |d| without_ks(d, |m| &mut m.reflective),
     },
     Variant {
         id: "white-lights",
